@@ -1,0 +1,31 @@
+# The README's commands. Everything installs into .venv at the repository root.
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed-stamp
+
+.PHONY: setup test demo regen bench clean
+
+setup: $(STAMP)
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/pip install --quiet --upgrade pip
+	$(BIN)/pip install --quiet -e '.[dev,ulog]'
+	touch $(STAMP)
+
+test: $(STAMP)
+	$(BIN)/python -m pytest -q
+
+demo: $(STAMP)
+	$(BIN)/dobwind demo -o out/demo
+
+# Refresh the checked-in C for every airframe in airframes/ (tests fail while it is stale).
+regen: $(STAMP)
+	$(BIN)/python -m dobwind.codegen.regen
+
+bench: $(STAMP)
+	$(BIN)/python -m dobwind.harness.bench
+
+clean:
+	rm -rf $(VENV) out .pytest_cache

@@ -1,0 +1,167 @@
+"""The ``dobwind`` command line (INTERFACES.md section 4).
+
+Every user mistake ends as one stderr line and exit status 2; a failed check as exit status 1.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any, Callable, NoReturn, Sequence
+
+from dobwind.errors import EXIT_BAD_INPUT, EXIT_CHECK_FAILED, CheckFailed, InputError
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> NoReturn:  # one line, not argparse's usage block
+        sys.stderr.write(f"{self.prog}: error: {message} (see --help)\n")
+        raise SystemExit(EXIT_BAD_INPUT)
+
+
+def _print_json(obj: dict[str, Any]) -> None:
+    sys.stdout.write(json.dumps(obj, indent=2, sort_keys=False, allow_nan=False) + "\n")
+
+
+def cmd_generate(args: argparse.Namespace) -> int:
+    from dobwind.codegen.generate import generate_to_dir
+    from dobwind.model.airframe import load_airframe
+
+    af = load_airframe(args.airframe)
+    out_dir = args.output or f"generated_c/{af.name}"
+    files = generate_to_dir(af, out_dir, args.precision)
+    for path in files:
+        print(path)
+    return 0
+
+
+def cmd_verify(args: argparse.Namespace) -> int:
+    from dobwind.harness.verify import verify_airframe
+    from dobwind.model.airframe import load_airframe
+
+    af = load_airframe(args.airframe)
+    report = verify_airframe(af, args.precision, steps=args.steps, seed=args.seed)
+    if args.json:
+        _print_json(report.as_dict())
+    else:
+        print(report.text())
+    return 0 if report.passed else EXIT_CHECK_FAILED
+
+
+def cmd_analyze(args: argparse.Namespace) -> int:
+    from dobwind.analysis.report import analyze_command
+
+    return analyze_command(args)
+
+
+def cmd_check(args: argparse.Namespace) -> int:
+    from dobwind.model.airframe import load_airframe
+    from dobwind.model.step import build_step
+
+    af = load_airframe(args.airframe)
+    model = build_step(af)
+    summary = {
+        "name": af.name,
+        "mass_kg": af.mass_kg,
+        "thrust": af.thrust.source,
+        "discretization": af.observer.discretization,
+        "acceleration": af.observer.acceleration,
+        "inputs": list(model.inputs.element_names()),
+        "state_size": model.state.size,
+        "step_instructions": model.step.n_instructions(),
+    }
+    if args.json:
+        _print_json(summary)
+    else:
+        for key, value in summary.items():
+            print(f"{key:18s} {value}")
+    return 0
+
+
+def _later(issue: str) -> Callable[[argparse.Namespace], int]:
+    def run(args: argparse.Namespace) -> int:
+        raise CheckFailed(f"'{args.command}' is not implemented yet ({issue})")
+
+    return run
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="dobwind", description="Airframe description -> verified C wind estimator.")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser, metavar="COMMAND")
+
+    p = sub.add_parser("check", help="validate an airframe file and summarise its estimator")
+    p.add_argument("airframe")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_check)
+
+    p = sub.add_parser("generate", help="emit C for an airframe")
+    p.add_argument("airframe")
+    p.add_argument("-o", "--output", help="output folder (default generated_c/<name>/)")
+    p.add_argument("--precision", choices=("single", "double"), default="single")
+    p.set_defaults(func=cmd_generate)
+
+    p = sub.add_parser("verify", help="generate, compile strictly, compare with the Python reference")
+    p.add_argument("airframe")
+    p.add_argument("--precision", choices=("single", "double", "both"), default="both")
+    p.add_argument("--steps", type=int, default=20000, help="length of the simulated flight compared step by step")
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_verify)
+
+    p = sub.add_parser("analyze", help="observer and filter poles, bandwidth, Bode plots")
+    p.add_argument("airframe")
+    p.add_argument("-o", "--output", help="folder for the PNG plots")
+    p.add_argument("--json", action="store_true")
+    p.add_argument("--freq", type=float, nargs="+", default=[0.1, 0.5, 1.0], help="frequencies (Hz) to report")
+    p.add_argument("--bandwidth", type=float, help="print the gains that give this observer bandwidth (Hz)")
+    p.set_defaults(func=cmd_analyze)
+
+    p = sub.add_parser("fit", help="fit the force-air model from logs with true wind")
+    p.add_argument("airframe")
+    p.add_argument("logs", nargs="+")
+    p.add_argument("-o", "--output", required=True)
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=_later("issue 5"))
+
+    p = sub.add_parser("replay", help="run the estimator over a flight log")
+    p.add_argument("airframe")
+    p.add_argument("log")
+    p.add_argument("-o", "--output")
+    p.add_argument("--backend", choices=("python", "c"), default="python")
+    p.add_argument("--plot")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=_later("issue 5"))
+
+    p = sub.add_parser("simulate", help="synthesize a flight log with known wind")
+    p.add_argument("scenario")
+    p.add_argument("--airframe")
+    p.add_argument("-o", "--output", required=True)
+    p.add_argument("--seed", type=int, default=0)
+    p.set_defaults(func=_later("issue 5"))
+
+    p = sub.add_parser("demo", help="the whole pipeline on the reference airframe")
+    p.add_argument("-o", "--output", default="out/demo")
+    p.set_defaults(func=cmd_demo)
+    return parser
+
+
+def cmd_demo(args: argparse.Namespace) -> int:
+    from dobwind.demo import run_demo
+
+    return run_demo(args.output)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args))
+    except InputError as exc:
+        sys.stderr.write(f"dobwind {args.command}: {exc}\n")
+        return EXIT_BAD_INPUT
+    except CheckFailed as exc:
+        sys.stderr.write(f"dobwind {args.command}: {exc}\n")
+        return EXIT_CHECK_FAILED
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,275 @@
+"""Airframe files (INTERFACES.md section 1): TOML in, a validated immutable ``Airframe`` out.
+
+Every rule is checked here, so the rest of the code can trust the object. A bad file raises
+``InputError`` naming the file and the dotted key.
+"""
+from __future__ import annotations
+
+import hashlib
+import math
+import re
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from dobwind.errors import InputError
+from dobwind.model.terms import Term, TermError, parse_term
+
+DISCRETIZATIONS = ("paper", "euler", "zoh", "tustin")
+ACCELERATION_MODES = ("ned", "specific_force", "velocity")
+THRUST_SOURCES = ("rpm", "collective")
+STANDARD_GRAVITY = 9.80665
+DEFAULT_MAX_DT_S = 0.1
+DEFAULT_MAX_TILT_DEG = 60.0
+MAX_ROTORS = 16
+
+
+@dataclass(frozen=True)
+class Thrust:
+    source: str                       # "rpm" | "collective"
+    rotors: int = 0                   # rpm only
+    max_rpm: float = 0.0              # rpm only
+    coefficients: tuple[float, ...] = ()  # rpm only: N per rotor, ascending powers of rpm/max_rpm
+
+
+@dataclass(frozen=True)
+class Observer:
+    sample_time_s: float
+    gains: tuple[float, float, float]  # diagonal of K_I, x y z (kg/s)
+    discretization: str
+    acceleration: str
+    force_offset_n: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class ForceAirModel:
+    terms: tuple[Term, ...]
+    coefficients: tuple[float, ...]
+
+    @property
+    def term_texts(self) -> tuple[str, ...]:
+        return tuple(t.text for t in self.terms)
+
+
+@dataclass(frozen=True)
+class FilterSchedule:
+    speeds_mps: tuple[float, ...]
+    cutoffs_hz: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class Limits:
+    max_dt_s: float = DEFAULT_MAX_DT_S
+    max_tilt_deg: float = DEFAULT_MAX_TILT_DEG
+
+
+@dataclass(frozen=True)
+class Airframe:
+    name: str
+    mass_kg: float
+    gravity_mps2: float
+    thrust: Thrust
+    observer: Observer
+    horizontal: ForceAirModel
+    vertical: ForceAirModel
+    filter: FilterSchedule
+    limits: Limits
+    content_sha256: str  # of the file's bytes; names the source in generated code without a path
+
+
+class _Reader:
+    """Typed access to one TOML table, recording which keys were read so leftovers are errors."""
+
+    def __init__(self, source: str, table: dict[str, Any], prefix: str = "") -> None:
+        self.source = source
+        self.table = table
+        self.prefix = prefix
+        self.used: set[str] = set()
+
+    def key(self, name: str) -> str:
+        return f"{self.prefix}{name}"
+
+    def fail(self, name: str, message: str) -> InputError:
+        return InputError(self.source, self.key(name), message)
+
+    def has(self, name: str) -> bool:
+        return name in self.table
+
+    def raw(self, name: str, required: bool = True) -> Any:
+        if name not in self.table:
+            if required:
+                raise InputError(self.source, self.key(name), "missing required key")
+            return None
+        self.used.add(name)
+        return self.table[name]
+
+    def number(self, name: str, default: float | None = None, positive: bool = False) -> float:
+        value = self.raw(name, required=default is None)
+        if value is None:
+            return float(default)  # type: ignore[arg-type]
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise self.fail(name, f"expected a finite number, got {value!r}")
+        if positive and value <= 0:
+            raise self.fail(name, f"must be > 0, got {value!r}")
+        return float(value)
+
+    def string(self, name: str, choices: tuple[str, ...] | None = None, default: str | None = None) -> str:
+        value = self.raw(name, required=default is None)
+        if value is None:
+            return default  # type: ignore[return-value]
+        if not isinstance(value, str):
+            raise self.fail(name, f"expected a string, got {value!r}")
+        if choices is not None and value not in choices:
+            raise self.fail(name, f"must be one of {', '.join(repr(c) for c in choices)}, got {value!r}")
+        return value
+
+    def numbers(self, name: str, length: int | None = None, default: tuple[float, ...] | None = None,
+                positive: bool = False) -> tuple[float, ...]:
+        value = self.raw(name, required=default is None)
+        if value is None:
+            return default  # type: ignore[return-value]
+        if not isinstance(value, list) or not all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value
+        ):
+            raise self.fail(name, f"expected a list of finite numbers, got {value!r}")
+        if not value:
+            raise self.fail(name, "must not be empty")
+        if length is not None and len(value) != length:
+            raise self.fail(name, f"expected {length} numbers, got {len(value)}")
+        if positive and any(v <= 0 for v in value):
+            raise self.fail(name, f"every value must be > 0, got {value!r}")
+        return tuple(float(v) for v in value)
+
+    def table_of(self, name: str, required: bool = True) -> "_Reader | None":
+        value = self.raw(name, required=required)
+        if value is None:
+            return None
+        if not isinstance(value, dict):
+            raise self.fail(name, "expected a table")
+        return _Reader(self.source, value, f"{self.key(name)}.")
+
+    def done(self) -> None:
+        unknown = sorted(set(self.table) - self.used)
+        if unknown:
+            raise InputError(self.source, self.key(unknown[0]), "unknown key (check the spelling)")
+
+
+def _force_air(reader: _Reader) -> ForceAirModel:
+    raw_terms = reader.raw("terms")
+    if not isinstance(raw_terms, list) or not raw_terms or not all(isinstance(t, str) for t in raw_terms):
+        raise reader.fail("terms", "expected a non-empty list of strings")
+    terms = []
+    for text in raw_terms:
+        try:
+            terms.append(parse_term(text))
+        except TermError as exc:
+            raise reader.fail("terms", f"term '{text}': {exc}") from None
+    coefficients = reader.numbers("coefficients")
+    if len(coefficients) != len(terms):
+        raise reader.fail("coefficients", f"has {len(coefficients)} values for {len(terms)} terms")
+    reader.done()
+    return ForceAirModel(tuple(terms), coefficients)
+
+
+def _thrust(reader: _Reader) -> Thrust:
+    source = reader.string("source", THRUST_SOURCES)
+    if source == "collective":
+        for key in ("rotors", "max_rpm", "coefficients"):
+            if reader.has(key):
+                raise reader.fail(key, 'only used with source = "rpm"')
+        reader.done()
+        return Thrust("collective")
+    rotors = reader.raw("rotors")
+    if isinstance(rotors, bool) or not isinstance(rotors, int) or not 1 <= rotors <= MAX_ROTORS:
+        raise reader.fail("rotors", f"expected a whole number from 1 to {MAX_ROTORS}, got {rotors!r}")
+    max_rpm = reader.number("max_rpm", positive=True)
+    coefficients = reader.numbers("coefficients")
+    reader.done()
+    return Thrust("rpm", rotors, max_rpm, coefficients)
+
+
+def parse_airframe(text: str, source: str) -> Airframe:
+    """Validate airframe TOML text; ``source`` names the file in error messages."""
+    try:
+        document = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(source, None, f"TOML syntax error: {exc}") from None
+    top = _Reader(source, document)
+    name = top.string("name")
+    if not re.fullmatch(r"[a-z][a-z0-9_]*", name):
+        raise top.fail("name", f"must match [a-z][a-z0-9_]* (it prefixes C symbols), got {name!r}")
+    mass = top.number("mass", positive=True)
+    gravity = top.number("gravity", default=STANDARD_GRAVITY, positive=True)
+
+    thrust = _thrust(top.table_of("thrust"))  # type: ignore[arg-type]
+
+    obs = top.table_of("observer")
+    assert obs is not None
+    sample_time = obs.number("sample_time", positive=True)
+    gains = obs.numbers("gains", length=3, positive=True)
+    discretization = obs.string("discretization", DISCRETIZATIONS)
+    acceleration = obs.string("acceleration", ACCELERATION_MODES)
+    offset = obs.numbers("force_offset", length=3, default=(0.0, 0.0, 0.0))
+    obs.done()
+    observer = Observer(sample_time, gains, discretization, acceleration, offset)  # type: ignore[arg-type]
+
+    fa = top.table_of("force_air")
+    assert fa is not None
+    horizontal = _force_air(fa.table_of("horizontal"))  # type: ignore[arg-type]
+    vertical = _force_air(fa.table_of("vertical"))  # type: ignore[arg-type]
+    fa.done()
+
+    flt = top.table_of("filter")
+    assert flt is not None
+    speeds = flt.numbers("speeds")
+    if speeds[0] < 0:
+        raise flt.fail("speeds", "must be >= 0")
+    if any(b <= a for a, b in zip(speeds, speeds[1:])):
+        raise flt.fail("speeds", f"must be strictly increasing, got {list(speeds)!r}")
+    cutoffs = flt.numbers("cutoffs", positive=True)
+    if len(cutoffs) != len(speeds):
+        raise flt.fail("cutoffs", f"has {len(cutoffs)} values for {len(speeds)} speeds")
+    flt.done()
+    nyquist = 0.5 / sample_time
+    if max(cutoffs) >= nyquist:
+        raise InputError(source, "filter.cutoffs", f"must stay below the Nyquist frequency {nyquist:g} Hz")
+
+    lim = top.table_of("limits", required=False)
+    limits = Limits()
+    if lim is not None:
+        max_dt = lim.number("max_dt", default=DEFAULT_MAX_DT_S, positive=True)
+        max_tilt = lim.number("max_tilt_deg", default=DEFAULT_MAX_TILT_DEG, positive=True)
+        if max_tilt >= 90.0:
+            raise lim.fail("max_tilt_deg", f"must be below 90, got {max_tilt!r}")
+        lim.done()
+        limits = Limits(max_dt, max_tilt)
+    if limits.max_dt_s < sample_time:
+        raise InputError(source, "limits.max_dt", f"must be at least observer.sample_time ({sample_time:g} s)")
+    top.done()
+
+    return Airframe(
+        name=name,
+        mass_kg=mass,
+        gravity_mps2=gravity,
+        thrust=thrust,
+        observer=observer,
+        horizontal=horizontal,
+        vertical=vertical,
+        filter=FilterSchedule(speeds, cutoffs),
+        limits=limits,
+        content_sha256=hashlib.sha256(text.encode()).hexdigest(),
+    )
+
+
+def load_airframe(path: str | Path) -> Airframe:
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise InputError(str(path), None, f"cannot read: {exc.strerror}") from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError:
+        raise InputError(str(path), None, "not UTF-8 text") from None
+    return parse_airframe(text, str(path))

@@ -1,0 +1,70 @@
+"""Airframe -> TOML text, the inverse of ``airframe.parse_airframe`` (used by ``fit`` and tests)."""
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from dobwind.model.airframe import Airframe
+
+
+def _value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            raise ValueError(f"cannot write non-finite number {v!r}")
+        return repr(v)
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_value(x) for x in v) + "]"
+    raise TypeError(f"cannot write {type(v).__name__}")
+
+
+def dumps(document: dict[str, Any]) -> str:
+    """A nested dict as TOML: scalars and arrays first, then sub-tables as [a.b] sections."""
+    lines: list[str] = []
+
+    def table(prefix: str, body: dict[str, Any]) -> None:
+        scalars = {k: v for k, v in body.items() if not isinstance(v, dict)}
+        tables = {k: v for k, v in body.items() if isinstance(v, dict)}
+        if prefix and scalars:
+            lines.append(f"\n[{prefix}]")
+        for key, value in scalars.items():
+            lines.append(f"{key} = {_value(value)}")
+        for key, value in tables.items():
+            table(f"{prefix}.{key}" if prefix else key, value)
+
+    table("", document)
+    return "\n".join(lines).lstrip("\n") + "\n"
+
+
+def airframe_document(af: Airframe) -> dict[str, Any]:
+    thrust: dict[str, Any] = {"source": af.thrust.source}
+    if af.thrust.source == "rpm":
+        thrust.update(rotors=af.thrust.rotors, max_rpm=af.thrust.max_rpm, coefficients=list(af.thrust.coefficients))
+    return {
+        "name": af.name,
+        "mass": af.mass_kg,
+        "gravity": af.gravity_mps2,
+        "thrust": thrust,
+        "observer": {
+            "sample_time": af.observer.sample_time_s,
+            "gains": list(af.observer.gains),
+            "discretization": af.observer.discretization,
+            "acceleration": af.observer.acceleration,
+            "force_offset": list(af.observer.force_offset_n),
+        },
+        "force_air": {
+            "horizontal": {"terms": list(af.horizontal.term_texts), "coefficients": list(af.horizontal.coefficients)},
+            "vertical": {"terms": list(af.vertical.term_texts), "coefficients": list(af.vertical.coefficients)},
+        },
+        "filter": {"speeds": list(af.filter.speeds_mps), "cutoffs": list(af.filter.cutoffs_hz)},
+        "limits": {"max_dt": af.limits.max_dt_s, "max_tilt_deg": af.limits.max_tilt_deg},
+    }
+
+
+def dump_airframe(af: Airframe) -> str:
+    return dumps(airframe_document(af))

@@ -1,0 +1,38 @@
+"""Status bits of the step (INTERFACES.md section 5). 0 means the estimate is valid.
+
+Any nonzero status means the sample was rejected: state unchanged, output repeats the last valid one.
+Several bits may be set at once (a NaN dt is both non-finite and out of range).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class StatusBit:
+    name: str
+    value: int
+    doc: str
+
+
+STATUS_BITS: tuple[StatusBit, ...] = (
+    StatusBit("NONFINITE", 1 << 0, "an input is NaN, infinite or beyond +-1e6"),
+    StatusBit("BAD_DT", 1 << 1, "dt <= 0 or dt > limits.max_dt"),
+    StatusBit("BAD_QUATERNION", 1 << 2, "quaternion norm outside [0.9, 1.1]"),
+    StatusBit("TILT", 1 << 3, "tilt beyond limits.max_tilt_deg"),
+    StatusBit("BAD_THRUST", 1 << 4, "a rotor rpm or the collective thrust is negative"),
+)
+
+# Bit set by replay (not by the step) for rows it could not feed to the estimator at all.
+STATUS_NO_DATA = 1 << 8
+
+# A magnitude no physical input reaches; anything beyond is treated like infinity.
+INPUT_MAGNITUDE_LIMIT = 1e6
+QUATERNION_NORM_TOLERANCE = 0.1
+
+
+def describe(status: int) -> str:
+    names = [b.name for b in STATUS_BITS if status & b.value]
+    if status & STATUS_NO_DATA:
+        names.append("NO_DATA")
+    return "|".join(names) if names else "OK"

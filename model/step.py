@@ -1,0 +1,333 @@
+"""The estimator's one source of truth: a CasADi ``step(state, input) -> (state_next, output, status)``
+built from an airframe.
+
+The step is assembled from named stages (attitude, thrust, acceleration, external force, observer,
+low-pass, force-air, wind). Each stage is its own small SX Function with named signals, so the C
+generator can print it as a labelled section with readable variable names; the composed ``step`` is
+what the Python reference runs and what the generated C is verified against.
+
+Signals are named "in.<field>" (inputs), "state.<field>" (previous state) or by the stage that makes
+them. A rejected sample (nonzero status) leaves the state unchanged; the output then repeats the
+last valid one, which the state carries in its ``last.*`` fields.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import casadi as ca
+import numpy as np
+
+from dobwind.model.airframe import Airframe
+from dobwind.model.discretization import first_order
+from dobwind.model.dynamics import quaternion_to_rotation, solve_external_force
+from dobwind.model.layout import Field, Layout
+from dobwind.model.status import INPUT_MAGNITUDE_LIMIT, QUATERNION_NORM_TOLERANCE, STATUS_BITS
+from dobwind.model.terms import polynomial_expr
+
+# Below this horizontal force (N) the force direction is noise; the airflow is scaled down smoothly
+# instead of dividing by ~0.
+FORCE_DIRECTION_EPS_N = 1e-3
+
+Signals = dict[str, ca.SX]
+
+
+@dataclass(frozen=True)
+class Stage:
+    name: str
+    doc: str
+    function: ca.Function
+    inputs: tuple[str, ...]   # signal names, in the Function's input order
+    outputs: tuple[str, ...]  # signal names, in the Function's output order
+
+
+@dataclass(frozen=True)
+class StepModel:
+    airframe: Airframe
+    inputs: Layout
+    state: Layout
+    outputs: Layout
+    validate: Stage
+    stages: tuple[Stage, ...]
+    next_state: tuple[tuple[str, str], ...]  # (state field, signal that becomes it)
+    step: ca.Function
+
+    def initial_state(self) -> np.ndarray:
+        return np.zeros(self.state.size)
+
+
+def input_layout(af: Airframe) -> Layout:
+    fields = [
+        Field("dt", 1, "s", "time since the previous step"),
+        Field("vel_ned", 3, "m/s", "ground velocity, NED"),
+    ]
+    if af.observer.acceleration == "ned":
+        fields.append(Field("acc_ned", 3, "m/s^2", "kinematic acceleration d2p/dt2, NED"))
+    elif af.observer.acceleration == "specific_force":
+        fields.append(Field("specific_force", 3, "m/s^2", "accelerometer specific force, body FRD"))
+    fields.append(Field("q", 4, "-", "attitude quaternion w, x, y, z: body FRD -> NED"))
+    if af.thrust.source == "rpm":
+        fields.append(Field("rotor_rpm", af.thrust.rotors, "rev/min", "rotor speeds"))
+    else:
+        fields.append(Field("thrust", 1, "N", "collective thrust along -z body"))
+    fields.append(Field("yaw_ref", 1, "rad", "desired yaw psi_d: the heading frame"))
+    return Layout(tuple(fields))
+
+
+OUTPUT_FIELDS = (
+    Field("force_ned", 3, "N", "filtered external force, NED"),
+    Field("wind_ned", 3, "m/s", "wind: velocity of the air over ground, NED"),
+    Field("wind_speed_h", 1, "m/s", "horizontal wind speed"),
+    Field("wind_speed_up", 1, "m/s", "vertical wind, positive up"),
+    Field("wind_from_deg", 1, "deg", "direction the wind blows FROM, clockwise from north, [0, 360)"),
+)
+
+
+def output_layout() -> Layout:
+    return Layout(OUTPUT_FIELDS)
+
+
+def uses_previous_velocity(af: Airframe) -> bool:
+    return af.observer.acceleration == "velocity" or af.observer.discretization == "tustin"
+
+
+def state_layout(af: Airframe) -> Layout:
+    fields = [
+        Field("f_obs", 3, "N", "observer estimate of the external force, NED"),
+        Field("v_obs", 3, "m/s", "ground velocity through the observer's response (delay matching)"),
+        Field("f_filt", 3, "N", "observer estimate after the scheduled low-pass, NED"),
+        Field("v_filt", 3, "m/s", "ground velocity after the same two responses"),
+    ]
+    if af.observer.discretization == "tustin":
+        fields.append(Field("fe_prev", 3, "N", "previous raw external force (Tustin)"))
+    if uses_previous_velocity(af):
+        fields.append(Field("vel_prev", 3, "m/s", "previous ground velocity"))
+    fields += [Field(f"last.{f.name}", f.size, f.unit, "last valid output: " + f.doc) for f in OUTPUT_FIELDS]
+    fields.append(Field("initialized", 1, "-", "0 until the first accepted sample, then 1"))
+    return Layout(tuple(fields))
+
+
+def _ident(signal: str) -> str:
+    return signal.replace(".", "_")
+
+
+class _Builder:
+    """Adds stages one by one, composing their symbolic outputs into the growing signal table."""
+
+    def __init__(self, signals: Signals) -> None:
+        self.signals = signals
+        self.stages: list[Stage] = []
+
+    def add(self, name: str, doc: str, inputs: list[str], body: Callable[[Signals], Signals]) -> Stage:
+        symbols = {s: ca.SX.sym(_ident(s), self.signals[s].numel()) for s in inputs}
+        result = body(symbols)
+        function = ca.Function(
+            name, [symbols[s] for s in inputs], list(result.values()),
+            [_ident(s) for s in inputs], [_ident(s) for s in result], {"cse": True},
+        )
+        outputs = function.call([self.signals[s] for s in inputs])
+        for signal, value in zip(result, outputs):
+            if signal in self.signals:
+                raise ValueError(f"signal {signal} defined twice")
+            self.signals[signal] = value
+        stage = Stage(name, doc, function, tuple(inputs), tuple(result))
+        self.stages.append(stage)
+        return stage
+
+
+def _schedule_cutoff(speeds: tuple[float, ...], cutoffs: tuple[float, ...], speed: ca.SX) -> ca.SX:
+    """Piecewise-linear cutoff (Hz) over speed, clamped outside the breakpoints."""
+    cutoff: ca.SX = ca.SX(cutoffs[0])
+    for (s0, c0), (s1, c1) in zip(zip(speeds, cutoffs), zip(speeds[1:], cutoffs[1:])):
+        if c1 != c0:
+            cutoff = cutoff + (c1 - c0) / (s1 - s0) * (ca.fmin(ca.fmax(speed, s0), s1) - s0)
+    return cutoff
+
+
+def build_step(af: Airframe) -> StepModel:
+    lin, lstate, lout = input_layout(af), state_layout(af), output_layout()
+    x = ca.SX.sym("state", lstate.size)
+    u = ca.SX.sym("input", lin.size)
+    signals: Signals = {}
+    for f in lin.fields:
+        signals[f"in.{f.name}"] = u[lin.slice(f.name)]
+    for f in lstate.fields:
+        signals[f"state.{f.name}"] = x[lstate.slice(f.name)]
+    b = _Builder(signals)
+    m, g0 = af.mass_kg, af.gravity_mps2
+    obs = af.observer
+
+    # --- validation -----------------------------------------------------------------------------
+    def validate(s: Signals) -> Signals:
+        bits = {bit.name: bit.value for bit in STATUS_BITS}
+        every = ca.vertcat(*[s[f"in.{f.name}"] for f in lin.fields])
+        finite = ca.SX(1)
+        for i in range(every.numel()):
+            # NaN fails every comparison, so this is false for NaN and for +-inf alike.
+            finite = ca.logic_and(finite, ca.fabs(every[i]) <= INPUT_MAGNITUDE_LIMIT)
+        dt = s["in.dt"]
+        dt_ok = ca.logic_and(dt > 0, dt <= af.limits.max_dt_s)
+        q = s["in.q"]
+        norm2 = ca.sumsqr(q)
+        q_ok = ca.logic_and(norm2 >= (1 - QUATERNION_NORM_TOLERANCE) ** 2, norm2 <= (1 + QUATERNION_NORM_TOLERANCE) ** 2)
+        # R33 = cos(tilt) = (w^2 - x^2 - y^2 + z^2) / |q|^2, compared without dividing.
+        r33_scaled = q[0] * q[0] - q[1] * q[1] - q[2] * q[2] + q[3] * q[3]
+        tilt_ok = r33_scaled >= math.cos(math.radians(af.limits.max_tilt_deg)) * norm2
+        if af.thrust.source == "rpm":
+            rpm = s["in.rotor_rpm"]
+            thrust_ok = ca.SX(1)
+            for i in range(rpm.numel()):
+                thrust_ok = ca.logic_and(thrust_ok, rpm[i] >= 0)
+        else:
+            thrust_ok = s["in.thrust"] >= 0
+        status = (
+            ca.if_else(finite, 0, bits["NONFINITE"])
+            + ca.if_else(dt_ok, 0, bits["BAD_DT"])
+            + ca.if_else(q_ok, 0, bits["BAD_QUATERNION"])
+            + ca.if_else(tilt_ok, 0, bits["TILT"])
+            + ca.if_else(thrust_ok, 0, bits["BAD_THRUST"])
+        )
+        return {"status": status}
+
+    thrust_input = "in.rotor_rpm" if af.thrust.source == "rpm" else "in.thrust"
+    validate_stage = b.add("validate", "reject NaN/inf, bad dt, non-unit quaternion, excessive tilt, negative thrust",
+                           [f"in.{f.name}" for f in lin.fields], validate)
+
+    # --- front end: external force ----------------------------------------------------------------
+    def attitude(s: Signals) -> Signals:
+        q = s["in.q"]
+        q_unit = q / ca.sqrt(ca.sumsqr(q))
+        rot = quaternion_to_rotation(q_unit)
+        out = {"z_b": rot[:, 2]}
+        if obs.acceleration == "specific_force":
+            out["rot_body_to_ned"] = ca.reshape(rot, 9, 1)
+        return out
+
+    b.add("attitude", "unit quaternion -> body down axis z_b (and rotation) in NED", ["in.q"], attitude)
+
+    def thrust(s: Signals) -> Signals:
+        if af.thrust.source == "collective":
+            return {"u_f": s["in.thrust"]}
+        rpm = s["in.rotor_rpm"]
+        total: ca.SX = ca.SX(0)
+        for i in range(af.thrust.rotors):
+            omega = rpm[i] / af.thrust.max_rpm
+            per_rotor: ca.SX = ca.SX(0)
+            for c in reversed(af.thrust.coefficients):  # Horner
+                per_rotor = per_rotor * omega + c
+            total = total + per_rotor
+        return {"u_f": total}
+
+    b.add("thrust", "collective thrust u_f (N) along -z_b", [thrust_input], thrust)
+
+    accel_inputs = {
+        "ned": ["in.acc_ned"],
+        "specific_force": ["in.specific_force", "rot_body_to_ned"],
+        "velocity": ["in.vel_ned", "state.vel_prev", "in.dt", "state.initialized"],
+    }[obs.acceleration]
+
+    def acceleration(s: Signals) -> Signals:
+        if obs.acceleration == "ned":
+            return {"p_ddot": s["in.acc_ned"]}
+        if obs.acceleration == "specific_force":
+            rot = ca.reshape(s["rot_body_to_ned"], 3, 3)
+            return {"p_ddot": rot @ s["in.specific_force"] + ca.vertcat(0, 0, g0)}
+        # Backward difference; the first sample has no predecessor and counts as unaccelerated.
+        diff = (s["in.vel_ned"] - s["state.vel_prev"]) / s["in.dt"]
+        return {"p_ddot": ca.if_else(s["state.initialized"] > 0.5, diff, ca.SX.zeros(3))}
+
+    b.add("acceleration", "kinematic acceleration p'' (m/s^2, NED)", accel_inputs, acceleration)
+
+    b.add("external_force", "f_e solved from m p'' = -u_f z_b + m g e3 + f_e (N, NED)",
+          ["p_ddot", "u_f", "z_b"],
+          lambda s: {"f_e": solve_external_force(m, g0, s["p_ddot"], s["u_f"], s["z_b"])})
+
+    # --- observer, applied alike to the force and to the ground velocity -----------------------
+    observer_inputs = ["state.f_obs", "state.v_obs", "f_e", "in.vel_ned", "in.dt", "state.initialized"]
+    if obs.discretization == "tustin":
+        observer_inputs += ["state.fe_prev", "state.vel_prev"]
+
+    def observer(s: Signals) -> Signals:
+        rates = ca.DM(obs.gains) / m  # lambda_i / m, 1/s
+        started = s["state.initialized"] > 0.5
+        f_new, v_new = [], []
+        for i in range(3):
+            c = first_order(obs.discretization, float(rates[i]), s["in.dt"])
+            fe_prev = s["state.fe_prev"][i] if obs.discretization == "tustin" else 0
+            v_prev = s["state.vel_prev"][i] if obs.discretization == "tustin" else 0
+            f_new.append(c.pole * s["state.f_obs"][i] + c.b0 * s["f_e"][i] + c.b1 * fe_prev)
+            # The ground velocity takes the same path so that the wind triangle adds equal delays.
+            v_new.append(c.pole * s["state.v_obs"][i] + c.b0 * s["in.vel_ned"][i] + c.b1 * v_prev)
+        return {
+            "f_obs_new": ca.if_else(started, ca.vertcat(*f_new), s["f_e"]),
+            "v_obs_new": ca.if_else(started, ca.vertcat(*v_new), s["in.vel_ned"]),
+        }
+
+    b.add("observer", f"disturbance observer ({obs.discretization}), gains {list(obs.gains)} kg/s",
+          observer_inputs, observer)
+
+    def low_pass(s: Signals) -> Signals:
+        cutoff = _schedule_cutoff(af.filter.speeds_mps, af.filter.cutoffs_hz, s["state.last.wind_speed_h"])
+        alpha = -ca.expm1(-2 * math.pi * cutoff * s["in.dt"])
+        started = s["state.initialized"] > 0.5
+        f_new = s["state.f_filt"] + alpha * (s["f_obs_new"] - s["state.f_filt"])
+        v_new = s["state.v_filt"] + alpha * (s["v_obs_new"] - s["state.v_filt"])
+        return {
+            "cutoff_hz": cutoff,
+            "f_filt_new": ca.if_else(started, f_new, s["f_obs_new"]),
+            "v_filt_new": ca.if_else(started, v_new, s["v_obs_new"]),
+        }
+
+    b.add("low_pass", "first-order low-pass, cutoff scheduled on the last horizontal wind speed",
+          ["state.f_filt", "state.v_filt", "f_obs_new", "v_obs_new", "state.last.wind_speed_h", "in.dt",
+           "state.initialized"], low_pass)
+
+    # --- back end: force-air model and wind triangle ---------------------------------------------
+    def force_air(s: Signals) -> Signals:
+        psi = s["in.yaw_ref"]
+        c, sn = ca.cos(psi), ca.sin(psi)
+        f = s["f_filt_new"]
+        offset = obs.force_offset_n
+        mm = c * f[0] + sn * f[1] - offset[0]
+        nn = -sn * f[0] + c * f[1] - offset[1]
+        fz = f[2] - offset[2]
+        fh = ca.sqrt(mm * mm + nn * nn)
+        variables = {"m": mm, "n": nn, "fh": fh, "fz": fz}
+        speed_h = ca.fmax(polynomial_expr(af.horizontal.terms, af.horizontal.coefficients, variables), 0)
+        # The air moves along the horizontal force; the guard makes (m, n)/fh -> 0 instead of 0/0.
+        scale = speed_h / ca.sqrt(fh * fh + FORCE_DIRECTION_EPS_N ** 2)
+        rel_x, rel_y = scale * mm, scale * nn
+        rel_z = polynomial_expr(af.vertical.terms, af.vertical.coefficients, variables)
+        return {
+            "force_heading": ca.vertcat(mm, nn, fz),
+            "air_rel_ned": ca.vertcat(c * rel_x - sn * rel_y, sn * rel_x + c * rel_y, rel_z),
+        }
+
+    b.add("force_air", "heading-frame force -> relative airflow (air minus vehicle velocity), NED",
+          ["f_filt_new", "in.yaw_ref"], force_air)
+
+    def wind(s: Signals) -> Signals:
+        w = s["air_rel_ned"] + s["v_filt_new"]  # v_wind = v_rel + v_ground
+        speed_h = ca.sqrt(w[0] * w[0] + w[1] * w[1])
+        from_deg = ca.fmod(ca.atan2(-w[1], -w[0]) * (180 / math.pi) + 360, 360)
+        return {"wind_ned": w, "wind_speed_h": speed_h, "wind_speed_up": -w[2], "wind_from_deg": from_deg}
+
+    b.add("wind", "wind triangle and the reported quantities", ["air_rel_ned", "v_filt_new"], wind)
+
+    # --- the next state ---------------------------------------------------------------------------
+    signals["const.one"] = ca.SX(1)
+    mapping = {
+        "f_obs": "f_obs_new", "v_obs": "v_obs_new", "f_filt": "f_filt_new", "v_filt": "v_filt_new",
+        "fe_prev": "f_e", "vel_prev": "in.vel_ned", "initialized": "const.one",
+        "last.force_ned": "f_filt_new", "last.wind_ned": "wind_ned", "last.wind_speed_h": "wind_speed_h",
+        "last.wind_speed_up": "wind_speed_up", "last.wind_from_deg": "wind_from_deg",
+    }
+    next_state = tuple((f.name, mapping[f.name]) for f in lstate.fields)
+    proposed = ca.vertcat(*[signals[sig] for _, sig in next_state])
+    status = signals["status"]
+    x_next = ca.if_else(status == 0, proposed, x)
+    y = ca.vertcat(*[x_next[lstate.slice(f"last.{f.name}")] for f in lout.fields])
+    step = ca.Function(f"{af.name}_step", [x, u], [x_next, y, status], ["state", "input"],
+                       ["state_next", "output", "status"], {"cse": True})
+    return StepModel(af, lin, lstate, lout, validate_stage, tuple(b.stages[1:]), next_state, step)

@@ -1,0 +1,147 @@
+"""An independent NumPy transcription of the estimator, written from MODEL.md, not from the CasADi code.
+
+It shares only bookkeeping with the model (the Layout that says which column is which); every equation
+is written again here, in a different way where possible (rotation by quaternion products, the
+schedule by np.interp, terms by a separate little evaluator), so a mistake in one is unlikely to be
+repeated in the other.
+"""
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+
+from dobwind.model.airframe import Airframe
+
+
+def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    w1, x1, y1, z1 = a
+    w2, x2, y2, z2 = b
+    return np.array([
+        w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
+        w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+        w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+        w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
+    ])
+
+
+def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Body vector v into NED: q (0, v) q*."""
+    q = q / np.linalg.norm(q)
+    conj = q * np.array([1, -1, -1, -1])
+    return quat_mul(quat_mul(q, np.concatenate([[0.0], v])), conj)[1:]
+
+
+def eval_term(text: str, env: dict[str, float]) -> float:
+    if text.strip() == "1":
+        return 1.0
+    value = 1.0
+    for factor in text.replace(" ", "").split("*"):
+        base_text, _, power_text = factor.partition("^")
+        inner = re.fullmatch(r"abs\((\w+)\)", base_text)
+        base = abs(env[inner.group(1)]) if inner else env[base_text]
+        power = float(power_text) if power_text else 1.0
+        if power < 0:
+            base = math.copysign(max(abs(base), 1e-3), base if base != 0 else 1.0)
+        value *= base ** power
+    return value
+
+
+def eval_poly(terms, coefficients, env) -> float:
+    return sum(c * eval_term(t, env) for t, c in zip(terms, coefficients))
+
+
+def status_of(af: Airframe, inp: dict[str, np.ndarray]) -> int:
+    everything = np.concatenate([np.atleast_1d(np.asarray(v, float)) for v in inp.values()])
+    status = 0
+    if not (np.all(np.isfinite(everything)) and np.all(np.abs(everything) <= 1e6)):
+        status |= 1
+    dt = float(inp["dt"])
+    if not (0 < dt <= af.limits.max_dt_s):
+        status |= 2
+    norm = float(np.linalg.norm(inp["q"]))
+    if not (0.9 <= norm <= 1.1):
+        status |= 4
+    with np.errstate(invalid="ignore", divide="ignore"):
+        z_down = rotate(np.asarray(inp["q"], float), np.array([0.0, 0.0, 1.0]))[2] if norm > 0 else np.nan
+        tilt_deg = math.degrees(math.acos(max(-1.0, min(1.0, z_down)))) if np.isfinite(z_down) else np.inf
+    if norm != 0 and not tilt_deg <= af.limits.max_tilt_deg:  # a zero quaternion has no tilt to judge
+        status |= 8
+    thrust = inp["rotor_rpm"] if af.thrust.source == "rpm" else inp["thrust"]
+    if not np.all(np.asarray(thrust) >= 0):
+        status |= 16
+    return status
+
+
+def step(af: Airframe, st: dict[str, np.ndarray], inp: dict[str, np.ndarray]):
+    """Returns (new state dict, output dict, status)."""
+    status = status_of(af, inp)
+    if status:
+        last = {k[5:]: v for k, v in st.items() if k.startswith("last.")}
+        return dict(st), last, status
+    m, g = af.mass_kg, af.gravity_mps2
+    dt = float(inp["dt"])
+    q = np.asarray(inp["q"], float)
+    v = np.asarray(inp["vel_ned"], float)
+    started = float(st["initialized"]) > 0.5
+    if af.thrust.source == "rpm":
+        u_f = sum(np.polynomial.polynomial.polyval(r / af.thrust.max_rpm, af.thrust.coefficients) for r in inp["rotor_rpm"])
+    else:
+        u_f = float(inp["thrust"])
+    z_b = rotate(q, np.array([0.0, 0.0, 1.0]))
+    mode = af.observer.acceleration
+    if mode == "specific_force":
+        f_e = m * rotate(q, np.asarray(inp["specific_force"], float)) + u_f * z_b  # gravity cancels
+    else:
+        if mode == "ned":
+            acc = np.asarray(inp["acc_ned"], float)
+        else:
+            acc = (v - st["vel_prev"]) / dt if started else np.zeros(3)
+        f_e = m * acc - m * g * np.array([0, 0, 1.0]) + u_f * z_b  # slip 1: "- m g0 e3", not "- g"
+
+    w = np.asarray(af.observer.gains) / m
+    disc = af.observer.discretization
+    if disc == "tustin":
+        k = w * dt / 2
+        f_obs = ((1 - k) * st["f_obs"] + k * (f_e + st["fe_prev"])) / (1 + k)
+        v_obs = ((1 - k) * st["v_obs"] + k * (v + st["vel_prev"])) / (1 + k)
+    else:
+        a = {"paper": dt * w / 2, "euler": dt * w, "zoh": 1 - np.exp(-dt * w)}[disc]
+        f_obs = (1 - a) * st["f_obs"] + a * f_e
+        v_obs = (1 - a) * st["v_obs"] + a * v
+    if not started:
+        f_obs, v_obs = f_e.copy(), v.copy()
+
+    cutoff = np.interp(float(st["last.wind_speed_h"]), af.filter.speeds_mps, af.filter.cutoffs_hz)
+    alpha = 1 - math.exp(-2 * math.pi * cutoff * dt)
+    if started:
+        f_filt = st["f_filt"] + alpha * (f_obs - st["f_filt"])
+        v_filt = st["v_filt"] + alpha * (v_obs - st["v_filt"])
+    else:
+        f_filt, v_filt = f_obs.copy(), v_obs.copy()
+
+    psi = float(inp["yaw_ref"])
+    rz = np.array([[math.cos(psi), -math.sin(psi), 0], [math.sin(psi), math.cos(psi), 0], [0, 0, 1]])
+    fc = rz.T @ f_filt - np.asarray(af.observer.force_offset_n)
+    env = {"m": fc[0], "n": fc[1], "fz": fc[2], "fh": math.hypot(fc[0], fc[1])}
+    speed = max(eval_poly(af.horizontal.term_texts, af.horizontal.coefficients, env), 0.0)
+    horizontal = speed * fc[:2] / math.sqrt(env["fh"] ** 2 + 1e-6)
+    rel_c = np.array([horizontal[0], horizontal[1], eval_poly(af.vertical.term_texts, af.vertical.coefficients, env)])
+    wind = rz @ rel_c + v_filt  # slip 3: the air's velocity relative to the vehicle plus the ground velocity
+    out = {
+        "force_ned": f_filt,
+        "wind_ned": wind,
+        "wind_speed_h": math.hypot(wind[0], wind[1]),
+        "wind_speed_up": -wind[2],  # slip 4: NED down -> up positive
+        "wind_from_deg": math.degrees(math.atan2(-wind[1], -wind[0])) % 360.0,  # slip 4: from, not towards
+    }
+    new = dict(st)
+    new.update(f_obs=f_obs, v_obs=v_obs, f_filt=f_filt, v_filt=v_filt, initialized=1.0)
+    if "fe_prev" in st:
+        new["fe_prev"] = f_e
+    if "vel_prev" in st:
+        new["vel_prev"] = v
+    for key, value in out.items():
+        new[f"last.{key}"] = value
+    return new, out, 0
