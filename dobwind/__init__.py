@@ -1,0 +1,3 @@
+"""dobwind: airframe description -> verified, dependency-free C wind estimator."""
+
+__version__ = "0.1.0"

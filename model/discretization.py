@@ -24,7 +24,7 @@ def first_order(method: str, rate_per_s: Any, dt: Any) -> FirstOrder:
     lib = ca if isinstance(dt, (ca.SX, ca.MX)) or isinstance(rate_per_s, (ca.SX, ca.MX)) else np
     if method == "paper":
         # As printed in the paper: dt*lambda/(2m). It halves the continuous gain (MODEL.md).
-        a = dt * rate_per_s / 2
+        a = dt * (rate_per_s / 2)
         return FirstOrder(1 - a, a, 0 * a)
     if method == "euler":
         a = dt * rate_per_s
@@ -33,7 +33,7 @@ def first_order(method: str, rate_per_s: Any, dt: Any) -> FirstOrder:
         a = -lib.expm1(-dt * rate_per_s)  # expm1 keeps precision for small dt*w in float
         return FirstOrder(1 - a, a, 0 * a)
     if method == "tustin":
-        k = dt * rate_per_s / 2
+        k = dt * (rate_per_s / 2)
         return FirstOrder((1 - k) / (1 + k), k / (1 + k), k / (1 + k))
     raise ValueError(f"unknown discretization {method!r}")
 

@@ -23,6 +23,18 @@ def quaternion_to_rotation(q: ca.SX) -> ca.SX:
     )
 
 
+def quaternion_to_rotation_any_norm(q: ca.SX) -> ca.SX:
+    """R(q / |q|) for any nonzero q, without a square root: the homogeneous form M(q) / |q|^2."""
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    ww, xx, yy, zz = w * w, x * x, y * y, z * z
+    inv = 1 / (ww + xx + yy + zz)
+    return inv * ca.vertcat(
+        ca.horzcat(ww + xx - yy - zz, 2 * (x * y - w * z), 2 * (x * z + w * y)),
+        ca.horzcat(2 * (x * y + w * z), ww - xx + yy - zz, 2 * (y * z - w * x)),
+        ca.horzcat(2 * (x * z - w * y), 2 * (y * z + w * x), ww - xx - yy + zz),
+    )
+
+
 def yaw_of_quaternion(q: ca.SX) -> ca.SX:
     """ZYX yaw (rad) of a body-to-NED quaternion."""
     w, x, y, z = q[0], q[1], q[2], q[3]

@@ -21,9 +21,10 @@ import numpy as np
 
 from dobwind.model.airframe import Airframe
 from dobwind.model.discretization import first_order
-from dobwind.model.dynamics import quaternion_to_rotation, solve_external_force
+from dobwind.model.dynamics import quaternion_to_rotation_any_norm, solve_external_force
 from dobwind.model.layout import Field, Layout
-from dobwind.model.status import INPUT_MAGNITUDE_LIMIT, QUATERNION_NORM_TOLERANCE, STATUS_BITS
+from dobwind.model.status import (INPUT_MAGNITUDE_LIMIT, MIN_DT_S, QUATERNION_NORM_TOLERANCE, RESULT_MAGNITUDE_LIMIT,
+                                  STATUS_BITS)
 from dobwind.model.terms import polynomial_expr
 
 # Below this horizontal force (N) the force direction is noise; the airflow is scaled down smoothly
@@ -50,6 +51,7 @@ class StepModel:
     outputs: Layout
     validate: Stage
     stages: tuple[Stage, ...]
+    check_result: Stage  # rejects results that overflowed (status bit NUMERIC)
     next_state: tuple[tuple[str, str], ...]  # (state field, signal that becomes it)
     step: ca.Function
 
@@ -121,7 +123,8 @@ class _Builder:
 
     def add(self, name: str, doc: str, inputs: list[str], body: Callable[[Signals], Signals]) -> Stage:
         symbols = {s: ca.SX.sym(_ident(s), self.signals[s].numel()) for s in inputs}
-        result = body(symbols)
+        # Dense outputs: structural zeros would otherwise leave C array elements unassigned.
+        result = {k: ca.densify(v) for k, v in body(symbols).items()}
         function = ca.Function(
             name, [symbols[s] for s in inputs], list(result.values()),
             [_ident(s) for s in inputs], [_ident(s) for s in result], {"cse": True},
@@ -134,6 +137,13 @@ class _Builder:
         stage = Stage(name, doc, function, tuple(inputs), tuple(result))
         self.stages.append(stage)
         return stage
+
+
+def _all(conditions: list[ca.SX]) -> ca.SX:
+    result = conditions[0]
+    for condition in conditions[1:]:
+        result = ca.logic_and(result, condition)
+    return result
 
 
 def _schedule_cutoff(speeds: tuple[float, ...], cutoffs: tuple[float, ...], speed: ca.SX) -> ca.SX:
@@ -162,12 +172,10 @@ def build_step(af: Airframe) -> StepModel:
     def validate(s: Signals) -> Signals:
         bits = {bit.name: bit.value for bit in STATUS_BITS}
         every = ca.vertcat(*[s[f"in.{f.name}"] for f in lin.fields])
-        finite = ca.SX(1)
-        for i in range(every.numel()):
-            # NaN fails every comparison, so this is false for NaN and for +-inf alike.
-            finite = ca.logic_and(finite, ca.fabs(every[i]) <= INPUT_MAGNITUDE_LIMIT)
+        # NaN fails every comparison, so each test is false for NaN and for +-inf alike.
+        finite = _all([ca.fabs(every[i]) <= INPUT_MAGNITUDE_LIMIT for i in range(every.numel())])
         dt = s["in.dt"]
-        dt_ok = ca.logic_and(dt > 0, dt <= af.limits.max_dt_s)
+        dt_ok = ca.logic_and(dt >= MIN_DT_S, dt <= af.limits.max_dt_s)
         q = s["in.q"]
         norm2 = ca.sumsqr(q)
         q_ok = ca.logic_and(norm2 >= (1 - QUATERNION_NORM_TOLERANCE) ** 2, norm2 <= (1 + QUATERNION_NORM_TOLERANCE) ** 2)
@@ -176,9 +184,7 @@ def build_step(af: Airframe) -> StepModel:
         tilt_ok = r33_scaled >= math.cos(math.radians(af.limits.max_tilt_deg)) * norm2
         if af.thrust.source == "rpm":
             rpm = s["in.rotor_rpm"]
-            thrust_ok = ca.SX(1)
-            for i in range(rpm.numel()):
-                thrust_ok = ca.logic_and(thrust_ok, rpm[i] >= 0)
+            thrust_ok = _all([rpm[i] >= 0 for i in range(rpm.numel())])
         else:
             thrust_ok = s["in.thrust"] >= 0
         status = (
@@ -196,9 +202,7 @@ def build_step(af: Airframe) -> StepModel:
 
     # --- front end: external force ----------------------------------------------------------------
     def attitude(s: Signals) -> Signals:
-        q = s["in.q"]
-        q_unit = q / ca.sqrt(ca.sumsqr(q))
-        rot = quaternion_to_rotation(q_unit)
+        rot = quaternion_to_rotation_any_norm(s["in.q"])  # the validated q is near unit, not exactly
         out = {"z_b": rot[:, 2]}
         if obs.acceleration == "specific_force":
             out["rot_body_to_ned"] = ca.reshape(rot, 9, 1)
@@ -209,14 +213,18 @@ def build_step(af: Airframe) -> StepModel:
     def thrust(s: Signals) -> Signals:
         if af.thrust.source == "collective":
             return {"u_f": s["in.thrust"]}
+        # sum_i P(rpm_i / max) = sum_k c_k (sum_i rpm_i^k) / max^k: one power sum per degree, fewer
+        # operations than a polynomial per rotor.
         rpm = s["in.rotor_rpm"]
-        total: ca.SX = ca.SX(0)
-        for i in range(af.thrust.rotors):
-            omega = rpm[i] / af.thrust.max_rpm
-            per_rotor: ca.SX = ca.SX(0)
-            for c in reversed(af.thrust.coefficients):  # Horner
-                per_rotor = per_rotor * omega + c
-            total = total + per_rotor
+        total: ca.SX = ca.SX(af.thrust.rotors * af.thrust.coefficients[0])
+        powers = [ca.SX(1.0)] * af.thrust.rotors
+        for k, c in enumerate(af.thrust.coefficients[1:], start=1):
+            powers = [powers[i] * rpm[i] for i in range(af.thrust.rotors)]
+            if c != 0.0:
+                power_sum = powers[0]
+                for p in powers[1:]:
+                    power_sum = power_sum + p
+                total = total + (c / af.thrust.max_rpm ** k) * power_sum
         return {"u_f": total}
 
     b.add("thrust", "collective thrust u_f (N) along -z_b", [thrust_input], thrust)
@@ -235,7 +243,7 @@ def build_step(af: Airframe) -> StepModel:
             return {"p_ddot": rot @ s["in.specific_force"] + ca.vertcat(0, 0, g0)}
         # Backward difference; the first sample has no predecessor and counts as unaccelerated.
         diff = (s["in.vel_ned"] - s["state.vel_prev"]) / s["in.dt"]
-        return {"p_ddot": ca.if_else(s["state.initialized"] > 0.5, diff, ca.SX.zeros(3))}
+        return {"p_ddot": s["state.initialized"] * diff}  # initialized is exactly 0 or 1
 
     b.add("acceleration", "kinematic acceleration p'' (m/s^2, NED)", accel_inputs, acceleration)
 
@@ -250,33 +258,37 @@ def build_step(af: Airframe) -> StepModel:
 
     def observer(s: Signals) -> Signals:
         rates = ca.DM(obs.gains) / m  # lambda_i / m, 1/s
-        started = s["state.initialized"] > 0.5
+        started = s["state.initialized"]  # exactly 0 or 1, so the products below are exact
         f_new, v_new = [], []
         for i in range(3):
             c = first_order(obs.discretization, float(rates[i]), s["in.dt"])
-            fe_prev = s["state.fe_prev"][i] if obs.discretization == "tustin" else 0
-            v_prev = s["state.vel_prev"][i] if obs.discretization == "tustin" else 0
-            f_new.append(c.pole * s["state.f_obs"][i] + c.b0 * s["f_e"][i] + c.b1 * fe_prev)
+            # Before the first accepted sample the coefficients become (0, 1, 0): the estimate starts at
+            # the measurement instead of at zero, with no per-element branch.
+            pole, b0 = started * c.pole, started * c.b0 + (1 - started)
+            f_next = pole * s["state.f_obs"][i] + b0 * s["f_e"][i]
             # The ground velocity takes the same path so that the wind triangle adds equal delays.
-            v_new.append(c.pole * s["state.v_obs"][i] + c.b0 * s["in.vel_ned"][i] + c.b1 * v_prev)
-        return {
-            "f_obs_new": ca.if_else(started, ca.vertcat(*f_new), s["f_e"]),
-            "v_obs_new": ca.if_else(started, ca.vertcat(*v_new), s["in.vel_ned"]),
-        }
+            v_next = pole * s["state.v_obs"][i] + b0 * s["in.vel_ned"][i]
+            if obs.discretization == "tustin":
+                b1 = started * c.b1
+                f_next += b1 * s["state.fe_prev"][i]
+                v_next += b1 * s["state.vel_prev"][i]
+            f_new.append(f_next)
+            v_new.append(v_next)
+        return {"f_obs_new": ca.vertcat(*f_new), "v_obs_new": ca.vertcat(*v_new)}
 
     b.add("observer", f"disturbance observer ({obs.discretization}), gains {list(obs.gains)} kg/s",
           observer_inputs, observer)
 
     def low_pass(s: Signals) -> Signals:
         cutoff = _schedule_cutoff(af.filter.speeds_mps, af.filter.cutoffs_hz, s["state.last.wind_speed_h"])
-        alpha = -ca.expm1(-2 * math.pi * cutoff * s["in.dt"])
-        started = s["state.initialized"] > 0.5
-        f_new = s["state.f_filt"] + alpha * (s["f_obs_new"] - s["state.f_filt"])
-        v_new = s["state.v_filt"] + alpha * (s["v_obs_new"] - s["state.v_filt"])
+        # ZOH-exact first order; alpha = 1 before the first accepted sample (start at the input).
+        started = s["state.initialized"]
+        alpha = started * -ca.expm1((-2 * math.pi) * cutoff * s["in.dt"]) + (1 - started)
+        keep = 1 - alpha
         return {
             "cutoff_hz": cutoff,
-            "f_filt_new": ca.if_else(started, f_new, s["f_obs_new"]),
-            "v_filt_new": ca.if_else(started, v_new, s["v_obs_new"]),
+            "f_filt_new": keep * s["state.f_filt"] + alpha * s["f_obs_new"],
+            "v_filt_new": keep * s["state.v_filt"] + alpha * s["v_obs_new"],
         }
 
     b.add("low_pass", "first-order low-pass, cutoff scheduled on the last horizontal wind speed",
@@ -310,7 +322,9 @@ def build_step(af: Airframe) -> StepModel:
     def wind(s: Signals) -> Signals:
         w = s["air_rel_ned"] + s["v_filt_new"]  # v_wind = v_rel + v_ground
         speed_h = ca.sqrt(w[0] * w[0] + w[1] * w[1])
-        from_deg = ca.fmod(ca.atan2(-w[1], -w[0]) * (180 / math.pi) + 360, 360)
+        towards = ca.atan2(-w[1], -w[0]) * (180 / math.pi)  # (-180, 180]
+        from_deg = towards + ca.if_else(towards < 0, 360, 0)
+        from_deg = ca.if_else(from_deg >= 360, 0, from_deg)  # -tiny + 360 rounds to 360 in float
         return {"wind_ned": w, "wind_speed_h": speed_h, "wind_speed_up": -w[2], "wind_from_deg": from_deg}
 
     b.add("wind", "wind triangle and the reported quantities", ["air_rel_ned", "v_filt_new"], wind)
@@ -324,10 +338,23 @@ def build_step(af: Airframe) -> StepModel:
         "last.wind_speed_up": "wind_speed_up", "last.wind_from_deg": "wind_from_deg",
     }
     next_state = tuple((f.name, mapping[f.name]) for f in lstate.fields)
+    # Every committed value reaches the outputs (f_e and the observer through the low-pass, the
+    # velocity paths through the wind triangle), so a non-finite state cannot hide from this check.
+    committed = ["f_filt_new", "wind_ned", "wind_speed_h"]
+
+    def check_result(s: Signals) -> Signals:
+        values = ca.vertcat(*[s[name] for name in committed])
+        # One sum: NaN and infinity propagate into it, and so does any overflow.
+        ok = ca.sum1(ca.fabs(values)) <= RESULT_MAGNITUDE_LIMIT
+        bit = next(b.value for b in STATUS_BITS if b.name == "NUMERIC")
+        return {"result_status": ca.if_else(ok, 0, bit)}
+
+    b.add("check_result", "an accepted sample must give a finite result, else it is rejected too", committed,
+          check_result)
     proposed = ca.vertcat(*[signals[sig] for _, sig in next_state])
-    status = signals["status"]
-    x_next = ca.if_else(status == 0, proposed, x)
+    status = ca.if_else(signals["status"] == 0, signals["result_status"], signals["status"])
+    x_next = ca.densify(ca.if_else(status == 0, proposed, x))
     y = ca.vertcat(*[x_next[lstate.slice(f"last.{f.name}")] for f in lout.fields])
     step = ca.Function(f"{af.name}_step", [x, u], [x_next, y, status], ["state", "input"],
                        ["state_next", "output", "status"], {"cse": True})
-    return StepModel(af, lin, lstate, lout, validate_stage, tuple(b.stages[1:]), next_state, step)
+    return StepModel(af, lin, lstate, lout, validate_stage, tuple(b.stages[1:-1]), b.stages[-1], next_state, step)

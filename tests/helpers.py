@@ -23,7 +23,7 @@ BASE: dict[str, Any] = {
         "vertical": {"terms": ["fz", "fz*abs(fz)"], "coefficients": [0.6, 0.05]},
     },
     "filter": {"speeds": [0.0, 4.0, 12.0], "cutoffs": [0.3, 0.6, 1.0]},
-    "limits": {"max_dt": 0.2, "max_tilt_deg": 50.0},
+    "limits": {"max_dt": 0.1, "max_tilt_deg": 50.0},
 }
 
 

@@ -58,7 +58,7 @@ def status_of(af: Airframe, inp: dict[str, np.ndarray]) -> int:
     if not (np.all(np.isfinite(everything)) and np.all(np.abs(everything) <= 1e6)):
         status |= 1
     dt = float(inp["dt"])
-    if not (0 < dt <= af.limits.max_dt_s):
+    if not (1e-5 <= dt <= af.limits.max_dt_s):
         status |= 2
     norm = float(np.linalg.norm(inp["q"]))
     if not (0.9 <= norm <= 1.1):
@@ -116,8 +116,8 @@ def step(af: Airframe, st: dict[str, np.ndarray], inp: dict[str, np.ndarray]):
     cutoff = np.interp(float(st["last.wind_speed_h"]), af.filter.speeds_mps, af.filter.cutoffs_hz)
     alpha = 1 - math.exp(-2 * math.pi * cutoff * dt)
     if started:
-        f_filt = st["f_filt"] + alpha * (f_obs - st["f_filt"])
-        v_filt = st["v_filt"] + alpha * (v_obs - st["v_filt"])
+        f_filt = (1 - alpha) * st["f_filt"] + alpha * f_obs
+        v_filt = (1 - alpha) * st["v_filt"] + alpha * v_obs
     else:
         f_filt, v_filt = f_obs.copy(), v_obs.copy()
 
@@ -144,4 +144,7 @@ def step(af: Airframe, st: dict[str, np.ndarray], inp: dict[str, np.ndarray]):
         new["vel_prev"] = v
     for key, value in out.items():
         new[f"last.{key}"] = value
+    checked = np.concatenate([f_filt, wind, [out["wind_speed_h"]]])
+    if not np.sum(np.abs(checked)) <= 1e30:
+        return dict(st), {k[5:]: v for k, v in st.items() if k.startswith("last.")}, 32
     return new, out, 0

@@ -1,0 +1,194 @@
+"""Airframe -> C files: the step's stages printed through Jinja templates.
+
+Output is deterministic (no timestamps, no paths): generating twice gives identical bytes.
+"""
+from __future__ import annotations
+
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import jinja2
+import numpy as np
+
+from dobwind import __version__
+from dobwind.codegen.printer import CPrinter
+from dobwind.codegen.sections import build_sections, c_element, signal_sizes
+from dobwind.codegen.tolerance import MIN_SPEED_FOR_DIRECTION, SELFTEST_TOLERANCE
+from dobwind.errors import InputError
+from dobwind.model import reference
+from dobwind.model.airframe import Airframe
+from dobwind.model.exercise import flight_inputs
+from dobwind.model.status import STATUS_BITS
+from dobwind.model.step import StepModel, build_step
+
+SELFTEST_ROWS = 120
+
+_ENV = jinja2.Environment(
+    loader=jinja2.PackageLoader("dobwind.codegen", "templates"),
+    undefined=jinja2.StrictUndefined,
+    trim_blocks=True,
+    lstrip_blocks=True,
+    keep_trailing_newline=True,
+    autoescape=False,
+)
+
+
+@dataclass(frozen=True)
+class GeneratedCode:
+    name: str
+    precision: str
+    files: dict[str, str]  # file name -> text
+    total_ops: int
+
+
+def _polynomial_text(model) -> str:
+    parts = [f"{c:g}*{t.text}" if t.text != "1" else f"{c:g}" for t, c in zip(model.terms, model.coefficients)]
+    return " + ".join(parts) or "0"
+
+
+def _state_decls(model: StepModel, printer: CPrinter, prefix: str) -> list[dict[str, str]]:
+    decls, seen_last = [], False
+    for f in model.state.fields:
+        if f.name.startswith("last."):
+            if not seen_last:
+                decls.append({"decl": f"{prefix}output_t last;", "unit": "-", "doc": "last valid output"})
+                seen_last = True
+            continue
+        size = f"[{f.size}]" if f.size > 1 else ""
+        decls.append({"decl": f"{printer.real} {f.name}{size};", "unit": f.unit, "doc": f.doc})
+    return decls
+
+
+def _commit_lines(model: StepModel, printer: CPrinter) -> list[str]:
+    sizes = signal_sizes(model)
+    lines = []
+    for field, signal in model.next_state:
+        size = model.state.field(field).size
+        for i in range(size):
+            lines.append(f"{c_element('state.' + field, i, size, printer)} = {c_element(signal, i, sizes[signal], printer)};")
+    return lines
+
+
+def _fmt(value: float, precision: str, printer: CPrinter) -> str:
+    """A test-vector literal; NaN and infinities (rejected inputs) through <math.h>'s macros."""
+    if not np.isfinite(value):
+        macro = "NAN" if np.isnan(value) else ("INFINITY" if value > 0 else "-INFINITY")
+        return macro if precision == "single" else f"(double){macro}"
+    if precision == "single":
+        return printer.literal(float(np.float32(value)))
+    return printer.literal(float(value))
+
+
+def _selftest_context(model: StepModel, printer: CPrinter, precision: str) -> dict:
+    inputs = flight_inputs(model, SELFTEST_ROWS, seed=2024, bad_every=23)
+    if precision == "single":
+        inputs = inputs.astype(np.float32).astype(np.float64)  # exactly what the C program will hold
+    traj = reference.run(model, inputs)
+    # Rounded to 7 decimals so that last-bit libm differences between machines cannot change the text.
+    expected = np.round(traj.outputs, 7) + 0.0
+    tol = SELFTEST_TOLERANCE[precision]
+    unpack, column = [], 0
+    for f in model.inputs.fields:
+        for i in range(f.size):
+            target = f"in.{f.name}" + (f"[{i}]" if f.size > 1 else "")
+            unpack.append(f"{target} = u[{column}];")
+            column += 1
+    checks, column = [], 0
+    for f in model.outputs.fields:
+        for i in range(f.size):
+            label = f.name + (f"[{i}]" if f.size > 1 else "")
+            if f.name == "wind_from_deg":
+                from_col = column
+            elif f.name == "wind_speed_h":
+                speed_col = column
+                checks.append({"got": f"out.{label}", "want": f"y[{column}]", "label": label})
+            else:
+                checks.append({"got": f"out.{label}", "want": f"y[{column}]", "label": label})
+            column += 1
+    return {
+        "rows": SELFTEST_ROWS,
+        "n_in": model.inputs.size,
+        "n_out": model.outputs.size,
+        "input_rows": [", ".join(_fmt(v, precision, printer) for v in row) for row in inputs],
+        "output_rows": [", ".join(_fmt(v, precision, printer) for v in row) for row in expected],
+        "statuses": ", ".join(str(int(s)) for s in traj.status),
+        "unpack": unpack,
+        "checks": checks,
+        "from_want": f"y[{from_col}]",
+        "speed_want": f"y[{speed_col}]",
+        "rtol": repr(tol.rtol),
+        "atol": repr(tol.atol),
+        "angle_tol": repr(tol.angle_deg),
+        "min_speed": repr(MIN_SPEED_FOR_DIRECTION),
+    }
+
+
+def generate_code(af: Airframe, precision: str = "single", model: StepModel | None = None) -> GeneratedCode:
+    model = model or build_step(af)
+    _refuse_unstable(af)
+    printer = CPrinter(precision)
+    validate, sections, check = build_sections(model, printer)
+    prefix = f"{af.name}_wind_"
+    common = {
+        "name": af.name,
+        "prefix": prefix,
+        "precision": precision,
+        "version": __version__,
+        "sha256": af.content_sha256,
+        "real": printer.real,
+        "zero": printer.zero(),
+    }
+    total_ops = validate.ops + sum(s.ops for s in sections) + check.ops
+    header = _ENV.get_template("header.h.j2").render(
+        **common, af=af, guard=f"{af.name.upper()}_WIND_H", status_bits=STATUS_BITS,
+        outputs=model.outputs.fields, inputs=model.inputs.fields, state=_state_decls(model, printer, prefix),
+        horizontal=_polynomial_text(af.horizontal), vertical=_polynomial_text(af.vertical),
+    )
+    source = _ENV.get_template("source.c.j2").render(
+        **common, validate=validate, sections=sections, check=check, commit=_commit_lines(model, printer),
+        total_ops=total_ops, total_calls=validate.calls + sum(s.calls for s in sections) + check.calls,
+        state_fields=[f for f in model.state.fields],
+    )
+    selftest = _ENV.get_template("selftest.c.j2").render(**common, **_selftest_context(model, printer, precision))
+    cmake = _ENV.get_template("CMakeLists.txt.j2").render(**common)
+    files = {
+        f"{af.name}_wind.h": header,
+        f"{af.name}_wind.c": source,
+        f"{af.name}_wind_selftest.c": selftest,
+        "CMakeLists.txt": cmake,
+    }
+    return GeneratedCode(af.name, precision, files, total_ops)
+
+
+def _refuse_unstable(af: Airframe) -> None:
+    from dobwind.analysis.stability import unstable_reason
+
+    reason = unstable_reason(af)
+    if reason:
+        raise InputError(af.name, "observer.gains", f"refusing to generate code: {reason}")
+
+
+def write_files_atomically(files: dict[str, str], out_dir: str | Path) -> list[Path]:
+    """Each file is written to a temporary name beside its target and renamed into place."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    for name, text in files.items():
+        target = out / name
+        fd, tmp = tempfile.mkstemp(prefix=f".{name}.", dir=out)
+        try:
+            with os.fdopen(fd, "w", newline="\n") as handle:
+                handle.write(text)
+            os.replace(tmp, target)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+        written.append(target)
+    return written
+
+
+def generate_to_dir(af: Airframe, out_dir: str | Path, precision: str = "single") -> list[Path]:
+    code = generate_code(af, precision)  # everything is rendered before anything is written
+    return write_files_atomically(code.files, out_dir)

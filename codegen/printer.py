@@ -1,0 +1,125 @@
+"""C printer for CasADi SX instruction streams, one precision per printer.
+
+In single precision every literal carries ``f`` and every math call is the ``f`` variant, so nothing
+is promoted to double (checked with -Wdouble-promotion and, on Cortex-M4F, with nm).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import casadi as ca
+
+_UNARY_CALLS = {
+    ca.OP_EXP: "exp", ca.OP_LOG: "log", ca.OP_SQRT: "sqrt", ca.OP_SIN: "sin", ca.OP_COS: "cos",
+    ca.OP_TAN: "tan", ca.OP_ASIN: "asin", ca.OP_ACOS: "acos", ca.OP_ATAN: "atan", ca.OP_FLOOR: "floor",
+    ca.OP_CEIL: "ceil", ca.OP_FABS: "fabs", ca.OP_ERF: "erf", ca.OP_SINH: "sinh", ca.OP_COSH: "cosh",
+    ca.OP_TANH: "tanh", ca.OP_ASINH: "asinh", ca.OP_ACOSH: "acosh", ca.OP_ATANH: "atanh",
+    ca.OP_EXPM1: "expm1", ca.OP_LOG1P: "log1p",
+}
+_BINARY_CALLS = {
+    ca.OP_POW: "pow", ca.OP_FMOD: "fmod", ca.OP_ATAN2: "atan2", ca.OP_COPYSIGN: "copysign", ca.OP_HYPOT: "hypot",
+}
+_INFIX = {ca.OP_ADD: "+", ca.OP_SUB: "-", ca.OP_MUL: "*", ca.OP_DIV: "/"}
+_COMPARE = {ca.OP_LT: "<", ca.OP_LE: "<=", ca.OP_EQ: "==", ca.OP_NE: "!="}
+# The expensive operations, counted separately in the op summaries.
+CALL_OPS = frozenset(_UNARY_CALLS) | frozenset(_BINARY_CALLS) | {ca.OP_CONSTPOW}
+_ = (ca.OP_FMIN, ca.OP_FMAX)  # printed inline, see CPrinter.operation
+
+
+@dataclass(frozen=True)
+class CPrinter:
+    precision: str  # "single" | "double"
+
+    @property
+    def real(self) -> str:
+        return "float" if self.precision == "single" else "double"
+
+    def literal(self, value: float) -> str:
+        if math.isnan(value) or math.isinf(value):
+            raise ValueError(f"non-finite constant {value!r} in the model")
+        if self.precision == "single":
+            text = f"{value:.9g}"
+            suffix = "f"
+        else:
+            text = repr(float(value))
+            suffix = ""
+        if "e" not in text and "." not in text and "inf" not in text:
+            text += ".0"
+        text += suffix
+        return f"({text})" if value < 0 else text
+
+    def call(self, name: str, *args: str) -> str:
+        suffix = "f" if self.precision == "single" else ""
+        return f"{name}{suffix}({', '.join(args)})"
+
+    def zero(self) -> str:
+        return self.literal(0.0)
+
+    def one(self) -> str:
+        return self.literal(1.0)
+
+    def boolean(self, condition: str) -> str:
+        return f"(({self.real})({condition}))"
+
+    def operation(self, op: int, args: list[str], bools: list[bool],
+                  constant_arg: Callable[[int], float | None]) -> tuple[str, bool]:
+        """C expression for one SX operation and whether it is a truth value (printed as int).
+
+        Truth values from comparisons stay ``int`` in C: converting them to floating point and back at
+        every logical step would cost instructions for nothing. ``constant_arg(i)`` is argument i's
+        value when it is a constant.
+        """
+        def num(i: int) -> str:  # an argument in arithmetic context
+            return f"(({self.real}){args[i]})" if bools[i] else args[i]
+
+        def truth(i: int) -> str:  # an argument in logical context, as an int 0 or 1
+            return args[i] if bools[i] else f"({args[i]} != {self.zero()})"
+
+        if op in _INFIX:
+            return f"{num(0)} {_INFIX[op]} {num(1)}", False
+        if op in _UNARY_CALLS:
+            return self.call(_UNARY_CALLS[op], num(0)), False
+        if op in (ca.OP_FMIN, ca.OP_FMAX):
+            # Inline: no NaN reaches here (inputs are validated first, results checked after), and a
+            # ternary is one instruction where fmin/fmax are library calls on many targets.
+            a, b = num(0), num(1)
+            return (f"({a} < {b} ? {a} : {b})" if op == ca.OP_FMIN else f"({a} > {b} ? {a} : {b})"), False
+        if op in _BINARY_CALLS:
+            return self.call(_BINARY_CALLS[op], num(0), num(1)), False
+        if op == ca.OP_NEG:
+            return f"-{num(0)}", False
+        if op == ca.OP_ASSIGN:
+            return args[0], bools[0]
+        if op == ca.OP_SQ:
+            return f"{num(0)} * {num(0)}", False
+        if op == ca.OP_TWICE:
+            return f"{self.literal(2.0)} * {num(0)}", False
+        if op == ca.OP_INV:
+            return f"{self.one()} / {num(0)}", False
+        if op == ca.OP_CONSTPOW:
+            exponent = constant_arg(1)
+            if exponent is not None and exponent.is_integer() and 1 <= exponent <= 4:
+                return " * ".join([num(0)] * int(exponent)), False
+            if exponent == 0.5:
+                return self.call("sqrt", num(0)), False
+            return self.call("pow", num(0), num(1)), False
+        if op in _COMPARE:
+            return f"{num(0)} {_COMPARE[op]} {num(1)}", True
+        if op == ca.OP_NOT:
+            return (f"!{args[0]}" if bools[0] else f"{args[0]} == {self.zero()}"), True
+        # Both sides are already computed and free of side effects, so bitwise & and | on 0/1 give
+        # the same truth value as && and || without a branch each.
+        if op == ca.OP_AND:
+            return f"{truth(0)} & {truth(1)}", True
+        if op == ca.OP_OR:
+            return f"{truth(0)} | {truth(1)}", True
+        if op == ca.OP_IF_ELSE_ZERO:
+            if bools[1]:
+                return f"{truth(0)} & {args[1]}", True
+            return f"({truth(0)} ? {args[1]} : {self.zero()})", False
+        if op == ca.OP_SIGN:
+            a = num(0)
+            return f"({a} > {self.zero()} ? {self.one()} : ({a} < {self.zero()} ? {self.literal(-1.0)} : {a}))", False
+        raise NotImplementedError(f"CasADi operation {op} has no C printing")

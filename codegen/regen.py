@@ -1,0 +1,26 @@
+"""Refresh generated_c/<name>/ for every airframe in airframes/ (run by `make regen`)."""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from dobwind.codegen.generate import generate_to_dir
+from dobwind.model.airframe import load_airframe
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def checked_in_airframes() -> list[Path]:
+    return sorted((ROOT / "airframes").glob("*.toml"))
+
+
+def main() -> int:
+    for path in checked_in_airframes():
+        af = load_airframe(path)
+        for written in generate_to_dir(af, ROOT / "generated_c" / af.name, "single"):
+            print(written.relative_to(ROOT))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

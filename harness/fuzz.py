@@ -1,0 +1,47 @@
+"""Sanitizer-instrumented adversarial fuzzing of the generated step (see templates/fuzz.c.j2)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from dobwind.codegen.generate import generate_code, write_files_atomically
+from dobwind.harness.build import _ENV, run, system_compiler
+from dobwind.model.exercise import flight_inputs
+from dobwind.model.step import StepModel
+
+SANITIZE = ("-fsanitize=address,undefined,float-cast-overflow,float-divide-by-zero", "-fno-sanitize-recover=all",
+            "-fno-omit-frame-pointer", "-g", "-O1")
+
+
+def _element_paths(model: StepModel) -> list[str]:
+    paths = []
+    for f in model.inputs.fields:
+        paths += [f.name] if f.size == 1 else [f"{f.name}[{i}]" for i in range(f.size)]
+    return paths
+
+
+def build_fuzzer(model: StepModel, precision: str, work: Path) -> Path:
+    code = generate_code(model.airframe, precision, model)
+    write_files_atomically(code.files, work)
+    real = "float" if precision == "single" else "double"
+    base = flight_inputs(model, 1, seed=5, bad_every=0)[0]
+    literal = (lambda v: f"{float(np.float32(v))!r}f") if precision == "single" else (lambda v: repr(float(v)))
+    name = model.airframe.name
+    text = _ENV.get_template("fuzz.c.j2").render(
+        name=name, prefix=f"{name}_wind_", real=real, n_in=model.inputs.size, elements=_element_paths(model),
+        base=", ".join(literal(v) for v in base), denormal="1e-40f" if precision == "single" else "4e-320",
+    )
+    source = work / "fuzz.c"
+    source.write_text(text)
+    exe = work / "fuzz"
+    run([system_compiler(), "-std=c99", "-Wall", "-Wextra", "-Werror", *SANITIZE, f"-I{work}", str(source),
+         str(work / f"{name}_wind.c"), "-o", str(exe), "-lm"])
+    return exe
+
+
+def fuzz(model: StepModel, precision: str, work: Path, iterations: int) -> str:
+    """Runs the fuzzer; returns its summary line. Raises CheckFailed on a violation or a sanitizer report."""
+    exe = build_fuzzer(model, precision, work)
+    done = run([str(exe), str(iterations)])
+    return done.stdout.strip().splitlines()[-1]

@@ -1,0 +1,128 @@
+"""Generated C: checked in and current, deterministic, strictly single precision, readable."""
+from __future__ import annotations
+
+import difflib
+import os
+import re
+import subprocess
+
+import pytest
+
+from dobwind.cli import main
+from dobwind.codegen.generate import generate_code
+from dobwind.codegen.printer import CPrinter
+from dobwind.model.airframe import load_airframe
+from dobwind.model.airframe_toml import dumps
+from tests.helpers import M300, ROOT, airframe_dict, make_airframe
+
+GOLDEN = ROOT / "generated_c" / "m300"
+UPDATE = os.environ.get("DOBWIND_UPDATE_GOLDEN") == "1"
+
+
+def test_checked_in_code_is_current():
+    """Fails with a diff when generated_c/m300 is stale; `make regen` (or DOBWIND_UPDATE_GOLDEN=1) refreshes."""
+    code = generate_code(load_airframe(M300), "single")
+    problems = []
+    for name, text in code.files.items():
+        path = GOLDEN / name
+        if UPDATE:
+            path.write_text(text)
+            continue
+        current = path.read_text() if path.exists() else ""
+        if current != text:
+            diff = "".join(difflib.unified_diff(current.splitlines(True), text.splitlines(True), str(path), "generated", n=1))
+            problems.append(diff[:3000])
+    assert sorted(p.name for p in GOLDEN.iterdir()) == sorted(code.files)
+    assert not problems, "generated_c/m300 is stale; run `make regen`:\n" + "\n".join(problems)
+
+
+@pytest.mark.parametrize("precision", ["single", "double"])
+def test_generation_is_deterministic_and_has_no_paths_or_times(precision, tmp_path):
+    af = make_airframe()
+    first = generate_code(af, precision).files
+    second = generate_code(af, precision).files
+    assert first == second
+    blob = "\n".join(first.values())
+    assert str(ROOT) not in blob and "/tmp" not in blob
+    assert not re.search(r"\d{4}-\d{2}-\d{2}|\d{2}:\d{2}:\d{2}", blob)  # no dates or times
+    assert af.content_sha256 in first["testcraft_wind.h"]
+    assert "DO NOT EDIT" in first["testcraft_wind.c"]
+
+
+def _code_lines(text: str) -> list[str]:
+    text = re.sub(r"/\*.*?\*/", "", text, flags=re.S)
+    return [line for line in text.splitlines() if line.strip()]
+
+
+def test_single_precision_has_no_double_anywhere():
+    files = generate_code(load_airframe(M300), "single").files
+    code = "\n".join(_code_lines(files["m300_wind.c"]) + _code_lines(files["m300_wind.h"]))
+    assert "double" not in code
+    literals = re.findall(r"(?<![\w.])(\d+\.\d*(?:e[-+]?\d+)?|\d+e[-+]?\d+)(f?)", code)
+    assert literals and all(suffix == "f" for _, suffix in literals), [lit for lit in literals if not lit[1]][:5]
+    calls = set(re.findall(r"\b(sin|cos|tan|exp|expm1|log|sqrt|atan2|atan|fmod|pow|fabs|fmin|fmax|floor|hypot)\s*\(", code))
+    assert not calls, f"double-precision libm calls: {calls}"
+
+
+def test_printer_literals():
+    single, double = CPrinter("single"), CPrinter("double")
+    assert single.literal(2.0) == "2.0f" and double.literal(2.0) == "2.0"
+    assert single.literal(-0.5) == "(-0.5f)"
+    assert float(double.literal(0.1)) == 0.1
+    assert float(single.literal(1e-7)[:-1]) == pytest.approx(1e-7)
+
+
+def test_header_documents_fields_units_and_status_bits():
+    header = generate_code(load_airframe(M300), "single").files["m300_wind.h"]
+    for text in ("float vel_ned[3]; /* m/s", "float rotor_rpm[4]; /* rev/min", "M300_WIND_STATUS_NONFINITE",
+                 "M300_WIND_STATUS_BAD_DT", "M300_WIND_STATUS_TILT", "extern \"C\"", "mass            8.0 kg",
+                 "typedef struct", "m300_wind_output_t last;", "int m300_wind_step("):
+        assert text in header, text
+    assert "acc_ned" in header and "specific_force" not in header and "float thrust;" not in header
+
+
+def test_source_has_labelled_sections_with_op_counts():
+    source = generate_code(load_airframe(M300), "single").files["m300_wind.c"]
+    for stage in ("validate", "attitude", "thrust", "external_force", "observer", "low_pass", "force_air", "wind",
+                  "check_result", "commit"):
+        assert re.search(rf"/\* ---- {stage}:.*---- \*/", source), stage
+    assert re.search(r"Total ops per accepted step: \d+", source)
+    assert "malloc" not in source and "printf" not in source and "static " not in source
+
+
+def test_unused_mode_fields_are_absent():
+    collective = airframe_dict(thrust={"source": "collective"})
+    collective["observer"]["acceleration"] = "velocity"
+    from dobwind.model.airframe import parse_airframe
+    header = generate_code(parse_airframe(dumps(collective), "<c>"), "single").files["testcraft_wind.h"]
+    assert "float thrust;" in header and "rotor_rpm" not in header
+    assert "acc_ned" not in header and "specific_force[3]" not in header
+
+
+def test_generate_writes_atomically_and_refuses_unstable_gains(tmp_path, capsys):
+    good = tmp_path / "good.toml"
+    good.write_text(dumps(airframe_dict()))
+    out = tmp_path / "out"
+    assert main(["generate", str(good), "-o", str(out)]) == 0
+    before = {p.name: p.read_text() for p in out.iterdir()}
+    assert not [p for p in out.iterdir() if p.name.startswith(".")]
+    # Paper form: pole 1 - dt*lambda/(2m) = 1 - 0.02*300/5 = -0.2 is fine; 600 gives -1.4: unstable.
+    bad = tmp_path / "bad.toml"
+    bad.write_text(dumps(airframe_dict(**{"observer.gains": [20.0, 600.0, 30.0]})))
+    capsys.readouterr()
+    assert main(["generate", str(bad), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "observer.gains" in err and "axis y" in err and "unit circle" in err
+    assert {p.name: p.read_text() for p in out.iterdir()} == before
+
+
+def test_cmake_builds_the_library_and_runs_the_selftest(tmp_path):
+    if subprocess.run(["cmake", "--version"], capture_output=True).returncode != 0:
+        pytest.fail("cmake is required (installed by .ci/run)")
+    build = tmp_path / "build"
+    subprocess.run(["cmake", "-S", str(GOLDEN), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release"], check=True,
+                   capture_output=True)
+    subprocess.run(["cmake", "--build", str(build)], check=True, capture_output=True)
+    done = subprocess.run(["ctest", "--output-on-failure"], cwd=build, capture_output=True, text=True)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert (build / "libm300_wind.a").exists()
