@@ -1,0 +1,66 @@
+"""PNG figures for `dobwind analyze -o DIR` (matplotlib, Agg: no display needed)."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from dobwind.analysis.figures import bandwidth_hz, response  # noqa: E402
+from dobwind.analysis.ramp import RampResult  # noqa: E402
+
+PAPER_BANDWIDTH_HZ = 0.5
+
+
+def _save(fig, path: Path) -> Path:
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    fig.savefig(tmp, dpi=110)
+    plt.close(fig)
+    tmp.replace(path)
+    return path
+
+
+def bode(systems: list[tuple[str, object]], title: str, path: Path) -> Path:
+    """Magnitude (dB) and phase (deg) against frequency (Hz), -3 dB points marked, 0.5 Hz line."""
+    fig, (mag_ax, ph_ax) = plt.subplots(2, 1, sharex=True, figsize=(8.5, 7))
+    nyquist = min(0.5 / sys.dt for _, sys in systems if sys.isdtime())
+    freq = np.geomspace(0.005, nyquist * 0.999, 800)
+    for label, sys in systems:
+        h = response(sys, freq)
+        line, = mag_ax.semilogx(freq, 20 * np.log10(np.abs(h)), label=label)
+        ph_ax.semilogx(freq, np.degrees(np.unwrap(np.angle(h))), color=line.get_color())
+        bw = bandwidth_hz(sys)
+        if math.isfinite(bw):
+            mag_ax.plot([bw], [20 * math.log10(abs(response(sys, np.array([bw]))[0]))], "o", color=line.get_color())
+    mag_ax.axhline(-3.0, color="grey", lw=0.8, ls=":")
+    mag_ax.text(freq[0] * 1.1, -2.5, "-3 dB", color="grey", fontsize=8)
+    for ax in (mag_ax, ph_ax):
+        ax.axvline(PAPER_BANDWIDTH_HZ, color="black", lw=0.8, ls="--")
+        ax.grid(True, which="both", alpha=0.3)
+    mag_ax.text(PAPER_BANDWIDTH_HZ * 1.05, -38, "0.5 Hz (paper)", fontsize=8)
+    mag_ax.set_ylim(-40, 5)
+    mag_ax.set_ylabel("gain (dB)")
+    ph_ax.set_ylabel("phase (deg)")
+    ph_ax.set_xlabel("frequency (Hz)")
+    mag_ax.set_title(title + "  (dots: -3 dB points)")
+    mag_ax.legend(fontsize=8, loc="lower left")
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def ramp(result: RampResult, path: Path) -> Path:
+    fig, ax = plt.subplots(figsize=(8.5, 4.5))
+    ax.plot(result.time_s, result.truth_mps, "k", lw=1.2, label="true wind")
+    ax.plot(result.time_s, result.scheduled_mps, label=f"scheduled low-pass (lag {result.scheduled_lag_s:.2f} s)")
+    ax.plot(result.time_s, result.fixed_mps, label=f"fixed {result.fixed_cutoff_hz:g} Hz low-pass (lag {result.fixed_lag_s:.2f} s)")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("horizontal wind speed (m/s)")
+    ax.set_title(f"Wind ramp to 10 m/s: the schedule cuts the lag by {result.lag_reduction_s:.2f} s")
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="lower right")
+    fig.tight_layout()
+    return _save(fig, path)

@@ -1,0 +1,131 @@
+"""The ramp experiment: a hovering vehicle in wind ramping to 10 m/s, the scheduled low-pass against
+a fixed one at the lowest cutoff. The force is made from the airframe's own force-air model (so only
+the observer and filter dynamics are on trial), the vehicle tilts to hold position, and the Python
+reference runs the step over the whole ramp.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from dobwind.model import reference
+from dobwind.model.airframe import Airframe, FilterSchedule
+from dobwind.model.exercise import rpm_for_rotor_thrust
+from dobwind.model.step import StepModel, build_step
+from dobwind.model.terms import polynomial_expr
+
+RAMP_START_S, RAMP_RATE_MPS2, RAMP_TOP_MPS, HOLD_S = 5.0, 0.5, 10.0, 15.0
+LAG_LEVELS_MPS = np.arange(2.0, 9.01, 0.5)
+
+
+def _model_functions(af: Airframe) -> tuple[ca.Function, ca.Function]:
+    m, n, fz = ca.SX.sym("m"), ca.SX.sym("n"), ca.SX.sym("fz")
+    env = {"m": m, "n": n, "fh": ca.sqrt(m * m + n * n), "fz": fz}
+    horizontal = ca.Function("h", [m, n, fz], [polynomial_expr(af.horizontal.terms, af.horizontal.coefficients, env)])
+    vertical = ca.Function("v", [m, n, fz], [polynomial_expr(af.vertical.terms, af.vertical.coefficients, env)])
+    return horizontal, vertical
+
+
+def _bisect(fun, target: np.ndarray, lo: float, hi: float, *args) -> np.ndarray:
+    """Vectorized bisection for an increasing function: fun(x, *args) = target."""
+    a, b = np.full_like(target, lo), np.full_like(target, hi)
+    for _ in range(80):
+        mid = 0.5 * (a + b)
+        below = fun(mid, *args) < target
+        a, b = np.where(below, mid, a), np.where(below, b, mid)
+    return 0.5 * (a + b)
+
+
+def force_for_airflow(af: Airframe, air_rel_ned: np.ndarray, yaw: np.ndarray, max_force_n: float = 500.0) -> np.ndarray:
+    """External force (NED, rows) that the airframe's force-air model maps to the given relative
+    airflow: horizontal force along the airflow, vertical by the vertical model (assumed monotone)."""
+    horizontal, vertical = _model_functions(af)
+    h_map, v_map = horizontal.map(len(yaw)), vertical.map(len(yaw))
+    c, s = np.cos(yaw), np.sin(yaw)
+    rel_c = np.stack([c * air_rel_ned[:, 0] + s * air_rel_ned[:, 1], -s * air_rel_ned[:, 0] + c * air_rel_ned[:, 1]], 1)
+    speed = np.hypot(rel_c[:, 0], rel_c[:, 1])
+    direction = np.where(speed[:, None] > 0, rel_c / np.maximum(speed, 1e-12)[:, None], [1.0, 0.0])
+    h_of = lambda fh: np.asarray(h_map(fh * direction[:, 0], fh * direction[:, 1], np.zeros_like(fh))).ravel()
+    fh = _bisect(h_of, speed, 0.0, max_force_n)
+    v_of = lambda fz: np.asarray(v_map(np.zeros_like(fz), np.zeros_like(fz), fz)).ravel()
+    slope = v_of(np.ones(len(yaw)))[0] - v_of(np.zeros(len(yaw)))[0]
+    if slope == 0.0:  # a vertical model that ignores fz cannot be inverted: no vertical force
+        fz = np.zeros(len(yaw))
+    else:
+        sign = 1.0 if slope > 0 else -1.0
+        fz = _bisect(lambda z: sign * v_of(z), sign * air_rel_ned[:, 2], -max_force_n, max_force_n)
+    off = np.asarray(af.observer.force_offset_n)
+    m_c, n_c = fh * direction[:, 0] + off[0], fh * direction[:, 1] + off[1]
+    return np.stack([c * m_c - s * n_c, s * m_c + c * n_c, fz + off[2]], 1)
+
+
+def hover_inputs(model: StepModel, force_ned: np.ndarray, yaw: np.ndarray, dt: float) -> np.ndarray:
+    """Inputs of a vehicle holding position against an external force: tilted so that
+    -u_f z_b + m g e3 + f = 0, no acceleration, no velocity."""
+    af = model.airframe
+    n = len(yaw)
+    need = af.mass_kg * af.gravity_mps2 * np.array([0, 0, 1.0]) + force_ned
+    thrust = np.linalg.norm(need, axis=1)
+    z = need / thrust[:, None]
+    heading = np.stack([np.cos(yaw), np.sin(yaw), np.zeros(n)], 1)
+    y = np.cross(z, heading)
+    y /= np.linalg.norm(y, axis=1)[:, None]
+    x = np.cross(y, z)
+    rot = Rotation.from_matrix(np.stack([x, y, z], axis=2))
+    xyzw = rot.as_quat()
+    values = {"dt": np.full(n, dt), "vel_ned": np.zeros((n, 3)), "acc_ned": np.zeros((n, 3)),
+              "q": np.column_stack([xyzw[:, 3], xyzw[:, :3]]), "yaw_ref": yaw, "thrust": thrust,
+              "specific_force": rot.inv().apply(np.tile([0, 0, -af.gravity_mps2], (n, 1)))}
+    if "rotor_rpm" in model.inputs:
+        values["rotor_rpm"] = rpm_for_rotor_thrust(af.thrust.coefficients, af.thrust.max_rpm,
+                                                   np.repeat((thrust / af.thrust.rotors)[:, None], af.thrust.rotors, 1))
+    return model.inputs.pack({f.name: values[f.name] for f in model.inputs.fields}, rows=n)
+
+
+@dataclass(frozen=True)
+class RampResult:
+    time_s: np.ndarray
+    truth_mps: np.ndarray
+    scheduled_mps: np.ndarray
+    fixed_mps: np.ndarray
+    scheduled_lag_s: float
+    fixed_lag_s: float
+    fixed_cutoff_hz: float
+
+    @property
+    def lag_reduction_s(self) -> float:
+        return self.fixed_lag_s - self.scheduled_lag_s
+
+
+def _lag(time_s: np.ndarray, truth: np.ndarray, estimate: np.ndarray) -> float:
+    """Mean over speed levels of (time the estimate first reaches the level - time the truth does)."""
+    lags = []
+    for level in LAG_LEVELS_MPS:
+        t_true = time_s[np.argmax(truth >= level)]
+        reached = estimate >= level
+        if not reached.any():
+            return float("inf")
+        lags.append(time_s[np.argmax(reached)] - t_true)
+    return float(np.mean(lags))
+
+
+def ramp_experiment(af: Airframe) -> RampResult:
+    dt = af.observer.sample_time_s
+    duration = RAMP_START_S + RAMP_TOP_MPS / RAMP_RATE_MPS2 + HOLD_S
+    t = np.arange(0.0, duration, dt)
+    speed = np.clip((t - RAMP_START_S) * RAMP_RATE_MPS2, 0.0, RAMP_TOP_MPS)
+    wind = np.stack([-speed, np.zeros_like(t), np.zeros_like(t)], 1)  # from the north
+    yaw = np.zeros_like(t)
+    fixed_af = dataclasses.replace(af, filter=FilterSchedule((0.0,), (min(af.filter.cutoffs_hz),)))
+    results = []
+    for variant in (af, fixed_af):
+        model = build_step(variant)
+        inputs = hover_inputs(model, force_for_airflow(variant, wind, yaw), yaw, dt)
+        traj = reference.run(model, inputs)
+        results.append(traj.outputs[:, model.outputs.slice("wind_speed_h")].ravel())
+    return RampResult(t, speed, results[0], results[1], _lag(t, speed, results[0]), _lag(t, speed, results[1]),
+                      min(af.filter.cutoffs_hz))
