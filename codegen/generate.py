@@ -89,24 +89,11 @@ def _selftest_context(model: StepModel, printer: CPrinter, precision: str) -> di
     # Rounded to 7 decimals so that last-bit libm differences between machines cannot change the text.
     expected = np.round(traj.outputs, 7) + 0.0
     tol = SELFTEST_TOLERANCE[precision]
-    unpack, column = [], 0
-    for f in model.inputs.fields:
-        for i in range(f.size):
-            target = f"in.{f.name}" + (f"[{i}]" if f.size > 1 else "")
-            unpack.append(f"{target} = u[{column}];")
-            column += 1
-    checks, column = [], 0
-    for f in model.outputs.fields:
-        for i in range(f.size):
-            label = f.name + (f"[{i}]" if f.size > 1 else "")
-            if f.name == "wind_from_deg":
-                from_col = column
-            elif f.name == "wind_speed_h":
-                speed_col = column
-                checks.append({"got": f"out.{label}", "want": f"y[{column}]", "label": label})
-            else:
-                checks.append({"got": f"out.{label}", "want": f"y[{column}]", "label": label})
-            column += 1
+    unpack = [f"in.{name} = u[{column}];" for column, name in enumerate(model.inputs.element_names())]
+    outputs = model.outputs.element_names()
+    from_col, speed_col = outputs.index("wind_from_deg"), outputs.index("wind_speed_h")
+    checks = [{"got": f"out.{label}", "want": f"y[{column}]", "label": label}
+              for column, label in enumerate(outputs) if column != from_col]
     return {
         "rows": SELFTEST_ROWS,
         "n_in": model.inputs.size,

@@ -109,13 +109,7 @@ def _data_file(model: StepModel, work: Path) -> Path:
 
 
 def _fill_lines(model: StepModel, real: str) -> str:
-    lines, col = [], 0
-    for f in model.inputs.fields:
-        for i in range(f.size):
-            target = f"in.{f.name}" + (f"[{i}]" if f.size > 1 else "")
-            lines.append(f"        {target} = ({real})u[{col}];")
-            col += 1
-    return "\n".join(lines)
+    return "\n".join(f"        in.{name} = ({real})u[{col}];" for col, name in enumerate(model.inputs.element_names()))
 
 
 def _casadi_source(model: StepModel, precision: str, work: Path) -> tuple[Path, str]:

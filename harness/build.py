@@ -62,10 +62,7 @@ def strict_compile(compiler: Compiler, source: Path, out_dir: Path) -> None:
 
 
 def _element_paths(layout: Layout, prefix: str) -> list[str]:
-    paths = []
-    for f in layout.fields:
-        paths += [f"{prefix}{f.name}"] if f.size == 1 else [f"{prefix}{f.name}[{i}]" for i in range(f.size)]
-    return paths
+    return [prefix + name for name in layout.element_names()]
 
 
 def write_shim(model: StepModel, precision: str, out_dir: Path) -> Path:

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from dobwind.harness.build import STRICT_FLAGS, run
+from dobwind.model.layout import Layout
 
 ARM_GCC = "arm-none-eabi-gcc"
 CPU_FLAGS = ("-mcpu=cortex-m4", "-mthumb", "-mfpu=fpv4-sp-d16", "-mfloat-abi=hard")
@@ -70,12 +71,7 @@ def double_precision_symbols(obj: Path) -> list[str]:
 
 def firmware_main(name: str, input_fields, real: str, with_step: bool) -> str:
     prefix = f"{name}_wind_"
-    fill = []
-    for f in input_fields:
-        if f.size == 1:
-            fill.append(f"        in.{f.name} = source;")
-        else:
-            fill += [f"        in.{f.name}[{i}] = source;" for i in range(f.size)]
+    fill = [f"        in.{name} = source;" for name in Layout(tuple(input_fields)).element_names()]
     return _FIRMWARE_MAIN.format(
         name=name, prefix=prefix, real=real, fill="\n".join(fill),
         init=f"{prefix}init(&state);" if with_step else "(void)state;",

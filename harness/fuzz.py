@@ -14,13 +14,6 @@ SANITIZE = ("-fsanitize=address,undefined,float-cast-overflow,float-divide-by-ze
             "-fno-omit-frame-pointer", "-g", "-O1")
 
 
-def _element_paths(model: StepModel) -> list[str]:
-    paths = []
-    for f in model.inputs.fields:
-        paths += [f.name] if f.size == 1 else [f"{f.name}[{i}]" for i in range(f.size)]
-    return paths
-
-
 def build_fuzzer(model: StepModel, precision: str, work: Path) -> Path:
     code = generate_code(model.airframe, precision, model)
     write_files_atomically(code.files, work)
@@ -29,7 +22,7 @@ def build_fuzzer(model: StepModel, precision: str, work: Path) -> Path:
     literal = (lambda v: f"{float(np.float32(v))!r}f") if precision == "single" else (lambda v: repr(float(v)))
     name = model.airframe.name
     text = _ENV.get_template("fuzz.c.j2").render(
-        name=name, prefix=f"{name}_wind_", real=real, n_in=model.inputs.size, elements=_element_paths(model),
+        name=name, prefix=f"{name}_wind_", real=real, n_in=model.inputs.size, elements=model.inputs.element_names(),
         base=", ".join(literal(v) for v in base), denormal="1e-40f" if precision == "single" else "4e-320",
     )
     source = work / "fuzz.c"
