@@ -4,8 +4,6 @@ Output is deterministic (no timestamps, no paths): generating twice gives identi
 """
 from __future__ import annotations
 
-import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -13,6 +11,7 @@ import jinja2
 import numpy as np
 
 from dobwind import __version__
+from dobwind.atomic import write_text_atomically
 from dobwind.codegen.printer import CPrinter
 from dobwind.codegen.sections import build_sections, c_element, signal_sizes
 from dobwind.codegen.tolerance import MIN_SPEED_FOR_DIRECTION, SELFTEST_TOLERANCE
@@ -159,21 +158,8 @@ def _refuse_unstable(af: Airframe) -> None:
 
 def write_files_atomically(files: dict[str, str], out_dir: str | Path) -> list[Path]:
     """Each file is written to a temporary name beside its target and renamed into place."""
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    written = []
-    for name, text in files.items():
-        target = out / name
-        fd, tmp = tempfile.mkstemp(prefix=f".{name}.", dir=out)
-        try:
-            with os.fdopen(fd, "w", newline="\n") as handle:
-                handle.write(text)
-            os.replace(tmp, target)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
-        written.append(target)
-    return written
+    return [write_text_atomically(Path(out_dir) / name, lambda handle, text=text: handle.write(text))
+            for name, text in files.items()]
 
 
 def generate_to_dir(af: Airframe, out_dir: str | Path, precision: str = "single") -> list[Path]:

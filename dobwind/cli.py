@@ -7,7 +7,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from typing import Any, Callable, NoReturn, Sequence
+from typing import Any, NoReturn, Sequence
 
 from dobwind.errors import EXIT_BAD_INPUT, EXIT_CHECK_FAILED, CheckFailed, InputError
 
@@ -77,11 +77,77 @@ def cmd_check(args: argparse.Namespace) -> int:
     return 0
 
 
-def _later(issue: str) -> Callable[[argparse.Namespace], int]:
-    def run(args: argparse.Namespace) -> int:
-        raise CheckFailed(f"'{args.command}' is not implemented yet ({issue})")
+def _default_airframe() -> str:
+    from dobwind.demo import REFERENCE_AIRFRAME
 
-    return run
+    return str(REFERENCE_AIRFRAME)
+
+
+def cmd_simulate(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from dobwind.logs import write_csv
+    from dobwind.model.airframe import load_airframe
+    from dobwind.simulate import column_order, log_comments, simulate
+
+    af = load_airframe(args.airframe or _default_airframe())
+    if args.hold is not None and args.hold <= 0:
+        raise InputError("simulate", "--hold", "must be > 0 seconds")
+    cols = simulate(af, args.scenario, args.seed, hold_s=args.hold, rate_hz=args.rate)
+    names = column_order(cols)
+    formats = ["%.6f"] + ["%.7g"] * (len(names) - 2) + ["%d"]
+    write_csv(args.output, names, np.column_stack([cols[n] for n in names]), formats,
+              log_comments(af, args.scenario, args.seed))
+    print(f"{args.output}: {len(cols['t'])} rows, {cols['t'][-1]:.1f} s of '{args.scenario}' at {args.rate or 50:g} Hz")
+    return 0
+
+
+def cmd_fit(args: argparse.Namespace) -> int:
+    from dobwind.fit import fit_airframe, fit_plot, text_report
+    from dobwind.logs import write_atomically
+    from dobwind.model.airframe import load_airframe
+    from dobwind.model.airframe_toml import dump_airframe
+
+    af = load_airframe(args.airframe)
+    new, report, points = fit_airframe(af, list(args.logs), args.terms)
+    text = dump_airframe(new)
+    write_atomically(args.output, lambda handle: handle.write(text))
+    plot = args.plot or str(args.output).removesuffix(".toml") + "_fit.png"
+    fit_plot(new, points, plot)
+    if args.json:
+        _print_json({**report.__dict__, "airframe": str(args.output), "plot": plot})
+    else:
+        print(text_report(report))
+        print(f"wrote {args.output} and {plot}")
+    for warning in report.warnings:
+        sys.stderr.write(f"dobwind fit: warning: {warning}\n")
+    return 0
+
+
+def cmd_replay(args: argparse.Namespace) -> int:
+    from dobwind.model.airframe import load_airframe
+    from dobwind.replay import replay, score, text_report, write_output
+
+    af = load_airframe(args.airframe)
+    if str(args.log).endswith(".ulg"):
+        raise InputError(args.log, None, "ULog replay is not available yet (CSV logs only)")
+    model, log, traj = replay(af, args.log, args.backend, args.precision)
+    if args.output:
+        write_output(args.output, log, traj)
+    metrics = score(log, traj, model) if log.true_wind is not None else {
+        "rows": log.rows, "rejected_rows": int((traj.status != 0).sum())}
+    if args.plot:
+        from dobwind.plots import replay_plot
+
+        replay_plot(log.time_s, traj.outputs[:, model.outputs.slice("wind_ned")], log.true_wind,
+                    f"{af.name}: {args.log}", args.plot)
+    if args.json:
+        _print_json({"airframe": af.name, "log": str(args.log), "backend": args.backend, **metrics})
+    elif log.true_wind is not None:
+        print(text_report(metrics))
+    else:
+        print(f"rows {metrics['rows']}, rejected {metrics['rejected_rows']} (no true wind in the log to score against)")
+    return 0
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -118,25 +184,31 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("fit", help="fit the force-air model from logs with true wind")
     p.add_argument("airframe")
     p.add_argument("logs", nargs="+")
-    p.add_argument("-o", "--output", required=True)
+    p.add_argument("-o", "--output", required=True, help="the new airframe file")
+    p.add_argument("--terms", choices=("airframe", "auto"), default="airframe",
+                   help="fit the airframe's terms, or choose them from a library by cross-validation")
+    p.add_argument("--plot", help="PNG of the fitted surface and residuals (default: beside the output)")
     p.add_argument("--json", action="store_true")
-    p.set_defaults(func=_later("issue 5"))
+    p.set_defaults(func=cmd_fit)
 
     p = sub.add_parser("replay", help="run the estimator over a flight log")
     p.add_argument("airframe")
     p.add_argument("log")
     p.add_argument("-o", "--output")
     p.add_argument("--backend", choices=("python", "c"), default="python")
+    p.add_argument("--precision", choices=("single", "double"), default="single", help="C backend precision")
     p.add_argument("--plot")
     p.add_argument("--json", action="store_true")
-    p.set_defaults(func=_later("issue 5"))
+    p.set_defaults(func=cmd_replay)
 
     p = sub.add_parser("simulate", help="synthesize a flight log with known wind")
-    p.add_argument("scenario")
-    p.add_argument("--airframe")
+    p.add_argument("scenario", help="sweep | vertical | tunnel | still-air | outdoor")
+    p.add_argument("--airframe", help="default: airframes/m300.toml")
     p.add_argument("-o", "--output", required=True)
     p.add_argument("--seed", type=int, default=0)
-    p.set_defaults(func=_later("issue 5"))
+    p.add_argument("--hold", type=float, help="seconds per hold (default: the scenario's own)")
+    p.add_argument("--rate", type=float, help="sample rate in Hz (default 50)")
+    p.set_defaults(func=cmd_simulate)
 
     p = sub.add_parser("demo", help="the whole pipeline on the reference airframe")
     p.add_argument("-o", "--output", default="out/demo")

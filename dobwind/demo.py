@@ -1,56 +1,125 @@
-"""`dobwind demo`: the pipeline on the reference airframe, end to end, as far as it exists.
+"""`dobwind demo`: from nothing to the paper's table, on the reference airframe.
 
-check -> analyze (plots) -> generate -> verify (both precisions) -> reference speed. Calibration,
-simulation and replay join when they land (see the README's roadmap).
+simulate the calibration (the paper's sweep, 20 s holds, and climbs/descents) -> fit (terms chosen
+by cross-validation) -> analyze -> generate -> verify -> replay the tunnel, still-air and outdoor
+scenarios through the generated C (single precision) -> our numbers beside the paper's and beside the
+classic tilt-angle method calibrated on the same sweep.
 """
 from __future__ import annotations
 
 import time
 from pathlib import Path
 
+import numpy as np
 
+from dobwind import baseline
 from dobwind.analysis.report import analyze, write_plots
 from dobwind.codegen.generate import generate_to_dir
+from dobwind.fit import fit_airframe, fit_plot, text_report
 from dobwind.harness.verify import verify_airframe
+from dobwind.logs import read_log, required_columns, write_atomically, write_csv
 from dobwind.model import reference
 from dobwind.model.airframe import load_airframe
+from dobwind.model.airframe_toml import dump_airframe
 from dobwind.model.exercise import flight_inputs
 from dobwind.model.step import build_step
+from dobwind.plots import replay_plot
+from dobwind.replay import replay, score, score_wind
+from dobwind.simulate import column_order, log_comments, simulate
 
 REFERENCE_AIRFRAME = Path(__file__).resolve().parents[1] / "airframes" / "m300.toml"
+SCENARIO_SEEDS = {"sweep": 1, "vertical": 2, "tunnel": 3, "still-air": 4, "outdoor": 5}
+
+PAPER = {"tunnel_speed": "0.11 / 0.21", "tunnel_direction": "2.8 / 5.3",
+         "still_air": "0.35 / 0.40"}  # hover baseline 0.21 / 0.22 plus 0.14 / 0.18 in manoeuvres
+
+
+def _fmt(a: float | None, b: float | None, digits: int = 3) -> str:
+    return "-" if a is None or b is None else f"{a:.{digits}f} / {b:.{digits}f}"
 
 
 def run_demo(out_dir: str) -> int:
+    start = time.perf_counter()
     out = Path(out_dir)
     af = load_airframe(REFERENCE_AIRFRAME)
-    model = build_step(af)
-    print(f"== airframe {af.name}: {af.mass_kg} kg, {af.thrust.rotors} rotors, {af.observer.discretization} observer, "
-          f"{model.step.n_instructions()} CasADi instructions per step")
 
-    report, systems = analyze(af, [0.1, 0.5, 1.0])
-    plots = write_plots(report, systems, out / "analysis")
+    logs = {}
+    for name, seed in SCENARIO_SEEDS.items():
+        cols = simulate(af, name, seed)
+        names = column_order(cols)
+        path = out / "logs" / f"{name}.csv"
+        write_csv(path, names, np.column_stack([cols[n] for n in names]),
+                  ["%.6f"] + ["%.7g"] * (len(names) - 2) + ["%d"], log_comments(af, name, seed))
+        logs[name] = str(path)
+    print(f"== simulate: {', '.join(f'{n} ({Path(p).stat().st_size // 1_000_000} MB)' for n, p in logs.items())} "
+          f"in {out / 'logs'}")
+
+    fitted, fit_report, points = fit_airframe(af, [logs["sweep"], logs["vertical"]], "auto")
+    fitted_path = out / f"{af.name}_fitted.toml"
+    text = dump_airframe(fitted)
+    write_atomically(fitted_path, lambda handle: handle.write(text))
+    fit_plot(fitted, points, str(out / "fit.png"))
+    print("== fit (sweep + vertical, --terms auto): " + text_report(fit_report).replace("\n", "\n   "))
+    for warning in fit_report.warnings:
+        print(f"   warning: {warning}")
+
+    report, systems = analyze(fitted, [0.1, 0.5, 1.0])
+    write_plots(report, systems, out / "analysis")
     obs, ramp = report["observer"][0], report["ramp"]
-    at_half = next(g for g in obs["gain_phase"] if g["freq_hz"] == 0.5)
-    print(f"== analyze: observer bandwidth {obs['bandwidth_hz']:.3f} Hz (paper: 0.5 Hz), at 0.5 Hz "
-          f"{at_half['gain_db']:.2f} dB / {at_half['phase_deg']:.1f} deg; schedule "
-          f"{'stable' if report['schedule']['stable'] else 'UNSTABLE'}; ramp lag {ramp['lag_reduction_s']:.2f} s less "
-          f"than a fixed {ramp['fixed_cutoff_hz']:g} Hz filter (paper: 2.2 s)")
-    for path in plots:
-        print(f"   plot: {path}")
+    print(f"== analyze: observer bandwidth {obs['bandwidth_hz']:.3f} Hz (paper 0.5 Hz); schedule "
+          f"{'stable' if report['schedule']['stable'] else 'UNSTABLE'}; ramp lag {ramp['lag_reduction_s']:.2f} s less than "
+          f"a fixed {ramp['fixed_cutoff_hz']:g} Hz filter (paper 2.2 s); plots in {out / 'analysis'}")
 
-    written = generate_to_dir(af, out / "c" / af.name, "single")
+    written = generate_to_dir(fitted, out / "c" / fitted.name, "single")
     print(f"== generate: {', '.join(p.name for p in written)} in {written[0].parent}")
+    verification = verify_airframe(fitted, "both", steps=20000)
+    worst = {p.precision: p.flight.worst_ratio for p in verification.precisions if p.flight}
+    print(f"== verify: {'PASS' if verification.passed else 'FAIL'} (worst error / tolerance: double {worst['double']:.3g}, "
+          f"single {worst['single']:.3g}; C99, C++ and clang builds, self-test)")
 
-    verification = verify_airframe(af, "both", steps=20000)
-    print("== " + verification.text().replace("\n", "\n   "))
+    tilt = baseline.calibrate([read_log(logs["sweep"], required_columns(af) + [("wind_n", "truth")])])
+    results = {}
+    for name in ("tunnel", "still-air", "outdoor"):
+        model, log, traj = replay(fitted, logs[name], backend="c", precision="single")
+        ours = score(log, traj, model)
+        tilt_wind = baseline.estimate(tilt, log)
+        theirs = score_wind(log, tilt_wind, np.zeros(log.rows, dtype=int))
+        replay_plot(log.time_s, traj.outputs[:, model.outputs.slice("wind_ned")], log.true_wind, f"{name}: dobwind",
+                    str(out / f"replay_{name}.png"), others=[("tilt method", log.time_s, tilt_wind)])
+        results[name] = (ours, theirs)
 
-    rows = flight_inputs(model, 100_000, seed=3)
+    tun, still, outdoor = results["tunnel"], results["still-air"], results["outdoor"]
+    rows = [
+        ("tunnel 60 deg, 3-10 m/s: speed error mean / max, m/s (per hold)", PAPER["tunnel_speed"],
+         _fmt(tun[0]["per_segment"]["speed_mean"], tun[0]["per_segment"]["speed_max"]),
+         _fmt(tun[1]["per_segment"]["speed_mean"], tun[1]["per_segment"]["speed_max"])),
+        ("tunnel: direction error mean / max, deg (per hold)", PAPER["tunnel_direction"],
+         _fmt(tun[0]["per_segment"]["direction_mean"], tun[0]["per_segment"]["direction_max"], 2),
+         _fmt(tun[1]["per_segment"]["direction_mean"], tun[1]["per_segment"]["direction_max"], 2)),
+        ("tunnel: speed error mean / max, m/s (every sample)", "-",
+         _fmt(tun[0]["per_sample"]["speed_mean"], tun[0]["per_sample"]["speed_max"]),
+         _fmt(tun[1]["per_sample"]["speed_mean"], tun[1]["per_sample"]["speed_max"])),
+        ("still air, manoeuvres: mean estimated wind horizontal / |vertical|, m/s", PAPER["still_air"],
+         _fmt(still[0]["mean_estimated_wind"]["horizontal_mps"], still[0]["mean_estimated_wind"]["vertical_mps"]),
+         _fmt(still[1]["mean_estimated_wind"]["horizontal_mps"], None)),
+        ("outdoor, turbulent: speed error mean / max, m/s (per segment)", "-",
+         _fmt(outdoor[0]["per_segment"]["speed_mean"], outdoor[0]["per_segment"]["speed_max"]),
+         _fmt(outdoor[1]["per_segment"]["speed_mean"], outdoor[1]["per_segment"]["speed_max"])),
+        ("outdoor: direction error mean / max, deg (per segment)", "-",
+         _fmt(outdoor[0]["per_segment"]["direction_mean"], outdoor[0]["per_segment"]["direction_max"], 2),
+         _fmt(outdoor[1]["per_segment"]["direction_mean"], outdoor[1]["per_segment"]["direction_max"], 2)),
+    ]
+    width = max(len(r[0]) for r in rows)
+    print(f"== results (replayed through the generated single-precision C; plots replay_*.png in {out})")
+    print(f"   {'':{width}s}  {'paper':>12s}  {'dobwind':>15s}  {'tilt method':>15s}")
+    for label, paper, ours, theirs in rows:
+        print(f"   {label:{width}s}  {paper:>12s}  {ours:>15s}  {theirs:>15s}")
+
+    model = build_step(fitted)
+    rows_in = flight_inputs(model, 100_000, seed=3)
     rolled = reference.rolled_step(model)
-    start = time.perf_counter()
-    reference.run(model, rows, rolled=rolled)
-    elapsed = time.perf_counter() - start
-    print(f"== Python reference: 100,000 samples in {elapsed:.2f} s ({elapsed / 1e5 * 1e6:.1f} us per sample)")
-    print("== not yet in the demo: simulate, fit, replay (calibration and replay issue)")
+    t0 = time.perf_counter()
+    reference.run(model, rows_in, rolled=rolled)
+    print(f"== Python reference: 100,000 samples in {time.perf_counter() - t0:.2f} s; demo took "
+          f"{time.perf_counter() - start:.0f} s")
     return 0 if verification.passed and report["stable"] else 1
-
-

@@ -28,6 +28,7 @@ MAX_ROTORS = 16
 @dataclass(frozen=True)
 class Thrust:
     source: str                       # "rpm" | "collective"
+    scale: float = 1.0                # true thrust / nominal (written by `dobwind fit`)
     rotors: int = 0                   # rpm only
     max_rpm: float = 0.0              # rpm only
     coefficients: tuple[float, ...] = ()  # rpm only: N per rotor, ascending powers of rpm/max_rpm
@@ -174,19 +175,20 @@ def _force_air(reader: _Reader) -> ForceAirModel:
 
 def _thrust(reader: _Reader) -> Thrust:
     source = reader.string("source", THRUST_SOURCES)
+    scale = reader.number("scale", default=1.0, positive=True)
     if source == "collective":
         for key in ("rotors", "max_rpm", "coefficients"):
             if reader.has(key):
                 raise reader.fail(key, 'only used with source = "rpm"')
         reader.done()
-        return Thrust("collective")
+        return Thrust("collective", scale)
     rotors = reader.raw("rotors")
     if isinstance(rotors, bool) or not isinstance(rotors, int) or not 1 <= rotors <= MAX_ROTORS:
         raise reader.fail("rotors", f"expected a whole number from 1 to {MAX_ROTORS}, got {rotors!r}")
     max_rpm = reader.number("max_rpm", positive=True)
     coefficients = reader.numbers("coefficients")
     reader.done()
-    return Thrust("rpm", rotors, max_rpm, coefficients)
+    return Thrust("rpm", scale, rotors, max_rpm, coefficients)
 
 
 def parse_airframe(text: str, source: str) -> Airframe:

@@ -42,7 +42,7 @@ def dumps(document: dict[str, Any]) -> str:
 
 
 def airframe_document(af: Airframe) -> dict[str, Any]:
-    thrust: dict[str, Any] = {"source": af.thrust.source}
+    thrust: dict[str, Any] = {"source": af.thrust.source, "scale": af.thrust.scale}
     if af.thrust.source == "rpm":
         thrust.update(rotors=af.thrust.rotors, max_rpm=af.thrust.max_rpm, coefficients=list(af.thrust.coefficients))
     return {

@@ -211,12 +211,13 @@ def build_step(af: Airframe) -> StepModel:
     b.add("attitude", "unit quaternion -> body down axis z_b (and rotation) in NED", ["in.q"], attitude)
 
     def thrust(s: Signals) -> Signals:
+        scale = af.thrust.scale  # calibrated true/nominal thrust; folded into the coefficients
         if af.thrust.source == "collective":
-            return {"u_f": s["in.thrust"]}
+            return {"u_f": s["in.thrust"] * scale if scale != 1.0 else s["in.thrust"]}
         # sum_i P(rpm_i / max) = sum_k c_k (sum_i rpm_i^k) / max^k: one power sum per degree, fewer
         # operations than a polynomial per rotor.
         rpm = s["in.rotor_rpm"]
-        total: ca.SX = ca.SX(af.thrust.rotors * af.thrust.coefficients[0])
+        total: ca.SX = ca.SX(af.thrust.rotors * af.thrust.coefficients[0] * scale)
         powers = [ca.SX(1.0)] * af.thrust.rotors
         for k, c in enumerate(af.thrust.coefficients[1:], start=1):
             powers = [powers[i] * rpm[i] for i in range(af.thrust.rotors)]
@@ -224,7 +225,7 @@ def build_step(af: Airframe) -> StepModel:
                 power_sum = powers[0]
                 for p in powers[1:]:
                     power_sum = power_sum + p
-                total = total + (c / af.thrust.max_rpm ** k) * power_sum
+                total = total + (c * scale / af.thrust.max_rpm ** k) * power_sum
         return {"u_f": total}
 
     b.add("thrust", "collective thrust u_f (N) along -z_b", [thrust_input], thrust)

@@ -27,7 +27,7 @@ def attitude_for(z_body_down: np.ndarray, yaw: float) -> np.ndarray:
 
 def rpm_for_thrust(af: Airframe, total_n: float) -> float:
     """Equal rotor speed (rpm) that gives this collective thrust through the airframe's curve."""
-    per_rotor = total_n / af.thrust.rotors
+    per_rotor = total_n / af.thrust.rotors / af.thrust.scale
     curve = lambda omega: np.polynomial.polynomial.polyval(omega, af.thrust.coefficients) - per_rotor
     return brentq(curve, 0.0, 10.0) * af.thrust.max_rpm
 
@@ -42,7 +42,7 @@ def balance(af: Airframe, force_ned: np.ndarray, yaw: float) -> tuple[np.ndarray
 def thrust_inputs(af: Airframe, thrust_n: float) -> dict[str, np.ndarray | float]:
     if af.thrust.source == "rpm":
         return {"rotor_rpm": np.full(af.thrust.rotors, rpm_for_thrust(af, thrust_n))}
-    return {"thrust": thrust_n}
+    return {"thrust": thrust_n / af.thrust.scale}
 
 
 def accel_inputs(af: Airframe, q: np.ndarray, acc_ned: np.ndarray) -> dict[str, np.ndarray]:

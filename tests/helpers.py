@@ -15,7 +15,7 @@ M300 = ROOT / "airframes" / "m300.toml"
 BASE: dict[str, Any] = {
     "name": "testcraft",
     "mass": 2.5,
-    "thrust": {"source": "rpm", "rotors": 4, "max_rpm": 10000.0, "coefficients": [0.0, 1.5, 22.0]},
+    "thrust": {"source": "rpm", "scale": 0.98, "rotors": 4, "max_rpm": 10000.0, "coefficients": [0.0, 1.5, 22.0]},
     "observer": {"sample_time": 0.02, "gains": [20.0, 25.0, 30.0], "discretization": "paper", "acceleration": "ned",
                  "force_offset": [0.1, -0.2, 0.3]},
     "force_air": {
@@ -48,7 +48,7 @@ def make_airframe(**changes: Any) -> Airframe:
 
 def collective(doc: dict[str, Any]) -> dict[str, Any]:
     doc = copy.deepcopy(doc)
-    doc["thrust"] = {"source": "collective"}
+    doc["thrust"] = {"source": "collective", "scale": 1.03}
     return doc
 
 

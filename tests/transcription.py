@@ -89,6 +89,7 @@ def step(af: Airframe, st: dict[str, np.ndarray], inp: dict[str, np.ndarray]):
         u_f = sum(np.polynomial.polynomial.polyval(r / af.thrust.max_rpm, af.thrust.coefficients) for r in inp["rotor_rpm"])
     else:
         u_f = float(inp["thrust"])
+    u_f *= af.thrust.scale
     z_b = rotate(q, np.array([0.0, 0.0, 1.0]))
     mode = af.observer.acceleration
     if mode == "specific_force":

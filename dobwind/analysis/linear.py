@@ -31,7 +31,7 @@ class OperatingPoint:
 def hover_point(model: StepModel, wind_speed_mps: float = 0.0, dt_s: float | None = None) -> OperatingPoint:
     af = model.airframe
     dt = af.observer.sample_time_s if dt_s is None else dt_s
-    weight = af.mass_kg * af.gravity_mps2
+    weight = af.mass_kg * af.gravity_mps2 / af.thrust.scale  # the nominal thrust that holds the weight
     values = {"dt": dt, "vel_ned": np.zeros(3), "acc_ned": np.zeros(3), "q": np.array([1.0, 0, 0, 0]),
               "specific_force": np.array([0, 0, -af.gravity_mps2]), "thrust": weight, "yaw_ref": 0.0}
     if "rotor_rpm" in model.inputs:

@@ -40,24 +40,41 @@ def _bisect(fun, target: np.ndarray, lo: float, hi: float, *args) -> np.ndarray:
     return 0.5 * (a + b)
 
 
-def force_for_airflow(af: Airframe, air_rel_ned: np.ndarray, yaw: np.ndarray, max_force_n: float = 500.0) -> np.ndarray:
+def _monotone_inverse(values: np.ndarray, grid: np.ndarray, zero: int, target: np.ndarray) -> np.ndarray:
+    """Invert a sampled function on the monotone branch through grid[zero] (targets off it clamp)."""
+    step = np.sign(np.diff(values))
+    direction = step[zero] if step[zero] != 0 else 1.0
+    lo = zero
+    while lo > 0 and step[lo - 1] == direction:
+        lo -= 1
+    hi = zero
+    while hi < len(step) and step[hi] == direction:
+        hi += 1
+    branch_v, branch_g = values[lo:hi + 1], grid[lo:hi + 1]
+    if direction < 0:
+        branch_v, branch_g = branch_v[::-1], branch_g[::-1]
+    return np.interp(target, branch_v, branch_g)
+
+
+def force_for_airflow(af: Airframe, air_rel_ned: np.ndarray, yaw: np.ndarray, max_force_n: float | None = None) -> np.ndarray:
     """External force (NED, rows) that the airframe's force-air model maps to the given relative
-    airflow: horizontal force along the airflow, vertical by the vertical model (assumed monotone)."""
+    airflow: horizontal force along the airflow (searched up to the weight), vertical force on the
+    vertical model's monotone branch through zero force."""
+    max_force_n = max_force_n or af.mass_kg * af.gravity_mps2
     horizontal, vertical = _model_functions(af)
-    h_map, v_map = horizontal.map(len(yaw)), vertical.map(len(yaw))
+    h_map = horizontal.map(len(yaw))
     c, s = np.cos(yaw), np.sin(yaw)
     rel_c = np.stack([c * air_rel_ned[:, 0] + s * air_rel_ned[:, 1], -s * air_rel_ned[:, 0] + c * air_rel_ned[:, 1]], 1)
     speed = np.hypot(rel_c[:, 0], rel_c[:, 1])
     direction = np.where(speed[:, None] > 0, rel_c / np.maximum(speed, 1e-12)[:, None], [1.0, 0.0])
     h_of = lambda fh: np.asarray(h_map(fh * direction[:, 0], fh * direction[:, 1], np.zeros_like(fh))).ravel()
     fh = _bisect(h_of, speed, 0.0, max_force_n)
-    v_of = lambda fz: np.asarray(v_map(np.zeros_like(fz), np.zeros_like(fz), fz)).ravel()
-    slope = v_of(np.ones(len(yaw)))[0] - v_of(np.zeros(len(yaw)))[0]
-    if slope == 0.0:  # a vertical model that ignores fz cannot be inverted: no vertical force
+    grid = np.linspace(-max_force_n, max_force_n, 4001)
+    v_grid = np.asarray(vertical.map(len(grid))(np.zeros_like(grid), np.zeros_like(grid), grid)).ravel()
+    if np.ptp(v_grid) == 0.0:  # a vertical model that ignores fz cannot be inverted: no vertical force
         fz = np.zeros(len(yaw))
     else:
-        sign = 1.0 if slope > 0 else -1.0
-        fz = _bisect(lambda z: sign * v_of(z), sign * air_rel_ned[:, 2], -max_force_n, max_force_n)
+        fz = _monotone_inverse(v_grid, grid, len(grid) // 2, air_rel_ned[:, 2])
     off = np.asarray(af.observer.force_offset_n)
     m_c, n_c = fh * direction[:, 0] + off[0], fh * direction[:, 1] + off[1]
     return np.stack([c * m_c - s * n_c, s * m_c + c * n_c, fz + off[2]], 1)
@@ -69,8 +86,9 @@ def hover_inputs(model: StepModel, force_ned: np.ndarray, yaw: np.ndarray, dt: f
     af = model.airframe
     n = len(yaw)
     need = af.mass_kg * af.gravity_mps2 * np.array([0, 0, 1.0]) + force_ned
-    thrust = np.linalg.norm(need, axis=1)
-    z = need / thrust[:, None]
+    true_thrust = np.linalg.norm(need, axis=1)
+    thrust = true_thrust / af.thrust.scale  # what the sensors report, through the calibrated scale
+    z = need / true_thrust[:, None]
     heading = np.stack([np.cos(yaw), np.sin(yaw), np.zeros(n)], 1)
     y = np.cross(z, heading)
     y /= np.linalg.norm(y, axis=1)[:, None]

@@ -15,7 +15,7 @@
  *
  * Airframe parameters compiled in:
  *   mass            8.0 kg, gravity 9.80665 m/s^2
- *   thrust          4 rotors, N per rotor = poly(rpm / 12000.0), coefficients [0.01315, 11.34, 207.0]
+ *   thrust          4 rotors, N per rotor = 1.0 x poly(rpm / 12000.0), coefficients [0.01315, 11.34, 207.0]
  *   observer        paper discretization, gains [50.0, 50.0, 50.0] kg/s,
  *                   nominal sample time 0.01 s (the step uses the measured dt),
  *                   acceleration input "ned", force offset [0.0, 0.0, 0.0] N

@@ -1,0 +1,342 @@
+"""`dobwind fit`: the force-air model (and force offset) from logs with true wind.
+
+1. The airframe's observer runs over each log (filter fixed at its highest cutoff: calibration
+   wants short settling, not smoothing); forces go to the heading frame.
+2. The true relative airflow (true wind minus ground velocity) goes to the same frame.
+3. Cleaning: samples within one settling time after any yaw or airflow change are dropped (the usual
+   outliers: transients after each yaw or wind-speed step); the steady rest is averaged in 2 s chunks;
+   chunks far from their nearest neighbours are dropped, as in the paper.
+4. The force offset is the mean force where the relative airflow is near zero.
+5. Least squares for the horizontal speed and the vertical airflow on the terms (the airframe's, or
+   chosen from a candidate library by cross-validation grouped by calibration hold).
+Data that cannot determine direction-dependent terms (too few airflow directions) or several terms
+(too few speeds) gets a warning and a simpler, direction-independent model instead of wild numbers.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+from scipy.spatial import cKDTree
+
+from dobwind.analysis.figures import settling_time_s
+from dobwind.analysis.linear import axis_system
+from dobwind.errors import CheckFailed
+from dobwind.logs import TRUTH_COLUMNS, FlightLog, read_log, required_columns, step_inputs, yaw_from_quaternion
+from dobwind.model import reference
+from dobwind.model.airframe import Airframe, FilterSchedule, ForceAirModel
+from dobwind.model.terms import Term, parse_term, term_expr
+
+CHUNK_S = 2.0
+ZERO_AIRFLOW_MPS = 0.3
+YAW_RATE_CHANGE_DEG_S = 2.0
+AIRFLOW_CHANGE_MPS2 = 0.25
+MIN_POINTS = 8
+FOLDS = 5
+
+HORIZONTAL_CANDIDATES = ("fh^0.5", "fh", "fh^2", "1", "m*fh^-0.5", "n*fh^-0.5", "m^2*fh^-1.5", "n^2*fh^-1.5",
+                         "m*n*fh^-1.5", "m", "n", "m^2*fh^-1", "n^2*fh^-1", "m*n*fh^-1")
+# fh terms let the vertical model absorb the thrust change that horizontal airflow causes (inflow).
+VERTICAL_CANDIDATES = ("fz", "fz*abs(fz)", "fz*abs(fz)^-0.5", "fh", "fh^2")
+DIRECTION_FREE = ("fh^0.5", "fh")
+
+
+@dataclass
+class Points:
+    """Calibration points: chunk means in the heading frame."""
+    m: np.ndarray
+    n: np.ndarray
+    fz: np.ndarray
+    speed_h: np.ndarray   # true horizontal relative airflow speed
+    air_z: np.ndarray     # true vertical relative airflow, down
+    air_angle: np.ndarray  # direction of the horizontal airflow in the heading frame, rad
+    group: np.ndarray     # calibration hold
+
+    def select(self, keep: np.ndarray) -> "Points":
+        return Points(*(getattr(self, f.name)[keep] for f in dataclasses.fields(self)))
+
+    def __len__(self) -> int:
+        return len(self.m)
+
+
+@dataclass
+class FitReport:
+    points: int = 0
+    outliers_removed: int = 0
+    zero_airflow_points: int = 0
+    thrust_scale: float = 1.0
+    force_offset_n: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    horizontal_terms: list[str] = field(default_factory=list)
+    horizontal_coefficients: list[float] = field(default_factory=list)
+    horizontal_rmse_mps: float = math.nan
+    horizontal_cv_rmse_mps: float = math.nan
+    vertical_terms: list[str] = field(default_factory=list)
+    vertical_coefficients: list[float] = field(default_factory=list)
+    vertical_rmse_mps: float | None = None
+    vertical_cv_rmse_mps: float | None = None
+    directions: int = 0
+    speeds: int = 0
+    warnings: list[str] = field(default_factory=list)
+
+
+def _term_matrix(terms: list[str], m: np.ndarray, n: np.ndarray, fz: np.ndarray) -> np.ndarray:
+    """Term values through the same CasADi grammar the step uses."""
+    sm, sn, sz = ca.SX.sym("m"), ca.SX.sym("n"), ca.SX.sym("fz")
+    env = {"m": sm, "n": sn, "fh": ca.sqrt(sm * sm + sn * sn), "fz": sz}
+    parsed: list[Term] = [parse_term(t) for t in terms]
+    f = ca.Function("terms", [sm, sn, sz], [ca.vertcat(*[term_expr(t, env) for t in parsed])])
+    return np.asarray(f.map(len(m))(m, n, fz)).T.reshape(len(m), len(terms))
+
+
+def _moving_mean(x: np.ndarray, window: int) -> np.ndarray:
+    window = max(1, window)
+    kernel = np.ones(window) / window
+    return np.column_stack([np.convolve(x[:, i], kernel, mode="same") for i in range(x.shape[1])])
+
+
+def read_calibration_logs(af: Airframe, log_paths: list[str]) -> list[FlightLog]:
+    needed = required_columns(af) + [(c, "the true wind (fit needs it)") for c in TRUTH_COLUMNS]
+    return [read_log(path, needed) for path in log_paths]
+
+
+def calibration_points(af: Airframe, logs: list[FlightLog]) -> tuple[Points, float]:
+    """Chunk means from every log, and the settling time used for cleaning."""
+    cal = dataclasses.replace(af, filter=FilterSchedule((0.0,), (max(af.filter.cutoffs_hz),)))
+    from dobwind.model.step import build_step
+
+    model = build_step(cal)
+    settle = settling_time_s(axis_system(model, 0, with_filter=True)) + 1.0
+    chunks: list[dict[str, float]] = []
+    group_base = 0
+    for log in logs:
+        traj = reference.run(model, step_inputs(model, log))
+        t = log.time_s
+        force = traj.outputs[:, model.outputs.slice("force_ned")]
+        q = log.stack("q_w", "q_x", "q_y", "q_z")
+        yaw = log.columns["yaw_ref"] if log.has("yaw_ref") else yaw_from_quaternion(q)
+        c, s = np.cos(yaw), np.sin(yaw)
+        f_c = np.column_stack([c * force[:, 0] + s * force[:, 1], -s * force[:, 0] + c * force[:, 1], force[:, 2]])
+        rel = log.true_wind - log.stack("vel_n", "vel_e", "vel_d")
+        rel_c = np.column_stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1], rel[:, 2]])
+        dt = float(np.median(np.diff(t))) if len(t) > 1 else af.observer.sample_time_s
+        # Smoothed over the settling time: turbulence must not count as a change, a wind step must.
+        smooth = _moving_mean(rel_c, int(round(max(settle, 3.0) / dt)))
+        airflow_rate = np.r_[0.0, np.linalg.norm(np.diff(smooth, axis=0), axis=1) / np.diff(t)]
+        yaw_rate = np.r_[0.0, np.degrees(np.abs(np.angle(np.exp(1j * np.diff(yaw))))) / np.diff(t)]
+        change = (yaw_rate > YAW_RATE_CHANGE_DEG_S) | (airflow_rate > AIRFLOW_CHANGE_MPS2) | (traj.status != 0)
+        change[0] = True
+        last_change = np.maximum.accumulate(np.where(change, t, -np.inf))
+        steady = (t - last_change) >= settle
+        run_id = np.cumsum(change)
+        for run in np.unique(run_id[steady]):
+            idx = np.flatnonzero(steady & (run_id == run))
+            bounds = np.arange(t[idx[0]], t[idx[-1]] + 1e-9, CHUNK_S)
+            for a, b in zip(bounds[:-1], bounds[1:]):
+                sel = idx[(t[idx] >= a) & (t[idx] < b)]
+                if len(sel) < 5:
+                    continue
+                fm, rm = f_c[sel].mean(axis=0), rel_c[sel].mean(axis=0)
+                chunks.append({"m": fm[0], "n": fm[1], "fz": fm[2], "speed_h": math.hypot(rm[0], rm[1]),
+                               "air_z": rm[2], "air_angle": math.atan2(rm[1], rm[0]), "group": group_base + run})
+        group_base += int(run_id[-1]) + 1
+    if not chunks:
+        raise CheckFailed("no steady calibration data in the logs (holds must last longer than "
+                          f"{settle:.1f} s after each yaw or wind change)")
+    return Points(*(np.array([ch[k] for ch in chunks]) for k in ("m", "n", "fz", "speed_h", "air_z", "air_angle", "group"))), settle
+
+
+def remove_outliers(points: Points, k: int = 8) -> tuple[Points, int]:
+    """Nearest-neighbour cleaning: a point far from its k neighbours in (m, n, speed) is dropped."""
+    if len(points) <= k + 2:
+        return points, 0
+    features = np.column_stack([points.m, points.n, points.speed_h])
+    features = (features - features.mean(axis=0)) / np.maximum(features.std(axis=0), 1e-9)
+    dist, _ = cKDTree(features).query(features, k=k + 1)
+    score = dist[:, 1:].mean(axis=1)
+    median = np.median(score)
+    mad = np.median(np.abs(score - median)) * 1.4826
+    keep = score <= median + 5 * max(mad, 1e-9)
+    return points.select(keep), int((~keep).sum())
+
+
+def _lstsq(a: np.ndarray, y: np.ndarray) -> np.ndarray:
+    scale = np.maximum(np.abs(a).max(axis=0), 1e-12)
+    coef, *_ = np.linalg.lstsq(a / scale, y, rcond=1e-10)
+    return coef / scale
+
+
+def _grouped_cv_rmse(a: np.ndarray, y: np.ndarray, groups: np.ndarray, folds: int = FOLDS) -> float:
+    unique = np.unique(groups)
+    if len(unique) < 2:
+        return math.nan
+    fold_of = {g: i % folds for i, g in enumerate(np.random.default_rng(0).permutation(unique))}
+    fold = np.array([fold_of[g] for g in groups])
+    errors = []
+    for k in range(min(folds, len(unique))):
+        test = fold == k
+        if test.all() or not test.any():
+            continue
+        coef = _lstsq(a[~test], y[~test])
+        errors.append((a[test] @ coef - y[test]) ** 2)
+    return float(math.sqrt(np.concatenate(errors).mean())) if errors else math.nan
+
+
+def forward_select(candidates: tuple[str, ...], p: Points, target: np.ndarray, max_terms: int = 6) -> tuple[list[str], float]:
+    """Greedy forward selection on grouped cross-validated RMSE; stops when a term gains < 2 %."""
+    chosen: list[str] = []
+    best = math.inf
+    full = _term_matrix(list(candidates), p.m, p.n, p.fz)
+    while len(chosen) < max_terms:
+        trial = []
+        for term in candidates:
+            if term in chosen:
+                continue
+            cols = [candidates.index(t) for t in chosen + [term]]
+            trial.append((_grouped_cv_rmse(full[:, cols], target, p.group), term))
+        if not trial:
+            break
+        score, term = min(trial)
+        if not score < best * 0.98:
+            break
+        chosen.append(term)
+        best = score
+    return chosen, best
+
+
+def _zero_airflow(points: Points) -> np.ndarray:
+    return (points.speed_h < ZERO_AIRFLOW_MPS) & (np.abs(points.air_z) < ZERO_AIRFLOW_MPS)
+
+
+def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "airframe") -> tuple[Airframe, FitReport, Points]:
+    report = FitReport()
+    logs = read_calibration_logs(af, log_paths)
+    raw, _ = calibration_points(af, logs)
+    zero = _zero_airflow(raw)
+    report.zero_airflow_points = int(zero.sum())
+    if zero.sum() >= 3:
+        # Level hover in still air: the true thrust holds the weight, so the vertical force seen there
+        # is a thrust-curve scale error. Calibrated as a scale it stays along the body axis when the
+        # vehicle tilts, which a heading-frame offset cannot do.
+        weight = af.mass_kg * af.gravity_mps2
+        scale = af.thrust.scale * weight / (weight + float(raw.fz[zero].mean()))
+        af = dataclasses.replace(af, thrust=dataclasses.replace(af.thrust, scale=scale))
+        raw, _ = calibration_points(af, logs)
+        zero = _zero_airflow(raw)
+    else:
+        report.warnings.append("no zero-airflow data: the thrust scale is kept from the airframe")
+    report.thrust_scale = af.thrust.scale
+    if zero.sum() >= 3:
+        offset = (float(raw.m[zero].mean()), float(raw.n[zero].mean()), float(raw.fz[zero].mean()))
+    else:
+        offset = af.observer.force_offset_n
+        report.warnings.append("no zero-airflow data: the force offset is kept from the airframe")
+    report.force_offset_n = offset
+    shifted = Points(raw.m - offset[0], raw.n - offset[1], raw.fz - offset[2], raw.speed_h, raw.air_z,
+                     raw.air_angle, raw.group)
+    points, report.outliers_removed = remove_outliers(shifted)
+    report.points = len(points)
+    if len(points) < MIN_POINTS:
+        raise CheckFailed(f"only {len(points)} calibration points after cleaning (need {MIN_POINTS})")
+
+    moving = points.speed_h >= 1.0
+    bins = np.floor((np.degrees(points.air_angle[moving]) % 360) / 30).astype(int)
+    report.directions = int(sum(np.sum(bins == b) >= 3 for b in range(12)))
+    levels = np.round(points.speed_h / 0.5)
+    report.speeds = int(sum(np.sum(levels == v) >= 3 for v in np.unique(levels)))
+
+    if terms == "auto":
+        candidates = HORIZONTAL_CANDIDATES if report.directions >= 4 else DIRECTION_FREE
+        h_terms, _ = forward_select(candidates, points, points.speed_h)
+    else:
+        h_terms = list(af.horizontal.term_texts)
+    if report.directions < 4 and any(parse_term(t).variables & {"m", "n"} for t in h_terms):
+        report.warnings.append(f"airflow from only {report.directions} direction(s) of 12 (30 deg bins): "
+                               "fitting a direction-independent model (fh^0.5, fh) instead of " + ", ".join(h_terms))
+        h_terms = list(DIRECTION_FREE)
+    if report.speeds < 3 and len(h_terms) > 1:
+        report.warnings.append(f"only {report.speeds} distinct airflow speed(s): fitting the one-term model "
+                               "speed = c * fh^0.5 (quadratic drag)")
+        h_terms = ["fh^0.5"]
+    a_h = _term_matrix(h_terms, points.m, points.n, points.fz)
+    h_coef = _lstsq(a_h, points.speed_h)
+    report.horizontal_terms, report.horizontal_coefficients = h_terms, [float(c) for c in h_coef]
+    report.horizontal_rmse_mps = float(np.sqrt(np.mean((a_h @ h_coef - points.speed_h) ** 2)))
+    report.horizontal_cv_rmse_mps = _grouped_cv_rmse(a_h, points.speed_h, points.group)
+
+    vertical = af.vertical
+    vertical_span = float(np.ptp(points.air_z))
+    if vertical_span < 1.0:
+        report.warnings.append(f"vertical airflow spans only {vertical_span:.2f} m/s in the data: the vertical model "
+                               "is kept from the airframe (fly climbs and descents to calibrate it)")
+        report.vertical_terms, report.vertical_coefficients = list(vertical.term_texts), list(vertical.coefficients)
+    else:
+        v_terms = (forward_select(VERTICAL_CANDIDATES, points, points.air_z, max_terms=4)[0] if terms == "auto"
+                   else list(vertical.term_texts))
+        a_v = _term_matrix(v_terms, points.m, points.n, points.fz)
+        v_coef = _lstsq(a_v, points.air_z)
+        report.vertical_terms, report.vertical_coefficients = v_terms, [float(c) for c in v_coef]
+        report.vertical_rmse_mps = float(np.sqrt(np.mean((a_v @ v_coef - points.air_z) ** 2)))
+        report.vertical_cv_rmse_mps = _grouped_cv_rmse(a_v, points.air_z, points.group)
+        vertical = ForceAirModel(tuple(parse_term(t) for t in v_terms), tuple(report.vertical_coefficients))
+    horizontal = ForceAirModel(tuple(parse_term(t) for t in h_terms), tuple(report.horizontal_coefficients))
+    if not all(math.isfinite(c) for c in report.horizontal_coefficients + report.vertical_coefficients):
+        raise CheckFailed("the least-squares fit gave non-finite coefficients")
+    new = dataclasses.replace(af, horizontal=horizontal, vertical=vertical,
+                              observer=dataclasses.replace(af.observer, force_offset_n=tuple(offset)))
+    return new, report, points
+
+
+def text_report(report: FitReport) -> str:
+    def model(terms: list[str], coefs: list[float]) -> str:
+        return " + ".join(f"{c:.4g}*{t}" if t != "1" else f"{c:.4g}" for t, c in zip(terms, coefs))
+
+    vertical = ("kept from the airframe" if report.vertical_rmse_mps is None else
+                f"RMSE {report.vertical_rmse_mps:.3f} m/s, grouped {FOLDS}-fold CV {report.vertical_cv_rmse_mps:.3f} m/s")
+    return "\n".join([
+        f"calibration points {report.points} (2 s means of steady flight; {report.outliers_removed} outliers removed), "
+        f"{report.zero_airflow_points} at zero airflow; {report.directions} of 12 airflow directions, "
+        f"{report.speeds} speeds",
+        f"thrust scale {report.thrust_scale:.4f}; force offset [{', '.join(f'{v:.3f}' for v in report.force_offset_n)}] N",
+        f"horizontal speed = {model(report.horizontal_terms, report.horizontal_coefficients)}",
+        f"  RMSE {report.horizontal_rmse_mps:.3f} m/s, grouped {FOLDS}-fold CV {report.horizontal_cv_rmse_mps:.3f} m/s",
+        f"vertical (down) = {model(report.vertical_terms, report.vertical_coefficients)}",
+        f"  {vertical}",
+    ])
+
+
+def fit_plot(af: Airframe, points: Points, path: str) -> None:
+    """Fitted horizontal surface over the (m, n) force plane with the calibration points, and residuals."""
+    import matplotlib.pyplot as plt
+
+    from dobwind.plots import save
+
+    fig, (surface, residual) = plt.subplots(1, 2, figsize=(12, 5))
+    span = max(float(np.max(np.abs(np.r_[points.m, points.n]))) * 1.1, 1e-3)
+    grid = np.linspace(-span, span, 121)
+    mm, nn = np.meshgrid(grid, grid)
+    terms = list(af.horizontal.term_texts)
+    values = _term_matrix(terms, mm.ravel(), nn.ravel(), np.zeros(mm.size)) @ np.asarray(af.horizontal.coefficients)
+    contour = surface.contourf(mm, nn, np.maximum(values, 0).reshape(mm.shape), levels=20, cmap="viridis")
+    fig.colorbar(contour, ax=surface, label="model horizontal airflow speed (m/s)")
+    surface.scatter(points.m, points.n, c=points.speed_h, cmap="viridis", edgecolors="white", linewidths=0.4, s=14,
+                    vmin=contour.get_clim()[0], vmax=contour.get_clim()[1])
+    surface.set_xlabel("m: heading-frame x force, offset removed (N)")
+    surface.set_ylabel("n: heading-frame y force (N)")
+    surface.set_title("fitted surface (points: calibration truth)")
+    surface.set_aspect("equal")
+    predicted = _term_matrix(terms, points.m, points.n, points.fz) @ np.asarray(af.horizontal.coefficients)
+    residual.scatter(points.speed_h, np.maximum(predicted, 0) - points.speed_h, s=8, alpha=0.6, label="horizontal")
+    if af.vertical.terms:
+        vpred = _term_matrix(list(af.vertical.term_texts), points.m, points.n, points.fz) @ np.asarray(af.vertical.coefficients)
+        residual.scatter(points.speed_h, vpred - points.air_z, s=8, alpha=0.6, label="vertical")
+    residual.axhline(0, color="black", lw=0.8)
+    residual.set_xlabel("true horizontal airflow speed (m/s)")
+    residual.set_ylabel("model - truth (m/s)")
+    residual.set_title("residuals")
+    residual.grid(True, alpha=0.3)
+    residual.legend()
+    fig.tight_layout()
+    save(fig, path)

@@ -1,0 +1,251 @@
+"""`dobwind simulate`: synthetic flight logs with known wind, vectorized NumPy.
+
+The vehicle's true aerodynamics are deliberately not the estimator's model: anisotropic drag with a
+linear (rotor) and a quadratic (body) part that depends on the airflow's direction relative to the
+heading and turns the force slightly off the airflow; a true thrust curve a few percent below the
+airframe's nominal one that weakens with axial inflow, with unequal rotors; mean wind plus turbulence;
+noise and bias on every sensor channel; timestamp jitter.
+
+Motion is by inverse dynamics: a smooth ground trajectory and heading are chosen, the aerodynamic
+force follows from the true model, and attitude and thrust are whatever balances
+m p'' = -u_f z_b + m g e3 + f_aero exactly (an ideal position controller). So every log is consistent
+physics, and an hour of 50 Hz flight takes seconds.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.signal import lfilter
+from scipy.spatial.transform import Rotation
+
+from dobwind.errors import InputError
+from dobwind.model.airframe import Airframe
+from dobwind.model.exercise import rpm_for_rotor_thrust
+
+SCENARIOS = ("sweep", "vertical", "tunnel", "still-air", "outdoor")
+
+
+@dataclass(frozen=True)
+class TrueVehicle:
+    """The simulated vehicle's real physics and sensors (independent of the estimator's model)."""
+    mass_kg: float
+    gravity_mps2: float
+    drag_lin: float            # N per m/s, horizontal (rotor drag)
+    drag_quad: float           # N per (m/s)^2, horizontal (body drag)
+    drag_lin_z: float
+    drag_quad_z: float
+    anisotropy_cos1: float = 0.06   # drag x (1 + a1 cos(theta) + a2 cos(2 theta)), theta: airflow vs heading
+    anisotropy_cos2: float = 0.15
+    deflection_deg: float = 1.0     # force turned off the airflow by this x sin(2 theta)
+    thrust_scale: float = 0.97      # true thrust / nominal curve
+    inflow_loss_per_mps: float = 0.04
+    rotor_imbalance: float = 0.02
+    # Sensor errors as an autopilot's estimator outputs them (vibration-polluted, after its filters):
+    # NED acceleration from the EKF is bias-corrected; the raw accelerometer keeps a body-frame bias.
+    vel_noise: float = 0.03          # m/s
+    acc_noise: float = 0.05          # m/s^2, NED and body alike
+    acc_bias_ned: tuple[float, float, float] = (0.005, -0.004, 0.006)
+    sf_bias_body: tuple[float, float, float] = (0.03, -0.02, 0.05)
+    attitude_noise_deg: float = 0.1
+    rpm_noise: float = 15.0
+    thrust_noise: float = 0.01       # fraction (collective)
+    thrust_bias: float = 0.02        # fraction (collective)
+    jitter: float = 0.1              # of the sample period (1 sigma)
+
+
+def true_vehicle(af: Airframe) -> TrueVehicle:
+    """A plausible vehicle of the airframe's size: drag areas scale with mass^(2/3)."""
+    size = af.mass_kg ** (2.0 / 3.0)
+    return TrueVehicle(af.mass_kg, af.gravity_mps2, drag_lin=0.0425 * size, drag_quad=0.02 * size,
+                       drag_lin_z=0.06 * size, drag_quad_z=0.035 * size)
+
+
+@dataclass(frozen=True)
+class Segment:
+    duration_s: float
+    velocity_ned: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    yaw_deg: float = 0.0
+    wind_ned: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    ramp_s: float = 2.0   # transition from the previous segment's values
+
+
+@dataclass(frozen=True)
+class Scenario:
+    name: str
+    segments: tuple[Segment, ...]
+    turbulence_h: float = 0.0      # m/s, 1 sigma (plus a fraction of the mean speed)
+    turbulence_frac: float = 0.0
+    turbulence_v: float = 0.0
+    turbulence_time_s: float = 2.0
+    rate_hz: float = 50.0
+    meta: dict = field(default_factory=dict)
+
+
+def _wind_from(speed: float, from_deg: float, up: float = 0.0) -> tuple[float, float, float]:
+    towards = math.radians(from_deg + 180.0)
+    return (speed * math.cos(towards), speed * math.sin(towards), -up)
+
+
+def scenario(name: str, hold_s: float | None = None, rng: np.random.Generator | None = None) -> Scenario:
+    rng = rng or np.random.default_rng(0)
+    if name == "sweep":  # the paper's calibration: yaw 10 deg per hold through a full turn, 0..8 m/s
+        hold = hold_s or 20.0
+        segs = [Segment(hold, yaw_deg=yaw, wind_ned=_wind_from(speed, 0.0), ramp_s=1.5 if yaw else 3.0)
+                for speed in range(0, 9) for yaw in range(0, 360, 10)]
+        return Scenario(name, tuple(segs), turbulence_h=0.03, turbulence_frac=0.02, turbulence_time_s=1.0)
+    if name == "vertical":  # climbs and descents in still air
+        hold = hold_s or 15.0
+        segs = [Segment(hold)]
+        for speed in (0.5, 1.0, 1.5, 2.0, 2.5, 3.0):
+            for sign in (-1, 1):
+                yaw = float(rng.uniform(0, 360))
+                segs += [Segment(hold, velocity_ned=(0, 0, sign * speed), yaw_deg=yaw), Segment(hold / 2, yaw_deg=yaw)]
+        return Scenario(name, tuple(segs))
+    if name == "tunnel":  # fixed 60 deg relative wind angle, 3..10 m/s
+        hold = hold_s or 20.0
+        segs = [Segment(hold, yaw_deg=-60.0, wind_ned=_wind_from(speed, 0.0), ramp_s=3.0) for speed in range(3, 11)]
+        return Scenario(name, tuple(segs), turbulence_h=0.03, turbulence_frac=0.02, turbulence_time_s=1.0,
+                        meta={"relative_angle_deg": 60.0})
+    if name == "still-air":  # hover, fore-aft, left-right, up-down at about 2 m/s
+        hold = hold_s or 12.0
+        segs = [Segment(hold)]
+        for yaw in (0.0, 90.0, 225.0):
+            c, s = math.cos(math.radians(yaw)), math.sin(math.radians(yaw))
+            for v in ((2 * c, 2 * s, 0), (-2 * c, -2 * s, 0), (-2 * s, 2 * c, 0), (2 * s, -2 * c, 0), (0, 0, -2), (0, 0, 2)):
+                segs += [Segment(hold, velocity_ned=v, yaw_deg=yaw), Segment(hold / 2, yaw_deg=yaw)]
+        return Scenario(name, tuple(segs))
+    if name == "outdoor":  # wind with turbulence and an updraft, manoeuvres with yaw changes
+        hold = hold_s or 15.0
+        from_deg = float(rng.uniform(0, 360))
+        speed = float(rng.uniform(3.0, 7.0))
+        wind = _wind_from(speed, from_deg, up=0.3)
+        segs = []
+        for _ in range(16):
+            heading = float(rng.uniform(0, 2 * math.pi))
+            v = float(rng.choice([0.0, 1.5, 3.0]))
+            vz = float(rng.choice([0.0, 0.0, -1.0, 1.0]))
+            segs.append(Segment(hold, velocity_ned=(v * math.cos(heading), v * math.sin(heading), vz),
+                                yaw_deg=float(rng.uniform(0, 360)), wind_ned=wind, ramp_s=3.0))
+        return Scenario(name, tuple(segs), turbulence_h=0.6, turbulence_frac=0.05, turbulence_v=0.25,
+                        turbulence_time_s=3.0, meta={"mean_wind_from_deg": from_deg, "mean_wind_speed": speed})
+    raise InputError("simulate", "SCENARIO", f"unknown scenario {name!r} (one of {', '.join(SCENARIOS)})")
+
+
+def _profile(t: np.ndarray, starts: np.ndarray, ramps: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Piecewise-constant targets joined by raised-cosine ramps: (value, time derivative)."""
+    k = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(starts) - 1)
+    prev = values[np.maximum(k - 1, 0)]
+    cur = values[k]
+    s = np.clip((t - starts[k]) / ramps[k], 0.0, 1.0)[:, None]
+    in_ramp = ((s > 0) & (s < 1)).astype(float)
+    blend = 0.5 * (1 - np.cos(np.pi * s))
+    value = prev + (cur - prev) * blend
+    rate = (cur - prev) * (0.5 * np.pi * np.sin(np.pi * s) / ramps[k][:, None]) * in_ramp
+    return value, rate
+
+
+def _turbulence(n: int, dt: float, sigma: np.ndarray, tau: float, rng: np.random.Generator) -> np.ndarray:
+    """First-order Gauss-Markov per column, unit variance scaled by sigma (per sample)."""
+    a = math.exp(-dt / tau)
+    white = rng.standard_normal((n, 3)) * math.sqrt(1 - a * a)
+    unit = lfilter([1.0], [1.0, -a], white, axis=0)
+    return unit * sigma
+
+
+def aerodynamic_force(vehicle: TrueVehicle, air_rel_ned: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    """The true aerodynamic force (NED) for the air's velocity relative to the vehicle."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    x = c * air_rel_ned[:, 0] + s * air_rel_ned[:, 1]
+    y = -s * air_rel_ned[:, 0] + c * air_rel_ned[:, 1]
+    speed = np.hypot(x, y)
+    theta = np.arctan2(y, x)
+    gain = 1 + vehicle.anisotropy_cos1 * np.cos(theta) + vehicle.anisotropy_cos2 * np.cos(2 * theta)
+    magnitude = (vehicle.drag_lin * speed + vehicle.drag_quad * speed * speed) * gain
+    direction = theta + math.radians(vehicle.deflection_deg) * np.sin(2 * theta)
+    fx, fy = magnitude * np.cos(direction), magnitude * np.sin(direction)
+    vz = air_rel_ned[:, 2]
+    fz = vehicle.drag_lin_z * vz + vehicle.drag_quad_z * np.abs(vz) * vz
+    return np.column_stack([c * fx - s * fy, s * fx + c * fy, fz])
+
+
+def simulate(af: Airframe, name: str, seed: int = 0, hold_s: float | None = None,
+             rate_hz: float | None = None) -> dict[str, np.ndarray]:
+    """Log columns (INTERFACES.md section 2) plus `segment`, for the scenario."""
+    rng = np.random.default_rng(seed)
+    scen = scenario(name, hold_s, rng)
+    vehicle = true_vehicle(af)
+    rate = rate_hz or scen.rate_hz
+    period = 1.0 / rate
+    durations = np.array([s.duration_s for s in scen.segments])
+    starts = np.concatenate([[0.0], np.cumsum(durations)[:-1]])
+    total = float(durations.sum())
+    n = int(total * rate)
+    t = np.arange(n) * period + np.clip(rng.normal(0, vehicle.jitter * period, n), -0.3 * period, 0.3 * period)
+    t[0] = 0.0
+    ramps = np.array([max(s.ramp_s, 1e-3) for s in scen.segments])
+    vel, acc = _profile(t, starts, ramps, np.array([s.velocity_ned for s in scen.segments], dtype=float))
+    yaw_targets = np.unwrap(np.radians([s.yaw_deg for s in scen.segments]))
+    yaw, _ = _profile(t, starts, ramps, yaw_targets[:, None])
+    yaw = yaw[:, 0]
+    wind_mean, _ = _profile(t, starts, ramps, np.array([s.wind_ned for s in scen.segments], dtype=float))
+    mean_speed = np.hypot(wind_mean[:, 0], wind_mean[:, 1])
+    sigma = np.column_stack([scen.turbulence_h + scen.turbulence_frac * mean_speed] * 2 + [np.full(n, scen.turbulence_v)])
+    wind = wind_mean + _turbulence(n, period, sigma, scen.turbulence_time_s, rng)
+
+    m, g = vehicle.mass_kg, vehicle.gravity_mps2
+    air_rel = wind - vel
+    force = aerodynamic_force(vehicle, air_rel, yaw)
+    need = m * g * np.array([0, 0, 1.0]) + force - m * acc  # = u_f z_b
+    u_f = np.linalg.norm(need, axis=1)
+    z_b = need / u_f[:, None]
+    heading = np.column_stack([np.cos(yaw), np.sin(yaw), np.zeros(n)])
+    y_b = np.cross(z_b, heading)
+    y_b /= np.linalg.norm(y_b, axis=1)[:, None]
+    x_b = np.cross(y_b, z_b)
+    rot = Rotation.from_matrix(np.stack([x_b, y_b, z_b], axis=2))
+
+    noisy_rot = Rotation.from_rotvec(rng.normal(0, math.radians(vehicle.attitude_noise_deg), (n, 3))) * rot
+    xyzw = noisy_rot.as_quat()
+    xyzw *= np.sign(xyzw[:, 3:4] + 1e-12)  # scalar part non-negative, a common logging convention
+    cols: dict[str, np.ndarray] = {"t": t, "segment": np.searchsorted(starts, t, side="right") - 1}
+    v_meas = vel + rng.normal(0, vehicle.vel_noise, (n, 3))
+    a_meas = acc + np.asarray(vehicle.acc_bias_ned) + rng.normal(0, vehicle.acc_noise, (n, 3))
+    sf = (rot.inv().apply(acc - g * np.array([0, 0, 1.0])) + np.asarray(vehicle.sf_bias_body)
+          + rng.normal(0, vehicle.acc_noise, (n, 3)))
+    for i, axis in enumerate("ned"):
+        cols[f"vel_{axis}"] = v_meas[:, i]
+        cols[f"acc_{axis}"] = a_meas[:, i]
+    for i, axis in enumerate("xyz"):
+        cols[f"sf_{axis}"] = sf[:, i]
+    for i, part in enumerate(("q_w", "q_x", "q_y", "q_z")):
+        cols[part] = xyzw[:, (3, 0, 1, 2)[i]]
+    # Axial inflow (air moving down through the rotor disc, relative to the vehicle) weakens thrust.
+    inflow = np.einsum("ij,ij->i", air_rel, z_b)
+    factor = np.clip(1 - vehicle.inflow_loss_per_mps * inflow, 0.8, 1.2) * vehicle.thrust_scale
+    cols["thrust"] = u_f * (1 + vehicle.thrust_bias) * (1 + rng.normal(0, vehicle.thrust_noise, n))
+    if af.thrust.source == "rpm":
+        rotors = af.thrust.rotors
+        imbalance = 1 + vehicle.rotor_imbalance * np.where(np.arange(rotors) % 2 == 0, 1.0, -1.0)
+        per_rotor = (u_f / rotors)[:, None] / (factor[:, None] * imbalance[None, :])
+        rpm = rpm_for_rotor_thrust(af.thrust.coefficients, af.thrust.max_rpm, per_rotor)
+        rpm += rng.normal(0, vehicle.rpm_noise, rpm.shape)
+        for i in range(rotors):
+            cols[f"rpm_{i + 1}"] = rpm[:, i]
+    cols["yaw_ref"] = np.angle(np.exp(1j * yaw))
+    for i, axis in enumerate("ned"):
+        cols[f"wind_{axis}"] = wind[:, i]
+    return cols
+
+
+def log_comments(af: Airframe, name: str, seed: int) -> list[str]:
+    return [f"dobwind simulate {name} --seed {seed}: airframe {af.name} (sha256 {af.content_sha256[:12]})",
+            "true vehicle physics differ from the airframe's model; wind_* is the true wind at the vehicle"]
+
+
+def column_order(cols: dict[str, np.ndarray]) -> list[str]:
+    first = ["t", "vel_n", "vel_e", "vel_d", "acc_n", "acc_e", "acc_d", "sf_x", "sf_y", "sf_z",
+             "q_w", "q_x", "q_y", "q_z"]
+    rpm = sorted((c for c in cols if c.startswith("rpm_")), key=lambda c: int(c[4:]))
+    return [c for c in first if c in cols] + rpm + ["thrust", "yaw_ref", "wind_n", "wind_e", "wind_d", "segment"]
