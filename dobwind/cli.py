@@ -109,7 +109,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
     from dobwind.model.airframe_toml import dump_airframe
 
     af = load_airframe(args.airframe)
-    new, report, points = fit_airframe(af, list(args.logs), args.terms)
+    new, report, points = fit_airframe(af, list(args.logs), args.terms, args.dynamic)
     text = dump_airframe(new)
     write_atomically(args.output, lambda handle: handle.write(text))
     plot = args.plot or str(args.output).removesuffix(".toml") + "_fit.png"
@@ -188,6 +188,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--terms", choices=("airframe", "auto"), default="airframe",
                    help="fit the airframe's terms, or choose them from a library by cross-validation")
     p.add_argument("--plot", help="PNG of the fitted surface and residuals (default: beside the output)")
+    p.add_argument("--dynamic", action="store_true",
+                   help="calibrate on manoeuvring flight too (constant wind), not only on steady holds")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_fit)
 

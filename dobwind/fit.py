@@ -102,8 +102,9 @@ def read_calibration_logs(af: Airframe, log_paths: list[str]) -> list[FlightLog]
     return [read_log(path, needed) for path in log_paths]
 
 
-def calibration_points(af: Airframe, logs: list[FlightLog]) -> tuple[Points, float]:
-    """Chunk means from every log, and the settling time used for cleaning."""
+def calibration_points(af: Airframe, logs: list[FlightLog], dynamic: bool = False) -> tuple[Points, float]:
+    """Chunk means from every log, and the settling time used for cleaning. ``dynamic`` keeps
+    manoeuvring flight too (only yaw changes and rejected samples are cut), in shorter chunks."""
     cal = dataclasses.replace(af, filter=FilterSchedule((0.0,), (max(af.filter.cutoffs_hz),)))
     from dobwind.model.step import build_step
 
@@ -119,21 +120,27 @@ def calibration_points(af: Airframe, logs: list[FlightLog]) -> tuple[Points, flo
         yaw = log.columns["yaw_ref"] if log.has("yaw_ref") else yaw_from_quaternion(q)
         c, s = np.cos(yaw), np.sin(yaw)
         f_c = np.column_stack([c * force[:, 0] + s * force[:, 1], -s * force[:, 0] + c * force[:, 1], force[:, 2]])
-        rel = log.true_wind - log.stack("vel_n", "vel_e", "vel_d")
+        # The estimator adds the ground velocity after the observer and low-pass (delay matching), so
+        # the truth it should reproduce is the true wind minus that same delayed velocity.
+        rel = log.true_wind - traj.states[:, model.state.slice("v_filt")]
         rel_c = np.column_stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1], rel[:, 2]])
         dt = float(np.median(np.diff(t))) if len(t) > 1 else af.observer.sample_time_s
         # Smoothed over the settling time: turbulence must not count as a change, a wind step must.
         smooth = _moving_mean(rel_c, int(round(max(settle, 3.0) / dt)))
         airflow_rate = np.r_[0.0, np.linalg.norm(np.diff(smooth, axis=0), axis=1) / np.diff(t)]
-        yaw_rate = np.r_[0.0, np.degrees(np.abs(np.angle(np.exp(1j * np.diff(yaw))))) / np.diff(t)]
-        change = (yaw_rate > YAW_RATE_CHANGE_DEG_S) | (airflow_rate > AIRFLOW_CHANGE_MPS2) | (traj.status != 0)
+        # Smoothed over a second: attitude noise on a real log is several deg/s sample to sample.
+        smooth_yaw = _moving_mean(np.unwrap(yaw)[:, None], int(round(1.0 / dt)))[:, 0]
+        yaw_rate = np.r_[0.0, np.degrees(np.abs(np.diff(smooth_yaw))) / np.diff(t)]
+        change = (yaw_rate > YAW_RATE_CHANGE_DEG_S) | (traj.status != 0)
+        if not dynamic:
+            change |= airflow_rate > AIRFLOW_CHANGE_MPS2
         change[0] = True
         last_change = np.maximum.accumulate(np.where(change, t, -np.inf))
         steady = (t - last_change) >= settle
         run_id = np.cumsum(change)
         for run in np.unique(run_id[steady]):
             idx = np.flatnonzero(steady & (run_id == run))
-            bounds = np.arange(t[idx[0]], t[idx[-1]] + 1e-9, CHUNK_S)
+            bounds = np.arange(t[idx[0]], t[idx[-1]] + 1e-9, CHUNK_S / 2 if dynamic else CHUNK_S)
             for a, b in zip(bounds[:-1], bounds[1:]):
                 sel = idx[(t[idx] >= a) & (t[idx] < b)]
                 if len(sel) < 5:
@@ -210,10 +217,11 @@ def _zero_airflow(points: Points) -> np.ndarray:
     return (points.speed_h < ZERO_AIRFLOW_MPS) & (np.abs(points.air_z) < ZERO_AIRFLOW_MPS)
 
 
-def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "airframe") -> tuple[Airframe, FitReport, Points]:
+def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "airframe",
+                 dynamic: bool = False) -> tuple[Airframe, FitReport, Points]:
     report = FitReport()
     logs = read_calibration_logs(af, log_paths)
-    raw, _ = calibration_points(af, logs)
+    raw, _ = calibration_points(af, logs, dynamic)
     zero = _zero_airflow(raw)
     report.zero_airflow_points = int(zero.sum())
     if zero.sum() >= 3:
@@ -223,7 +231,7 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "airframe") ->
         weight = af.mass_kg * af.gravity_mps2
         scale = af.thrust.scale * weight / (weight + float(raw.fz[zero].mean()))
         af = dataclasses.replace(af, thrust=dataclasses.replace(af.thrust, scale=scale))
-        raw, _ = calibration_points(af, logs)
+        raw, _ = calibration_points(af, logs, dynamic)
         zero = _zero_airflow(raw)
     else:
         report.warnings.append("no zero-airflow data: the thrust scale is kept from the airframe")
