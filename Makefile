@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 
-.PHONY: setup test demo regen bench clean
+.PHONY: setup test demo regen bench clean realdata
 
 setup: $(STAMP)
 
@@ -29,3 +29,7 @@ bench: $(STAMP)
 
 clean:
 	rm -rf $(VENV) out .pytest_cache
+
+# Optional: the real Neural-Fly runs beside the checkout (never copied into the project).
+realdata: $(STAMP)
+	$(BIN)/python -m dobwind.harness.neuralfly
