@@ -1,4 +1,7 @@
-"""Refresh generated_c/<name>/ for every airframe in airframes/ (run by `make regen`)."""
+"""Refresh generated_c/<name>/ for the airframes in airframes/ whose C is checked in (`make regen`).
+
+Only the reference airframe's code is checked in; to check in another, generate it into
+generated_c/<name>/ once and regen keeps it current from then on."""
 from __future__ import annotations
 
 import sys
@@ -17,6 +20,8 @@ def checked_in_airframes() -> list[Path]:
 def main() -> int:
     for path in checked_in_airframes():
         af = load_airframe(path)
+        if not (ROOT / "generated_c" / af.name).is_dir():
+            continue
         for written in generate_to_dir(af, ROOT / "generated_c" / af.name, "single"):
             print(written.relative_to(ROOT))
     return 0

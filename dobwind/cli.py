@@ -7,6 +7,8 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+
+import numpy as np
 from typing import Any, NoReturn, Sequence
 
 from dobwind.errors import EXIT_BAD_INPUT, EXIT_CHECK_FAILED, CheckFailed, InputError
@@ -129,8 +131,10 @@ def cmd_replay(args: argparse.Namespace) -> int:
     from dobwind.replay import replay, score, text_report, write_output
 
     af = load_airframe(args.airframe)
-    if str(args.log).endswith(".ulg"):
-        raise InputError(args.log, None, "ULog replay is not available yet (CSV logs only)")
+    if str(args.log).lower().endswith(".ulg"):
+        return _replay_ulog(args, af)
+    if args.rate is not None:
+        raise InputError(args.log, "--rate", "only applies to ULog files (CSV logs keep their own clock)")
     model, log, traj = replay(af, args.log, args.backend, args.precision)
     if args.output:
         write_output(args.output, log, traj)
@@ -147,6 +151,49 @@ def cmd_replay(args: argparse.Namespace) -> int:
         print(text_report(metrics))
     else:
         print(f"rows {metrics['rows']}, rejected {metrics['rejected_rows']} (no true wind in the log to score against)")
+    return 0
+
+
+def _replay_ulog(args: argparse.Namespace, af) -> int:
+    from dobwind.model.status import describe
+    from dobwind.replay import replay_ulog, write_output
+    from dobwind.ulog import compare_with_px4
+
+    if args.rate is not None and not args.rate > 0:
+        raise InputError("replay", "--rate", "must be > 0 Hz")
+    model, flight, traj = replay_ulog(af, args.log, args.backend, args.precision, args.rate)
+    log = flight.log
+    if args.output:
+        write_output(args.output, log, traj)
+    wind = traj.outputs[:, model.outputs.slice("wind_ned")]
+    valid = traj.status == 0
+    summary = {"airframe": af.name, "log": str(args.log), "backend": args.backend, "rows": log.rows,
+               "valid_rows": int(valid.sum()), "duration_s": float(log.time_s[-1]), "notes": list(flight.notes),
+               "status_counts": {describe(int(s)): int((traj.status == s).sum()) for s in np.unique(traj.status)},
+               "mean_wind_speed_h_mps": float(np.mean(np.hypot(wind[valid, 0], wind[valid, 1]))) if valid.any() else None,
+               "outputs_finite": bool(np.all(np.isfinite(traj.outputs)))}
+    if flight.px4_wind is not None:
+        summary["px4"] = compare_with_px4(log.time_s, wind, valid, flight.px4_wind)
+    if args.plot:
+        from dobwind.plots import replay_plot
+
+        others = [] if flight.px4_wind is None else [(f"PX4 ({flight.px4_wind[0]})", flight.px4_wind[1], flight.px4_wind[2])]
+        replay_plot(log.time_s, np.where(valid[:, None], wind, np.nan), None, f"{af.name}: {args.log}", args.plot, others)
+    if args.json:
+        _print_json(summary)
+        return 0
+    print(f"{log.rows} instants over {summary['duration_s']:.2f} s, {summary['valid_rows']} valid; status: "
+          + ", ".join(f"{k} {v}" for k, v in summary["status_counts"].items()))
+    for note in flight.notes:
+        print(f"  note: {note}")
+    if summary["mean_wind_speed_h_mps"] is not None:
+        print(f"mean horizontal wind {summary['mean_wind_speed_h_mps']:.2f} m/s")
+    px4 = summary.get("px4")
+    if px4 and px4.get("overlap_rows"):
+        print(f"PX4 {px4['topic']}: mean vector difference {px4['mean_vector_difference_mps']:.2f} m/s, mean speed "
+              f"difference (ours - PX4) {px4['mean_speed_difference_mps']:+.2f} m/s over {px4['overlap_rows']} instants")
+    elif px4:
+        print(f"PX4 {px4['topic']}: no overlap with valid estimates")
     return 0
 
 
@@ -199,6 +246,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output")
     p.add_argument("--backend", choices=("python", "c"), default="python")
     p.add_argument("--precision", choices=("single", "double"), default="single", help="C backend precision")
+    p.add_argument("--rate", type=float, help="ULog only: resample at this rate (Hz) instead of the attitude's clock")
     p.add_argument("--plot")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_replay)

@@ -12,6 +12,7 @@ from dobwind.logs import FlightLog, required_columns, read_log, step_inputs, wri
 from dobwind.model import reference
 from dobwind.model.airframe import Airframe
 from dobwind.model.reference import Trajectory
+from dobwind.model.status import STATUS_LANDED, STATUS_NO_DATA
 from dobwind.model.step import StepModel, build_step
 
 WARMUP_S = 5.0           # the observer and filter start up: not scored
@@ -115,6 +116,21 @@ def replay(af: Airframe, log_path: str, backend: str = "python", precision: str 
     log = read_log(log_path, required_columns(af))
     traj = run_backend(model, step_inputs(model, log), backend, precision)
     return model, log, traj
+
+
+def replay_ulog(af: Airframe, path: str, backend: str = "python", precision: str = "single",
+                rate_hz: float | None = None):
+    """A PX4 ULog through the estimator: (model, flight, trajectory); rows without data carry the
+    NO_DATA status bit on top of the step's own rejection."""
+    from dobwind.ulog import read_ulog
+
+    model = build_step(af)
+    flight = read_ulog(path, af, rate_hz)
+    traj = run_backend(model, step_inputs(model, flight.log), backend, precision)
+    # Rows that were not fed carry only replay's reasons, not the step's reaction to their NaN inputs.
+    skipped = np.where(flight.no_data, STATUS_NO_DATA, 0) | np.where(flight.landed, STATUS_LANDED, 0)
+    status = np.where(skipped != 0, skipped, traj.status)
+    return model, flight, Trajectory(traj.states, traj.outputs, status)
 
 
 def text_report(metrics: dict) -> str:

@@ -24,8 +24,10 @@ STATUS_BITS: tuple[StatusBit, ...] = (
     StatusBit("NUMERIC", 1 << 5, "the inputs were accepted but the result is not finite (sum of magnitudes beyond 1e30)"),
 )
 
-# Bit set by replay (not by the step) for rows it could not feed to the estimator at all.
+# Bits set by replay (not by the step) for rows it did not feed to the estimator: a topic had no data
+# there, or the vehicle was on the ground (the ground's reaction is not wind).
 STATUS_NO_DATA = 1 << 8
+STATUS_LANDED = 1 << 9
 
 # A magnitude no physical input reaches; anything beyond is treated like infinity.
 INPUT_MAGNITUDE_LIMIT = 1e6
@@ -41,4 +43,6 @@ def describe(status: int) -> str:
     names = [b.name for b in STATUS_BITS if status & b.value]
     if status & STATUS_NO_DATA:
         names.append("NO_DATA")
+    if status & STATUS_LANDED:
+        names.append("LANDED")
     return "|".join(names) if names else "OK"

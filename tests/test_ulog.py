@@ -1,0 +1,176 @@
+"""PX4 ULog replay, on small ULog files written here (tests/ulog_writer.py) from simulated flights."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dobwind.cli import main
+from dobwind.model.airframe import load_airframe, parse_airframe
+from dobwind.model.airframe_toml import dumps
+from dobwind.model.status import STATUS_LANDED, STATUS_NO_DATA
+from dobwind.replay import replay, replay_ulog
+from dobwind.simulate import column_order, simulate
+from dobwind.logs import write_csv
+from tests.helpers import M300, ROOT, airframe_dict
+from tests.ulog_writer import Topic, write_ulog
+
+ESC_REPORT = {"esc_report": [("int32_t", "esc_rpm"), ("float", "esc_voltage")]}
+SAMPLE = ROOT.parent / "shared" / "data" / "px4-ulog" / "sample_log_small.ulg"
+
+
+def _collective():
+    return parse_airframe(dumps(airframe_dict(thrust={"source": "collective"}, mass=8.0, name="coll",
+                                              **{"observer.force_offset": [0.0, 0.0, 0.0]})), "<c>")
+
+
+def _flight(rate=100.0):
+    af = load_airframe(M300)
+    return af, simulate(af, "tunnel", seed=9, hold_s=4.0, rate_hz=rate)
+
+
+def _rows(cols, keys, names, t0_us=1_000_000, keep=None):
+    rows = []
+    for k in range(len(cols["t"])):
+        if keep is not None and not keep[k]:
+            continue
+        row = {"timestamp": int(round(t0_us + cols["t"][k] * 1e6))}
+        for key, name in zip(keys, names):
+            row[name] = float(cols[key][k])
+        rows.append(row)
+    return rows
+
+
+def _ulog(path, cols, *, esc=True, thrust=None, hover=None, param=None, gap=None, landed_until=None, wind=False,
+          attitude_setpoint=True):
+    keep = None if gap is None else ~((cols["t"] > gap[0]) & (cols["t"] < gap[1]))
+    topics = [
+        Topic("vehicle_local_position", [("uint64_t", "timestamp")] + [("float", f) for f in ("vx", "vy", "vz", "ax", "ay", "az")],
+              _rows(cols, ["vel_n", "vel_e", "vel_d", "acc_n", "acc_e", "acc_d"], ["vx", "vy", "vz", "ax", "ay", "az"])),
+        Topic("vehicle_attitude", [("uint64_t", "timestamp"), ("float[4]", "q")],
+              _rows(cols, ["q_w", "q_x", "q_y", "q_z"], [f"q[{i}]" for i in range(4)], keep=keep)),
+    ]
+    if attitude_setpoint:
+        fields = [("uint64_t", "timestamp"), ("float", "yaw_body"), ("float[3]", "thrust_body")]
+        rows = _rows(cols, ["yaw_ref"], ["yaw_body"])
+        if thrust == "attitude_setpoint":
+            for row, value in zip(rows, cols["thrust"]):
+                row["thrust_body[2]"] = -value / (8.0 * 9.80665) * (param or 0.5)
+        topics.append(Topic("vehicle_attitude_setpoint", fields, rows))
+    if esc:
+        topics.append(Topic("esc_status", [("uint64_t", "timestamp"), ("uint8_t", "esc_count"), ("esc_report[8]", "esc")],
+                            _rows(cols, [f"rpm_{i}" for i in range(1, 5)], [f"esc[{i}].esc_rpm" for i in range(4)])))
+    if thrust == "thrust_setpoint":
+        rows = _rows(cols, ["thrust"], ["xyz[2]"])
+        for row in rows:
+            row["xyz[2]"] = -row["xyz[2]"] / (8.0 * 9.80665) * hover
+        topics.append(Topic("vehicle_thrust_setpoint", [("uint64_t", "timestamp"), ("float[3]", "xyz")], rows))
+        t = np.arange(0, cols["t"][-1], 0.5)
+        topics.append(Topic("hover_thrust_estimate", [("uint64_t", "timestamp"), ("float", "hover_thrust")],
+                            [{"timestamp": int(1_000_000 + s * 1e6), "hover_thrust": hover} for s in t]))
+    if landed_until is not None:
+        t = np.arange(0, cols["t"][-1], 0.2)
+        topics.append(Topic("vehicle_land_detected", [("uint64_t", "timestamp"), ("bool", "landed")],
+                            [{"timestamp": int(1_000_000 + s * 1e6), "landed": bool(s < landed_until)} for s in t]))
+    if wind:
+        topics.append(Topic("wind", [("uint64_t", "timestamp"), ("float", "windspeed_north"), ("float", "windspeed_east")],
+                            _rows(cols, ["wind_n", "wind_e"], ["windspeed_north", "windspeed_east"])))
+    return write_ulog(path, topics, {"MPC_THR_HOVER": param} if param else None, ESC_REPORT)
+
+
+def _csv(path, cols):
+    names = column_order(cols)
+    write_csv(path, names, np.column_stack([cols[n] for n in names]), ["%.9g"] * len(names))
+    return path
+
+
+def test_rpm_mapping_matches_the_same_flight_as_csv(tmp_path):
+    af, cols = _flight()
+    model, flight, traj = replay_ulog(af, str(_ulog(tmp_path / "rpm.ulg", cols)))
+    _, log, ref = replay(af, str(_csv(tmp_path / "rpm.csv", cols)))
+    assert flight.log.rows == log.rows and np.all(traj.status == 0)
+    wind = model.outputs.slice("wind_ned")
+    # ULog stores float32 and integer rpm: agreement to that resolution, not to the last bit.
+    np.testing.assert_allclose(traj.outputs[200:, wind], ref.outputs[200:, wind], atol=0.05)
+
+
+@pytest.mark.parametrize("source", ["thrust_setpoint", "attitude_setpoint"])
+def test_collective_mapping_recovers_newtons(tmp_path, source):
+    af = _collective()
+    _, cols = _flight()
+    path = _ulog(tmp_path / "coll.ulg", cols, esc=False, thrust=source, hover=0.42, param=0.55)
+    _, flight, traj = replay_ulog(af, str(path))
+    np.testing.assert_allclose(flight.log.columns["thrust"][5:-5], cols["thrust"][5:-5], rtol=1e-5)
+    assert any(("MPC_THR_HOVER" in n) == (source == "attitude_setpoint") for n in flight.notes)
+    assert np.all(np.isfinite(traj.outputs))
+
+
+def test_missing_topic_exits_2_naming_it(tmp_path, capsys):
+    _, cols = _flight()
+    path = _ulog(tmp_path / "noesc.ulg", cols, esc=False)
+    assert main(["replay", str(M300), str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "esc_status" in err and "rotor speeds" in err and str(path) in err
+
+
+def test_collective_without_hover_thrust_exits_2(tmp_path, capsys):
+    _, cols = _flight()
+    path = _ulog(tmp_path / "nohover.ulg", cols, esc=False, thrust="attitude_setpoint", param=None)
+    af_path = tmp_path / "coll.toml"
+    af_path.write_text(dumps(airframe_dict(thrust={"source": "collective"}, mass=8.0)))
+    assert main(["replay", str(af_path), str(path)]) == 2
+    assert "MPC_THR_HOVER" in capsys.readouterr().err
+
+
+def test_gap_marks_rows_and_the_estimate_recovers(tmp_path):
+    af, cols = _flight()
+    _, flight, traj = replay_ulog(af, str(_ulog(tmp_path / "gap.ulg", cols, gap=(10.0, 10.5))), rate_hz=100.0)
+    t = flight.log.time_s
+    inside = (t > 10.02) & (t < 10.47)
+    assert np.all(traj.status[inside] == STATUS_NO_DATA)
+    assert np.all(traj.status[t > 10.6] == 0) and np.all(traj.status[(t > 1) & (t < 9.9)] == 0)
+    assert np.all(np.isfinite(traj.outputs))
+
+
+def test_landed_rows_are_flagged_and_not_fed(tmp_path):
+    af, cols = _flight()
+    _, flight, traj = replay_ulog(af, str(_ulog(tmp_path / "land.ulg", cols, landed_until=3.0)))
+    t = flight.log.time_s
+    assert np.all(traj.status[t < 2.9] == STATUS_LANDED) and np.all(traj.status[t > 3.3] == 0)
+
+
+@pytest.mark.parametrize("damage", ["garbage", "truncated_header"])
+def test_corrupt_file_exits_2_without_traceback(tmp_path, capsys, damage):
+    path = tmp_path / "bad.ulg"
+    path.write_bytes(os.urandom(4000) if damage == "garbage" else b"ULog\x01\x12\x35")
+    assert main(["replay", str(M300), str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and str(path) in err and "Traceback" not in err
+
+
+def test_px4_wind_is_compared_and_plotted(tmp_path, capsys):
+    af, cols = _flight()
+    path = _ulog(tmp_path / "wind.ulg", cols, wind=True)
+    plot = tmp_path / "wind.png"
+    assert main(["replay", str(M300), str(path), "--plot", str(plot)]) == 0
+    out = capsys.readouterr().out
+    assert "PX4 wind: mean vector difference" in out and plot.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_real_sample_log(tmp_path, capsys):
+    """The real VTOL hop (optional: skips without ../shared/data)."""
+    if not SAMPLE.exists():
+        pytest.skip("sample_log_small.ulg is not beside this checkout")
+    af = tmp_path / "vtol.toml"
+    af.write_text(dumps(airframe_dict(name="vtol", mass=6.0, thrust={"source": "collective"},
+                                      **{"limits.max_dt": 0.2, "observer.sample_time": 0.01})))
+    out = tmp_path / "est.csv"
+    assert main(["replay", str(af), str(SAMPLE), "-o", str(out), "--json"]) == 0
+    import json
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["outputs_finite"] and summary["valid_rows"] > 100 and summary["px4"]["topic"] == "wind_estimate"
+    assert len(out.read_text().splitlines()) == summary["rows"] + 1
+    assert main(["replay", str(M300), str(SAMPLE)]) == 2
+    assert "esc_status" in capsys.readouterr().err
