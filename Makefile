@@ -32,4 +32,4 @@ clean:
 
 # Optional: the real Neural-Fly runs beside the checkout (never copied into the project).
 realdata: $(STAMP)
-	$(BIN)/python -m dobwind.harness.neuralfly
+	$(BIN)/python -m dobwind.harness.realdata

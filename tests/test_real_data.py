@@ -4,14 +4,14 @@ from __future__ import annotations
 
 import pytest
 
-from dobwind.harness import neuralfly
+from dobwind.harness import realdata
 
 
 @pytest.fixture(scope="module")
 def results():
-    if len(neuralfly.runs(neuralfly.DEFAULT_DATA)) < 5:
+    if len(realdata.runs(realdata.DEFAULT_DATA)) < 5:
         pytest.skip("the Neural-Fly runs are not beside this checkout")
-    return neuralfly.check()
+    return realdata.check()
 
 
 def test_neural_fly_wind_direction(results):
