@@ -24,8 +24,8 @@ _BINARY_CALLS = {
 _INFIX = {ca.OP_ADD: "+", ca.OP_SUB: "-", ca.OP_MUL: "*", ca.OP_DIV: "/"}
 _COMPARE = {ca.OP_LT: "<", ca.OP_LE: "<=", ca.OP_EQ: "==", ca.OP_NE: "!="}
 # The expensive operations, counted separately in the op summaries.
+# fmin/fmax are printed inline (see CPrinter.operation), so they are not calls.
 CALL_OPS = frozenset(_UNARY_CALLS) | frozenset(_BINARY_CALLS) | {ca.OP_CONSTPOW}
-_ = (ca.OP_FMIN, ca.OP_FMAX)  # printed inline, see CPrinter.operation
 
 
 @dataclass(frozen=True)

@@ -3,13 +3,10 @@ from __future__ import annotations
 
 import os
 import re
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from dobwind.codegen.tolerance import TOLERANCE
-from dobwind.errors import CheckFailed
 from dobwind.harness import cortex
 from dobwind.harness.build import build_shared_library
 from dobwind.harness.compare import compare

@@ -13,7 +13,7 @@ import numpy as np
 
 from dobwind.analysis import plots
 from dobwind.analysis.design import design_gain
-from dobwind.analysis.figures import Figures, figures, noise_gain
+from dobwind.analysis.figures import figures, noise_gain
 from dobwind.analysis.linear import axis_system, continuous_observer, jacobian_function, linearize
 from dobwind.analysis.ramp import ramp_experiment
 from dobwind.analysis.stability import unstable_reason
@@ -197,5 +197,3 @@ def _json_default(value: Any) -> Any:
         return None
     raise TypeError(type(value).__name__)
 
-
-_ = Figures  # re-exported type for callers
