@@ -114,9 +114,10 @@ def _selftest_context(model: StepModel, printer: CPrinter, precision: str) -> di
 def generate_code(af: Airframe, precision: str = "single", model: StepModel | None = None) -> GeneratedCode:
     model = model or build_step(af)
     _refuse_unstable(af)
-    printer = CPrinter(precision)
-    validate, sections, check = build_sections(model, printer)
     prefix = f"{af.name}_wind_"
+    printer = CPrinter(precision, trig_prefix=prefix)
+    validate, sections, check = build_sections(model, printer)
+    uses_trig = any(f"{prefix}trig(" in line for s in (validate, *sections, check) for line in s.lines)
     common = {
         "name": af.name,
         "prefix": prefix,
@@ -135,6 +136,7 @@ def generate_code(af: Airframe, precision: str = "single", model: StepModel | No
     source = _ENV.get_template("source.c.j2").render(
         **common, validate=validate, sections=sections, check=check, commit=_commit_lines(model, printer),
         total_ops=total_ops, total_calls=validate.calls + sum(s.calls for s in sections) + check.calls,
+        uses_trig=uses_trig,
         state_fields=[f for f in model.state.fields],
     )
     selftest = _ENV.get_template("selftest.c.j2").render(**common, **_selftest_context(model, printer, precision))

@@ -31,6 +31,14 @@ CALL_OPS = frozenset(_UNARY_CALLS) | frozenset(_BINARY_CALLS) | {ca.OP_CONSTPOW}
 @dataclass(frozen=True)
 class CPrinter:
     precision: str  # "single" | "double"
+    # In single precision sin and cos go to a small static helper in the generated file (named
+    # <trig_prefix>trig) instead of libm's sinf/cosf, whose large-argument reduction costs about 3 KB
+    # of flash on a Cortex-M; see the source template.
+    trig_prefix: str | None = None
+
+    @property
+    def inline_trig(self) -> bool:
+        return self.precision == "single" and self.trig_prefix is not None
 
     @property
     def real(self) -> str:
@@ -79,6 +87,8 @@ class CPrinter:
 
         if op in _INFIX:
             return f"{num(0)} {_INFIX[op]} {num(1)}", False
+        if op in (ca.OP_SIN, ca.OP_COS) and self.inline_trig:
+            return f"{self.trig_prefix}trig({num(0)}, {1 if op == ca.OP_COS else 0})", False
         if op in _UNARY_CALLS:
             return self.call(_UNARY_CALLS[op], num(0)), False
         if op in (ca.OP_FMIN, ca.OP_FMAX):

@@ -87,7 +87,8 @@ def test_source_has_labelled_sections_with_op_counts():
                   "check_result", "commit"):
         assert re.search(rf"/\* ---- {stage}:.*---- \*/", source), stage
     assert re.search(r"Total ops per accepted step: \d+", source)
-    assert "malloc" not in source and "printf" not in source and "static " not in source
+    assert "malloc" not in source and "printf" not in source
+    assert not re.search(r"\bstatic\b[^(;{]*;", source)  # no static objects (state); static functions are fine
 
 
 def test_unused_mode_fields_are_absent():
@@ -126,3 +127,30 @@ def test_cmake_builds_the_library_and_runs_the_selftest(tmp_path):
     done = subprocess.run(["ctest", "--output-on-failure"], cwd=build, capture_output=True, text=True)
     assert done.returncode == 0, done.stdout + done.stderr
     assert (build / "libm300_wind.a").exists()
+
+
+def test_single_precision_trig_helper_is_accurate(tmp_path):
+    """The generated file's own sin/cos (single precision, no libm trig) against numpy in double."""
+    import numpy as np
+
+    from dobwind.harness.build import run
+
+    files = generate_code(load_airframe(M300), "single").files
+    for name, text in files.items():
+        (tmp_path / name).write_text(text)
+    (tmp_path / "probe.c").write_text(
+        '#include <stdio.h>\n#include <stdlib.h>\n#include "m300_wind.c"\n'
+        "int main(int argc, char **argv) { int i; for (i = 1; i < argc; ++i) { float x = strtof(argv[i], NULL);\n"
+        '  printf("%.9g %.9g %.9g\\n", (double)x, (double)m300_wind_trig(x, 0), (double)m300_wind_trig(x, 1)); }\n'
+        "  return 0; }\n")
+    exe = tmp_path / "probe"
+    run(["cc", "-std=c99", "-O2", f"-I{tmp_path}", str(tmp_path / "probe.c"), "-o", str(exe), "-lm"])
+    rng = np.random.default_rng(0)
+    near = np.r_[np.linspace(-7, 7, 301), [0.0, np.pi / 4, np.pi / 2, np.pi, -np.pi, 3 * np.pi / 4]]
+    far = rng.uniform(-1e4, 1e4, 200)
+    huge = rng.uniform(-1e6, 1e6, 50)
+    for values, tolerance in ((near, 3e-7), (far, 2e-6), (huge, 2e-4)):
+        out = np.loadtxt(run([str(exe), *map(repr, values.astype(np.float32).astype(float))]).stdout.splitlines())
+        x = out[:, 0]
+        assert np.max(np.abs(out[:, 1] - np.sin(x))) < tolerance
+        assert np.max(np.abs(out[:, 2] - np.cos(x))) < tolerance
