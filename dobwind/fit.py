@@ -213,6 +213,32 @@ def forward_select(candidates: tuple[str, ...], p: Points, target: np.ndarray, m
     return chosen, best
 
 
+def _opposing_directions(points: Points) -> bool:
+    """Airflow seen from at least two opposite sides: enough to locate a horizontal force offset."""
+    moving = points.speed_h >= 0.5
+    bins = set(np.floor((np.degrees(points.air_angle[moving]) % 360) / 45).astype(int).tolist())
+    return any((b + 4) % 8 in bins for b in bins)
+
+
+def _offset_from_directions(points: Points) -> tuple[float, float]:
+    """The horizontal offset that best makes the force (minus it) point along the airflow, with a
+    direction-free speed model fitted inside (variable projection)."""
+    from scipy.optimize import minimize
+
+    target = np.column_stack([points.speed_h * np.cos(points.air_angle), points.speed_h * np.sin(points.air_angle)])
+
+    def residual(offset: np.ndarray) -> float:
+        m, n = points.m - offset[0], points.n - offset[1]
+        a = _term_matrix(list(DIRECTION_FREE), m, n, points.fz)
+        speed = np.maximum(a @ _lstsq(a, points.speed_h), 0.0)
+        fh = np.maximum(np.hypot(m, n), 1e-6)
+        predicted = np.column_stack([speed * m / fh, speed * n / fh])
+        return float(np.sum((predicted - target) ** 2))
+
+    result = minimize(residual, np.zeros(2), method="Nelder-Mead", options={"xatol": 1e-4, "fatol": 1e-9})
+    return float(result.x[0]), float(result.x[1])
+
+
 def _zero_airflow(points: Points) -> np.ndarray:
     return (points.speed_h < ZERO_AIRFLOW_MPS) & (np.abs(points.air_z) < ZERO_AIRFLOW_MPS)
 
@@ -238,6 +264,11 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "airframe",
     report.thrust_scale = af.thrust.scale
     if zero.sum() >= 3:
         offset = (float(raw.m[zero].mean()), float(raw.n[zero].mean()), float(raw.fz[zero].mean()))
+    elif _opposing_directions(raw):
+        horizontal = _offset_from_directions(raw)
+        offset = (horizontal[0], horizontal[1], af.observer.force_offset_n[2])
+        report.warnings.append("no zero-airflow data: the horizontal force offset comes from the airflow directions "
+                               "(the air moves along the force minus the offset); the vertical one is kept")
     else:
         offset = af.observer.force_offset_n
         report.warnings.append("no zero-airflow data: the force offset is kept from the airframe")
