@@ -86,21 +86,15 @@ def _default_airframe() -> str:
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
-    import numpy as np
-
-    from dobwind.logs import write_csv
     from dobwind.model.airframe import load_airframe
-    from dobwind.simulate import column_order, log_comments, simulate
+    from dobwind.simulate import write_log
 
     af = load_airframe(args.airframe or _default_airframe())
     if args.hold is not None and args.hold <= 0:
         raise InputError("simulate", "--hold", "must be > 0 seconds")
-    cols = simulate(af, args.scenario, args.seed, hold_s=args.hold, rate_hz=args.rate)
-    names = column_order(cols)
-    formats = ["%.6f"] + ["%.7g"] * (len(names) - 2) + ["%d"]
-    write_csv(args.output, names, np.column_stack([cols[n] for n in names]), formats,
-              log_comments(af, args.scenario, args.seed))
-    print(f"{args.output}: {len(cols['t'])} rows, {cols['t'][-1]:.1f} s of '{args.scenario}' at {args.rate or 50:g} Hz")
+    rows = write_log(args.output, af, args.scenario, args.seed, args.hold, args.rate)
+    rate = args.rate or 50.0
+    print(f"{args.output}: {rows} rows, {rows / rate:.1f} s of '{args.scenario}' at {rate:g} Hz")
     return 0
 
 

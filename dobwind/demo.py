@@ -17,7 +17,7 @@ from dobwind.analysis.report import analyze, write_plots
 from dobwind.codegen.generate import generate_to_dir
 from dobwind.fit import fit_airframe, fit_plot, text_report
 from dobwind.harness.verify import verify_airframe
-from dobwind.logs import read_log, required_columns, write_atomically, write_csv
+from dobwind.logs import read_log, required_columns, write_atomically
 from dobwind.model import reference
 from dobwind.model.airframe import load_airframe
 from dobwind.model.airframe_toml import dump_airframe
@@ -25,7 +25,7 @@ from dobwind.model.exercise import flight_inputs
 from dobwind.model.step import build_step
 from dobwind.plots import replay_plot
 from dobwind.replay import replay, score, score_wind
-from dobwind.simulate import column_order, log_comments, simulate
+from dobwind.simulate import write_log
 
 REFERENCE_AIRFRAME = Path(__file__).resolve().parents[1] / "airframes" / "m300.toml"
 SCENARIO_SEEDS = {"sweep": 1, "vertical": 2, "tunnel": 3, "still-air": 4, "outdoor": 5}
@@ -45,11 +45,8 @@ def run_demo(out_dir: str) -> int:
 
     logs = {}
     for name, seed in SCENARIO_SEEDS.items():
-        cols = simulate(af, name, seed)
-        names = column_order(cols)
         path = out / "logs" / f"{name}.csv"
-        write_csv(path, names, np.column_stack([cols[n] for n in names]),
-                  ["%.6f"] + ["%.7g"] * (len(names) - 2) + ["%d"], log_comments(af, name, seed))
+        write_log(path, af, name, seed)
         logs[name] = str(path)
     print(f"== simulate: {', '.join(f'{n} ({Path(p).stat().st_size // 1_000_000} MB)' for n, p in logs.items())} "
           f"in {out / 'logs'}")

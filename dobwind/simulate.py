@@ -14,7 +14,7 @@ physics, and an hour of 50 Hz flight takes seconds.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.signal import lfilter
@@ -80,7 +80,6 @@ class Scenario:
     turbulence_v: float = 0.0
     turbulence_time_s: float = 2.0
     rate_hz: float = 50.0
-    meta: dict = field(default_factory=dict)
 
 
 def _wind_from(speed: float, from_deg: float, up: float = 0.0) -> tuple[float, float, float]:
@@ -106,8 +105,7 @@ def scenario(name: str, hold_s: float | None = None, rng: np.random.Generator | 
     if name == "tunnel":  # fixed 60 deg relative wind angle, 3..10 m/s
         hold = hold_s or 20.0
         segs = [Segment(hold, yaw_deg=-60.0, wind_ned=_wind_from(speed, 0.0), ramp_s=3.0) for speed in range(3, 11)]
-        return Scenario(name, tuple(segs), turbulence_h=0.03, turbulence_frac=0.02, turbulence_time_s=1.0,
-                        meta={"relative_angle_deg": 60.0})
+        return Scenario(name, tuple(segs), turbulence_h=0.03, turbulence_frac=0.02, turbulence_time_s=1.0)
     if name == "still-air":  # hover, fore-aft, left-right, up-down at about 2 m/s
         hold = hold_s or 12.0
         segs = [Segment(hold)]
@@ -129,7 +127,7 @@ def scenario(name: str, hold_s: float | None = None, rng: np.random.Generator | 
             segs.append(Segment(hold, velocity_ned=(v * math.cos(heading), v * math.sin(heading), vz),
                                 yaw_deg=float(rng.uniform(0, 360)), wind_ned=wind, ramp_s=3.0))
         return Scenario(name, tuple(segs), turbulence_h=0.6, turbulence_frac=0.05, turbulence_v=0.25,
-                        turbulence_time_s=3.0, meta={"mean_wind_from_deg": from_deg, "mean_wind_speed": speed})
+                        turbulence_time_s=3.0)
     raise InputError("simulate", "SCENARIO", f"unknown scenario {name!r} (one of {', '.join(SCENARIOS)})")
 
 
@@ -242,6 +240,18 @@ def simulate(af: Airframe, name: str, seed: int = 0, hold_s: float | None = None
 def log_comments(af: Airframe, name: str, seed: int) -> list[str]:
     return [f"dobwind simulate {name} --seed {seed}: airframe {af.name} (sha256 {af.content_sha256[:12]})",
             "true vehicle physics differ from the airframe's model; wind_* is the true wind at the vehicle"]
+
+
+def write_log(path, af: Airframe, name: str, seed: int = 0, hold_s: float | None = None,
+              rate_hz: float | None = None) -> int:
+    """Simulate a scenario and write it as a flight-log CSV (atomically); returns the row count."""
+    from dobwind.logs import write_csv
+
+    cols = simulate(af, name, seed, hold_s=hold_s, rate_hz=rate_hz)
+    names = column_order(cols)
+    write_csv(path, names, np.column_stack([cols[n] for n in names]),
+              ["%.6f"] + ["%.7g"] * (len(names) - 2) + ["%d"], log_comments(af, name, seed))
+    return len(cols["t"])
 
 
 def column_order(cols: dict[str, np.ndarray]) -> list[str]:

@@ -37,7 +37,3 @@ def first_order(method: str, rate_per_s: Any, dt: Any) -> FirstOrder:
         return FirstOrder((1 - k) / (1 + k), k / (1 + k), k / (1 + k))
     raise ValueError(f"unknown discretization {method!r}")
 
-
-def effective_rate(method: str, rate_per_s: float) -> float:
-    """Continuous rate the discrete form approximates (the paper's form approximates half of it)."""
-    return rate_per_s / 2 if method == "paper" else rate_per_s

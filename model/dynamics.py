@@ -13,16 +13,6 @@ import casadi as ca
 E3 = ca.DM([0.0, 0.0, 1.0])
 
 
-def quaternion_to_rotation(q: ca.SX) -> ca.SX:
-    """Body-to-NED rotation matrix of a unit quaternion (w, x, y, z)."""
-    w, x, y, z = q[0], q[1], q[2], q[3]
-    return ca.vertcat(
-        ca.horzcat(1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)),
-        ca.horzcat(2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)),
-        ca.horzcat(2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)),
-    )
-
-
 def quaternion_to_rotation_any_norm(q: ca.SX) -> ca.SX:
     """R(q / |q|) for any nonzero q, without a square root: the homogeneous form M(q) / |q|^2."""
     w, x, y, z = q[0], q[1], q[2], q[3]
@@ -33,12 +23,6 @@ def quaternion_to_rotation_any_norm(q: ca.SX) -> ca.SX:
         ca.horzcat(2 * (x * y + w * z), ww - xx + yy - zz, 2 * (y * z - w * x)),
         ca.horzcat(2 * (x * z - w * y), 2 * (y * z + w * x), ww - xx - yy + zz),
     )
-
-
-def yaw_of_quaternion(q: ca.SX) -> ca.SX:
-    """ZYX yaw (rad) of a body-to-NED quaternion."""
-    w, x, y, z = q[0], q[1], q[2], q[3]
-    return ca.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
 
 
 def euler_zyx_rotation(eta: ca.SX) -> ca.SX:

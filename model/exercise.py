@@ -33,14 +33,21 @@ def rotation_matrices(q: np.ndarray) -> np.ndarray:
     ], -2)
 
 
+def bisect_increasing(fun, target: np.ndarray, lo: float, hi: float, iterations: int = 80) -> np.ndarray:
+    """Vectorized bisection for fun(x) = target, fun increasing on [lo, hi] (elementwise)."""
+    a, b = np.full_like(target, lo, dtype=float), np.full_like(target, hi, dtype=float)
+    for _ in range(iterations):
+        mid = 0.5 * (a + b)
+        below = fun(mid) < target
+        a, b = np.where(below, mid, a), np.where(below, b, mid)
+    return 0.5 * (a + b)
+
+
 def rpm_for_rotor_thrust(coefficients: tuple[float, ...], max_rpm: float, thrust_n: np.ndarray) -> np.ndarray:
     """Invert a per-rotor thrust polynomial (increasing on [0, 2]) by bisection, vectorized."""
-    lo, hi = np.zeros_like(thrust_n), np.full_like(thrust_n, 2.0)
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        below = np.polynomial.polynomial.polyval(mid, coefficients) < thrust_n
-        lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
-    return 0.5 * (lo + hi) * max_rpm
+    omega = bisect_increasing(lambda x: np.polynomial.polynomial.polyval(x, coefficients),
+                              np.asarray(thrust_n, dtype=float), 0.0, 2.0, iterations=60)
+    return omega * max_rpm
 
 
 def _bad_row(model: StepModel, row: np.ndarray, kind: int, rng: np.random.Generator) -> np.ndarray:

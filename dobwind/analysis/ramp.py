@@ -14,7 +14,7 @@ from scipy.spatial.transform import Rotation
 
 from dobwind.model import reference
 from dobwind.model.airframe import Airframe, FilterSchedule
-from dobwind.model.exercise import rpm_for_rotor_thrust
+from dobwind.model.exercise import bisect_increasing, rpm_for_rotor_thrust
 from dobwind.model.step import StepModel, build_step
 from dobwind.model.terms import polynomial_expr
 
@@ -28,16 +28,6 @@ def _model_functions(af: Airframe) -> tuple[ca.Function, ca.Function]:
     horizontal = ca.Function("h", [m, n, fz], [polynomial_expr(af.horizontal.terms, af.horizontal.coefficients, env)])
     vertical = ca.Function("v", [m, n, fz], [polynomial_expr(af.vertical.terms, af.vertical.coefficients, env)])
     return horizontal, vertical
-
-
-def _bisect(fun, target: np.ndarray, lo: float, hi: float, *args) -> np.ndarray:
-    """Vectorized bisection for an increasing function: fun(x, *args) = target."""
-    a, b = np.full_like(target, lo), np.full_like(target, hi)
-    for _ in range(80):
-        mid = 0.5 * (a + b)
-        below = fun(mid, *args) < target
-        a, b = np.where(below, mid, a), np.where(below, b, mid)
-    return 0.5 * (a + b)
 
 
 def _monotone_inverse(values: np.ndarray, grid: np.ndarray, zero: int, target: np.ndarray) -> np.ndarray:
@@ -68,7 +58,7 @@ def force_for_airflow(af: Airframe, air_rel_ned: np.ndarray, yaw: np.ndarray, ma
     speed = np.hypot(rel_c[:, 0], rel_c[:, 1])
     direction = np.where(speed[:, None] > 0, rel_c / np.maximum(speed, 1e-12)[:, None], [1.0, 0.0])
     h_of = lambda fh: np.asarray(h_map(fh * direction[:, 0], fh * direction[:, 1], np.zeros_like(fh))).ravel()
-    fh = _bisect(h_of, speed, 0.0, max_force_n)
+    fh = bisect_increasing(h_of, speed, 0.0, max_force_n)
     grid = np.linspace(-max_force_n, max_force_n, 4001)
     v_grid = np.asarray(vertical.map(len(grid))(np.zeros_like(grid), np.zeros_like(grid), grid)).ravel()
     if np.ptp(v_grid) == 0.0:  # a vertical model that ignores fz cannot be inverted: no vertical force
