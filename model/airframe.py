@@ -41,6 +41,12 @@ class Observer:
     discretization: str
     acceleration: str
     force_offset_n: tuple[float, float, float]
+    # Time constant (s) of the velocity-aided acceleration bias estimate; 0: no bias estimate.
+    acceleration_bias_time_s: float = 0.0
+
+    @property
+    def estimates_acceleration_bias(self) -> bool:
+        return self.acceleration_bias_time_s > 0.0
 
 
 @dataclass(frozen=True)
@@ -213,8 +219,14 @@ def parse_airframe(text: str, source: str) -> Airframe:
     discretization = obs.string("discretization", DISCRETIZATIONS)
     acceleration = obs.string("acceleration", ACCELERATION_MODES)
     offset = obs.numbers("force_offset", length=3, default=(0.0, 0.0, 0.0))
+    bias_time = obs.number("acceleration_bias_time", default=0.0)
+    if bias_time < 0:
+        raise obs.fail("acceleration_bias_time", f"must be >= 0 s (0: no bias estimate), got {bias_time!r}")
+    if bias_time > 0 and acceleration == "velocity":
+        raise obs.fail("acceleration_bias_time", 'needs an acceleration input; with acceleration = "velocity" '
+                       "there is no acceleration bias to estimate (set it to 0 or remove it)")
     obs.done()
-    observer = Observer(sample_time, gains, discretization, acceleration, offset)  # type: ignore[arg-type]
+    observer = Observer(sample_time, gains, discretization, acceleration, offset, bias_time)  # type: ignore[arg-type]
 
     fa = top.table_of("force_air")
     assert fa is not None

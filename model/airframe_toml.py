@@ -56,6 +56,7 @@ def airframe_document(af: Airframe) -> dict[str, Any]:
             "discretization": af.observer.discretization,
             "acceleration": af.observer.acceleration,
             "force_offset": list(af.observer.force_offset_n),
+            "acceleration_bias_time": af.observer.acceleration_bias_time_s,
         },
         "force_air": {
             "horizontal": {"terms": list(af.horizontal.term_texts), "coefficients": list(af.horizontal.coefficients)},

@@ -91,7 +91,8 @@ def output_layout() -> Layout:
 
 
 def uses_previous_velocity(af: Airframe) -> bool:
-    return af.observer.acceleration == "velocity" or af.observer.discretization == "tustin"
+    return (af.observer.acceleration == "velocity" or af.observer.discretization == "tustin"
+            or af.observer.estimates_acceleration_bias)
 
 
 def state_layout(af: Airframe) -> Layout:
@@ -105,6 +106,9 @@ def state_layout(af: Airframe) -> Layout:
         fields.append(Field("fe_prev", 3, "N", "previous raw external force (Tustin)"))
     if uses_previous_velocity(af):
         fields.append(Field("vel_prev", 3, "m/s", "previous ground velocity"))
+    if af.observer.estimates_acceleration_bias:
+        fields.append(Field("acc_bias", 3, "m/s^2", "acceleration input minus the velocity's derivative, "
+                            "slowly averaged (the input's bias), NED"))
     fields += [Field(f"last.{f.name}", f.size, f.unit, "last valid output: " + f.doc) for f in OUTPUT_FIELDS]
     fields.append(Field("initialized", 1, "-", "0 until the first accepted sample, then 1"))
     return Layout(tuple(fields))
@@ -235,18 +239,34 @@ def build_step(af: Airframe) -> StepModel:
         "specific_force": ["in.specific_force", "rot_body_to_ned"],
         "velocity": ["in.vel_ned", "state.vel_prev", "in.dt", "state.initialized"],
     }[obs.acceleration]
+    bias_time = obs.acceleration_bias_time_s
+    if obs.estimates_acceleration_bias:
+        accel_inputs = accel_inputs + ["state.acc_bias", "in.vel_ned", "state.vel_prev", "in.dt", "state.initialized"]
 
     def acceleration(s: Signals) -> Signals:
+        if obs.acceleration == "velocity":
+            # Backward difference; the first sample has no predecessor and counts as unaccelerated.
+            diff = (s["in.vel_ned"] - s["state.vel_prev"]) / s["in.dt"]
+            return {"p_ddot": s["state.initialized"] * diff}  # initialized is exactly 0 or 1
         if obs.acceleration == "ned":
-            return {"p_ddot": s["in.acc_ned"]}
-        if obs.acceleration == "specific_force":
+            measured = s["in.acc_ned"]
+        else:
             rot = ca.reshape(s["rot_body_to_ned"], 3, 3)
-            return {"p_ddot": rot @ s["in.specific_force"] + ca.vertcat(0, 0, g0)}
-        # Backward difference; the first sample has no predecessor and counts as unaccelerated.
-        diff = (s["in.vel_ned"] - s["state.vel_prev"]) / s["in.dt"]
-        return {"p_ddot": s["state.initialized"] * diff}  # initialized is exactly 0 or 1
+            measured = rot @ s["in.specific_force"] + ca.vertcat(0, 0, g0)
+        if not obs.estimates_acceleration_bias:
+            return {"p_ddot": measured}
+        # Velocity-aided bias: a real force moves the measured acceleration and the velocity's
+        # derivative alike, a sensor or attitude bias only the former. Averaged over bias_time, their
+        # difference is the bias; the differentiated velocity's noise is averaged away with it.
+        started = s["state.initialized"]
+        difference = measured - (s["in.vel_ned"] - s["state.vel_prev"]) / s["in.dt"]
+        weight = started * -ca.expm1(-s["in.dt"] / bias_time)
+        bias = s["state.acc_bias"]
+        return {"p_ddot": measured - bias, "acc_bias_new": bias + weight * (difference - bias)}
 
-    b.add("acceleration", "kinematic acceleration p'' (m/s^2, NED)", accel_inputs, acceleration)
+    b.add("acceleration", "kinematic acceleration p'' (m/s^2, NED)"
+          + (f", minus its velocity-aided bias (time constant {bias_time:g} s)" if obs.estimates_acceleration_bias else ""),
+          accel_inputs, acceleration)
 
     b.add("external_force", "f_e solved from m p'' = -u_f z_b + m g e3 + f_e (N, NED)",
           ["p_ddot", "u_f", "z_b"],
@@ -337,11 +357,14 @@ def build_step(af: Airframe) -> StepModel:
         "fe_prev": "f_e", "vel_prev": "in.vel_ned", "initialized": "const.one",
         "last.force_ned": "f_filt_new", "last.wind_ned": "wind_ned", "last.wind_speed_h": "wind_speed_h",
         "last.wind_speed_up": "wind_speed_up", "last.wind_from_deg": "wind_from_deg",
+        "acc_bias": "acc_bias_new",
     }
     next_state = tuple((f.name, mapping[f.name]) for f in lstate.fields)
-    # Every committed value reaches the outputs (f_e and the observer through the low-pass, the
+    # Every other committed value reaches the outputs (f_e and the observer through the low-pass, the
     # velocity paths through the wind triangle), so a non-finite state cannot hide from this check.
     committed = ["f_filt_new", "wind_ned", "wind_speed_h"]
+    if obs.estimates_acceleration_bias:
+        committed.append("acc_bias_new")  # reaches the outputs only from the next sample on
 
     def check_result(s: Signals) -> Signals:
         values = ca.vertcat(*[s[name] for name in committed])

@@ -49,6 +49,10 @@ BAD = [
     ("tilt", airframe_dict(**{"limits.max_tilt_deg": 95.0}), "limits.max_tilt_deg: must be below 90"),
     ("max_dt_small", airframe_dict(**{"limits.max_dt": 0.001}), "limits.max_dt: must be at least"),
     ("offset_two", airframe_dict(**{"observer.force_offset": [0.0, 0.0]}), "observer.force_offset: expected 3"),
+    ("bias_time_negative", airframe_dict(**{"observer.acceleration_bias_time": -1.0}),
+     "observer.acceleration_bias_time: must be >= 0"),
+    ("bias_time_velocity", airframe_dict(**{"observer.acceleration_bias_time": 10.0, "observer.acceleration": "velocity"}),
+     "observer.acceleration_bias_time: needs an acceleration input"),
 ]
 
 
@@ -123,4 +127,5 @@ def test_defaults_for_optional_keys():
     af = parse_airframe(dumps(doc), "<x>")
     assert af.limits.max_dt_s == 0.1 and af.limits.max_tilt_deg == 60.0
     assert af.observer.force_offset_n == (0.0, 0.0, 0.0)
+    assert af.observer.acceleration_bias_time_s == 0.0 and not af.observer.estimates_acceleration_bias
     assert af.gravity_mps2 == pytest.approx(9.80665) or "gravity" in doc

@@ -195,6 +195,57 @@ def test_delay_matching_hides_manoeuvres_in_still_air():
     assert max(matched) < 0.25 * max(raw)
 
 
+@pytest.mark.parametrize("mode", ["ned", "specific_force"])
+def test_acceleration_bias_is_learned_at_its_time_constant(mode):
+    """Hovering in still air with a constant acceleration-input bias b: the bias estimate follows the
+    closed form b (1 - exp(-dt/tau)^k) and the force reads zero once it has converged. Without the
+    estimate the same flight reads the force m b, which is what the estimate is for."""
+    tau, dt = 2.0, 0.02
+    bias_ned = np.array([0.05, -0.04, 0.03])
+    readings = {}
+    for bias_time in (tau, 0.0):
+        af = make_airframe(**{"observer.acceleration": mode, "observer.acceleration_bias_time": bias_time,
+                              "observer.force_offset": [0.0, 0.0, 0.0]})
+        model = build_step(af)
+        row = _steady_row(model, np.zeros(3), np.zeros(3), 0.7, dt=dt)
+        row.update(accel_inputs(af, row["q"], bias_ned))  # the measured acceleration is the bias alone
+        x = model.initial_state()
+        for k in range(1, 1501):
+            x, y, status = model.step(x, model.inputs.pack(row))
+            assert int(status) == 0
+            if bias_time:
+                learned = model.state.unpack(np.asarray(x).ravel())["acc_bias"]
+                # The first sample only initializes; each later one moves the estimate by 1 - exp(-dt/tau).
+                np.testing.assert_allclose(learned, bias_ned * (1 - math.exp(-dt / tau) ** (k - 1)), rtol=1e-9, atol=1e-12)
+        readings[bias_time] = model.outputs.unpack(np.asarray(y).ravel())["force_ned"]
+    np.testing.assert_allclose(readings[tau], 0.0, atol=1e-5)
+    np.testing.assert_allclose(readings[0.0], 2.5 * bias_ned, rtol=1e-6)  # m b, m = 2.5 kg
+
+
+def test_acceleration_bias_estimate_leaves_real_forces_alone():
+    """A real, changing external force moves the acceleration and the velocity together: the bias
+    estimate must stay at zero and the force output must equal the one without the estimate."""
+    dt = 0.02
+    outputs = {}
+    for bias_time in (1.5, 0.0):
+        af = make_airframe(**{"observer.acceleration_bias_time": bias_time, "observer.force_offset": [0.0, 0.0, 0.0]})
+        model = build_step(af)
+        level = _steady_row(model, np.zeros(3), np.zeros(3), 0.0, dt=dt)  # level, thrust holding the weight
+        x, v, trace = model.initial_state(), np.zeros(3), []
+        for k in range(1000):
+            force = np.array([2.0 * math.sin(0.9 * k * dt), 1.0 - math.cos(0.4 * k * dt), 0.5 * math.sin(2.0 * k * dt)])
+            acc = force / af.mass_kg  # level thrust cancels gravity, so m p'' = f_e
+            v = v + acc * dt  # the velocity the step's backward difference turns back into acc
+            row = dict(level, vel_ned=v.copy(), acc_ned=acc)
+            x, y, _ = model.step(x, model.inputs.pack(row))
+            trace.append(model.outputs.unpack(np.asarray(y).ravel())["force_ned"])
+        if bias_time:
+            assert np.max(np.abs(model.state.unpack(np.asarray(x).ravel())["acc_bias"])) < 1e-10
+        outputs[bias_time] = np.array(trace)
+    assert np.max(np.abs(outputs[0.0])) > 0.5  # the force did move
+    np.testing.assert_allclose(outputs[1.5], outputs[0.0], atol=1e-9)
+
+
 def test_rejected_sample_leaves_state_and_output_unchanged():
     model = build_step(make_airframe())
     row = _steady_row(model, np.array([1.0, 2.0, 0.0]), np.array([1.0, 0, 0]), 0.3)

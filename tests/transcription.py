@@ -100,6 +100,17 @@ def step(af: Airframe, st: dict[str, np.ndarray], inp: dict[str, np.ndarray]):
         else:
             acc = (v - st["vel_prev"]) / dt if started else np.zeros(3)
         f_e = m * acc - m * g * np.array([0, 0, 1.0]) + u_f * z_b  # slip 1: "- m g0 e3", not "- g"
+    bias = None
+    tau = af.observer.acceleration_bias_time_s
+    if tau > 0:
+        # The measured kinematic acceleration, then its disagreement with the velocity's slope.
+        kinematic = (np.asarray(inp["acc_ned"], float) if mode == "ned"
+                     else rotate(q, np.asarray(inp["specific_force"], float)) + np.array([0, 0, g]))
+        f_e = f_e - m * st["acc_bias"]
+        bias = st["acc_bias"].copy()
+        if started:
+            disagreement = kinematic - (v - st["vel_prev"]) / dt
+            bias = bias + (1 - math.exp(-dt / tau)) * (disagreement - bias)
 
     w = np.asarray(af.observer.gains) / m
     disc = af.observer.discretization
@@ -143,9 +154,11 @@ def step(af: Airframe, st: dict[str, np.ndarray], inp: dict[str, np.ndarray]):
         new["fe_prev"] = f_e
     if "vel_prev" in st:
         new["vel_prev"] = v
+    if bias is not None:
+        new["acc_bias"] = bias
     for key, value in out.items():
         new[f"last.{key}"] = value
-    checked = np.concatenate([f_filt, wind, [out["wind_speed_h"]]])
+    checked = np.concatenate([f_filt, wind, [out["wind_speed_h"]]] + ([] if bias is None else [bias]))
     if not np.sum(np.abs(checked)) <= 1e30:
         return dict(st), {k[5:]: v for k, v in st.items() if k.startswith("last.")}, 32
     return new, out, 0

@@ -6,6 +6,7 @@ airframe's own acceleration input:
   - ned:            acc_ned += f / m
   - specific_force: specific_force += f / m (body axes; level hover at yaw 0)
   - velocity:       vel_ned = vel_prev + dt f / m (the velocity integrates the force)
+  - with the acceleration bias estimate, the velocity integrates the force as well
 or, for noise studies, as white noise added to that input. Per axis, only the states the force
 output depends on are kept, and the result is a python-control discrete state-space system.
 """
@@ -60,6 +61,11 @@ def _injected_inputs(model: StepModel, u0: ca.SX, dt: ca.SX, x: ca.SX, d: ca.SX,
         name = "acc_ned" if mode == "ned" else "specific_force"
         sl = model.inputs.slice(name)
         u[sl] = u[sl] + (d / af.mass_kg if kind == "force" else d)
+        if kind == "force" and af.observer.estimates_acceleration_bias:
+            # A real force moves the velocity too; the bias estimate must see both or it would
+            # (wrongly) take the force for a bias.
+            sv = model.inputs.slice("vel_ned")
+            u[sv] = x[model.state.slice("vel_prev")] + dt / af.mass_kg * d
     return u
 
 
