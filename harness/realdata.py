@@ -10,6 +10,7 @@ scored by its mean estimated horizontal speed against the nominal tunnel speed.
 from __future__ import annotations
 
 import argparse
+import math
 import ast
 import csv
 import gzip
@@ -127,7 +128,7 @@ def main(argv: list[str] | None = None) -> int:
         for name, r in results[key].items():
             mark = "*" if r.get("trained_on") else " "
             print(f"  {name:9s}{mark}  {r['nominal_mps']:7.1f}  {r['mean_speed_mps']:11.2f}  {r['speed_of_mean_mps']:11.2f}  "
-                  f"{r['mean_from_deg']:8.1f}  {r['mean_up_mps']:6.2f}   {', '.join(r['fit_terms'])} ({r['fit_cv_rmse_mps']:.2f})")
+                  f"{r['mean_from_deg']:8.1f}  {r['mean_up_mps']:6.2f}   {', '.join(r['fit_terms'])} ({r['fit_cv_rmse_mps'] or math.nan:.2f})")
     return 0
 
 

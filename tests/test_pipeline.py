@@ -10,7 +10,7 @@ import pytest
 from dobwind import baseline
 from dobwind.cli import main
 from dobwind.codegen.tolerance import TOLERANCE
-from dobwind.fit import fit_airframe
+from dobwind.fit import VERTICAL_CANDIDATES, Points, _extrapolation_rmse, _term_matrix, fit_airframe, select_terms
 from dobwind.logs import ESTIMATE_COLUMNS, read_log, required_columns
 from dobwind.model.airframe import load_airframe
 from dobwind.replay import replay, score
@@ -146,6 +146,38 @@ def test_fit_report_json(logs, tmp_path, capsys):
     assert (tmp_path / "f_fit.png").read_bytes()[:4] == b"\x89PNG"
 
 
+def test_term_selection_returns_the_terms_the_data_was_made_from():
+    """Vertical airflow made from fz and the inflow terms fh, fh^2 (with fz*abs(fz) and
+    fz*abs(fz)^-0.5 as decoys that follow fz closely): exactly those three terms, nothing more."""
+    rng = np.random.default_rng(4)
+    groups = np.repeat(np.arange(60), 5)
+    fz = np.repeat(rng.uniform(-4, 4, 60), 5) + rng.normal(0, 0.01, 300)
+    fh = np.repeat(rng.uniform(0, 6, 60), 5)
+    angle = rng.uniform(-np.pi, np.pi, 300)
+    target = 0.4 * fz - 0.03 * fh ** 2 + 0.05 * fh + rng.normal(0, 0.005, 300)
+    points = Points(fh * np.cos(angle), fh * np.sin(angle), fz, np.zeros(300), target, angle, groups)
+    terms, score = select_terms(VERTICAL_CANDIDATES, points, target, max_terms=4)
+    assert sorted(terms) == ["fh", "fh^2", "fz"]
+    assert score < 0.01
+
+
+def test_extrapolation_error_is_measured_on_the_top_holds_only():
+    """Holds at 0..8 m/s of airflow whose speed is exactly sqrt(force): the right term extrapolates
+    without error; a straight line fitted on the holds below 7.2 m/s (90 % of the top) misses the
+    8 m/s hold by what a hand-made least squares gives."""
+    speed = np.repeat(np.arange(0.0, 9.0), 4)
+    groups = np.repeat(np.arange(9), 4)
+    force = speed ** 2
+    zeros = np.zeros(speed.size)
+    points = Points(force, zeros, zeros, speed, zeros, zeros, groups)
+    terms = _term_matrix(["fh^0.5", "fh"], points.m, points.n, points.fz)
+    assert _extrapolation_rmse(terms[:, :1], speed, groups) == pytest.approx(0.0, abs=1e-9)
+    below = speed < 7.2
+    slope = np.sum(force[below] * speed[below]) / np.sum(force[below] ** 2)
+    expected = abs(slope * 64.0 - 8.0)
+    assert _extrapolation_rmse(terms[:, 1:], speed, groups) == pytest.approx(expected, rel=1e-9)
+
+
 def test_one_direction_gives_a_warning_and_a_direction_free_model(logs):
     af = load_airframe(M300)
     new, report, _ = fit_airframe(af, [logs["tunnel"]], "airframe")
@@ -196,7 +228,8 @@ def test_accuracy_on_the_projects_simulator(fitted, logs):
     tunnel = score(*_scored(af, logs["tunnel"]))
     assert tunnel["per_segment"]["speed_mean"] < 0.2 and tunnel["per_segment"]["direction_mean"] < 3.0
     still = score(*_scored(af, logs["still-air"]))
-    assert still["mean_estimated_wind"]["horizontal_mps"] < 0.4 and still["mean_estimated_wind"]["vertical_mps"] < 0.2
+    # 0.19 m/s here; without the acceleration bias estimate the same logs read 0.25.
+    assert still["mean_estimated_wind"]["horizontal_mps"] < 0.22 and still["mean_estimated_wind"]["vertical_mps"] < 0.2
 
 
 def _scored(af, path):
