@@ -85,11 +85,14 @@ def score_wind(log: FlightLog, wind: np.ndarray, status: np.ndarray) -> dict:
     if log.has("segment"):
         seg = log.columns["segment"]
         rows = []
-        for s in np.unique(seg):
-            in_seg = seg == s
-            start = t[in_seg][0]
-            use = in_seg & valid & (t >= start + SEGMENT_SETTLE_S)
-            if use.sum() < 10:
+        # One sort instead of a mask per segment: an hour-long sweep has hundreds of segments.
+        order = np.argsort(seg, kind="stable")
+        labels, first = np.unique(seg[order], return_index=True)
+        for s, lo, hi in zip(labels, first, np.r_[first[1:], len(order)]):
+            members = order[lo:hi]
+            start = t[members[0]]
+            use = members[valid[members] & (t[members] >= start + SEGMENT_SETTLE_S)]
+            if use.size < 10:
                 continue
             est_mean, true_mean = wind[use].mean(axis=0), truth[use].mean(axis=0)
             est_speed, true_speed = math.hypot(*est_mean[:2]), math.hypot(*true_mean[:2])
@@ -97,7 +100,7 @@ def score_wind(log: FlightLog, wind: np.ndarray, status: np.ndarray) -> dict:
                          if true_speed >= MIN_SPEED_FOR_DIRECTION else None)
             rows.append({"segment": int(s), "true_speed": true_speed, "est_speed": est_speed,
                          "speed_error": est_speed - true_speed, "direction_error": direction,
-                         "vertical_error": float(est_mean[2] - true_mean[2]), "samples": int(use.sum())})
+                         "vertical_error": float(est_mean[2] - true_mean[2]), "samples": int(use.size)})
         if rows:
             speed = np.abs([r["speed_error"] for r in rows])
             dirs = np.array([r["direction_error"] for r in rows if r["direction_error"] is not None])
