@@ -269,6 +269,16 @@ def _finite_or_none(value: float) -> float | None:
     return value if math.isfinite(value) else None
 
 
+def _least_squares(terms: list[str], points: Points,
+                   target: np.ndarray) -> tuple[list[float], float, float | None, float | None]:
+    """Coefficients, RMSE, grouped CV RMSE and top-hold extrapolation RMSE (None where undefined)."""
+    a = _term_matrix(terms, points.m, points.n, points.fz)
+    coef = _lstsq(a, target)
+    rmse = float(np.sqrt(np.mean((a @ coef - target) ** 2)))
+    return ([float(c) for c in coef], rmse, _finite_or_none(_grouped_cv_rmse(a, target, points.group)),
+            _finite_or_none(_extrapolation_rmse(a, target, points.group)))
+
+
 def _zero_airflow(points: Points) -> np.ndarray:
     return (points.speed_h < ZERO_AIRFLOW_MPS) & (np.abs(points.air_z) < ZERO_AIRFLOW_MPS)
 
@@ -329,12 +339,9 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "airframe",
         report.warnings.append(f"only {report.speeds} distinct airflow speed(s): fitting the one-term model "
                                "speed = c * fh^0.5 (quadratic drag)")
         h_terms = ["fh^0.5"]
-    a_h = _term_matrix(h_terms, points.m, points.n, points.fz)
-    h_coef = _lstsq(a_h, points.speed_h)
-    report.horizontal_terms, report.horizontal_coefficients = h_terms, [float(c) for c in h_coef]
-    report.horizontal_rmse_mps = float(np.sqrt(np.mean((a_h @ h_coef - points.speed_h) ** 2)))
-    report.horizontal_cv_rmse_mps = _finite_or_none(_grouped_cv_rmse(a_h, points.speed_h, points.group))
-    report.horizontal_extrapolation_rmse_mps = _finite_or_none(_extrapolation_rmse(a_h, points.speed_h, points.group))
+    report.horizontal_terms = h_terms
+    (report.horizontal_coefficients, report.horizontal_rmse_mps, report.horizontal_cv_rmse_mps,
+     report.horizontal_extrapolation_rmse_mps) = _least_squares(h_terms, points, points.speed_h)
 
     vertical = af.vertical
     vertical_span = float(np.ptp(points.air_z))
@@ -345,12 +352,9 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "airframe",
     else:
         v_terms = (select_terms(VERTICAL_CANDIDATES, points, points.air_z, max_terms=4)[0] if terms == "auto"
                    else list(vertical.term_texts))
-        a_v = _term_matrix(v_terms, points.m, points.n, points.fz)
-        v_coef = _lstsq(a_v, points.air_z)
-        report.vertical_terms, report.vertical_coefficients = v_terms, [float(c) for c in v_coef]
-        report.vertical_rmse_mps = float(np.sqrt(np.mean((a_v @ v_coef - points.air_z) ** 2)))
-        report.vertical_cv_rmse_mps = _finite_or_none(_grouped_cv_rmse(a_v, points.air_z, points.group))
-        report.vertical_extrapolation_rmse_mps = _finite_or_none(_extrapolation_rmse(a_v, points.air_z, points.group))
+        report.vertical_terms = v_terms
+        (report.vertical_coefficients, report.vertical_rmse_mps, report.vertical_cv_rmse_mps,
+         report.vertical_extrapolation_rmse_mps) = _least_squares(v_terms, points, points.air_z)
         vertical = ForceAirModel(tuple(parse_term(t) for t in v_terms), tuple(report.vertical_coefficients))
     horizontal = ForceAirModel(tuple(parse_term(t) for t in h_terms), tuple(report.horizontal_coefficients))
     if not all(math.isfinite(c) for c in report.horizontal_coefficients + report.vertical_coefficients):
