@@ -54,18 +54,16 @@ def _injected_inputs(model: StepModel, u0: ca.SX, dt: ca.SX, x: ca.SX, d: ca.SX,
     af = model.airframe
     u = ca.SX(u0)
     mode = af.observer.acceleration
-    if mode == "velocity":
-        sl = model.inputs.slice("vel_ned")
-        u[sl] = x[model.state.slice("vel_prev")] + dt / af.mass_kg * d if kind == "force" else u[sl] + d
-    else:
-        name = "acc_ned" if mode == "ned" else "specific_force"
-        sl = model.inputs.slice(name)
-        u[sl] = u[sl] + (d / af.mass_kg if kind == "force" else d)
-        if kind == "force" and af.observer.estimates_acceleration_bias:
-            # A real force moves the velocity too; the bias estimate must see both or it would
-            # (wrongly) take the force for a bias.
-            sv = model.inputs.slice("vel_ned")
-            u[sv] = x[model.state.slice("vel_prev")] + dt / af.mass_kg * d
+    force = kind == "force"
+    if mode != "velocity":
+        sl = model.inputs.slice("acc_ned" if mode == "ned" else "specific_force")
+        u[sl] = u[sl] + (d / af.mass_kg if force else d)
+    sv = model.inputs.slice("vel_ned")
+    if force and (mode == "velocity" or af.observer.estimates_acceleration_bias):
+        # A real force moves the velocity too (the bias estimate would otherwise take it for a bias).
+        u[sv] = x[model.state.slice("vel_prev")] + dt / af.mass_kg * d
+    elif mode == "velocity":
+        u[sv] = u[sv] + d  # velocity noise
     return u
 
 
