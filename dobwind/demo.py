@@ -72,7 +72,7 @@ def run_demo(out_dir: str) -> int:
     verification = verify_airframe(fitted, "both", steps=20000)
     worst = {p.precision: p.flight.worst_ratio for p in verification.precisions if p.flight}
     print(f"== verify: {'PASS' if verification.passed else 'FAIL'} (worst error / tolerance: double {worst['double']:.3g}, "
-          f"single {worst['single']:.3g}; C99, C++ and clang builds, self-test)")
+          f"single {worst['single']:.3g}; {verification.builds_text()}, self-test)")
 
     tilt = baseline.calibrate([read_log(logs["sweep"], required_columns(af) + [("wind_n", "truth")])])
     results = {}

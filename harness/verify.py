@@ -48,12 +48,20 @@ class VerifyReport:
     def passed(self) -> bool:
         return all(p.passed for p in self.precisions)
 
+    def builds(self) -> list[str]:
+        """The compilers that actually ran and accepted the code, in order (clang only when installed)."""
+        return list(dict.fromkeys(label for p in self.precisions for label, result in p.compilers.items()
+                                  if result == "ok"))
+
+    def builds_text(self) -> str:
+        return "builds: " + (", ".join(self.builds()) or "none")
+
     def as_dict(self) -> dict:
-        return {"airframe": self.airframe, "passed": self.passed, "precisions": [
+        return {"airframe": self.airframe, "passed": self.passed, "builds": self.builds(), "precisions": [
             {**asdict(p), "passed": p.passed} for p in self.precisions]}
 
     def text(self) -> str:
-        lines = [f"verify {self.airframe}: {'PASS' if self.passed else 'FAIL'}"]
+        lines = [f"verify {self.airframe}: {'PASS' if self.passed else 'FAIL'} ({self.builds_text()})"]
         for p in self.precisions:
             tol = TOLERANCE[p.precision]
             lines.append(f"  {p.precision} precision (tolerance rtol {tol.rtol:g}, atol {tol.atol:g}, "
