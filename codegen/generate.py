@@ -15,7 +15,6 @@ from dobwind.atomic import write_text_atomically
 from dobwind.codegen.printer import CPrinter
 from dobwind.codegen.sections import build_sections, c_element, signal_sizes
 from dobwind.codegen.tolerance import MIN_SPEED_FOR_DIRECTION, SELFTEST_TOLERANCE
-from dobwind.errors import InputError
 from dobwind.model import reference
 from dobwind.model.airframe import Airframe
 from dobwind.model.exercise import flight_inputs
@@ -151,11 +150,9 @@ def generate_code(af: Airframe, precision: str = "single", model: StepModel | No
 
 
 def _refuse_unstable(af: Airframe) -> None:
-    from dobwind.analysis.stability import unstable_reason
+    from dobwind.analysis.stability import require_stable
 
-    reason = unstable_reason(af)
-    if reason:
-        raise InputError(af.name, "observer.gains", f"refusing to generate code: {reason}")
+    require_stable(af, "refusing to generate code")
 
 
 def write_files_atomically(files: dict[str, str], out_dir: str | Path) -> list[Path]:

@@ -25,10 +25,12 @@ def _print_json(obj: dict[str, Any]) -> None:
 
 
 def cmd_generate(args: argparse.Namespace) -> int:
+    from dobwind.analysis.stability import require_stable
     from dobwind.codegen.generate import generate_to_dir
     from dobwind.model.airframe import load_airframe
 
     af = load_airframe(args.airframe)
+    require_stable(af, "refusing to generate code", args.airframe)  # the same gate as `check`
     out_dir = args.output or f"generated_c/{af.name}"
     files = generate_to_dir(af, out_dir, args.precision)
     for path in files:
@@ -56,10 +58,12 @@ def cmd_analyze(args: argparse.Namespace) -> int:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
+    from dobwind.analysis.stability import require_stable
     from dobwind.model.airframe import load_airframe
     from dobwind.model.step import build_step
 
     af = load_airframe(args.airframe)
+    require_stable(af, "generate would refuse it", args.airframe)
     model = build_step(af)
     summary = {
         "name": af.name,

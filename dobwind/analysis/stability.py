@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import math
 
+from dobwind.errors import InputError
 from dobwind.model.airframe import Airframe
 from dobwind.model.discretization import first_order
 
@@ -21,3 +22,11 @@ def unstable_reason(af: Airframe) -> str | None:
                 return (f"observer pole {pole:.6g} on axis {axis} at dt = {dt:g} s ({label}) is not inside the unit "
                         f"circle (gain {af.observer.gains['xyz'.index(axis)]:g})")
     return None
+
+
+def require_stable(af: Airframe, action: str, source: str | None = None) -> None:
+    """The one gate that `check` and `generate` share, so they can never disagree on the same gains:
+    an unstable observer is bad input (exit 2), named by its airframe key."""
+    reason = unstable_reason(af)
+    if reason:
+        raise InputError(source or af.name, "observer.gains", f"{action}: {reason}")

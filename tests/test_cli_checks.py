@@ -1,0 +1,43 @@
+"""Command-line contracts of issue #10: commands agree with each other and fail with one line."""
+from __future__ import annotations
+
+import pytest
+
+from dobwind.cli import main
+from dobwind.model.airframe_toml import dumps
+from tests.helpers import airframe_dict
+
+
+def _one_line(err: str) -> str:
+    assert err.count("\n") == 1 and err.endswith("\n") and "Traceback" not in err, err
+    return err
+
+
+def test_check_and_generate_agree_on_unstable_gains(tmp_path, capsys):
+    # Paper form: pole 1 - dt*gain/(2m) = 1 - 0.02*600/5 = -1.4 on axis y: outside the unit circle.
+    bad = tmp_path / "bad.toml"
+    bad.write_text(dumps(airframe_dict(**{"observer.gains": [20.0, 600.0, 30.0]})))
+    assert main(["check", str(bad)]) == 2
+    check_err = _one_line(capsys.readouterr().err)
+    assert main(["generate", str(bad), "-o", str(tmp_path / "out")]) == 2
+    generate_err = _one_line(capsys.readouterr().err)
+    for err in (check_err, generate_err):
+        assert str(bad) in err and "observer.gains" in err and "-1.4" in err and "axis y" in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_check_refuses_gains_unstable_only_at_max_dt(tmp_path, capsys):
+    # 1 - 0.02*120/5 = 0.52 at the sample time, but 1 - 0.1*120/5 = -1.4 at limits.max_dt = 0.1 s.
+    bad = tmp_path / "late.toml"
+    bad.write_text(dumps(airframe_dict(**{"observer.gains": [20.0, 25.0, 120.0]})))
+    assert main(["check", str(bad)]) == 2
+    err = _one_line(capsys.readouterr().err)
+    assert "limits.max_dt" in err and "axis z" in err
+
+
+def test_check_and_generate_agree_on_stable_gains(tmp_path, capsys):
+    # Worst pole 1 - 0.1*30/5 = 0.4 at limits.max_dt: inside.
+    good = tmp_path / "good.toml"
+    good.write_text(dumps(airframe_dict(**{"observer.gains": [20.0, 25.0, 30.0]})))
+    assert main(["check", str(good)]) == 0
+    assert main(["generate", str(good), "-o", str(tmp_path / "out")]) == 0
