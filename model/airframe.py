@@ -5,6 +5,7 @@ Every rule is checked here, so the rest of the code can trust the object. A bad 
 """
 from __future__ import annotations
 
+import difflib
 import hashlib
 import math
 import re
@@ -23,6 +24,16 @@ STANDARD_GRAVITY = 9.80665
 DEFAULT_MAX_DT_S = 0.1
 DEFAULT_MAX_TILT_DEG = 60.0
 MAX_ROTORS = 16
+
+# Every key each table may hold. They are checked before any value is read, so that a misspelt key
+# ("masss") is reported as unknown rather than as the correct key missing. Add new keys here.
+TOP_KEYS = ("name", "mass", "gravity", "thrust", "observer", "force_air", "filter", "limits")
+THRUST_KEYS = ("source", "scale", "rotors", "max_rpm", "coefficients")
+OBSERVER_KEYS = ("sample_time", "gains", "discretization", "acceleration", "force_offset", "acceleration_bias_time")
+FORCE_AIR_KEYS = ("horizontal", "vertical")
+POLYNOMIAL_KEYS = ("terms", "coefficients")
+FILTER_KEYS = ("speeds", "cutoffs")
+LIMITS_KEYS = ("max_dt", "max_tilt_deg")
 
 
 @dataclass(frozen=True)
@@ -88,11 +99,21 @@ class Airframe:
 class _Reader:
     """Typed access to one TOML table, recording which keys were read so leftovers are errors."""
 
-    def __init__(self, source: str, table: dict[str, Any], prefix: str = "") -> None:
+    def __init__(self, source: str, table: dict[str, Any], prefix: str = "",
+                 known: tuple[str, ...] | None = None) -> None:
         self.source = source
         self.table = table
         self.prefix = prefix
         self.used: set[str] = set()
+        if known is not None:
+            self.refuse_unknown(known)
+
+    def refuse_unknown(self, known: tuple[str, ...]) -> None:
+        unknown = sorted(set(self.table) - set(known))
+        if unknown:
+            close = difflib.get_close_matches(unknown[0], known, n=1)
+            hint = f"; did you mean '{close[0]}'?" if close else f" (expected one of: {', '.join(known)})"
+            raise InputError(self.source, self.key(unknown[0]), f"unknown key{hint}")
 
     def key(self, name: str) -> str:
         return f"{self.prefix}{name}"
@@ -148,13 +169,13 @@ class _Reader:
             raise self.fail(name, f"every value must be > 0, got {value!r}")
         return tuple(float(v) for v in value)
 
-    def table_of(self, name: str, required: bool = True) -> "_Reader | None":
+    def table_of(self, name: str, known: tuple[str, ...], required: bool = True) -> "_Reader | None":
         value = self.raw(name, required=required)
         if value is None:
             return None
         if not isinstance(value, dict):
             raise self.fail(name, "expected a table")
-        return _Reader(self.source, value, f"{self.key(name)}.")
+        return _Reader(self.source, value, f"{self.key(name)}.", known)
 
     def done(self) -> None:
         unknown = sorted(set(self.table) - self.used)
@@ -203,16 +224,16 @@ def parse_airframe(text: str, source: str) -> Airframe:
         document = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise InputError(source, None, f"TOML syntax error: {exc}") from None
-    top = _Reader(source, document)
+    top = _Reader(source, document, known=TOP_KEYS)
     name = top.string("name")
     if not re.fullmatch(r"[a-z][a-z0-9_]*", name):
         raise top.fail("name", f"must match [a-z][a-z0-9_]* (it prefixes C symbols), got {name!r}")
     mass = top.number("mass", positive=True)
     gravity = top.number("gravity", default=STANDARD_GRAVITY, positive=True)
 
-    thrust = _thrust(top.table_of("thrust"))  # type: ignore[arg-type]
+    thrust = _thrust(top.table_of("thrust", THRUST_KEYS))  # type: ignore[arg-type]
 
-    obs = top.table_of("observer")
+    obs = top.table_of("observer", OBSERVER_KEYS)
     assert obs is not None
     sample_time = obs.number("sample_time", positive=True)
     gains = obs.numbers("gains", length=3, positive=True)
@@ -228,13 +249,13 @@ def parse_airframe(text: str, source: str) -> Airframe:
     obs.done()
     observer = Observer(sample_time, gains, discretization, acceleration, offset, bias_time)  # type: ignore[arg-type]
 
-    fa = top.table_of("force_air")
+    fa = top.table_of("force_air", FORCE_AIR_KEYS)
     assert fa is not None
-    horizontal = _force_air(fa.table_of("horizontal"))  # type: ignore[arg-type]
-    vertical = _force_air(fa.table_of("vertical"))  # type: ignore[arg-type]
+    horizontal = _force_air(fa.table_of("horizontal", POLYNOMIAL_KEYS))  # type: ignore[arg-type]
+    vertical = _force_air(fa.table_of("vertical", POLYNOMIAL_KEYS))  # type: ignore[arg-type]
     fa.done()
 
-    flt = top.table_of("filter")
+    flt = top.table_of("filter", FILTER_KEYS)
     assert flt is not None
     speeds = flt.numbers("speeds")
     if speeds[0] < 0:
@@ -249,7 +270,7 @@ def parse_airframe(text: str, source: str) -> Airframe:
     if max(cutoffs) >= nyquist:
         raise InputError(source, "filter.cutoffs", f"must stay below the Nyquist frequency {nyquist:g} Hz")
 
-    lim = top.table_of("limits", required=False)
+    lim = top.table_of("limits", LIMITS_KEYS, required=False)
     limits = Limits()
     if lim is not None:
         max_dt = lim.number("max_dt", default=DEFAULT_MAX_DT_S, positive=True)

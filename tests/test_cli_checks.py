@@ -41,3 +41,21 @@ def test_check_and_generate_agree_on_stable_gains(tmp_path, capsys):
     good.write_text(dumps(airframe_dict(**{"observer.gains": [20.0, 25.0, 30.0]})))
     assert main(["check", str(good)]) == 0
     assert main(["generate", str(good), "-o", str(tmp_path / "out")]) == 0
+
+
+@pytest.mark.parametrize("typo, right, where", [
+    ("masss", "mass", ""), ("gainz", "gains", "observer."), ("speed", "speeds", "filter."),
+    ("max_rpms", "max_rpm", "thrust."),
+])
+def test_a_misspelt_key_is_named_before_the_missing_one(tmp_path, capsys, typo, right, where):
+    doc = airframe_dict()
+    table = doc
+    for part in where.rstrip(".").split(".") if where else []:
+        table = table[part]
+    table[typo] = table.pop(right)
+    path = tmp_path / "typo.toml"
+    path.write_text(dumps(doc))
+    assert main(["check", str(path)]) == 2
+    err = _one_line(capsys.readouterr().err)
+    assert f"{path}: {where}{typo}: unknown key; did you mean '{right}'?" in err
+    assert "missing" not in err
