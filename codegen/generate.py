@@ -12,9 +12,10 @@ import numpy as np
 
 from dobwind import __version__
 from dobwind.atomic import write_text_atomically
-from dobwind.codegen.printer import CPrinter
+from dobwind.codegen.printer import CPrinter, LiteralError
 from dobwind.codegen.sections import build_sections, c_element, signal_sizes
 from dobwind.codegen.tolerance import MIN_SPEED_FOR_DIRECTION, SELFTEST_TOLERANCE
+from dobwind.errors import InputError
 from dobwind.model import reference
 from dobwind.model.airframe import Airframe
 from dobwind.model.exercise import flight_inputs
@@ -110,9 +111,19 @@ def _selftest_context(model: StepModel, printer: CPrinter, precision: str) -> di
     }
 
 
-def generate_code(af: Airframe, precision: str = "single", model: StepModel | None = None) -> GeneratedCode:
+def generate_code(af: Airframe, precision: str = "single", model: StepModel | None = None,
+                  source: str | None = None) -> GeneratedCode:
+    """``source`` names the airframe file in errors (default: the airframe's name)."""
     model = model or build_step(af)
     _refuse_unstable(af)
+    try:
+        return _render(af, precision, model)
+    except LiteralError as exc:
+        raise InputError(source or af.name, None, f"cannot print the C in {precision} precision: {exc} "
+                         "(check the airframe's values)") from None
+
+
+def _render(af: Airframe, precision: str, model: StepModel) -> GeneratedCode:
     prefix = f"{af.name}_wind_"
     printer = CPrinter(precision, trig_prefix=prefix)
     validate, sections, check = build_sections(model, printer)
@@ -161,6 +172,7 @@ def write_files_atomically(files: dict[str, str], out_dir: str | Path) -> list[P
             for name, text in files.items()]
 
 
-def generate_to_dir(af: Airframe, out_dir: str | Path, precision: str = "single") -> list[Path]:
-    code = generate_code(af, precision)  # everything is rendered before anything is written
+def generate_to_dir(af: Airframe, out_dir: str | Path, precision: str = "single",
+                    source: str | None = None) -> list[Path]:
+    code = generate_code(af, precision, source=source)  # everything is rendered before anything is written
     return write_files_atomically(code.files, out_dir)

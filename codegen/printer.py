@@ -26,6 +26,23 @@ _COMPARE = {ca.OP_LT: "<", ca.OP_LE: "<=", ca.OP_EQ: "==", ca.OP_NE: "!="}
 # The expensive operations, counted separately in the op summaries.
 # fmin/fmax are printed inline (see CPrinter.operation), so they are not calls.
 CALL_OPS = frozenset(_UNARY_CALLS) | frozenset(_BINARY_CALLS) | {ca.OP_CONSTPOW}
+# IEEE 754 binary32 limits: the largest finite value and the smallest positive (subnormal) one.
+FLT_MAX = 3.4028234663852886e38
+FLT_TRUE_MIN = 1.401298464324817e-45
+
+
+class LiteralError(ValueError):
+    """A model constant that has no faithful C literal in the chosen precision."""
+
+
+def check_literal(value: float, precision: str) -> None:
+    """Refuse constants the C compiler would turn into inf or 0 (or that are not numbers at all)."""
+    if math.isnan(value) or math.isinf(value):
+        raise LiteralError(f"non-finite constant {value!r} in the model")
+    if precision == "single" and abs(value) > FLT_MAX:
+        raise LiteralError(f"constant {value:.9g} is beyond single precision (|x| <= {FLT_MAX:.9g})")
+    if precision == "single" and 0.0 < abs(value) < FLT_TRUE_MIN:
+        raise LiteralError(f"constant {value:.9g} would round to 0 in single precision (|x| >= {FLT_TRUE_MIN:.9g})")
 
 
 @dataclass(frozen=True)
@@ -45,8 +62,7 @@ class CPrinter:
         return "float" if self.precision == "single" else "double"
 
     def literal(self, value: float) -> str:
-        if math.isnan(value) or math.isinf(value):
-            raise ValueError(f"non-finite constant {value!r} in the model")
+        check_literal(value, self.precision)
         if self.precision == "single":
             text = f"{value:.9g}"
             suffix = "f"
@@ -56,7 +72,9 @@ class CPrinter:
         if "e" not in text and "." not in text and "inf" not in text:
             text += ".0"
         text += suffix
-        return f"({text})" if value < 0 else text
+        # Every negative literal, -0.0 included (value < 0 is False for it), goes in parentheses so that
+        # a negation printed before it can never make "--0.0f".
+        return f"({text})" if math.copysign(1.0, value) < 0 else text
 
     def call(self, name: str, *args: str) -> str:
         suffix = "f" if self.precision == "single" else ""

@@ -32,7 +32,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
     af = load_airframe(args.airframe)
     require_stable(af, "refusing to generate code", args.airframe)  # the same gate as `check`
     out_dir = args.output or f"generated_c/{af.name}"
-    files = generate_to_dir(af, out_dir, args.precision)
+    files = generate_to_dir(af, out_dir, args.precision, source=args.airframe)
     for path in files:
         print(path)
     return 0
