@@ -58,8 +58,17 @@ class CStep:
 
 def compile_step(model: StepModel, precision: str, work_dir: Path | None = None,
                  extra_flags: tuple[str, ...] = ()) -> CStep:
-    """Generate, compile (strict flags) and load the C step for this model."""
-    work = Path(work_dir) if work_dir else Path(tempfile.mkdtemp(prefix="dobwind-"))
+    """Generate, compile (strict flags) and load the C step for this model.
+
+    Without ``work_dir`` the sources and library go to a temporary folder that is removed once the
+    library is loaded: the loader keeps its own mapping, so deleting the file does not unload it."""
+    if work_dir is not None:
+        return _build_and_load(model, precision, Path(work_dir), extra_flags)
+    with tempfile.TemporaryDirectory(prefix="dobwind-") as tmp:
+        return _build_and_load(model, precision, Path(tmp), extra_flags)
+
+
+def _build_and_load(model: StepModel, precision: str, work: Path, extra_flags: tuple[str, ...]) -> CStep:
     code = generate_code(model.airframe, precision, model)
     write_files_atomically(code.files, work)
     return CStep(model, build_shared_library(model, precision, work, work, extra_flags))

@@ -59,3 +59,23 @@ def test_a_misspelt_key_is_named_before_the_missing_one(tmp_path, capsys, typo, 
     err = _one_line(capsys.readouterr().err)
     assert f"{path}: {where}{typo}: unknown key; did you mean '{right}'?" in err
     assert "missing" not in err
+
+
+def test_compile_step_leaves_no_temporary_folder_and_still_runs(tmp_path, monkeypatch):
+    import tempfile
+
+    import numpy as np
+
+    from dobwind.harness.cstep import compile_step
+    from dobwind.model import reference
+    from dobwind.model.airframe import parse_airframe
+    from dobwind.model.exercise import flight_inputs
+    from dobwind.model.step import build_step
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))  # every temporary folder lands here
+    model = build_step(parse_airframe(dumps(airframe_dict()), "<test>"))
+    cstep = compile_step(model, "double")
+    assert list(tmp_path.iterdir()) == []
+    rows = flight_inputs(model, 200, seed=1)
+    got, ref = cstep.run(rows), reference.run(model, rows)  # the loaded library outlives its file
+    assert np.array_equal(got.status, ref.status) and np.allclose(got.outputs, ref.outputs, rtol=1e-9, atol=1e-9)
