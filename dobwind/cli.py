@@ -5,13 +5,16 @@ Every user mistake ends as one stderr line and exit status 2; a failed check as 
 from __future__ import annotations
 
 import argparse
-import json
+import os
 import sys
 
 import numpy as np
 from typing import Any, NoReturn, Sequence
 
+from dobwind import options as opt
 from dobwind.errors import EXIT_BAD_INPUT, EXIT_CHECK_FAILED, CheckFailed, InputError
+
+EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE, what a shell reports for a C tool killed by the closed pipe
 
 
 class _Parser(argparse.ArgumentParser):
@@ -21,7 +24,9 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _print_json(obj: dict[str, Any]) -> None:
-    sys.stdout.write(json.dumps(obj, indent=2, sort_keys=False, allow_nan=False) + "\n")
+    from dobwind.jsonout import print_json
+
+    print_json(obj)
 
 
 def cmd_generate(args: argparse.Namespace) -> int:
@@ -94,8 +99,6 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     from dobwind.simulate import write_log
 
     af = load_airframe(args.airframe or _default_airframe())
-    if args.hold is not None and args.hold <= 0:
-        raise InputError("simulate", "--hold", "must be > 0 seconds")
     rows = write_log(args.output, af, args.scenario, args.seed, args.hold, args.rate)
     rate = args.rate or 50.0
     print(f"{args.output}: {rows} rows, {rows / rate:.1f} s of '{args.scenario}' at {rate:g} Hz")
@@ -157,8 +160,6 @@ def _replay_ulog(args: argparse.Namespace, af) -> int:
     from dobwind.replay import replay_ulog, write_output
     from dobwind.ulog import compare_with_px4
 
-    if args.rate is not None and not args.rate > 0:
-        raise InputError("replay", "--rate", "must be > 0 Hz")
     model, flight, traj = replay_ulog(af, args.log, args.backend, args.precision, args.rate)
     log = flight.log
     if args.output:
@@ -213,8 +214,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("verify", help="generate, compile strictly, compare with the Python reference")
     p.add_argument("airframe")
     p.add_argument("--precision", choices=("single", "double", "both"), default="both")
-    p.add_argument("--steps", type=int, default=20000, help="length of the simulated flight compared step by step")
-    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--steps", type=opt.VERIFY_STEPS, default=20000,
+                   help=f"length of the simulated flight compared step by step ({opt.VERIFY_STEPS.text()})")
+    p.add_argument("--seed", type=opt.SEED, default=1, help=f"flight and random cases ({opt.SEED.text()})")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_verify)
 
@@ -222,8 +224,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("airframe")
     p.add_argument("-o", "--output", help="folder for the PNG plots")
     p.add_argument("--json", action="store_true")
-    p.add_argument("--freq", type=float, nargs="+", default=[0.1, 0.5, 1.0], help="frequencies (Hz) to report")
-    p.add_argument("--bandwidth", type=float, help="print the gains that give this observer bandwidth (Hz)")
+    p.add_argument("--freq", type=opt.FREQUENCY, nargs="+", default=[0.1, 0.5, 1.0],
+                   help=f"frequencies to report ({opt.FREQUENCY.text()}, below the Nyquist frequency 1/(2 sample_time); "
+                        f"at most {opt.MAX_FREQUENCIES})")
+    p.add_argument("--bandwidth", type=opt.BANDWIDTH, help="print the gains that give this observer bandwidth "
+                   f"({opt.BANDWIDTH.text()}, below the Nyquist frequency)")
     p.set_defaults(func=cmd_analyze)
 
     p = sub.add_parser("fit", help="fit the force-air model from logs with true wind")
@@ -244,7 +249,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output")
     p.add_argument("--backend", choices=("python", "c"), default="python")
     p.add_argument("--precision", choices=("single", "double"), default="single", help="C backend precision")
-    p.add_argument("--rate", type=float, help="ULog only: resample at this rate (Hz) instead of the attitude's clock")
+    p.add_argument("--rate", type=opt.ULOG_RATE,
+                   help=f"ULog only: resample at this rate ({opt.ULOG_RATE.text()}) instead of the attitude's clock")
     p.add_argument("--plot")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_replay)
@@ -253,9 +259,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("scenario", help="sweep | vertical | tunnel | still-air | outdoor")
     p.add_argument("--airframe", help="default: airframes/m300.toml")
     p.add_argument("-o", "--output", required=True)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--hold", type=float, help="seconds per hold (default: the scenario's own)")
-    p.add_argument("--rate", type=float, help="sample rate in Hz (default 50)")
+    p.add_argument("--seed", type=opt.SEED, default=0, help=f"turbulence and timing noise ({opt.SEED.text()})")
+    p.add_argument("--hold", type=opt.SIMULATE_HOLD,
+                   help=f"seconds per hold ({opt.SIMULATE_HOLD.text()}; default: the scenario's own)")
+    p.add_argument("--rate", type=opt.SIMULATE_RATE, help=f"sample rate ({opt.SIMULATE_RATE.text()}; default 50); "
+                   f"at most {opt.SIMULATE_MAX_ROWS:,} rows in all")
     p.set_defaults(func=cmd_simulate)
 
     p = sub.add_parser("demo", help="the whole pipeline on the reference airframe")
@@ -274,13 +282,30 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return int(args.func(args))
+        code = int(args.func(args))
+        sys.stdout.flush()  # inside the try: a reader that went away is reported here, not at exit
+        return code
     except InputError as exc:
         sys.stderr.write(f"dobwind {args.command}: {exc}\n")
         return EXIT_BAD_INPUT
     except CheckFailed as exc:
         sys.stderr.write(f"dobwind {args.command}: {exc}\n")
         return EXIT_CHECK_FAILED
+    except BrokenPipeError:
+        return _reader_went_away()
+
+
+def _reader_went_away() -> int:
+    """`dobwind ... | head`: the reader closed the pipe, which is not an error worth a traceback.
+
+    Python flushes stdout again at exit and would report the same broken pipe there, so stdout is
+    pointed at /dev/null first (the usual recipe; see the signal module's documentation on SIGPIPE)."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):  # stdout is not a real file (in-process callers): nothing to flush
+        pass
+    return EXIT_BROKEN_PIPE
 
 
 if __name__ == "__main__":

@@ -168,6 +168,15 @@ def aerodynamic_force(vehicle: TrueVehicle, air_rel_ned: np.ndarray, yaw: np.nda
     return np.column_stack([c * fx - s * fy, s * fx + c * fy, fz])
 
 
+def _refuse_too_many_rows(name: str, total_s: float, rate_hz: float, rows: int) -> None:
+    """Checked before any array is allocated: about 1 KB per row is held while simulating."""
+    from dobwind.options import SIMULATE_MAX_ROWS
+
+    if rows > SIMULATE_MAX_ROWS:
+        raise InputError(name, "--rate/--hold", f"{total_s:g} s at {rate_hz:g} Hz is {rows:,} rows, more than "
+                         f"the {SIMULATE_MAX_ROWS:,} allowed (lower --rate or --hold)")
+
+
 def simulate(af: Airframe, name: str, seed: int = 0, hold_s: float | None = None,
              rate_hz: float | None = None) -> dict[str, np.ndarray]:
     """Log columns (INTERFACES.md section 2) plus `segment`, for the scenario."""
@@ -180,6 +189,7 @@ def simulate(af: Airframe, name: str, seed: int = 0, hold_s: float | None = None
     starts = np.concatenate([[0.0], np.cumsum(durations)[:-1]])
     total = float(durations.sum())
     n = int(total * rate)
+    _refuse_too_many_rows(name, total, rate, n)
     t = np.arange(n) * period + np.clip(rng.normal(0, vehicle.jitter * period, n), -0.3 * period, 0.3 * period)
     t[0] = 0.0
     ramps = np.array([max(s.ramp_s, 1e-3) for s in scen.segments])

@@ -79,3 +79,74 @@ def test_compile_step_leaves_no_temporary_folder_and_still_runs(tmp_path, monkey
     rows = flight_inputs(model, 200, seed=1)
     got, ref = cstep.run(rows), reference.run(model, rows)  # the loaded library outlives its file
     assert np.array_equal(got.status, ref.status) and np.allclose(got.outputs, ref.outputs, rtol=1e-9, atol=1e-9)
+
+
+def _run(argv: list[str], capsys) -> tuple[int, str, str]:
+    try:
+        code = main(argv)
+    except SystemExit as exc:  # argparse refuses options while parsing
+        code = int(exc.code or 0)
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err
+
+
+M300_PATH = str(__import__("tests.helpers", fromlist=["M300"]).M300)
+BAD_OPTIONS = [
+    (["simulate", "sweep", "-o", "{out}", "--rate", v], "--rate") for v in ("-5", "0", "nan", "inf", "1e-300", "1e6")
+] + [
+    (["simulate", "sweep", "-o", "{out}", "--hold", v], "--hold") for v in ("nan", "inf", "1e-3", "1e9", "-1")
+] + [
+    (["simulate", "sweep", "-o", "{out}", "--seed", "-1"], "--seed"),
+    (["simulate", "sweep", "-o", "{out}", "--seed", "1.5"], "--seed"),
+    (["verify", M300_PATH, "--steps", "-5"], "--steps"),
+    (["verify", M300_PATH, "--steps", "1e9"], "--steps"),
+    (["verify", M300_PATH, "--seed", "-5"], "--seed"),
+    (["replay", M300_PATH, "x.ulg", "--rate", "inf"], "--rate"),
+    (["replay", M300_PATH, "x.ulg", "--rate", "1e9"], "--rate"),
+    (["analyze", M300_PATH, "--freq", "200"], "--freq"),     # m300: 100 Hz, Nyquist 50 Hz
+    (["analyze", M300_PATH, "--freq", "0.1", "50"], "--freq"),  # at Nyquist is not below it
+    (["analyze", M300_PATH, "--freq", "nan"], "--freq"),
+    (["analyze", M300_PATH, "--bandwidth", "1e-300"], "--bandwidth"),
+    (["analyze", M300_PATH, "--bandwidth", "50"], "--bandwidth"),
+    (["simulate", "sweep", "-o", "{out}", "--rate", "400"], "--rate/--hold"),  # 6480 s at 400 Hz: 2.6 M rows
+]
+
+
+@pytest.mark.parametrize("argv, option", BAD_OPTIONS, ids=[" ".join(a[2:]) for a, _ in BAD_OPTIONS])
+def test_every_numeric_option_is_bounded(argv, option, tmp_path, capsys):
+    out = tmp_path / "out.csv"
+    code, stdout, err = _run([a.format(out=out) for a in argv], capsys)
+    assert code == 2 and stdout == ""
+    assert option in _one_line(err)
+    assert not out.exists()
+
+
+def test_the_option_ranges_are_stated_in_help(capsys):
+    code, stdout, _ = _run(["simulate", "--help"], capsys)
+    assert code == 0 and "1 to 500 Hz" in stdout and "6 to 600 s" in stdout and "0 to 4294967295" in stdout
+
+
+def test_the_nyquist_bound_follows_the_airframe(tmp_path, capsys):
+    # sample_time 0.02 s: Nyquist 25 Hz. 24 Hz is fine at this rate, and refused at 0.05 s (10 Hz).
+    fast = tmp_path / "fast.toml"
+    fast.write_text(dumps(airframe_dict()))
+    slow = tmp_path / "slow.toml"
+    slow.write_text(dumps(airframe_dict(**{"observer.sample_time": 0.05, "filter.cutoffs": [0.3, 0.6, 1.0]})))
+    assert _run(["analyze", str(fast), "--freq", "24"], capsys)[0] == 0
+    code, _, err = _run(["analyze", str(slow), "--freq", "24"], capsys)
+    assert code == 2 and "Nyquist frequency 10 Hz" in _one_line(err)
+
+
+def test_a_closed_pipe_is_not_a_traceback(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    read_end, write_end = os.pipe()
+    os.close(read_end)  # the reader (`| head`) has already gone
+    try:
+        done = subprocess.run([sys.executable, "-m", "dobwind.cli", "check", M300_PATH], stdout=write_end,
+                              stderr=subprocess.PIPE, text=True, timeout=120)
+    finally:
+        os.close(write_end)
+    assert done.stderr == "" and done.returncode == 141

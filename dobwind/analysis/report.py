@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import math
 import sys
 from pathlib import Path
@@ -17,7 +16,8 @@ from dobwind.analysis.figures import figures, noise_gain
 from dobwind.analysis.linear import axis_system, continuous_observer, jacobian_function, linearize
 from dobwind.analysis.ramp import ramp_experiment
 from dobwind.analysis.stability import unstable_reason
-from dobwind.errors import EXIT_CHECK_FAILED
+from dobwind.errors import EXIT_CHECK_FAILED, InputError
+from dobwind.jsonout import print_json
 from dobwind.model.airframe import DISCRETIZATIONS, Airframe, load_airframe
 from dobwind.model.step import build_step
 
@@ -165,14 +165,31 @@ def write_plots(report: dict[str, Any], systems: dict[str, Any], out_dir: Path) 
     return written
 
 
+def _check_frequencies(af: Airframe, source: str, freqs_hz: list[float]) -> None:
+    """A discrete system has no response above Nyquist to report: refuse instead of aliasing."""
+    from dobwind.options import MAX_FREQUENCIES
+
+    nyquist = 0.5 / af.observer.sample_time_s
+    if len(freqs_hz) > MAX_FREQUENCIES:
+        raise InputError(source, "--freq", f"at most {MAX_FREQUENCIES} frequencies, got {len(freqs_hz)}")
+    for f in freqs_hz:
+        if not f < nyquist:
+            raise InputError(source, "--freq", f"{f:g} Hz is not below the Nyquist frequency {nyquist:g} Hz "
+                             f"(1 / (2 * observer.sample_time))")
+
+
 def analyze_command(args: argparse.Namespace) -> int:
     af = load_airframe(args.airframe)
+    _check_frequencies(af, args.airframe, list(args.freq))
     if args.bandwidth is not None:
-        gain = design_gain(af, args.bandwidth)
+        try:
+            gain = design_gain(af, args.bandwidth)
+        except InputError as exc:  # name the file the user gave, not the airframe inside it
+            raise InputError(args.airframe, exc.where, exc.message) from None
         gains = [gain, gain, gain]
         if args.json:
-            print(json.dumps({"airframe": af.name, "bandwidth_hz": args.bandwidth, "gains": gains,
-                              "sample_time_s": af.observer.sample_time_s, "discretization": af.observer.discretization}))
+            print_json({"airframe": af.name, "bandwidth_hz": args.bandwidth, "gains": gains,
+                        "sample_time_s": af.observer.sample_time_s, "discretization": af.observer.discretization})
         else:
             print(f"{af.name}: observer gains for a {args.bandwidth:g} Hz bandwidth at dt {af.observer.sample_time_s:g} s "
                   f"({af.observer.discretization}):\ngains = [{gain:.6g}, {gain:.6g}, {gain:.6g}]")
@@ -181,19 +198,11 @@ def analyze_command(args: argparse.Namespace) -> int:
     if args.output:
         report["plots"] = [str(p) for p in write_plots(report, systems, Path(args.output))]
     if args.json:
-        print(json.dumps(report, default=_json_default))
+        print_json(report)
     else:
         print(text(report, list(args.freq)))
     if not report["stable"]:
         sys.stderr.write(f"dobwind analyze: {af.name}: unstable: {report['unstable_reason'] or 'a pole is outside the unit circle'}\n")
         return EXIT_CHECK_FAILED
     return 0
-
-
-def _json_default(value: Any) -> Any:
-    if isinstance(value, (np.floating, np.integer)):
-        return value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    raise TypeError(type(value).__name__)
 

@@ -1,0 +1,47 @@
+"""Numeric command-line options bounded to ranges a flight-software engineer would expect.
+
+Each option is checked while the command line is parsed, before anything is read or allocated, so a
+rate of 1e6 Hz or a hold of 1e9 s is one stderr line (exit 2) instead of a memory exhaustion.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Bound:
+    low: float
+    high: float
+    unit: str = ""
+    integer: bool = False
+
+    def text(self) -> str:
+        unit = f" {self.unit}" if self.unit else ""
+        if self.integer:
+            return f"{int(self.low)} to {int(self.high)}{unit}"
+        return f"{self.low:g} to {self.high:g}{unit}"
+
+    def __call__(self, text: str) -> float | int:
+        """argparse ``type=``: the parsed value, or ArgumentTypeError (one line naming the option)."""
+        try:
+            value: float | int = int(text) if self.integer else float(text)
+        except ValueError:
+            kind = "a whole number" if self.integer else "a number"
+            raise argparse.ArgumentTypeError(f"expected {kind} from {self.text()}, got {text!r}") from None
+        # NaN fails both comparisons, so it is refused here too.
+        if not (self.low <= value <= self.high) or (isinstance(value, float) and not math.isfinite(value)):
+            raise argparse.ArgumentTypeError(f"must be from {self.text()}, got {text!r}")
+        return value
+
+
+SEED = Bound(0, 2**32 - 1, integer=True)
+SIMULATE_RATE = Bound(1.0, 500.0, "Hz")
+SIMULATE_HOLD = Bound(6.0, 600.0, "s")  # half a hold must cover the 3 s transitions
+SIMULATE_MAX_ROWS = 1_000_000  # about 1 GB while simulating; the default sweep is 324,000
+VERIFY_STEPS = Bound(100, 2_000_000, "steps", integer=True)
+ULOG_RATE = Bound(1.0, 1000.0, "Hz")
+FREQUENCY = Bound(1e-4, 1e4, "Hz")        # then also below the airframe's Nyquist frequency
+BANDWIDTH = Bound(1e-3, 1e4, "Hz")        # then also below the airframe's Nyquist frequency
+MAX_FREQUENCIES = 50

@@ -1,0 +1,108 @@
+"""Every `--json` output parses with a strict parser: NaN and Infinity become null, and are listed."""
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from dobwind.cli import main
+from dobwind.jsonout import NULL_PATHS_KEY, dumps
+from dobwind.model.airframe_toml import dumps as toml_dumps
+from tests.helpers import M300, airframe_dict
+
+
+def _refuse(constant: str):
+    raise AssertionError(f"not JSON: {constant}")
+
+
+def strict_loads(text: str):
+    return json.loads(text, parse_constant=_refuse)
+
+
+def _json_run(argv: list[str], capsys) -> tuple[int, dict]:
+    code = main(argv)
+    return code, strict_loads(capsys.readouterr().out)
+
+
+def test_the_helper_nulls_every_non_finite_value_and_says_where():
+    obj = {"a": math.nan, "b": [1.0, np.float64(np.inf), {"c": -math.inf}], "d": np.array([1.0, np.nan]),
+           "e": np.int64(3), "f": (0.5, None), "g": "NaN is fine inside a string"}
+    parsed = strict_loads(dumps(obj))
+    assert parsed["a"] is None and parsed["b"] == [1.0, None, {"c": None}] and parsed["d"] == [1.0, None]
+    assert parsed["e"] == 3 and parsed["f"] == [0.5, None] and parsed["g"] == obj["g"]
+    assert parsed[NULL_PATHS_KEY] == ["a", "b[1]", "b[2].c", "d[1]"]
+    assert NULL_PATHS_KEY not in strict_loads(dumps({"x": 1.0}))
+
+
+def test_the_strict_parser_used_here_does_refuse_nan():
+    with pytest.raises(AssertionError):
+        strict_loads(json.dumps({"x": math.nan}))
+
+
+def test_analyze_json_on_unstable_gains(tmp_path, capsys):
+    """The known case: an unstable observer has an infinite noise gain."""
+    path = tmp_path / "hot.toml"
+    path.write_text(toml_dumps(airframe_dict(**{"observer.discretization": "euler", "observer.gains": [20.0, 300.0, 30.0]})))
+    code, report = _json_run(["analyze", str(path), "--json"], capsys)
+    assert code == 1 and report["stable"] is False
+    assert report["unstable_reason"] and "axis y" in report["unstable_reason"]
+    assert report["observer"][1]["noise_gain"] is None
+    assert "observer[1].noise_gain" in report[NULL_PATHS_KEY]
+
+
+def test_analyze_bandwidth_json(capsys):
+    code, report = _json_run(["analyze", str(M300), "--bandwidth", "0.5", "--json"], capsys)
+    assert code == 0 and report["gains"][0] > 0
+
+
+def test_check_json(capsys):
+    code, summary = _json_run(["check", str(M300), "--json"], capsys)
+    assert code == 0 and summary["name"] == "m300"
+
+
+def test_verify_json_with_a_non_finite_figure(capsys, monkeypatch):
+    from dobwind.harness import verify
+
+    real = verify.verify_precision
+
+    def with_nan_error(*args, **kwargs):
+        report = real(*args, **kwargs)
+        report.cases = __import__("dataclasses").replace(report.cases, outputs=tuple(
+            __import__("dataclasses").replace(e, max_abs=math.nan) for e in report.cases.outputs))
+        return report
+    monkeypatch.setattr(verify, "verify_precision", with_nan_error)
+    code, report = _json_run(["verify", str(M300), "--precision", "double", "--steps", "200", "--json"], capsys)
+    assert report["precisions"][0]["cases"]["outputs"][0]["max_abs"] is None
+    assert report[NULL_PATHS_KEY]
+
+
+def test_replay_json_with_nan_true_wind(tmp_path, capsys):
+    log = tmp_path / "tunnel.csv"
+    assert main(["simulate", "tunnel", "--hold", "6", "-o", str(log)]) == 0
+    lines = log.read_text().splitlines()
+    header = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    column = lines[header].split(",").index("wind_n")
+    for i in range(header + 1, header + 400):  # the first 8 s of true wind unknown
+        cells = lines[i].split(",")
+        cells[column] = "nan"
+        lines[i] = ",".join(cells)
+    log.write_text("\n".join(lines) + "\n")
+    capsys.readouterr()
+    code, report = _json_run(["replay", str(M300), str(log), "--json"], capsys)
+    assert code == 0 and report["rows"] > 0
+    assert report["per_sample"]["speed_mean"] is None and "per_sample.speed_mean" in report[NULL_PATHS_KEY]
+
+
+def test_fit_json_with_a_non_finite_figure(tmp_path, capsys, monkeypatch):
+    import dobwind.fit as fit
+    from dobwind.model.airframe import load_airframe
+
+    af = load_airframe(M300)
+    monkeypatch.setattr(fit, "fit_airframe", lambda *a, **k: (af, fit.FitReport(points=9), None))
+    monkeypatch.setattr(fit, "fit_plot", lambda *a, **k: None)
+    out = tmp_path / "fitted.toml"
+    code, report = _json_run(["fit", str(M300), "x.csv", "-o", str(out), "--json"], capsys)
+    assert code == 0 and report["horizontal_rmse_mps"] is None  # FitReport's default is NaN
+    assert "horizontal_rmse_mps" in report[NULL_PATHS_KEY]
