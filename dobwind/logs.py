@@ -85,7 +85,7 @@ def _parse_slow(lines: list[str], first_line: int, header: list[str], path: str)
 def read_log(path: str | Path, needed: list[tuple[str, str]] | None = None) -> FlightLog:
     path = str(path)
     try:
-        with open(path, encoding="utf-8") as handle:
+        with open(path, encoding="utf-8-sig") as handle:  # -sig: a spreadsheet's byte-order mark is not a column name
             text = handle.read()
     except OSError as exc:
         raise InputError(path, None, f"cannot read: {exc.strerror}") from None
@@ -122,7 +122,20 @@ def read_log(path: str | Path, needed: list[tuple[str, str]] | None = None) -> F
     if np.any(steps <= 0):
         bad = int(np.flatnonzero(steps <= 0)[0]) + 1
         raise InputError(path, f"line {start + 2 + bad}, column t", "time must be strictly increasing")
+    _check_labels(columns, "segment", path, start + 2)
     return FlightLog(path, columns)
+
+
+def _check_labels(columns: dict[str, np.ndarray], name: str, path: str, first_line: int) -> None:
+    """A label column (segment) holds whole numbers on every row: it groups rows, it is not a measurement."""
+    if name not in columns:
+        return
+    values = columns[name]
+    with np.errstate(invalid="ignore"):
+        bad = ~np.isfinite(values) | (values != np.round(values)) | (np.abs(values) > 2**31)
+    if bad.any():
+        row = int(np.flatnonzero(bad)[0])
+        raise InputError(path, f"line {first_line + row}, column {name}", "must be a whole number on every row")
 
 
 def yaw_from_quaternion(q: np.ndarray) -> np.ndarray:

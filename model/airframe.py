@@ -96,6 +96,18 @@ class Airframe:
     content_sha256: str  # of the file's bytes; names the source in generated code without a path
 
 
+def _finite_float(value: Any) -> float | None:
+    """The value as a finite float, or None: booleans, text and integers too large for a float
+    (TOML allows any number of digits; float() of those raises OverflowError) are not numbers here."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return None
+    try:
+        number = float(value)
+    except OverflowError:
+        return None
+    return number if math.isfinite(number) else None
+
+
 class _Reader:
     """Typed access to one TOML table, recording which keys were read so leftovers are errors."""
 
@@ -136,11 +148,12 @@ class _Reader:
         value = self.raw(name, required=default is None)
         if value is None:
             return float(default)  # type: ignore[arg-type]
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise self.fail(name, f"expected a finite number, got {value!r}")
-        if positive and value <= 0:
+        number = _finite_float(value)
+        if number is None:
+            raise self.fail(name, f"expected a finite number, got {_short(value)}")
+        if positive and number <= 0:
             raise self.fail(name, f"must be > 0, got {value!r}")
-        return float(value)
+        return number
 
     def string(self, name: str, choices: tuple[str, ...] | None = None, default: str | None = None) -> str:
         value = self.raw(name, required=default is None)
@@ -157,10 +170,8 @@ class _Reader:
         value = self.raw(name, required=default is None)
         if value is None:
             return default  # type: ignore[return-value]
-        if not isinstance(value, list) or not all(
-            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value
-        ):
-            raise self.fail(name, f"expected a list of finite numbers, got {value!r}")
+        if not isinstance(value, list) or not all(_finite_float(v) is not None for v in value):
+            raise self.fail(name, f"expected a list of finite numbers, got {_short(value)}")
         if not value:
             raise self.fail(name, "must not be empty")
         if length is not None and len(value) != length:
@@ -181,6 +192,12 @@ class _Reader:
         unknown = sorted(set(self.table) - self.used)
         if unknown:
             raise InputError(self.source, self.key(unknown[0]), "unknown key (check the spelling)")
+
+
+def _short(value: Any) -> str:
+    """A value for an error message: one line, however long the value in the file was."""
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
 
 
 def _force_air(reader: _Reader) -> ForceAirModel:
@@ -224,6 +241,8 @@ def parse_airframe(text: str, source: str) -> Airframe:
         document = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise InputError(source, None, f"TOML syntax error: {exc}") from None
+    except RecursionError:  # tomllib recurses once per nesting level of arrays and inline tables
+        raise InputError(source, None, "TOML nested too deeply") from None
     top = _Reader(source, document, known=TOP_KEYS)
     name = top.string("name")
     if not re.fullmatch(r"[a-z][a-z0-9_]*", name):

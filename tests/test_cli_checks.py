@@ -150,3 +150,36 @@ def test_a_closed_pipe_is_not_a_traceback(tmp_path):
     finally:
         os.close(write_end)
     assert done.stderr == "" and done.returncode == 141
+
+
+def test_a_byte_order_mark_is_not_part_of_the_first_column(tmp_path, capsys):
+    log = tmp_path / "tunnel.csv"
+    assert main(["simulate", "tunnel", "--hold", "6", "-o", str(log)]) == 0
+    lines = log.read_text().splitlines()
+    header = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    plain = tmp_path / "plain.csv"
+    plain.write_text("\n".join(lines[header:header + 400]) + "\n")  # header first: "t" is the first name
+    marked = tmp_path / "marked.csv"
+    marked.write_bytes(b"\xef\xbb\xbf" + plain.read_bytes())
+    capsys.readouterr()
+    results = []
+    for path in (plain, marked):
+        assert main(["replay", M300_PATH, str(path), "--json"]) == 0
+        results.append(__import__("json").loads(capsys.readouterr().out))
+    assert results[0]["rows"] == results[1]["rows"] == 399
+    assert results[0]["per_sample"] == results[1]["per_sample"]
+
+
+@pytest.mark.parametrize("cell", ["", "nan", "inf", "1.5"])
+def test_a_segment_label_must_be_a_whole_number(tmp_path, capsys, cell):
+    log = tmp_path / "tunnel.csv"
+    assert main(["simulate", "tunnel", "--hold", "6", "-o", str(log)]) == 0
+    lines = log.read_text().splitlines()
+    header = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    cells = lines[header + 5].split(",")
+    cells[lines[header].split(",").index("segment")] = cell
+    lines[header + 5] = ",".join(cells)
+    log.write_text("\n".join(lines) + "\n")
+    capsys.readouterr()
+    assert main(["replay", M300_PATH, str(log)]) == 2
+    assert f"line {header + 6}, column segment" in _one_line(capsys.readouterr().err)
