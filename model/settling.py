@@ -18,6 +18,8 @@ from dobwind.model.airframe import Airframe
 from dobwind.model.discretization import first_order
 
 SETTLING_BAND = 0.02  # the usual 2 % band, as `dobwind analyze` reports it
+MAX_SAMPLES = 1_000_000
+THRESHOLD_PHASE = 0.5618  # of a nominal sample, after the last sample outside the band
 
 
 def settling_time_s(af: Airframe, band: float = SETTLING_BAND) -> float:
@@ -30,12 +32,17 @@ def settling_time_s(af: Airframe, band: float = SETTLING_BAND) -> float:
         return math.inf  # an unstable design never settles; generate refuses it anyway
     # Twenty of the slower time constant is far past any 2 % crossing of a stable first-order pair.
     slowest = max(dt / max(1 - abs(pole), 1e-12), dt / alpha)
-    n = int(math.ceil(20 * slowest / dt)) + 2
+    # Capped: a design this slow (hours at 100 Hz) is not flown; the figure is then a lower bound.
+    n = min(int(math.ceil(20 * slowest / dt)) + 2, MAX_SAMPLES)
     step = np.ones(n)
     # The step's observer: y(k) = pole y(k-1) + b0 x(k) + b1 x(k-1); the low-pass takes the new value.
     observed = scipy.signal.lfilter([b0, b1], [1.0, -pole], step)
     filtered = scipy.signal.lfilter([alpha], [1.0, -(1 - alpha)], observed)
     outside = np.flatnonzero(np.abs(filtered - 1.0) > band)
     # Sample k (from 0) is the (k+1)-th accepted sample, reached after (k+1) dt of accepted time: the
-    # first sample inside the band for good is k = last outside + 1, at (last outside + 2) dt.
-    return float((outside[-1] + 2) * dt) if outside.size else dt
+    # last one outside the band is at (last + 1) dt, the first inside for good at (last + 2) dt. The
+    # threshold is put between them, off the half: a log at the nominal rate, or at 2, 4, 5 or 10 times
+    # it or a fraction like that, then never lands a sample on it, where a float and a double sum of
+    # the same dt's would disagree on the SETTLING bit.
+    last = int(outside[-1]) if outside.size else -1
+    return float((last + 1 + THRESHOLD_PHASE) * dt)

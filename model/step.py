@@ -450,4 +450,4 @@ def _add_quality_stages(b: _Builder, af: Airframe, settle_s: float) -> None:
 
     b.add("uncertainty", "1-sigma wind errors from the calibration residuals at the model's airflow speed"
           if unc is not None else "no [uncertainty] table: sigma outputs are -1 (unknown)",
-          ["airflow_speed_h"], uncertainty)
+          ["airflow_speed_h"] if unc is not None else [], uncertainty)

@@ -77,7 +77,7 @@ def _settling_time(dt: float, w: float, cutoff_hz: float, disc: str) -> float:
         if abs(filt - 1) > 0.02:
             last_outside = k
         k += 1
-    return (last_outside + 2) * dt
+    return (last_outside + 1 + 0.5618) * dt  # between samples: see model/settling.py
 
 
 def quality_of(af: Airframe, run_s: float, dt: float, force_c: np.ndarray, airflow: float) -> tuple[float, int]:
