@@ -19,7 +19,7 @@ from dobwind.errors import InputError
 from dobwind.model import reference
 from dobwind.model.airframe import Airframe
 from dobwind.model.exercise import flight_inputs
-from dobwind.model.status import STATUS_BITS
+from dobwind.model.status import REJECTED_MASK, STATUS_BITS
 from dobwind.model.step import StepModel, build_step
 
 SELFTEST_ROWS = 120
@@ -139,12 +139,14 @@ def _render(af: Airframe, precision: str, model: StepModel) -> GeneratedCode:
     }
     total_ops = validate.ops + sum(s.ops for s in sections) + check.ops
     header = _ENV.get_template("header.h.j2").render(
-        **common, af=af, guard=f"{af.name.upper()}_WIND_H", status_bits=STATUS_BITS,
+        **common, af=af, guard=f"{af.name.upper()}_WIND_H", status_bits=STATUS_BITS, rejected_mask=REJECTED_MASK,
+        settling_time=printer.literal(model.settling_time_s),
         outputs=model.outputs.fields, inputs=model.inputs.fields, state=_state_decls(model, printer, prefix),
         horizontal=_polynomial_text(af.horizontal), vertical=_polynomial_text(af.vertical),
     )
     source = _ENV.get_template("source.c.j2").render(
         **common, validate=validate, sections=sections, check=check, commit=_commit_lines(model, printer),
+        reset=[f"state->{field} = {printer.literal(value)};" for field, value in model.reset_on_reject],
         total_ops=total_ops, total_calls=validate.calls + sum(s.calls for s in sections) + check.calls,
         uses_trig=uses_trig,
         state_fields=[f for f in model.state.fields],

@@ -102,7 +102,7 @@ def build_section(stage: Stage, used: set[str], sizes: dict[str, int], printer: 
 def build_sections(model: StepModel, printer: CPrinter) -> tuple[Section, tuple[Section, ...], Section]:
     """(validate, the computing stages, the result check)."""
     sizes = signal_sizes(model)
-    used = used_signals(model) | {"status", "result_status"}
+    used = used_signals(model) | {"status", "result_status", "quality_status"}
     validate = build_section(model.validate, used, sizes, printer)
     check = build_section(model.check_result, used, sizes, printer)
     return validate, tuple(build_section(stage, used, sizes, printer) for stage in model.stages), check

@@ -129,6 +129,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
 
 def cmd_replay(args: argparse.Namespace) -> int:
     from dobwind.model.airframe import load_airframe
+    from dobwind.model.status import accepted
     from dobwind.replay import replay, score, text_report, write_output
 
     af = load_airframe(args.airframe)
@@ -140,7 +141,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     if args.output:
         write_output(args.output, log, traj)
     metrics = score(log, traj, model) if log.true_wind is not None else {
-        "rows": log.rows, "rejected_rows": int((traj.status != 0).sum())}
+        "rows": log.rows, "rejected_rows": int((~accepted(traj.status)).sum())}
     if args.plot:
         from dobwind.plots import replay_plot
 
@@ -156,7 +157,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
 
 def _replay_ulog(args: argparse.Namespace, af) -> int:
-    from dobwind.model.status import describe
+    from dobwind.model.status import accepted, describe
     from dobwind.replay import replay_ulog, write_output
     from dobwind.ulog import compare_with_px4
 
@@ -165,7 +166,7 @@ def _replay_ulog(args: argparse.Namespace, af) -> int:
     if args.output:
         write_output(args.output, log, traj)
     wind = traj.outputs[:, model.outputs.slice("wind_ned")]
-    valid = traj.status == 0
+    valid = accepted(traj.status)  # quality-flagged samples are estimates too; status_counts shows the flags
     summary = {"airframe": af.name, "log": str(args.log), "backend": args.backend, "rows": log.rows,
                "valid_rows": int(valid.sum()), "duration_s": float(log.time_s[-1]), "notes": list(flight.notes),
                "status_counts": {describe(int(s)): int((traj.status == s).sum()) for s in np.unique(traj.status)},

@@ -26,10 +26,12 @@ from scipy.spatial import cKDTree
 
 from dobwind.analysis.figures import settling_time_s
 from dobwind.analysis.linear import axis_system
+from dobwind.envelope import calibration_envelope, uncertainty_table
 from dobwind.errors import CheckFailed
 from dobwind.logs import TRUTH_COLUMNS, FlightLog, read_log, required_columns, step_inputs, yaw_from_quaternion
 from dobwind.model import reference
 from dobwind.model.airframe import Airframe, FilterSchedule, ForceAirModel
+from dobwind.model.status import accepted
 from dobwind.model.terms import Term, parse_term, term_expr
 
 CHUNK_S = 2.0
@@ -141,7 +143,7 @@ def calibration_points(af: Airframe, logs: list[FlightLog], dynamic: bool = Fals
         # Smoothed over a second: attitude noise on a real log is several deg/s sample to sample.
         smooth_yaw = _moving_mean(np.unwrap(yaw)[:, None], int(round(1.0 / dt)))[:, 0]
         yaw_rate = np.r_[0.0, np.degrees(np.abs(np.diff(smooth_yaw))) / np.diff(t)]
-        change = (yaw_rate > YAW_RATE_CHANGE_DEG_S) | (traj.status != 0)
+        change = (yaw_rate > YAW_RATE_CHANGE_DEG_S) | ~accepted(traj.status)
         if not dynamic:
             change |= airflow_rate > AIRFLOW_CHANGE_MPS2
         change[0] = True
@@ -361,6 +363,11 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "airframe",
         raise CheckFailed("the least-squares fit gave non-finite coefficients")
     new = dataclasses.replace(af, horizontal=horizontal, vertical=vertical,
                               observer=dataclasses.replace(af.observer, force_offset_n=tuple(offset)))
+    # The calibrated range and the residuals' size, for the step's EXTRAPOLATED bit and sigma outputs.
+    pred_h = np.maximum(_term_matrix(h_terms, points.m, points.n, points.fz) @ np.asarray(horizontal.coefficients), 0)
+    pred_z = _term_matrix(list(vertical.term_texts), points.m, points.n, points.fz) @ np.asarray(vertical.coefficients)
+    new = dataclasses.replace(new, envelope=calibration_envelope(np.hypot(points.m, points.n), points.fz, pred_h),
+                              uncertainty=uncertainty_table(points.speed_h, pred_h, -points.air_z, -pred_z))
     return new, report, points
 
 

@@ -19,8 +19,11 @@ from dobwind.model.airframe import Airframe
 from dobwind.model.step import StepModel
 
 TRUTH_COLUMNS = ("wind_n", "wind_e", "wind_d")
+# The step's outputs in their order, with status inserted where the original format had it last: new
+# outputs are appended after it so that readers of the older columns keep working.
 ESTIMATE_COLUMNS = ("t", "force_n", "force_e", "force_d", "wind_n", "wind_e", "wind_d", "wind_speed_h",
-                    "wind_speed_up", "wind_from_deg", "status")
+                    "wind_speed_up", "wind_from_deg", "status", "wind_sigma_h", "wind_sigma_up")
+_OUTPUTS_BEFORE_STATUS = ESTIMATE_COLUMNS.index("status") - 1
 
 
 @dataclass(frozen=True)
@@ -176,5 +179,9 @@ def write_csv(path: str | Path, header: list[str], data: np.ndarray, formats: li
 
 
 def write_estimates(path: str | Path, t: np.ndarray, outputs: np.ndarray, status: np.ndarray) -> None:
-    data = np.column_stack([t, outputs, status])
-    write_csv(path, list(ESTIMATE_COLUMNS), data, ["%.6f"] + ["%.6g"] * outputs.shape[1] + ["%d"])
+    if outputs.shape[1] != len(ESTIMATE_COLUMNS) - 2:
+        raise ValueError(f"{outputs.shape[1]} output columns for {len(ESTIMATE_COLUMNS) - 2} named ones")
+    k = _OUTPUTS_BEFORE_STATUS
+    data = np.column_stack([t, outputs[:, :k], status, outputs[:, k:]])
+    formats = ["%.6f"] + ["%.6g"] * k + ["%d"] + ["%.6g"] * (outputs.shape[1] - k)
+    write_csv(path, list(ESTIMATE_COLUMNS), data, formats)

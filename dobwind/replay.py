@@ -12,7 +12,7 @@ from dobwind.logs import FlightLog, required_columns, read_log, step_inputs, wri
 from dobwind.model import reference
 from dobwind.model.airframe import Airframe
 from dobwind.model.reference import Trajectory
-from dobwind.model.status import STATUS_LANDED, STATUS_NO_DATA
+from dobwind.model.status import STATUS_LANDED, STATUS_NO_DATA, accepted, trusted
 from dobwind.model.step import StepModel, build_step
 
 WARMUP_S = 5.0           # the observer and filter start up: not scored
@@ -68,12 +68,16 @@ def score(log: FlightLog, traj: Trajectory, model: StepModel) -> dict:
 
 
 def score_wind(log: FlightLog, wind: np.ndarray, status: np.ndarray) -> dict:
-    """score() for any wind estimate (NED rows) with its status per row (0: valid)."""
+    """score() for any wind estimate (NED rows) with its status per row. Every accepted row after the
+    warm-up is scored, quality-flagged ones included (a hold beyond the calibration is scored on purpose);
+    ``trusted_share`` is the fraction of scored rows with status 0."""
     truth = log.true_wind
     assert truth is not None
     t = log.time_s
-    valid = (status == 0) & (t >= t[0] + WARMUP_S)
-    result: dict = {"rows": log.rows, "scored_rows": int(valid.sum()), "rejected_rows": int((status != 0).sum())}
+    valid = accepted(status) & (t >= t[0] + WARMUP_S)
+    result: dict = {"rows": log.rows, "scored_rows": int(valid.sum()), "rejected_rows": int((~accepted(status)).sum())}
+    if valid.any():
+        result["trusted_share"] = float(np.mean(trusted(status[valid])))
     if not valid.any():
         return result
     result["per_sample"] = _stats(wind[valid], truth[valid]).__dict__

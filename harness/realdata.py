@@ -25,6 +25,7 @@ from scipy.spatial.transform import Rotation
 from dobwind.fit import fit_airframe
 from dobwind.logs import write_csv
 from dobwind.model.airframe import load_airframe
+from dobwind.model.status import accepted
 from dobwind.replay import WARMUP_S, replay
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -70,7 +71,7 @@ SPLIT_TRAIN = ("nowind", "35wind", "100wind")  # spans the range, zero wind incl
 
 def _score(fitted, log_path: Path, nominal: float, report) -> dict:
     model, log, traj = replay(fitted, str(log_path))
-    use = (traj.status == 0) & (log.time_s >= WARMUP_S)
+    use = accepted(traj.status) & (log.time_s >= WARMUP_S)
     wind = traj.outputs[use][:, model.outputs.slice("wind_ned")]
     mean = wind.mean(axis=0)
     return {

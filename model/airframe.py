@@ -83,6 +83,22 @@ class Limits:
 
 
 @dataclass(frozen=True)
+class Envelope:
+    """The calibrated range (written by `dobwind fit`): beyond it the force-air model extrapolates."""
+    force_h_max_n: float                  # heading-frame horizontal force magnitude, after the offset
+    force_z_n: tuple[float, float]        # heading-frame vertical force (down), after the offset
+    airflow_h_max_mps: float              # the model's horizontal airflow speed
+
+
+@dataclass(frozen=True)
+class Uncertainty:
+    """1-sigma errors of the calibrated model over airflow speed, piecewise linear, clamped outside."""
+    speeds_mps: tuple[float, ...]
+    sigma_h_mps: tuple[float, ...]
+    sigma_up_mps: tuple[float, ...]
+
+
+@dataclass(frozen=True)
 class Airframe:
     name: str
     mass_kg: float
@@ -94,6 +110,8 @@ class Airframe:
     filter: FilterSchedule
     limits: Limits
     content_sha256: str  # of the file's bytes; names the source in generated code without a path
+    envelope: Envelope | None = None        # optional: absent => EXTRAPOLATED is never set
+    uncertainty: Uncertainty | None = None  # optional: absent => the sigma outputs carry -1 (unknown)
 
 
 def _finite_float(value: Any) -> float | None:
@@ -235,6 +253,32 @@ def _thrust(reader: _Reader) -> Thrust:
     return Thrust("rpm", scale, rotors, max_rpm, coefficients)
 
 
+def _envelope(reader: _Reader) -> Envelope:
+    force_h_max = reader.number("force_h_max", positive=True)
+    force_z = reader.numbers("force_z", length=2)
+    if force_z[0] >= force_z[1]:
+        raise reader.fail("force_z", f"must be [low, high] with low < high, got {list(force_z)!r}")
+    airflow_h_max = reader.number("airflow_h_max", positive=True)
+    reader.done()
+    return Envelope(force_h_max, (force_z[0], force_z[1]), airflow_h_max)
+
+
+def _uncertainty(reader: _Reader) -> Uncertainty:
+    speeds = reader.numbers("speeds")
+    if speeds[0] < 0 or any(b <= a for a, b in zip(speeds, speeds[1:])):
+        raise reader.fail("speeds", f"must be >= 0 and strictly increasing, got {list(speeds)!r}")
+    columns = []
+    for key in ("sigma_h", "sigma_up"):
+        values = reader.numbers(key)
+        if len(values) != len(speeds):
+            raise reader.fail(key, f"has {len(values)} values for {len(speeds)} speeds")
+        if any(v < 0 for v in values):
+            raise reader.fail(key, f"every value must be >= 0, got {list(values)!r}")
+        columns.append(values)
+    reader.done()
+    return Uncertainty(speeds, columns[0], columns[1])
+
+
 def parse_airframe(text: str, source: str) -> Airframe:
     """Validate airframe TOML text; ``source`` names the file in error messages."""
     try:
@@ -300,6 +344,10 @@ def parse_airframe(text: str, source: str) -> Airframe:
         limits = Limits(max_dt, max_tilt)
     if limits.max_dt_s < sample_time:
         raise InputError(source, "limits.max_dt", f"must be at least observer.sample_time ({sample_time:g} s)")
+    env = top.table_of("envelope", required=False)
+    unc = top.table_of("uncertainty", required=False)
+    envelope = _envelope(env) if env is not None else None
+    uncertainty = _uncertainty(unc) if unc is not None else None
     top.done()
 
     return Airframe(
@@ -313,6 +361,8 @@ def parse_airframe(text: str, source: str) -> Airframe:
         filter=FilterSchedule(speeds, cutoffs),
         limits=limits,
         content_sha256=hashlib.sha256(text.encode()).hexdigest(),
+        envelope=envelope,
+        uncertainty=uncertainty,
     )
 
 

@@ -45,7 +45,7 @@ def airframe_document(af: Airframe) -> dict[str, Any]:
     thrust: dict[str, Any] = {"source": af.thrust.source, "scale": af.thrust.scale}
     if af.thrust.source == "rpm":
         thrust.update(rotors=af.thrust.rotors, max_rpm=af.thrust.max_rpm, coefficients=list(af.thrust.coefficients))
-    return {
+    document: dict[str, Any] = {
         "name": af.name,
         "mass": af.mass_kg,
         "gravity": af.gravity_mps2,
@@ -65,6 +65,14 @@ def airframe_document(af: Airframe) -> dict[str, Any]:
         "filter": {"speeds": list(af.filter.speeds_mps), "cutoffs": list(af.filter.cutoffs_hz)},
         "limits": {"max_dt": af.limits.max_dt_s, "max_tilt_deg": af.limits.max_tilt_deg},
     }
+    if af.envelope is not None:
+        document["envelope"] = {"force_h_max": af.envelope.force_h_max_n, "force_z": list(af.envelope.force_z_n),
+                                "airflow_h_max": af.envelope.airflow_h_max_mps}
+    if af.uncertainty is not None:
+        document["uncertainty"] = {"speeds": list(af.uncertainty.speeds_mps),
+                                   "sigma_h": list(af.uncertainty.sigma_h_mps),
+                                   "sigma_up": list(af.uncertainty.sigma_up_mps)}
+    return document
 
 
 def dump_airframe(af: Airframe) -> str:

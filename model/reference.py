@@ -1,8 +1,8 @@
 """The Python reference: the CasADi step run over a whole log, arrays in and arrays out.
 
 No per-sample Python loop: the step is rolled with ``mapaccum`` over fixed-size chunks (one compiled
-graph, reused). The last chunk is padded with rows that the step rejects (dt = -1), which by the
-step's own contract leave the state unchanged.
+graph, reused). The last chunk is padded with rows that the step rejects (dt = -1); they come after the
+last real row, whose state is the one carried on, so their gap bookkeeping never reaches a result.
 """
 from __future__ import annotations
 
@@ -46,7 +46,7 @@ def run(model: StepModel, inputs: np.ndarray, state0: np.ndarray | None = None,
         rows = block.shape[0]
         if rows < chunk:
             pad = np.zeros((chunk - rows, model.inputs.size))
-            pad[:, dt_col] = -1.0  # rejected: state unchanged
+            pad[:, dt_col] = -1.0  # rejected; only rows before the padding are kept
             block = np.vstack([block, pad])
         xs, ys, st = rolled(state, block.T)
         xs, ys, st = np.asarray(xs), np.asarray(ys), np.asarray(st)

@@ -7,8 +7,11 @@ generator can print it as a labelled section with readable variable names; the c
 what the Python reference runs and what the generated C is verified against.
 
 Signals are named "in.<field>" (inputs), "state.<field>" (previous state) or by the stage that makes
-them. A rejected sample (nonzero status) leaves the state unchanged; the output then repeats the
-last valid one, which the state carries in its ``last.*`` fields.
+them. A rejected sample (a rejection bit in the status) leaves the estimate unchanged; the output then
+repeats the last accepted one, which the state carries in its ``last.*`` fields. Only the gap
+bookkeeping ``run_s`` advances on rejection (it drops to 0), so that the next accepted sample knows it
+follows a gap: it must not difference the velocity across the gap, and it starts a SETTLING period.
+Quality bits (SETTLING, EXTRAPOLATED) flag accepted samples; see status.py.
 """
 from __future__ import annotations
 
@@ -23,13 +26,16 @@ from dobwind.model.airframe import Airframe
 from dobwind.model.discretization import first_order
 from dobwind.model.dynamics import quaternion_to_rotation_any_norm, solve_external_force
 from dobwind.model.layout import Field, Layout
-from dobwind.model.status import (INPUT_MAGNITUDE_LIMIT, MIN_DT_S, QUATERNION_NORM_TOLERANCE, RESULT_MAGNITUDE_LIMIT,
-                                  STATUS_BITS)
+from dobwind.model.settling import settling_time_s
+from dobwind.model.status import (DT_TOLERANCE, INPUT_MAGNITUDE_LIMIT, MIN_DT_S, QUATERNION_NORM_TOLERANCE,
+                                  RESULT_MAGNITUDE_LIMIT, STATUS_BITS)
 from dobwind.model.terms import polynomial_expr
 
 # Below this horizontal force (N) the force direction is noise; the airflow is scaled down smoothly
 # instead of dividing by ~0.
 FORCE_DIRECTION_EPS_N = 1e-3
+# The sigma outputs when the airframe records no [uncertainty] table: "unknown", never NaN.
+UNKNOWN_SIGMA = -1.0
 
 Signals = dict[str, ca.SX]
 
@@ -54,6 +60,9 @@ class StepModel:
     check_result: Stage  # rejects results that overflowed (status bit NUMERIC)
     next_state: tuple[tuple[str, str], ...]  # (state field, signal that becomes it)
     step: ca.Function
+    settling_time_s: float  # baked into the SETTLING bit
+    # (state field, value) written on a rejected sample: the gap bookkeeping, nothing of the estimate
+    reset_on_reject: tuple[tuple[str, float], ...] = (("run_s", 0.0),)
 
     def initial_state(self) -> np.ndarray:
         return np.zeros(self.state.size)
@@ -83,6 +92,9 @@ OUTPUT_FIELDS = (
     Field("wind_speed_h", 1, "m/s", "horizontal wind speed"),
     Field("wind_speed_up", 1, "m/s", "vertical wind, positive up"),
     Field("wind_from_deg", 1, "deg", "direction the wind blows FROM, clockwise from north, [0, 360)"),
+    Field("wind_sigma_h", 1, "m/s", "1-sigma error of the horizontal wind speed from the calibration "
+          "residuals (-1: the airframe records no uncertainty)"),
+    Field("wind_sigma_up", 1, "m/s", "1-sigma error of the vertical wind (-1: unknown)"),
 )
 
 
@@ -111,6 +123,8 @@ def state_layout(af: Airframe) -> Layout:
                             "slowly averaged (the input's bias), NED"))
     fields += [Field(f"last.{f.name}", f.size, f.unit, "last valid output: " + f.doc) for f in OUTPUT_FIELDS]
     fields.append(Field("initialized", 1, "-", "0 until the first accepted sample, then 1"))
+    fields.append(Field("run_s", 1, "s", "accepted time since the start or the last gap, capped at the "
+                        "settling time; set to 0 by a rejected sample (the only field a rejection changes)"))
     return Layout(tuple(fields))
 
 
@@ -179,7 +193,7 @@ def build_step(af: Airframe) -> StepModel:
         # NaN fails every comparison, so each test is false for NaN and for +-inf alike.
         finite = _all([ca.fabs(every[i]) <= INPUT_MAGNITUDE_LIMIT for i in range(every.numel())])
         dt = s["in.dt"]
-        dt_ok = ca.logic_and(dt >= MIN_DT_S, dt <= af.limits.max_dt_s)
+        dt_ok = ca.logic_and(dt >= MIN_DT_S, dt <= af.limits.max_dt_s * (1 + DT_TOLERANCE))
         q = s["in.q"]
         norm2 = ca.sumsqr(q)
         q_ok = ca.logic_and(norm2 >= (1 - QUATERNION_NORM_TOLERANCE) ** 2, norm2 <= (1 + QUATERNION_NORM_TOLERANCE) ** 2)
@@ -237,17 +251,20 @@ def build_step(af: Airframe) -> StepModel:
     accel_inputs = {
         "ned": ["in.acc_ned"],
         "specific_force": ["in.specific_force", "rot_body_to_ned"],
-        "velocity": ["in.vel_ned", "state.vel_prev", "in.dt", "state.initialized"],
+        "velocity": ["in.vel_ned", "state.vel_prev", "in.dt", "state.run_s"],
     }[obs.acceleration]
     bias_time = obs.acceleration_bias_time_s
     if obs.estimates_acceleration_bias:
-        accel_inputs = accel_inputs + ["state.acc_bias", "in.vel_ned", "state.vel_prev", "in.dt", "state.initialized"]
+        accel_inputs = accel_inputs + ["state.acc_bias", "in.vel_ned", "state.vel_prev", "in.dt", "state.run_s"]
 
     def acceleration(s: Signals) -> Signals:
+        # vel_prev is the velocity of the previous sample only if that sample was accepted (run_s > 0);
+        # after the start or a gap, differencing would divide the whole gap's velocity change by one dt.
         if obs.acceleration == "velocity":
-            # Backward difference; the first sample has no predecessor and counts as unaccelerated.
+            follows = ca.if_else(s["state.run_s"] > 0, 1, 0)
+            # Backward difference; a sample with no accepted predecessor counts as unaccelerated.
             diff = (s["in.vel_ned"] - s["state.vel_prev"]) / s["in.dt"]
-            return {"p_ddot": s["state.initialized"] * diff}  # initialized is exactly 0 or 1
+            return {"p_ddot": follows * diff}  # follows is exactly 0 or 1
         if obs.acceleration == "ned":
             measured = s["in.acc_ned"]
         else:
@@ -255,12 +272,12 @@ def build_step(af: Airframe) -> StepModel:
             measured = rot @ s["in.specific_force"] + ca.vertcat(0, 0, g0)
         if not obs.estimates_acceleration_bias:
             return {"p_ddot": measured}
+        follows = ca.if_else(s["state.run_s"] > 0, 1, 0)
         # Velocity-aided bias: a real force moves the measured acceleration and the velocity's
         # derivative alike, a sensor or attitude bias only the former. Averaged over bias_time, their
         # difference is the bias; the differentiated velocity's noise is averaged away with it.
-        started = s["state.initialized"]
         difference = measured - (s["in.vel_ned"] - s["state.vel_prev"]) / s["in.dt"]
-        weight = started * -ca.expm1(-s["in.dt"] / bias_time)
+        weight = follows * -ca.expm1(-s["in.dt"] / bias_time)  # no bias update across a gap
         bias = s["state.acc_bias"]
         return {"p_ddot": measured - bias, "acc_bias_new": bias + weight * (difference - bias)}
 
@@ -275,11 +292,16 @@ def build_step(af: Airframe) -> StepModel:
     # --- observer, applied alike to the force and to the ground velocity -----------------------
     observer_inputs = ["state.f_obs", "state.v_obs", "f_e", "in.vel_ned", "in.dt", "state.initialized"]
     if obs.discretization == "tustin":
-        observer_inputs += ["state.fe_prev", "state.vel_prev"]
+        observer_inputs += ["state.fe_prev", "state.vel_prev", "state.run_s"]
 
     def observer(s: Signals) -> Signals:
         rates = ca.DM(obs.gains) / m  # lambda_i / m, 1/s
         started = s["state.initialized"]  # exactly 0 or 1, so the products below are exact
+        if obs.discretization == "tustin":
+            # After a gap the previous inputs are stale: the trapezoid then uses the current input twice.
+            follows = ca.if_else(s["state.run_s"] > 0, 1, 0)
+            fe_prev = follows * s["state.fe_prev"] + (1 - follows) * s["f_e"]
+            vel_prev = follows * s["state.vel_prev"] + (1 - follows) * s["in.vel_ned"]
         f_new, v_new = [], []
         for i in range(3):
             c = first_order(obs.discretization, float(rates[i]), s["in.dt"])
@@ -291,8 +313,8 @@ def build_step(af: Airframe) -> StepModel:
             v_next = pole * s["state.v_obs"][i] + b0 * s["in.vel_ned"][i]
             if obs.discretization == "tustin":
                 b1 = started * c.b1
-                f_next += b1 * s["state.fe_prev"][i]
-                v_next += b1 * s["state.vel_prev"][i]
+                f_next += b1 * fe_prev[i]
+                v_next += b1 * vel_prev[i]
             f_new.append(f_next)
             v_new.append(v_next)
         return {"f_obs_new": ca.vertcat(*f_new), "v_obs_new": ca.vertcat(*v_new)}
@@ -334,6 +356,7 @@ def build_step(af: Airframe) -> StepModel:
         rel_z = polynomial_expr(af.vertical.terms, af.vertical.coefficients, variables)
         return {
             "force_heading": ca.vertcat(mm, nn, fz),
+            "airflow_speed_h": speed_h,
             "air_rel_ned": ca.vertcat(c * rel_x - sn * rel_y, sn * rel_x + c * rel_y, rel_z),
         }
 
@@ -349,6 +372,8 @@ def build_step(af: Airframe) -> StepModel:
         return {"wind_ned": w, "wind_speed_h": speed_h, "wind_speed_up": -w[2], "wind_from_deg": from_deg}
 
     b.add("wind", "wind triangle and the reported quantities", ["air_rel_ned", "v_filt_new"], wind)
+    settle = settling_time_s(af)
+    _add_quality_stages(b, af, settle)
 
     # --- the next state ---------------------------------------------------------------------------
     signals["const.one"] = ca.SX(1)
@@ -357,7 +382,8 @@ def build_step(af: Airframe) -> StepModel:
         "fe_prev": "f_e", "vel_prev": "in.vel_ned", "initialized": "const.one",
         "last.force_ned": "f_filt_new", "last.wind_ned": "wind_ned", "last.wind_speed_h": "wind_speed_h",
         "last.wind_speed_up": "wind_speed_up", "last.wind_from_deg": "wind_from_deg",
-        "acc_bias": "acc_bias_new",
+        "acc_bias": "acc_bias_new", "run_s": "run_s_new",
+        "last.wind_sigma_h": "wind_sigma_h", "last.wind_sigma_up": "wind_sigma_up",
     }
     next_state = tuple((f.name, mapping[f.name]) for f in lstate.fields)
     # Every other committed value reaches the outputs (f_e and the observer through the low-pass, the
@@ -376,9 +402,52 @@ def build_step(af: Airframe) -> StepModel:
     b.add("check_result", "an accepted sample must give a finite result, else it is rejected too", committed,
           check_result)
     proposed = ca.vertcat(*[signals[sig] for _, sig in next_state])
-    status = ca.if_else(signals["status"] == 0, signals["result_status"], signals["status"])
-    x_next = ca.densify(ca.if_else(status == 0, proposed, x))
+    rejected = ca.if_else(signals["status"] == 0, signals["result_status"], signals["status"])
+    reset = dict(StepModel.reset_on_reject)
+    held = ca.vertcat(*[ca.SX(reset[f.name]) if f.name in reset else x[lstate.slice(f.name)] for f in lstate.fields])
+    x_next = ca.densify(ca.if_else(rejected == 0, proposed, held))
+    status = ca.if_else(rejected == 0, signals["quality_status"], rejected)
     y = ca.vertcat(*[x_next[lstate.slice(f"last.{f.name}")] for f in lout.fields])
     step = ca.Function(f"{af.name}_step", [x, u], [x_next, y, status], ["state", "input"],
                        ["state_next", "output", "status"], {"cse": True})
-    return StepModel(af, lin, lstate, lout, validate_stage, tuple(b.stages[1:-1]), b.stages[-1], next_state, step)
+    return StepModel(af, lin, lstate, lout, validate_stage, tuple(b.stages[1:-1]), b.stages[-1], next_state, step,
+                     settle)
+
+
+def _interp(speeds: tuple[float, ...], values: tuple[float, ...], speed: ca.SX) -> ca.SX:
+    """Piecewise linear over speed, clamped outside (the same form as the cutoff schedule)."""
+    return _schedule_cutoff(speeds, values, speed)
+
+
+def _add_quality_stages(b: _Builder, af: Airframe, settle_s: float) -> None:
+    """SETTLING and EXTRAPOLATED (quality bits of an accepted sample) and the sigma outputs."""
+    bits = {bit.name: bit.value for bit in STATUS_BITS}
+    env = af.envelope
+
+    def quality(s: Signals) -> Signals:
+        # Capped so that the sum stays exact and small; reaching the cap ends SETTLING for good.
+        run_s = ca.fmin(s["state.run_s"] + s["in.dt"], settle_s)
+        status = ca.if_else(run_s < settle_s, bits["SETTLING"], 0)
+        if env is not None:
+            f = s["force_heading"]
+            fh = ca.sqrt(f[0] * f[0] + f[1] * f[1])
+            inside = _all([fh <= env.force_h_max_n, f[2] >= env.force_z_n[0], f[2] <= env.force_z_n[1],
+                           s["airflow_speed_h"] <= env.airflow_h_max_mps])
+            status = status + ca.if_else(inside, 0, bits["EXTRAPOLATED"])
+        return {"run_s_new": run_s, "quality_status": status}
+
+    inputs = ["state.run_s", "in.dt"] + (["force_heading", "airflow_speed_h"] if env is not None else [])
+    b.add("quality", f"quality bits of an accepted sample: SETTLING for {settle_s:g} s after the start or a gap"
+          + (", EXTRAPOLATED outside the calibrated envelope" if env is not None else ""), inputs, quality)
+    unc = af.uncertainty
+
+    def uncertainty(s: Signals) -> Signals:
+        if unc is None:
+            return {"wind_sigma_h": ca.SX(UNKNOWN_SIGMA), "wind_sigma_up": ca.SX(UNKNOWN_SIGMA)}
+        speed = s["airflow_speed_h"]
+        return {"wind_sigma_h": _interp(unc.speeds_mps, unc.sigma_h_mps, speed),
+                "wind_sigma_up": _interp(unc.speeds_mps, unc.sigma_up_mps, speed)}
+
+    b.add("uncertainty", "1-sigma wind errors from the calibration residuals at the model's airflow speed"
+          if unc is not None else "no [uncertainty] table: sigma outputs are -1 (unknown)",
+          ["airflow_speed_h"] if unc is not None else [], uncertainty)

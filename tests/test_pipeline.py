@@ -13,10 +13,12 @@ from dobwind.codegen.tolerance import TOLERANCE
 from dobwind.fit import VERTICAL_CANDIDATES, Points, _extrapolation_rmse, _term_matrix, fit_airframe, select_terms
 from dobwind.logs import ESTIMATE_COLUMNS, read_log, required_columns
 from dobwind.model.airframe import load_airframe
+from dobwind.model.status import REJECTED_MASK, STATUS_BITS, accepted
 from dobwind.replay import replay, score
 from dobwind.simulate import aerodynamic_force, simulate, true_vehicle
 from tests.helpers import M300
 
+STATUS_SETTLING = next(bit.value for bit in STATUS_BITS if bit.name == "SETTLING")
 RATE = "25"  # fast tests: 25 Hz logs (the estimator takes the measured dt)
 
 
@@ -217,7 +219,13 @@ def test_bad_rows_get_a_status_and_the_estimate_recovers(fitted, logs, tmp_path)
     path = tmp_path / "holes.csv"
     path.write_text("\n".join(text) + "\n")
     model, log, traj = replay(load_airframe(fitted), str(path))
-    assert traj.status[1999] != 0 and np.all(traj.status[2000:] == 0)
+    assert traj.status[1999] & REJECTED_MASK and np.all(accepted(traj.status[2000:]))
+    # The rows after the hole are flagged SETTLING for one settling time of accepted time, then never.
+    settling = (traj.status & STATUS_SETTLING) != 0
+    after = log.time_s - log.time_s[2000] + (log.time_s[2000] - log.time_s[1999])  # accepted time at each row
+    expected = (after > 0) & (after < model.settling_time_s - 1e-9)
+    np.testing.assert_array_equal(settling[2000:], expected[2000:])
+    assert settling[2000] and not settling[1998]
     wind = traj.outputs[:, model.outputs.slice("wind_speed_h")].ravel()
     assert np.all(np.isfinite(wind)) and wind[1999] == wind[1998]
 

@@ -7,6 +7,7 @@ repeated in the other.
 """
 from __future__ import annotations
 
+import functools
 import math
 import re
 
@@ -52,13 +53,61 @@ def eval_poly(terms, coefficients, env) -> float:
     return sum(c * eval_term(t, env) for t, c in zip(terms, coefficients))
 
 
+def settling_time(af: Airframe) -> float:
+    return _settling_time(af.observer.sample_time_s, min(af.observer.gains) / af.mass_kg,
+                          min(af.filter.cutoffs_hz), af.observer.discretization)
+
+
+@functools.lru_cache(maxsize=64)
+def _settling_time(dt: float, w: float, cutoff_hz: float, disc: str) -> float:
+    """Observer then low-pass, slowest axis and cutoff, stepped sample by sample until the output
+    stays within 2 %: the accepted time at the first sample that stays inside."""
+    alpha = 1 - math.exp(-2 * math.pi * cutoff_hz * dt)
+    obs = filt = 0.0
+    last_outside, k, previous_input = -1, 0, 0.0
+    while k < last_outside + 20000 or k < 100:
+        if disc == "tustin":
+            kk = w * dt / 2
+            obs = ((1 - kk) * obs + kk * (1.0 + previous_input)) / (1 + kk)
+            previous_input = 1.0
+        else:
+            a = {"paper": dt * w / 2, "euler": dt * w, "zoh": 1 - math.exp(-dt * w)}[disc]
+            obs = (1 - a) * obs + a
+        filt = (1 - alpha) * filt + alpha * obs
+        if abs(filt - 1) > 0.02:
+            last_outside = k
+        k += 1
+    return (last_outside + 1 + 0.5618) * dt  # between samples: see model/settling.py
+
+
+def quality_of(af: Airframe, run_s: float, dt: float, force_c: np.ndarray, airflow: float) -> tuple[float, int]:
+    """(new run_s, quality bits) of an accepted sample."""
+    settle = settling_time(af)
+    run = min(run_s + dt, settle)
+    bits = 64 if run < settle else 0
+    env = af.envelope
+    if env is not None and not (math.hypot(force_c[0], force_c[1]) <= env.force_h_max_n
+                                and env.force_z_n[0] <= force_c[2] <= env.force_z_n[1]
+                                and airflow <= env.airflow_h_max_mps):
+        bits |= 128
+    return run, bits
+
+
+def sigmas(af: Airframe, airflow: float) -> tuple[float, float]:
+    unc = af.uncertainty
+    if unc is None:
+        return -1.0, -1.0
+    return (float(np.interp(airflow, unc.speeds_mps, unc.sigma_h_mps)),
+            float(np.interp(airflow, unc.speeds_mps, unc.sigma_up_mps)))
+
+
 def status_of(af: Airframe, inp: dict[str, np.ndarray]) -> int:
     everything = np.concatenate([np.atleast_1d(np.asarray(v, float)) for v in inp.values()])
     status = 0
     if not (np.all(np.isfinite(everything)) and np.all(np.abs(everything) <= 1e6)):
         status |= 1
     dt = float(inp["dt"])
-    if not (1e-5 <= dt <= af.limits.max_dt_s):
+    if not (1e-5 <= dt <= af.limits.max_dt_s * 1.0001):
         status |= 2
     norm = float(np.linalg.norm(inp["q"]))
     if not (0.9 <= norm <= 1.1):
@@ -78,13 +127,13 @@ def step(af: Airframe, st: dict[str, np.ndarray], inp: dict[str, np.ndarray]):
     """Returns (new state dict, output dict, status)."""
     status = status_of(af, inp)
     if status:
-        last = {k[5:]: v for k, v in st.items() if k.startswith("last.")}
-        return dict(st), last, status
+        return _rejected(st, status)
     m, g = af.mass_kg, af.gravity_mps2
     dt = float(inp["dt"])
     q = np.asarray(inp["q"], float)
     v = np.asarray(inp["vel_ned"], float)
     started = float(st["initialized"]) > 0.5
+    follows = float(st["run_s"]) > 0  # the previous sample was accepted: no gap to difference across
     if af.thrust.source == "rpm":
         u_f = sum(np.polynomial.polynomial.polyval(r / af.thrust.max_rpm, af.thrust.coefficients) for r in inp["rotor_rpm"])
     else:
@@ -98,7 +147,7 @@ def step(af: Airframe, st: dict[str, np.ndarray], inp: dict[str, np.ndarray]):
         if mode == "ned":
             acc = np.asarray(inp["acc_ned"], float)
         else:
-            acc = (v - st["vel_prev"]) / dt if started else np.zeros(3)
+            acc = (v - st["vel_prev"]) / dt if follows else np.zeros(3)
         f_e = m * acc - m * g * np.array([0, 0, 1.0]) + u_f * z_b  # slip 1: "- m g0 e3", not "- g"
     bias = None
     tau = af.observer.acceleration_bias_time_s
@@ -108,7 +157,7 @@ def step(af: Airframe, st: dict[str, np.ndarray], inp: dict[str, np.ndarray]):
                      else rotate(q, np.asarray(inp["specific_force"], float)) + np.array([0, 0, g]))
         f_e = f_e - m * st["acc_bias"]
         bias = st["acc_bias"].copy()
-        if started:
+        if follows:
             disagreement = kinematic - (v - st["vel_prev"]) / dt
             bias = bias + (1 - math.exp(-dt / tau)) * (disagreement - bias)
 
@@ -116,8 +165,9 @@ def step(af: Airframe, st: dict[str, np.ndarray], inp: dict[str, np.ndarray]):
     disc = af.observer.discretization
     if disc == "tustin":
         k = w * dt / 2
-        f_obs = ((1 - k) * st["f_obs"] + k * (f_e + st["fe_prev"])) / (1 + k)
-        v_obs = ((1 - k) * st["v_obs"] + k * (v + st["vel_prev"])) / (1 + k)
+        fe_prev, v_prev = (st["fe_prev"], st["vel_prev"]) if follows else (f_e, v)
+        f_obs = ((1 - k) * st["f_obs"] + k * (f_e + fe_prev)) / (1 + k)
+        v_obs = ((1 - k) * st["v_obs"] + k * (v + v_prev)) / (1 + k)
     else:
         a = {"paper": dt * w / 2, "euler": dt * w, "zoh": 1 - np.exp(-dt * w)}[disc]
         f_obs = (1 - a) * st["f_obs"] + a * f_e
@@ -138,6 +188,8 @@ def step(af: Airframe, st: dict[str, np.ndarray], inp: dict[str, np.ndarray]):
     fc = rz.T @ f_filt - np.asarray(af.observer.force_offset_n)
     env = {"m": fc[0], "n": fc[1], "fz": fc[2], "fh": math.hypot(fc[0], fc[1])}
     speed = max(eval_poly(af.horizontal.term_texts, af.horizontal.coefficients, env), 0.0)
+    run_s, quality = quality_of(af, float(st["run_s"]), dt, fc, speed)
+    sigma_h, sigma_up = sigmas(af, speed)
     horizontal = speed * fc[:2] / math.sqrt(env["fh"] ** 2 + 1e-6)
     rel_c = np.array([horizontal[0], horizontal[1], eval_poly(af.vertical.term_texts, af.vertical.coefficients, env)])
     wind = rz @ rel_c + v_filt  # slip 3: the air's velocity relative to the vehicle plus the ground velocity
@@ -147,9 +199,11 @@ def step(af: Airframe, st: dict[str, np.ndarray], inp: dict[str, np.ndarray]):
         "wind_speed_h": math.hypot(wind[0], wind[1]),
         "wind_speed_up": -wind[2],  # slip 4: NED down -> up positive
         "wind_from_deg": math.degrees(math.atan2(-wind[1], -wind[0])) % 360.0,  # slip 4: from, not towards
+        "wind_sigma_h": sigma_h,
+        "wind_sigma_up": sigma_up,
     }
     new = dict(st)
-    new.update(f_obs=f_obs, v_obs=v_obs, f_filt=f_filt, v_filt=v_filt, initialized=1.0)
+    new.update(f_obs=f_obs, v_obs=v_obs, f_filt=f_filt, v_filt=v_filt, initialized=1.0, run_s=run_s)
     if "fe_prev" in st:
         new["fe_prev"] = f_e
     if "vel_prev" in st:
@@ -160,5 +214,12 @@ def step(af: Airframe, st: dict[str, np.ndarray], inp: dict[str, np.ndarray]):
         new[f"last.{key}"] = value
     checked = np.concatenate([f_filt, wind, [out["wind_speed_h"]]] + ([] if bias is None else [bias]))
     if not np.sum(np.abs(checked)) <= 1e30:
-        return dict(st), {k[5:]: v for k, v in st.items() if k.startswith("last.")}, 32
-    return new, out, 0
+        return _rejected(st, 32)
+    return new, out, quality
+
+
+def _rejected(st: dict, status: int):
+    """The estimate and the last output kept; only the gap bookkeeping drops to zero."""
+    kept = dict(st)
+    kept["run_s"] = 0.0
+    return kept, {k[5:]: v for k, v in st.items() if k.startswith("last.")}, status
