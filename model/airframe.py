@@ -14,11 +14,13 @@ from pathlib import Path
 from typing import Any
 
 from dobwind.errors import InputError
+from dobwind.model.forceair import HORIZONTAL_DRAG_KEYS, VERTICAL_DRAG_KEYS, DragLaw
 from dobwind.model.terms import Term, TermError, parse_term
 
 DISCRETIZATIONS = ("paper", "euler", "zoh", "tustin")
 ACCELERATION_MODES = ("ned", "specific_force", "velocity")
 THRUST_SOURCES = ("rpm", "collective")
+FORCE_AIR_MODELS = ("polynomial", "drag")
 STANDARD_GRAVITY = 9.80665
 DEFAULT_MAX_DT_S = 0.1
 DEFAULT_MAX_TILT_DEG = 60.0
@@ -83,6 +85,11 @@ class Airframe:
     filter: FilterSchedule
     limits: Limits
     content_sha256: str  # of the file's bytes; names the source in generated code without a path
+    drag: DragLaw | None = None  # the ``drag`` force-air family; None: the polynomial family
+
+    @property
+    def force_air_model(self) -> str:
+        return "polynomial" if self.drag is None else "drag"
 
 
 class _Reader:
@@ -179,6 +186,36 @@ def _force_air(reader: _Reader) -> ForceAirModel:
     return ForceAirModel(tuple(terms), coefficients)
 
 
+def _drag_law(reader: _Reader) -> DragLaw:
+    values = {key: reader.number(key, default=0.0) for key in HORIZONTAL_DRAG_KEYS + VERTICAL_DRAG_KEYS}
+    for key in ("l0", "q0", "lz", "qz"):
+        if values[key] < 0:
+            raise reader.fail(key, f"a drag coefficient must be >= 0, got {values[key]!r}")
+    if values["l0"] + values["q0"] <= 0:
+        raise reader.fail("q0", "l0 and q0 are both 0: the law cannot be inverted")
+    if values["lz"] + values["qz"] <= 0 and (values["i1"] or values["i2"]):
+        raise reader.fail("qz", "lz and qz are both 0 while inflow terms are set")
+    reader.done()
+    return DragLaw(**values)
+
+
+def _force_air_tables(fa: _Reader) -> tuple[ForceAirModel, ForceAirModel, DragLaw | None]:
+    model = fa.string("model", FORCE_AIR_MODELS, default="polynomial")
+    if model == "drag":
+        for key in ("horizontal", "vertical"):
+            if fa.has(key):
+                raise fa.fail(key, 'only used with model = "polynomial"')
+        drag = _drag_law(fa.table_of("drag"))  # type: ignore[arg-type]
+        fa.done()
+        return ForceAirModel((), ()), ForceAirModel((), ()), drag
+    if fa.has("drag"):
+        raise fa.fail("drag", 'only used with model = "drag"')
+    horizontal = _force_air(fa.table_of("horizontal"))  # type: ignore[arg-type]
+    vertical = _force_air(fa.table_of("vertical"))  # type: ignore[arg-type]
+    fa.done()
+    return horizontal, vertical, None
+
+
 def _thrust(reader: _Reader) -> Thrust:
     source = reader.string("source", THRUST_SOURCES)
     scale = reader.number("scale", default=1.0, positive=True)
@@ -230,9 +267,7 @@ def parse_airframe(text: str, source: str) -> Airframe:
 
     fa = top.table_of("force_air")
     assert fa is not None
-    horizontal = _force_air(fa.table_of("horizontal"))  # type: ignore[arg-type]
-    vertical = _force_air(fa.table_of("vertical"))  # type: ignore[arg-type]
-    fa.done()
+    horizontal, vertical, drag = _force_air_tables(fa)
 
     flt = top.table_of("filter")
     assert flt is not None
@@ -273,6 +308,7 @@ def parse_airframe(text: str, source: str) -> Airframe:
         filter=FilterSchedule(speeds, cutoffs),
         limits=limits,
         content_sha256=hashlib.sha256(text.encode()).hexdigest(),
+        drag=drag,
     )
 
 

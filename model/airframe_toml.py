@@ -58,12 +58,18 @@ def airframe_document(af: Airframe) -> dict[str, Any]:
             "force_offset": list(af.observer.force_offset_n),
             "acceleration_bias_time": af.observer.acceleration_bias_time_s,
         },
-        "force_air": {
-            "horizontal": {"terms": list(af.horizontal.term_texts), "coefficients": list(af.horizontal.coefficients)},
-            "vertical": {"terms": list(af.vertical.term_texts), "coefficients": list(af.vertical.coefficients)},
-        },
+        "force_air": _force_air_document(af),
         "filter": {"speeds": list(af.filter.speeds_mps), "cutoffs": list(af.filter.cutoffs_hz)},
         "limits": {"max_dt": af.limits.max_dt_s, "max_tilt_deg": af.limits.max_tilt_deg},
+    }
+
+
+def _force_air_document(af: Airframe) -> dict[str, Any]:
+    if af.drag is not None:
+        return {"model": "drag", "drag": af.drag.as_dict()}
+    return {
+        "horizontal": {"terms": list(af.horizontal.term_texts), "coefficients": list(af.horizontal.coefficients)},
+        "vertical": {"terms": list(af.vertical.term_texts), "coefficients": list(af.vertical.coefficients)},
     }
 
 
