@@ -106,13 +106,14 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
 
 def cmd_fit(args: argparse.Namespace) -> int:
-    from dobwind.fit import fit_airframe, fit_plot, text_report
+    from dobwind.fit import fit_plot, text_report
+    from dobwind.fitfamily import fit_airframe
     from dobwind.logs import write_atomically
     from dobwind.model.airframe import load_airframe
     from dobwind.model.airframe_toml import dump_airframe
 
     af = load_airframe(args.airframe)
-    new, report, points = fit_airframe(af, list(args.logs), args.terms, args.dynamic)
+    new, report, points = fit_airframe(af, list(args.logs), args.terms, args.dynamic, args.model, args.still_air)
     text = dump_airframe(new)
     write_atomically(args.output, lambda handle: handle.write(text))
     plot = args.plot or str(args.output).removesuffix(".toml") + "_fit.png"
@@ -236,8 +237,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("airframe")
     p.add_argument("logs", nargs="+")
     p.add_argument("-o", "--output", required=True, help="the new airframe file")
-    p.add_argument("--terms", choices=("airframe", "auto"), default="airframe",
-                   help="fit the airframe's terms, or choose them from a library by cross-validation")
+    p.add_argument("--model", choices=("auto", "drag", "polynomial"), default="auto",
+                   help="force-air family: 'drag' (a drag law fitted forward and inverted in the step), "
+                   "'polynomial' (the paper's), or 'auto': both, scored by grouped cross-validation and "
+                   "extrapolation in airflow space (default: auto)")
+    p.add_argument("--terms", choices=("airframe", "auto"), default="auto",
+                   help="polynomial family: fit the airframe's terms, or choose them from a library by "
+                   "cross-validation (default: auto)")
+    p.add_argument("--still-air", action="store_true",
+                   help="the logs were flown in still air: wind columns may be absent and are taken as zero")
     p.add_argument("--plot", help="PNG of the fitted surface and residuals (default: beside the output)")
     p.add_argument("--dynamic", action="store_true",
                    help="calibrate on manoeuvring flight too (constant wind), not only on steady holds")

@@ -91,6 +91,11 @@ class FitReport:
     vertical_extrapolation_rmse_mps: float | None = None
     directions: int = 0
     speeds: int = 0
+    model: str = "polynomial"
+    drag: dict[str, float] = field(default_factory=dict)
+    families: dict[str, dict[str, float | None]] = field(default_factory=dict)
+    samples: int = 0
+    self_check: list[dict] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
 
 
@@ -109,15 +114,29 @@ def _moving_mean(x: np.ndarray, window: int) -> np.ndarray:
     return np.column_stack([np.convolve(x[:, i], kernel, mode="same") for i in range(x.shape[1])])
 
 
-def read_calibration_logs(af: Airframe, log_paths: list[str]) -> list[FlightLog]:
-    needed = required_columns(af) + [(c, "the true wind (fit needs it)") for c in TRUTH_COLUMNS]
-    return [read_log(path, needed) for path in log_paths]
+def read_calibration_logs(af: Airframe, log_paths: list[str], still_air: bool = False) -> list[FlightLog]:
+    """Logs with the true wind; ``still_air``: logs flown in still air, whose wind columns may be absent
+    (taken as zero: the relative airflow is minus the ground velocity)."""
+    if not still_air:
+        needed = required_columns(af) + [(c, "the true wind (fit needs it)") for c in TRUTH_COLUMNS]
+        return [read_log(path, needed) for path in log_paths]
+    logs = []
+    for path in log_paths:
+        log = read_log(path, required_columns(af))
+        zero = np.zeros(log.rows)
+        logs.append(FlightLog(log.path, {**log.columns, **{c: zero for c in TRUTH_COLUMNS}}))
+    return logs
+
+
+def calibration_airframe(af: Airframe) -> Airframe:
+    """The airframe with its filter fixed at the highest cutoff: calibration wants short settling."""
+    return dataclasses.replace(af, filter=FilterSchedule((0.0,), (max(af.filter.cutoffs_hz),)))
 
 
 def calibration_points(af: Airframe, logs: list[FlightLog], dynamic: bool = False) -> tuple[Points, float]:
     """Chunk means from every log, and the settling time used for cleaning. ``dynamic`` keeps
     manoeuvring flight too (only yaw changes and rejected samples are cut), in shorter chunks."""
-    cal = dataclasses.replace(af, filter=FilterSchedule((0.0,), (max(af.filter.cutoffs_hz),)))
+    cal = calibration_airframe(af)
     from dobwind.model.step import build_step
 
     model = build_step(cal)
@@ -285,10 +304,10 @@ def _zero_airflow(points: Points) -> np.ndarray:
     return (points.speed_h < ZERO_AIRFLOW_MPS) & (np.abs(points.air_z) < ZERO_AIRFLOW_MPS)
 
 
-def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "airframe",
-                 dynamic: bool = False) -> tuple[Airframe, FitReport, Points]:
+def fit_polynomial(af: Airframe, logs: list[FlightLog], terms: str = "auto",
+                   dynamic: bool = False) -> tuple[Airframe, FitReport, Points]:
+    """The paper's family from steady chunks (or manoeuvres with ``dynamic``)."""
     report = FitReport()
-    logs = read_calibration_logs(af, log_paths)
     raw, _ = calibration_points(af, logs, dynamic)
     zero = _zero_airflow(raw)
     report.zero_airflow_points = int(zero.sum())
@@ -383,7 +402,19 @@ def text_report(report: FitReport) -> str:
     vertical = ("kept from the airframe" if report.vertical_rmse_mps is None else
                 f"RMSE {report.vertical_rmse_mps:.3f} m/s, "
                 + _errors(report.vertical_cv_rmse_mps, report.vertical_extrapolation_rmse_mps))
-    return "\n".join([
+    families = [f"family {name}: " + ", ".join(f"{k} {'n/a' if v is None else f'{v:.3f}'}" for k, v in scores.items())
+                for name, scores in report.families.items()]
+    chosen = [f"model: {report.model} (chosen by grouped CV and extrapolation of the airflow)"] + families
+    if report.model == "drag":
+        law = ", ".join(f"{k} {v:.4g}" for k, v in report.drag.items())
+        return "\n".join(chosen + [
+            f"{report.samples} samples; thrust scale {report.thrust_scale:.4f}; force offset "
+            f"[{', '.join(f'{v:.3f}' for v in report.force_offset_n)}] N",
+            f"drag law: {law}",
+            f"  horizontal airflow RMSE {report.horizontal_rmse_mps:.3f} m/s, "
+            + _errors(report.horizontal_cv_rmse_mps, report.horizontal_extrapolation_rmse_mps),
+            f"  vertical airflow RMSE {report.vertical_rmse_mps:.3f} m/s"])
+    return "\n".join(chosen + [
         f"calibration points {report.points} (2 s means of steady flight; {report.outliers_removed} outliers removed), "
         f"{report.zero_airflow_points} at zero airflow; {report.directions} of 12 airflow directions, "
         f"{report.speeds} speeds",
@@ -396,11 +427,38 @@ def text_report(report: FitReport) -> str:
     ])
 
 
-def fit_plot(af: Airframe, points: Points, path: str) -> None:
+def drag_plot(af: Airframe, path: str) -> None:
+    """The fitted drag law: force along body x, y and z against airflow speed along that axis."""
+    import matplotlib.pyplot as plt
+
+    from dobwind.model.forceair import drag_force
+    from dobwind.plots import save
+
+    assert af.drag is not None
+    speed = np.linspace(0.0, 12.0, 121)
+    zero = np.zeros_like(speed)
+    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    for label, (vx, vy, vz), pick in (("x (forward)", (speed, zero, zero), 0), ("y (right)", (zero, speed, zero), 1),
+                                      ("z (down)", (zero, zero, speed), 2)):
+        ax.plot(speed, drag_force(af.drag, vx, vy, vz)[pick], label=f"air along body {label}")
+    ax.set_xlabel("relative airflow speed along the axis (m/s)")
+    ax.set_ylabel("force (N)")
+    ax.set_title(f"{af.name}: fitted drag law")
+    ax.grid(True, alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    save(fig, path)
+
+
+def fit_plot(af: Airframe, points: Points | None, path: str) -> None:
     """Fitted horizontal surface over the (m, n) force plane with the calibration points, and residuals."""
     import matplotlib.pyplot as plt
 
     from dobwind.plots import save
+
+    if af.drag is not None or points is None:
+        drag_plot(af, path)
+        return
 
     fig, (surface, residual) = plt.subplots(1, 2, figsize=(12, 5))
     span = max(float(np.max(np.abs(np.r_[points.m, points.n]))) * 1.1, 1e-3)

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from dobwind.fit import fit_airframe
+from dobwind.fitfamily import fit_airframe
 from dobwind.logs import write_csv
 from dobwind.model.airframe import load_airframe
 from dobwind.model.status import accepted

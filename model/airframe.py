@@ -15,11 +15,13 @@ from pathlib import Path
 from typing import Any
 
 from dobwind.errors import InputError
+from dobwind.model.forceair import HORIZONTAL_DRAG_KEYS, VERTICAL_DRAG_KEYS, DragLaw
 from dobwind.model.terms import Term, TermError, parse_term
 
 DISCRETIZATIONS = ("paper", "euler", "zoh", "tustin")
 ACCELERATION_MODES = ("ned", "specific_force", "velocity")
 THRUST_SOURCES = ("rpm", "collective")
+FORCE_AIR_MODELS = ("polynomial", "drag")
 STANDARD_GRAVITY = 9.80665
 DEFAULT_MAX_DT_S = 0.1
 DEFAULT_MAX_TILT_DEG = 60.0
@@ -27,13 +29,16 @@ MAX_ROTORS = 16
 
 # Every key each table may hold. They are checked before any value is read, so that a misspelt key
 # ("masss") is reported as unknown rather than as the correct key missing. Add new keys here.
-TOP_KEYS = ("name", "mass", "gravity", "thrust", "observer", "force_air", "filter", "limits")
+TOP_KEYS = ("name", "mass", "gravity", "thrust", "observer", "force_air", "filter", "limits", "envelope",
+            "uncertainty")
 THRUST_KEYS = ("source", "scale", "rotors", "max_rpm", "coefficients")
 OBSERVER_KEYS = ("sample_time", "gains", "discretization", "acceleration", "force_offset", "acceleration_bias_time")
-FORCE_AIR_KEYS = ("horizontal", "vertical")
+FORCE_AIR_KEYS = ("model", "horizontal", "vertical", "drag")
 POLYNOMIAL_KEYS = ("terms", "coefficients")
 FILTER_KEYS = ("speeds", "cutoffs")
 LIMITS_KEYS = ("max_dt", "max_tilt_deg")
+ENVELOPE_KEYS = ("force_h_max", "force_z", "airflow_h_max")
+UNCERTAINTY_KEYS = ("speeds", "sigma_h", "sigma_up")
 
 
 @dataclass(frozen=True)
@@ -112,6 +117,11 @@ class Airframe:
     content_sha256: str  # of the file's bytes; names the source in generated code without a path
     envelope: Envelope | None = None        # optional: absent => EXTRAPOLATED is never set
     uncertainty: Uncertainty | None = None  # optional: absent => the sigma outputs carry -1 (unknown)
+    drag: DragLaw | None = None  # the ``drag`` force-air family; None: the polynomial family
+
+    @property
+    def force_air_model(self) -> str:
+        return "polynomial" if self.drag is None else "drag"
 
 
 def _finite_float(value: Any) -> float | None:
@@ -235,6 +245,36 @@ def _force_air(reader: _Reader) -> ForceAirModel:
     return ForceAirModel(tuple(terms), coefficients)
 
 
+def _drag_law(reader: _Reader) -> DragLaw:
+    values = {key: reader.number(key, default=0.0) for key in HORIZONTAL_DRAG_KEYS + VERTICAL_DRAG_KEYS}
+    for key in ("l0", "q0", "lz", "qz"):
+        if values[key] < 0:
+            raise reader.fail(key, f"a drag coefficient must be >= 0, got {values[key]!r}")
+    if values["l0"] + values["q0"] <= 0:
+        raise reader.fail("q0", "l0 and q0 are both 0: the law cannot be inverted")
+    if values["lz"] + values["qz"] <= 0 and (values["i1"] or values["i2"]):
+        raise reader.fail("qz", "lz and qz are both 0 while inflow terms are set")
+    reader.done()
+    return DragLaw(**values)
+
+
+def _force_air_tables(fa: _Reader) -> tuple[ForceAirModel, ForceAirModel, DragLaw | None]:
+    model = fa.string("model", FORCE_AIR_MODELS, default="polynomial")
+    if model == "drag":
+        for key in ("horizontal", "vertical"):
+            if fa.has(key):
+                raise fa.fail(key, 'only used with model = "polynomial"')
+        drag = _drag_law(fa.table_of("drag", HORIZONTAL_DRAG_KEYS + VERTICAL_DRAG_KEYS))  # type: ignore[arg-type]
+        fa.done()
+        return ForceAirModel((), ()), ForceAirModel((), ()), drag
+    if fa.has("drag"):
+        raise fa.fail("drag", 'only used with model = "drag"')
+    horizontal = _force_air(fa.table_of("horizontal", POLYNOMIAL_KEYS))  # type: ignore[arg-type]
+    vertical = _force_air(fa.table_of("vertical", POLYNOMIAL_KEYS))  # type: ignore[arg-type]
+    fa.done()
+    return horizontal, vertical, None
+
+
 def _thrust(reader: _Reader) -> Thrust:
     source = reader.string("source", THRUST_SOURCES)
     scale = reader.number("scale", default=1.0, positive=True)
@@ -314,9 +354,7 @@ def parse_airframe(text: str, source: str) -> Airframe:
 
     fa = top.table_of("force_air", FORCE_AIR_KEYS)
     assert fa is not None
-    horizontal = _force_air(fa.table_of("horizontal", POLYNOMIAL_KEYS))  # type: ignore[arg-type]
-    vertical = _force_air(fa.table_of("vertical", POLYNOMIAL_KEYS))  # type: ignore[arg-type]
-    fa.done()
+    horizontal, vertical, drag = _force_air_tables(fa)
 
     flt = top.table_of("filter", FILTER_KEYS)
     assert flt is not None
@@ -344,8 +382,8 @@ def parse_airframe(text: str, source: str) -> Airframe:
         limits = Limits(max_dt, max_tilt)
     if limits.max_dt_s < sample_time:
         raise InputError(source, "limits.max_dt", f"must be at least observer.sample_time ({sample_time:g} s)")
-    env = top.table_of("envelope", required=False)
-    unc = top.table_of("uncertainty", required=False)
+    env = top.table_of("envelope", ENVELOPE_KEYS, required=False)
+    unc = top.table_of("uncertainty", UNCERTAINTY_KEYS, required=False)
     envelope = _envelope(env) if env is not None else None
     uncertainty = _uncertainty(unc) if unc is not None else None
     top.done()
@@ -363,6 +401,7 @@ def parse_airframe(text: str, source: str) -> Airframe:
         content_sha256=hashlib.sha256(text.encode()).hexdigest(),
         envelope=envelope,
         uncertainty=uncertainty,
+        drag=drag,
     )
 
 

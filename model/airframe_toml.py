@@ -58,10 +58,7 @@ def airframe_document(af: Airframe) -> dict[str, Any]:
             "force_offset": list(af.observer.force_offset_n),
             "acceleration_bias_time": af.observer.acceleration_bias_time_s,
         },
-        "force_air": {
-            "horizontal": {"terms": list(af.horizontal.term_texts), "coefficients": list(af.horizontal.coefficients)},
-            "vertical": {"terms": list(af.vertical.term_texts), "coefficients": list(af.vertical.coefficients)},
-        },
+        "force_air": _force_air_document(af),
         "filter": {"speeds": list(af.filter.speeds_mps), "cutoffs": list(af.filter.cutoffs_hz)},
         "limits": {"max_dt": af.limits.max_dt_s, "max_tilt_deg": af.limits.max_tilt_deg},
     }
@@ -73,6 +70,15 @@ def airframe_document(af: Airframe) -> dict[str, Any]:
                                    "sigma_h": list(af.uncertainty.sigma_h_mps),
                                    "sigma_up": list(af.uncertainty.sigma_up_mps)}
     return document
+
+
+def _force_air_document(af: Airframe) -> dict[str, Any]:
+    if af.drag is not None:
+        return {"model": "drag", "drag": af.drag.as_dict()}
+    return {
+        "horizontal": {"terms": list(af.horizontal.term_texts), "coefficients": list(af.horizontal.coefficients)},
+        "vertical": {"terms": list(af.vertical.term_texts), "coefficients": list(af.vertical.coefficients)},
+    }
 
 
 def dump_airframe(af: Airframe) -> str:

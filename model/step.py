@@ -23,17 +23,14 @@ import casadi as ca
 import numpy as np
 
 from dobwind.model.airframe import Airframe
+from dobwind.model import forceair
 from dobwind.model.discretization import first_order
 from dobwind.model.dynamics import quaternion_to_rotation_any_norm, solve_external_force
 from dobwind.model.layout import Field, Layout
 from dobwind.model.settling import settling_time_s
 from dobwind.model.status import (DT_TOLERANCE, INPUT_MAGNITUDE_LIMIT, MIN_DT_S, QUATERNION_NORM_TOLERANCE,
                                   RESULT_MAGNITUDE_LIMIT, STATUS_BITS)
-from dobwind.model.terms import polynomial_expr
 
-# Below this horizontal force (N) the force direction is noise; the airflow is scaled down smoothly
-# instead of dividing by ~0.
-FORCE_DIRECTION_EPS_N = 1e-3
 # The sigma outputs when the airframe records no [uncertainty] table: "unknown", never NaN.
 UNKNOWN_SIGMA = -1.0
 
@@ -340,25 +337,18 @@ def build_step(af: Airframe) -> StepModel:
 
     # --- back end: force-air model and wind triangle ---------------------------------------------
     def force_air(s: Signals) -> Signals:
-        psi = s["in.yaw_ref"]
-        c, sn = ca.cos(psi), ca.sin(psi)
-        f = s["f_filt_new"]
-        offset = obs.force_offset_n
-        mm = c * f[0] + sn * f[1] - offset[0]
-        nn = -sn * f[0] + c * f[1] - offset[1]
-        fz = f[2] - offset[2]
-        fh = ca.sqrt(mm * mm + nn * nn)
-        variables = {"m": mm, "n": nn, "fh": fh, "fz": fz}
-        speed_h = ca.fmax(polynomial_expr(af.horizontal.terms, af.horizontal.coefficients, variables), 0)
-        # The air moves along the horizontal force; the guard makes (m, n)/fh -> 0 instead of 0/0.
-        scale = speed_h / ca.sqrt(fh * fh + FORCE_DIRECTION_EPS_N ** 2)
-        rel_x, rel_y = scale * mm, scale * nn
-        rel_z = polynomial_expr(af.vertical.terms, af.vertical.coefficients, variables)
-        return {
-            "force_heading": ca.vertcat(mm, nn, fz),
-            "airflow_speed_h": speed_h,
-            "air_rel_ned": ca.vertcat(c * rel_x - sn * rel_y, sn * rel_x + c * rel_y, rel_z),
-        }
+        c, sn = ca.cos(s["in.yaw_ref"]), ca.sin(s["in.yaw_ref"])
+        mm, nn, fz = forceair.heading_force(s["f_filt_new"], c, sn, obs.force_offset_n)
+        if af.drag is not None:
+            rel_x, rel_y, rel_z = forceair.drag_airflow(af.drag, mm, nn, fz)
+            speed_h = ca.sqrt(rel_x * rel_x + rel_y * rel_y)
+        else:
+            rel_x, rel_y, rel_z, speed_h = forceair.polynomial_airflow(
+                (af.horizontal.terms, af.horizontal.coefficients), (af.vertical.terms, af.vertical.coefficients),
+                mm, nn, fz)
+        north, east = forceair.heading_to_ned(rel_x, rel_y, c, sn)
+        return {"force_heading": ca.vertcat(mm, nn, fz), "airflow_speed_h": speed_h,
+                "air_rel_ned": ca.vertcat(north, east, rel_z)}
 
     b.add("force_air", "heading-frame force -> relative airflow (air minus vehicle velocity), NED",
           ["f_filt_new", "in.yaw_ref"], force_air)
@@ -366,10 +356,8 @@ def build_step(af: Airframe) -> StepModel:
     def wind(s: Signals) -> Signals:
         w = s["air_rel_ned"] + s["v_filt_new"]  # v_wind = v_rel + v_ground
         speed_h = ca.sqrt(w[0] * w[0] + w[1] * w[1])
-        towards = ca.atan2(-w[1], -w[0]) * (180 / math.pi)  # (-180, 180]
-        from_deg = towards + ca.if_else(towards < 0, 360, 0)
-        from_deg = ca.if_else(from_deg >= 360, 0, from_deg)  # -tiny + 360 rounds to 360 in float
-        return {"wind_ned": w, "wind_speed_h": speed_h, "wind_speed_up": -w[2], "wind_from_deg": from_deg}
+        return {"wind_ned": w, "wind_speed_h": speed_h, "wind_speed_up": -w[2],
+                "wind_from_deg": forceair.wind_from_deg_sx(w[0], w[1])}
 
     b.add("wind", "wind triangle and the reported quantities", ["air_rel_ned", "v_filt_new"], wind)
     settle = settling_time_s(af)

@@ -10,7 +10,8 @@ import pytest
 from dobwind import baseline
 from dobwind.cli import main
 from dobwind.codegen.tolerance import TOLERANCE
-from dobwind.fit import VERTICAL_CANDIDATES, Points, _extrapolation_rmse, _term_matrix, fit_airframe, select_terms
+from dobwind.fit import (VERTICAL_CANDIDATES, Points, _extrapolation_rmse, _term_matrix, fit_polynomial,
+                         read_calibration_logs, select_terms)
 from dobwind.logs import ESTIMATE_COLUMNS, read_log, required_columns
 from dobwind.model.airframe import load_airframe
 from dobwind.model.status import REJECTED_MASK, STATUS_BITS, accepted
@@ -39,7 +40,7 @@ def logs(tmp_path_factory):
 @pytest.fixture(scope="module")
 def fitted(logs, tmp_path_factory):
     out = tmp_path_factory.mktemp("fit") / "fitted.toml"
-    assert main(["fit", str(M300), logs["sweep"], logs["vertical"], "--terms", "auto", "-o", str(out)]) == 0
+    assert main(["fit", str(M300), logs["sweep"], logs["vertical"], "--model", "polynomial", "-o", str(out)]) == 0
     return out
 
 
@@ -141,6 +142,12 @@ def test_fit_recovers_the_thrust_scale_and_a_good_model(fitted, capsys):
 def test_fit_report_json(logs, tmp_path, capsys):
     out = tmp_path / "f.toml"
     assert main(["fit", str(M300), logs["sweep"], logs["vertical"], "-o", str(out), "--json"]) == 0
+    chosen = json.loads(capsys.readouterr().out)
+    assert set(chosen["families"]) == {"drag", "polynomial"} and chosen["model"] in chosen["families"]
+    best = min(f["score_mps"] for f in chosen["families"].values())
+    assert chosen["families"][chosen["model"]]["score_mps"] == best
+    assert main(["fit", str(M300), logs["sweep"], logs["vertical"], "-o", str(out), "--json", "--model", "polynomial",
+                 "--terms", "airframe"]) == 0
     report = json.loads(capsys.readouterr().out)
     assert report["horizontal_terms"] == ["1", "m", "n", "m^2", "n^2"]  # the airframe's own terms
     assert report["directions"] == 12 and report["speeds"] >= 8 and report["points"] > 100
@@ -182,7 +189,7 @@ def test_extrapolation_error_is_measured_on_the_top_holds_only():
 
 def test_one_direction_gives_a_warning_and_a_direction_free_model(logs):
     af = load_airframe(M300)
-    new, report, _ = fit_airframe(af, [logs["tunnel"]], "airframe")
+    new, report, _ = fit_polynomial(af, read_calibration_logs(af, [logs["tunnel"]]), "airframe")
     assert any("direction" in w for w in report.warnings)
     assert all(not ({"m", "n"} & t.variables) for t in new.horizontal.terms)
     assert all(math.isfinite(c) and abs(c) < 50 for c in new.horizontal.coefficients)

@@ -1,0 +1,315 @@
+"""Calibration of the ``drag`` force-air family from any flight: holds, manoeuvres, figure-8s.
+
+The drag law (model/forceair.py) is linear in its coefficients, so it is fitted forward, force as a
+function of airflow, where the noise is. The estimator does not see the aerodynamic force itself but
+its image through the observer and the low-pass H; H is linear, so each regressor column (a basis
+function of the true relative airflow, rotated to NED) is passed through the same H. The observed force
+is then a linear combination of the filtered columns on EVERY sample: no steady holds, no chunking, no
+delay guesswork, and no dependence on the sample rate (the filtered columns are decimated to about
+10 Hz, which H's bandwidth of at most a few Hz allows).
+
+Besides the drag coefficients the regression holds a heading-frame horizontal force offset and kappa,
+the thrust error along the body axis (f_e = F_aero + kappa u_f z_b with kappa = 1 - true/nominal thrust):
+the vertical force balance over the whole flight gives the thrust scale, with or without a hover.
+
+Outliers get Huber weights (iteratively reweighted least squares); the drag coefficients are kept
+non-negative by an active set; the terms are chosen by grouped cross-validation in AIRFLOW space (what
+the user sees), plus the error on the fastest blocks when fitted on the rest (extrapolation).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+from scipy.signal import lfilter, lfilter_zi
+
+from dobwind.model.airframe import Airframe
+from dobwind.model.discretization import first_order
+from dobwind.model.forceair import (FORCE_DIRECTION_EPS_N, HORIZONTAL_DRAG_KEYS, VERTICAL_DRAG_KEYS, DragLaw,
+                                    drag_airflow_numpy, horizontal_drag_basis, term_matrix)
+from dobwind.model.terms import Term
+
+PARAMETERS = HORIZONTAL_DRAG_KEYS + ("ox", "oy") + VERTICAL_DRAG_KEYS + ("kappa",)
+NONNEGATIVE = ("l0", "q0", "lz", "qz")
+DECIMATED_RATE_HZ = 10.0
+BLOCK_S = 20.0          # cross-validation groups: consecutive blocks of flight
+FOLDS = 5
+TOP_SHARE = 0.85        # extrapolation test: blocks at least this share of the fastest block's speed
+HUBER_K = 2.0           # Huber threshold in robust standard deviations
+# Candidate horizontal and vertical parameter sets, smallest first; offsets and kappa are always in.
+HORIZONTAL_SETS = (("l0",), ("q0",), ("l0", "q0"), ("l0", "q0", "l2c", "q2c", "l2s", "q2s"),
+                   ("l0", "q0", "l2c", "q2c", "l2s", "q2s", "q1c"))
+VERTICAL_SETS = (("lz",), ("qz",), ("lz", "qz"), ("lz", "qz", "i1"), ("lz", "qz", "i1", "i2"))
+ALWAYS = ("ox", "oy", "kappa")
+
+
+@dataclass(frozen=True)
+class DragSamples:
+    """Decimated calibration samples; every per-parameter regressor already passed through H."""
+    observed: np.ndarray     # (N, 3) filtered observed force, NED, N
+    columns: np.ndarray      # (N, 3, P) filtered regressors, NED, in PARAMETERS order
+    cos_yaw: np.ndarray      # (N,) heading frame at the sample
+    sin_yaw: np.ndarray
+    airflow: np.ndarray      # (N, 3) H-filtered true relative airflow, heading frame, m/s
+    group: np.ndarray        # (N,) calibration block
+    log_index: np.ndarray    # (N,) which log
+
+    def select(self, keep: np.ndarray) -> "DragSamples":
+        return DragSamples(self.observed[keep], self.columns[keep], self.cos_yaw[keep], self.sin_yaw[keep],
+                           self.airflow[keep], self.group[keep], self.log_index[keep])
+
+    def __len__(self) -> int:
+        return len(self.observed)
+
+
+def observer_filter(af: Airframe, dt_s: float, cutoff_hz: float, axis: int) -> tuple[np.ndarray, np.ndarray]:
+    """H for one axis at a fixed step: the observer's first-order form, then the ZOH low-pass."""
+    c = first_order(af.observer.discretization, af.observer.gains[axis] / af.mass_kg, dt_s)
+    alpha = -math.expm1(-2 * math.pi * cutoff_hz * dt_s)
+    b = np.polymul([float(c.b0), float(c.b1)], [alpha])
+    a = np.polymul([1.0, -float(c.pole)], [1.0, -(1 - alpha)])
+    return b, a
+
+
+def _filtered(b: np.ndarray, a: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """H along axis 0, starting in steady state at the first row (as the step starts at the input)."""
+    zi = lfilter_zi(b, a)
+    shape = (len(zi),) + (1,) * (x.ndim - 1)
+    out, _ = lfilter(b, a, x, axis=0, zi=zi.reshape(shape) * x[:1])
+    return out
+
+
+def basis(airflow_c: np.ndarray) -> np.ndarray:
+    """(N, 3, P) heading-frame force per unit of each parameter (kappa left zero: it is NED)."""
+    vx, vy, vz = airflow_c[:, 0], airflow_c[:, 1], airflow_c[:, 2]
+    s = np.hypot(vx, vy)
+    zero, one = np.zeros_like(vx), np.ones_like(vx)
+    per = {k: (x, y, zero) for k, (x, y) in horizontal_drag_basis(vx, vy, np.maximum(s, 1e-9)).items()}
+    per.update({"ox": (one, zero, zero), "oy": (zero, one, zero), "lz": (zero, zero, vz),
+                "qz": (zero, zero, np.abs(vz) * vz), "i1": (zero, zero, s), "i2": (zero, zero, s * s),
+                "kappa": (zero, zero, zero)})
+    return np.stack([np.column_stack(per[p]) for p in PARAMETERS], axis=2)
+
+
+def _forward_fill(x: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    index = np.maximum.accumulate(np.where(valid, np.arange(len(valid)), 0))
+    return x[index]
+
+
+def log_samples(af: Airframe, cutoff_hz: float, t: np.ndarray, force_ned: np.ndarray, airflow_ned: np.ndarray,
+                thrust_ned: np.ndarray, yaw: np.ndarray, usable: np.ndarray) -> dict[str, np.ndarray]:
+    """One log's samples, filtered and decimated. ``thrust_ned`` is u_f z_b; ``usable`` marks samples the
+    step accepted and that are at least one settling time clear of a start or rejection."""
+    valid = np.isfinite(airflow_ned).all(axis=1) & np.isfinite(thrust_ned).all(axis=1) & np.isfinite(yaw)
+    first = int(np.argmax(valid))
+    valid[:first] = True  # filled from the first valid row; kept out of the fit by ``usable``
+    airflow_ned, thrust_ned, yaw = (_forward_fill(v, valid) for v in (airflow_ned, thrust_ned, yaw))
+    c, s = np.cos(yaw), np.sin(yaw)
+    air_c = np.column_stack([c * airflow_ned[:, 0] + s * airflow_ned[:, 1], -s * airflow_ned[:, 0] + c * airflow_ned[:, 1],
+                             airflow_ned[:, 2]])
+    unit = basis(air_c)
+    ned = np.stack([c[:, None] * unit[:, 0] - s[:, None] * unit[:, 1], s[:, None] * unit[:, 0] + c[:, None] * unit[:, 1],
+                    unit[:, 2]], axis=1)
+    ned[:, :, PARAMETERS.index("kappa")] = thrust_ned
+    dt = float(np.median(np.diff(t))) if len(t) > 1 else af.observer.sample_time_s
+    columns = np.empty_like(ned)
+    filtered_air = np.empty_like(air_c)
+    for axis in range(3):
+        b, a = observer_filter(af, dt, cutoff_hz, axis)
+        columns[:, axis] = _filtered(b, a, ned[:, axis])
+        filtered_air[:, axis] = _filtered(b, a, air_c[:, axis])
+    step = max(1, int(round(1.0 / (DECIMATED_RATE_HZ * dt))))
+    keep = np.zeros(len(t), dtype=bool)
+    keep[::step] = True
+    keep &= usable & valid & np.isfinite(force_ned).all(axis=1)
+    return {"observed": force_ned[keep], "columns": columns[keep], "cos_yaw": c[keep], "sin_yaw": s[keep],
+            "airflow": filtered_air[keep], "time": t[keep]}
+
+
+def thrust_ned(af: Airframe, rotor_rpm: np.ndarray | None, thrust: np.ndarray | None, q: np.ndarray) -> np.ndarray:
+    """u_f z_b (N, NED): the airframe's thrust (scale included) along the body's down axis."""
+    if af.thrust.source == "rpm":
+        omega = np.asarray(rotor_rpm) / af.thrust.max_rpm
+        u_f = sum(c * np.sum(omega ** k, axis=1) for k, c in enumerate(af.thrust.coefficients)) * af.thrust.scale
+    else:
+        u_f = np.asarray(thrust) * af.thrust.scale
+    w, x, y, z = (q[:, i] / np.linalg.norm(q, axis=1) for i in range(4))
+    z_b = np.column_stack([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)])
+    return u_f[:, None] * z_b
+
+
+def merge(parts: list[dict[str, np.ndarray]]) -> DragSamples:
+    groups, offset = [], 0
+    for part in parts:
+        block = np.floor((part["time"] - part["time"][0]) / BLOCK_S).astype(int) if len(part["time"]) else np.zeros(0, int)
+        groups.append(block + offset)
+        offset += int(block.max()) + 1 if len(block) else 0
+    cat = {k: np.concatenate([p[k] for p in parts]) for k in ("observed", "columns", "cos_yaw", "sin_yaw", "airflow")}
+    logs = np.concatenate([np.full(len(p["time"]), i) for i, p in enumerate(parts)])
+    return DragSamples(cat["observed"], cat["columns"], cat["cos_yaw"], cat["sin_yaw"], cat["airflow"],
+                       np.concatenate(groups), logs)
+
+
+def _solve(samples: DragSamples, active: tuple[str, ...], weights: np.ndarray | None = None) -> np.ndarray:
+    """Weighted least squares on the active parameters (the rest zero), drag coefficients kept >= 0
+    by dropping a negative one and solving again (an active set: at most a few rounds)."""
+    rows = len(samples)
+    w = np.ones((rows, 3)) if weights is None else weights
+    y = (samples.observed * w).reshape(-1)
+    free = list(active)
+    while True:
+        cols = [PARAMETERS.index(p) for p in free]
+        a = (samples.columns[:, :, cols] * w[:, :, None]).reshape(rows * 3, len(cols))
+        scale = np.maximum(np.abs(a).max(axis=0), 1e-12)
+        coef, *_ = np.linalg.lstsq(a / scale, y, rcond=1e-10)
+        coef /= scale
+        negative = [p for p, c in zip(free, coef) if p in NONNEGATIVE and c < 0]
+        if not negative:
+            break
+        free.remove(min(negative, key=lambda p: coef[free.index(p)]))
+    theta = np.zeros(len(PARAMETERS))
+    theta[[PARAMETERS.index(p) for p in free]] = coef
+    return theta
+
+
+def robust_fit(samples: DragSamples, active: tuple[str, ...], rounds: int = 4) -> np.ndarray:
+    """IRLS with Huber weights, the residual scale estimated per axis (horizontal and vertical noise
+    differ: thrust noise enters the vertical force only)."""
+    theta = _solve(samples, active)
+    for _ in range(rounds):
+        residual = samples.observed - np.einsum("nap,p->na", samples.columns, theta)
+        sigma = np.maximum(1.4826 * np.median(np.abs(residual - np.median(residual, axis=0)), axis=0), 1e-9)
+        z = np.abs(residual) / (HUBER_K * sigma)
+        weights = np.sqrt(np.where(z <= 1, 1.0, 1.0 / np.maximum(z, 1e-12)))
+        theta = _solve(samples, active, weights / sigma)
+    return theta
+
+
+def law_of(theta: np.ndarray) -> DragLaw:
+    values = dict(zip(PARAMETERS, (float(v) for v in theta)))
+    return DragLaw(**{k: values[k] for k in HORIZONTAL_DRAG_KEYS + VERTICAL_DRAG_KEYS})
+
+
+def heading_forces(samples: DragSamples, theta: np.ndarray) -> np.ndarray:
+    """(N, 3) the heading-frame force the step will see with the fitted offset and thrust scale."""
+    values = dict(zip(PARAMETERS, theta))
+    # The fitted thrust scale removes kappa u_f z_b from the force the step will see.
+    f = samples.observed - values["kappa"] * samples.columns[:, :, PARAMETERS.index("kappa")]
+    m = samples.cos_yaw * f[:, 0] + samples.sin_yaw * f[:, 1] - values["ox"]
+    n = -samples.sin_yaw * f[:, 0] + samples.cos_yaw * f[:, 1] - values["oy"]
+    return np.column_stack([m, n, f[:, 2]])
+
+
+def predicted_airflow(samples: DragSamples, theta: np.ndarray) -> np.ndarray:
+    """The step's inversion applied to the observed force: heading-frame airflow (N, 3)."""
+    force = heading_forces(samples, theta)
+    return drag_airflow_numpy(law_of(theta), force[:, 0], force[:, 1], force[:, 2])
+
+
+def airflow_errors(samples: DragSamples, theta: np.ndarray) -> tuple[float, float]:
+    """RMS horizontal vector error and RMS vertical error (m/s) of the inverted law."""
+    error = predicted_airflow(samples, theta) - samples.airflow
+    return float(np.sqrt(np.mean(error[:, 0] ** 2 + error[:, 1] ** 2))), float(np.sqrt(np.mean(error[:, 2] ** 2)))
+
+
+FitPredict = Callable[[DragSamples, DragSamples], np.ndarray]
+
+
+def drag_fit_predict(active: tuple[str, ...]) -> FitPredict:
+    return lambda train, test: predicted_airflow(test, robust_fit(train, active, rounds=2))
+
+
+def grouped_cv(samples: DragSamples, fit_predict: FitPredict) -> tuple[float, float]:
+    """Horizontal vector and vertical RMS airflow errors (m/s) on held-out blocks, FOLDS folds."""
+    unique = np.unique(samples.group)
+    if len(unique) < 2:
+        return math.nan, math.nan
+    fold_of = dict(zip(np.random.default_rng(0).permutation(unique), np.arange(len(unique)) % FOLDS))
+    fold = np.array([fold_of[g] for g in samples.group])
+    squared_h, squared_v, count = 0.0, 0.0, 0
+    for k in range(min(FOLDS, len(unique))):
+        test = fold == k
+        error = fit_predict(samples.select(~test), samples.select(test)) - samples.airflow[test]
+        squared_h += float(np.sum(error[:, 0] ** 2 + error[:, 1] ** 2))
+        squared_v += float(np.sum(error[:, 2] ** 2))
+        count += int(test.sum())
+    return math.sqrt(squared_h / count), math.sqrt(squared_v / count)
+
+
+def extrapolation_error(samples: DragSamples, fit_predict: FitPredict) -> float:
+    """Horizontal airflow error on the fastest blocks when the model is fitted on the rest."""
+    unique, inverse = np.unique(samples.group, return_inverse=True)
+    speed = np.hypot(samples.airflow[:, 0], samples.airflow[:, 1])
+    level = np.bincount(inverse, speed) / np.bincount(inverse)
+    top = level[inverse] >= TOP_SHARE * level.max()
+    if top.all() or (~top).sum() < 50:
+        return math.nan
+    error = fit_predict(samples.select(~top), samples.select(top)) - samples.airflow[top]
+    return float(np.sqrt(np.mean(error[:, 0] ** 2 + error[:, 1] ** 2)))
+
+
+@dataclass(frozen=True)
+class DragChoice:
+    theta: np.ndarray
+    active: tuple[str, ...]
+    cv_h_mps: float
+    cv_v_mps: float
+    extrapolation_h_mps: float
+    rmse_h_mps: float
+    rmse_v_mps: float
+
+    @property
+    def score(self) -> float:
+        return combined(self.cv_h_mps, self.extrapolation_h_mps)
+
+
+def combined(cv: float, extra: float) -> float:
+    return cv if not math.isfinite(extra) else math.sqrt((cv * cv + extra * extra) / 2)
+
+
+def choose_drag_law(samples: DragSamples) -> DragChoice:
+    """Horizontal set first (with the fullest vertical set), then the vertical set; the smallest set
+    within 2 % of the best score wins at each stage."""
+    vertical_full = VERTICAL_SETS[-1]
+    scored = []
+    for h in HORIZONTAL_SETS:
+        fit_predict = drag_fit_predict(h + vertical_full + ALWAYS)
+        cv_h, _ = grouped_cv(samples, fit_predict)
+        scored.append((combined(cv_h, extrapolation_error(samples, fit_predict)), h))
+    best = min(s for s, _ in scored)
+    horizontal = next(h for s, h in scored if s <= best * 1.02)
+    scored_v = []
+    for v in VERTICAL_SETS:
+        scored_v.append((grouped_cv(samples, drag_fit_predict(horizontal + v + ALWAYS))[1], v))
+    best_v = min(s for s, _ in scored_v)
+    vertical = next(v for s, v in scored_v if s <= best_v * 1.02)
+    active = horizontal + vertical + ALWAYS
+    theta = robust_fit(samples, active)
+    cv_h, cv_v = grouped_cv(samples, drag_fit_predict(active))
+    rmse_h, rmse_v = airflow_errors(samples, theta)
+    return DragChoice(theta, active, cv_h, cv_v, extrapolation_error(samples, drag_fit_predict(active)), rmse_h, rmse_v)
+
+
+def polynomial_fit_predict(horizontal: list[Term], vertical: list[Term],
+                           offset: tuple[float, float, float]) -> FitPredict:
+    """The paper's family on the same samples (speed regressed on force terms, air along the force), so
+    that both families are scored alike."""
+    def heading(samples: DragSamples) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        f = samples.observed
+        m = samples.cos_yaw * f[:, 0] + samples.sin_yaw * f[:, 1] - offset[0]
+        n = -samples.sin_yaw * f[:, 0] + samples.cos_yaw * f[:, 1] - offset[1]
+        return m, n, f[:, 2] - offset[2]
+
+    def fit_predict(train: DragSamples, test: DragSamples) -> np.ndarray:
+        m, n, fz = heading(train)
+        speed = np.hypot(train.airflow[:, 0], train.airflow[:, 1])
+        c_h, *_ = np.linalg.lstsq(term_matrix(horizontal, m, n, fz), speed, rcond=None)
+        c_v, *_ = np.linalg.lstsq(term_matrix(vertical, m, n, fz), train.airflow[:, 2], rcond=None)
+        m, n, fz = heading(test)
+        predicted = np.maximum(term_matrix(horizontal, m, n, fz) @ c_h, 0)
+        scale = predicted / np.sqrt(m * m + n * n + FORCE_DIRECTION_EPS_N ** 2)
+        return np.column_stack([scale * m, scale * n, term_matrix(vertical, m, n, fz) @ c_v])
+
+    return fit_predict

@@ -1,0 +1,123 @@
+"""`dobwind fit`: both force-air families fitted, scored alike, the better one chosen, then checked by
+replaying every calibration log through the new airframe's step."""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from dobwind import dragfit
+from dobwind.analysis.figures import settling_time_s
+from dobwind.analysis.linear import axis_system
+from dobwind.envelope import calibration_envelope, uncertainty_table
+from dobwind.errors import CheckFailed
+from dobwind.fit import FitReport, Points, calibration_airframe, fit_polynomial, read_calibration_logs
+from dobwind.logs import FlightLog, step_inputs, yaw_from_quaternion
+from dobwind.model import reference
+from dobwind.model.airframe import Airframe, ForceAirModel
+from dobwind.model.status import accepted
+from dobwind.model.step import build_step
+
+MODELS = ("auto", "drag", "polynomial")
+
+
+def drag_samples(af: Airframe, logs: list[FlightLog]) -> tuple[dragfit.DragSamples, list[int]]:
+    """Decimated per-sample calibration data from every log, and how many samples each log gave."""
+    cal = calibration_airframe(af)
+    model = build_step(cal)
+    settle = settling_time_s(axis_system(model, 0, with_filter=True))
+    cutoff = cal.filter.cutoffs_hz[0]
+    parts = []
+    for log in logs:
+        traj = reference.run(model, step_inputs(model, log))
+        t = log.time_s
+        q = log.stack("q_w", "q_x", "q_y", "q_z")
+        yaw = log.columns["yaw_ref"] if log.has("yaw_ref") else yaw_from_quaternion(q)
+        rejected = ~accepted(traj.status)
+        rejected[0] = True
+        last_reject = np.maximum.accumulate(np.where(rejected, t, -np.inf))
+        usable = ~rejected & (t - last_reject >= settle)
+        airflow = log.true_wind - log.stack("vel_n", "vel_e", "vel_d")
+        rpm = log.stack(*[f"rpm_{i + 1}" for i in range(af.thrust.rotors)]) if af.thrust.source == "rpm" else None
+        thrust = dragfit.thrust_ned(cal, rpm, log.columns.get("thrust"), q)
+        force = traj.outputs[:, model.outputs.slice("force_ned")]
+        parts.append(dragfit.log_samples(cal, cutoff, t, force, airflow, thrust, yaw, usable))
+    return dragfit.merge(parts), [len(p["time"]) for p in parts]
+
+
+def drag_airframe(af: Airframe, choice: dragfit.DragChoice, samples: dragfit.DragSamples) -> Airframe:
+    """The airframe with the chosen law, its offset and thrust scale, the calibrated envelope (for the
+    step's EXTRAPOLATED bit) and the residuals' size over speed (for its sigma outputs)."""
+    values = dict(zip(dragfit.PARAMETERS, (float(v) for v in choice.theta)))
+    thrust = dataclasses.replace(af.thrust, scale=af.thrust.scale * (1 - values["kappa"]))
+    observer = dataclasses.replace(af.observer, force_offset_n=(values["ox"], values["oy"], 0.0))
+    predicted = dragfit.predicted_airflow(samples, choice.theta)
+    force = dragfit.heading_forces(samples, choice.theta)
+    speed_true = np.hypot(samples.airflow[:, 0], samples.airflow[:, 1])
+    speed_predicted = np.hypot(predicted[:, 0], predicted[:, 1])
+    return dataclasses.replace(
+        af, thrust=thrust, observer=observer, drag=dragfit.law_of(choice.theta),
+        horizontal=ForceAirModel((), ()), vertical=ForceAirModel((), ()),
+        envelope=calibration_envelope(np.hypot(force[:, 0], force[:, 1]), force[:, 2], speed_predicted),
+        uncertainty=uncertainty_table(speed_true, speed_predicted, -samples.airflow[:, 2], -predicted[:, 2]))
+
+
+def _none(value: float) -> float | None:
+    return value if math.isfinite(value) else None
+
+
+def _family_scores(cv: tuple[float, float], extrapolation: float) -> dict[str, float | None]:
+    return {"cv_h_mps": _none(cv[0]), "cv_v_mps": _none(cv[1]), "extrapolation_h_mps": _none(extrapolation),
+            "score_mps": _none(dragfit.combined(cv[0], extrapolation))}
+
+
+def _polynomial_scores(fitted: Airframe, samples: dragfit.DragSamples) -> dict[str, float | None]:
+    fit_predict = dragfit.polynomial_fit_predict(list(fitted.horizontal.terms), list(fitted.vertical.terms),
+                                                 fitted.observer.force_offset_n)
+    return _family_scores(dragfit.grouped_cv(samples, fit_predict), dragfit.extrapolation_error(samples, fit_predict))
+
+
+def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynamic: bool = False,
+                 model: str = "auto", still_air: bool = False) -> tuple[Airframe, FitReport, Points | None]:
+    logs = read_calibration_logs(af, log_paths, still_air)
+    families: dict[str, tuple[Airframe, FitReport, Points | None]] = {}
+    scores: dict[str, dict[str, float | None]] = {}
+    failures: list[str] = []
+    samples, per_log = drag_samples(af, logs)
+    if model in ("drag", "auto"):
+        if len(samples) < 100:
+            failures.append(f"drag family: only {len(samples)} usable samples (need 100)")
+        else:
+            choice = dragfit.choose_drag_law(samples)
+            fitted = drag_airframe(af, choice, samples)
+            families["drag"] = (fitted, _drag_report(choice, len(samples), fitted.thrust.scale), None)
+            scores["drag"] = _family_scores((choice.cv_h_mps, choice.cv_v_mps), choice.extrapolation_h_mps)
+    if model in ("polynomial", "auto"):
+        try:
+            fitted, report, points = fit_polynomial(af, logs, terms, dynamic)
+            families["polynomial"] = (fitted, report, points)
+            scores["polynomial"] = _polynomial_scores(fitted, samples) if len(samples) >= 100 else {}
+        except CheckFailed as exc:
+            failures.append(f"polynomial family: {exc}")
+    if not families:
+        raise CheckFailed("; ".join(failures) or "no model could be fitted")
+    chosen = min(families, key=lambda k: scores.get(k, {}).get("score_mps") or math.inf)
+    new, report, points = families[chosen]
+    report.model, report.families, report.samples = chosen, scores, len(samples)
+    report.warnings += failures
+    for index, count in enumerate(per_log):
+        if count == 0:
+            report.warnings.append(f"{log_paths[index]}: contributed no usable sample")
+    return new, report, points
+
+
+def _drag_report(choice: dragfit.DragChoice, samples: int, thrust_scale: float) -> FitReport:
+    values = dict(zip(dragfit.PARAMETERS, (float(v) for v in choice.theta)))
+    report = FitReport(points=samples, thrust_scale=thrust_scale)
+    report.drag = {k: values[k] for k in dragfit.PARAMETERS}
+    report.force_offset_n = (values["ox"], values["oy"], 0.0)
+    report.horizontal_rmse_mps, report.horizontal_cv_rmse_mps = choice.rmse_h_mps, _none(choice.cv_h_mps)
+    report.horizontal_extrapolation_rmse_mps = _none(choice.extrapolation_h_mps)
+    report.vertical_rmse_mps, report.vertical_cv_rmse_mps = choice.rmse_v_mps, _none(choice.cv_v_mps)
+    return report

@@ -1,0 +1,191 @@
+"""The force-air model in one place: heading frame, term variables, force -> relative airflow for both
+model families, and the meteorological "wind from" direction.
+
+Two families map the observed external force (heading frame c, offset removed) to the relative airflow
+(air velocity minus vehicle velocity, heading frame, NED sense):
+
+- ``polynomial`` (the paper's): the horizontal airflow SPEED is a polynomial in force terms and the air
+  is assumed to move along the horizontal force; the vertical airflow is a polynomial too.
+- ``drag`` (physically structured): the FORCE is a drag law of the airflow, fitted in that direction
+  (where the noise is), and inverted here, so the airflow direction comes out of the model. With v the
+  horizontal airflow (heading frame), s = |v|, theta its angle from the heading, u = v/s and e = u turned
+  90 deg (left of the airflow):
+
+      F_h = [l0 s + q0 s^2 + (l2c s + q2c s^2) cos 2theta + q1c s^2 cos theta] u
+          + (l2s s + q2s s^2) sin 2theta e
+      F_z = lz v_z + qz |v_z| v_z + i1 s + i2 s^2
+
+  l0, q0: linear (rotor, momentum) and quadratic (body) drag; the cos 2theta terms make drag along body
+  x differ from body y, the cos theta term front from back, and the sin 2theta terms turn the force off
+  the airflow. Per-axis drag (PX4's EKF2_BCOEF_X/_Y, EKF2_MCOEF) is the case l2s = -l2c, q2s = -q2c; a
+  drag MAGNITUDE that depends on direction is l2s = q2s = 0. i1, i2: the vertical force that horizontal
+  airflow causes (rotors in edgewise flow make more thrust). The horizontal law is inverted by a fixed
+  number of Newton steps from the isotropic closed form; the vertical one in closed form given s. Both
+  are branch-free.
+
+Everything symbolic is CasADi SX; the NumPy helpers map the same symbolic expressions, so calibration,
+analysis and flight share one definition.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from dobwind.model.terms import Term, polynomial_expr, term_expr
+
+# Below this horizontal force (N) the force direction is noise; the polynomial family scales the
+# airflow down smoothly instead of dividing by ~0.
+FORCE_DIRECTION_EPS_N = 1e-3
+# Smoothing of |v_h| in the drag law's Jacobian (m/s): keeps the Newton step finite at zero airflow.
+DRAG_SPEED_EPS_MPS = 1e-3
+# Newton steps after the isotropic closed form: anisotropy 1.5 converges to float precision in 3.
+DRAG_NEWTON_STEPS = 3
+# Floor of the drag law's Jacobian determinant and of the closed forms' denominators; a calibrated
+# law is strictly increasing, so this only guards zero force on a zero law.
+_DENOMINATOR_FLOOR = 1e-9
+
+HORIZONTAL_DRAG_KEYS = ("l0", "q0", "l2c", "q2c", "q1c", "l2s", "q2s")
+VERTICAL_DRAG_KEYS = ("lz", "qz", "i1", "i2")
+
+
+@dataclass(frozen=True)
+class DragLaw:
+    """Coefficients of the ``drag`` family (see the module docstring); SI units."""
+    l0: float
+    q0: float
+    l2c: float = 0.0
+    q2c: float = 0.0
+    q1c: float = 0.0
+    l2s: float = 0.0
+    q2s: float = 0.0
+    lz: float = 0.0
+    qz: float = 0.0
+    i1: float = 0.0
+    i2: float = 0.0
+
+    def as_dict(self) -> dict[str, float]:
+        return {k: getattr(self, k) for k in HORIZONTAL_DRAG_KEYS + VERTICAL_DRAG_KEYS}
+
+
+def heading_force(force_ned, cos_yaw, sin_yaw, offset: tuple[float, float, float]):
+    """NED force -> heading frame (rotation by -yaw about down), minus the calibrated offset.
+    Works on CasADi SX and on NumPy arrays (columns)."""
+    m = cos_yaw * force_ned[0] + sin_yaw * force_ned[1] - offset[0]
+    n = -sin_yaw * force_ned[0] + cos_yaw * force_ned[1] - offset[1]
+    return m, n, force_ned[2] - offset[2]
+
+
+def heading_to_ned(x, y, cos_yaw, sin_yaw):
+    """Heading-frame horizontal vector -> NED north and east."""
+    return cos_yaw * x - sin_yaw * y, sin_yaw * x + cos_yaw * y
+
+
+def term_variables(m: ca.SX, n: ca.SX, fz: ca.SX) -> dict[str, ca.SX]:
+    """The variables force-air terms are written in (INTERFACES.md section 1)."""
+    return {"m": m, "n": n, "fh": ca.sqrt(m * m + n * n), "fz": fz}
+
+
+def polynomial_airflow(horizontal: tuple[tuple[Term, ...], tuple[float, ...]],
+                       vertical: tuple[tuple[Term, ...], tuple[float, ...]], m: ca.SX, n: ca.SX, fz: ca.SX):
+    """The paper's family: airflow (x, y, z), heading frame, from the heading-frame force, and the
+    modelled horizontal airflow speed."""
+    variables = term_variables(m, n, fz)
+    fh = variables["fh"]
+    speed_h = ca.fmax(polynomial_expr(*horizontal, variables), 0)
+    # The air moves along the horizontal force; the guard makes (m, n)/fh -> 0 instead of 0/0.
+    scale = speed_h / ca.sqrt(fh * fh + FORCE_DIRECTION_EPS_N ** 2)
+    return scale * m, scale * n, polynomial_expr(*vertical, variables), speed_h
+
+
+def horizontal_drag_basis(vx, vy, s):
+    """Heading-frame force per unit of each horizontal coefficient, in HORIZONTAL_DRAG_KEYS order, with
+    s the (possibly smoothed) airflow speed. SX or NumPy."""
+    cos2 = (vx * vx - vy * vy) / (s * s)
+    sin2 = 2 * vx * vy / (s * s)
+    return {
+        "l0": (vx, vy), "q0": (s * vx, s * vy),
+        "l2c": (cos2 * vx, cos2 * vy), "q2c": (s * cos2 * vx, s * cos2 * vy),
+        "q1c": (vx * vx, vx * vy),
+        "l2s": (-sin2 * vy, sin2 * vx), "q2s": (-s * sin2 * vy, s * sin2 * vx),
+    }
+
+
+def _horizontal_drag(law: DragLaw, vx, vy, s):
+    basis = horizontal_drag_basis(vx, vy, s)
+    fx = sum(getattr(law, k) * basis[k][0] for k in HORIZONTAL_DRAG_KEYS if getattr(law, k) != 0.0)
+    fy = sum(getattr(law, k) * basis[k][1] for k in HORIZONTAL_DRAG_KEYS if getattr(law, k) != 0.0)
+    return fx, fy
+
+
+def drag_force(law: DragLaw, vx, vy, vz):
+    """The drag law forward: heading-frame force (N) of the relative airflow (m/s). NumPy."""
+    s = np.sqrt(vx * vx + vy * vy)
+    safe = np.maximum(s, 1e-12)
+    fx, fy = _horizontal_drag(law, vx, vy, safe)
+    fz = law.lz * vz + law.qz * np.abs(vz) * vz + law.i1 * s + law.i2 * s * s
+    return fx + 0 * vx, fy + 0 * vy, fz
+
+
+def _newton_step(law: DragLaw, vx: ca.SX, vy: ca.SX, m: ca.SX, n: ca.SX) -> tuple[ca.SX, ca.SX]:
+    sx, sy = ca.SX.sym("vx"), ca.SX.sym("vy")
+    s = ca.sqrt(sx * sx + sy * sy + DRAG_SPEED_EPS_MPS ** 2)
+    fx, fy = _horizontal_drag(law, sx, sy, s)
+    force = ca.vertcat(fx, fy)
+    law_and_slope = ca.Function("drag_law", [sx, sy], [force, ca.jacobian(force, ca.vertcat(sx, sy))])
+    value, j = law_and_slope(vx, vy)
+    rx, ry = value[0] - m, value[1] - n
+    j11, j12, j21, j22 = j[0, 0], j[0, 1], j[1, 0], j[1, 1]
+    inv_det = 1 / ca.fmax(j11 * j22 - j12 * j21, _DENOMINATOR_FLOOR)
+    return vx - inv_det * (j22 * rx - j12 * ry), vy - inv_det * (j11 * ry - j21 * rx)
+
+
+def drag_airflow(law: DragLaw, m: ca.SX, n: ca.SX, fz: ca.SX):
+    """The drag law inverted: airflow (x, y, z), heading frame, from the heading-frame force."""
+    lin, quad = law.l0, law.q0
+    fh = ca.sqrt(m * m + n * n)
+    # Isotropic law (lin + quad s) s = fh, solved in the cancellation-free form of the quadratic's root,
+    # s = 2 fh / (lin + sqrt(lin^2 + 4 quad fh)), along the force: (m, n) s / fh without dividing by fh.
+    scale = 2 / ca.fmax(lin + ca.sqrt(lin * lin + 4 * quad * fh), _DENOMINATOR_FLOOR)
+    vx, vy = scale * m, scale * n
+    for _ in range(DRAG_NEWTON_STEPS):
+        vx, vy = _newton_step(law, vx, vy, m, n)
+    s = ca.sqrt(vx * vx + vy * vy)
+    # lz v + qz |v| v = r, solved for v with the root's sign taken from r (the law is odd in v).
+    r = fz - law.i1 * s - law.i2 * s * s
+    vz = 2 * r / ca.fmax(law.lz + ca.sqrt(law.lz * law.lz + 4 * law.qz * ca.fabs(r)), _DENOMINATOR_FLOOR)
+    return vx, vy, vz
+
+
+def drag_airflow_numpy(law: DragLaw, m: np.ndarray, n: np.ndarray, fz: np.ndarray) -> np.ndarray:
+    """``drag_airflow`` over arrays: (N, 3) airflow, through the same symbolic expressions."""
+    sm, sn, sz = ca.SX.sym("m"), ca.SX.sym("n"), ca.SX.sym("fz")
+    f = ca.Function("drag_airflow", [sm, sn, sz], [ca.vertcat(*drag_airflow(law, sm, sn, sz))])
+    rows = len(m)
+    if rows == 0:
+        return np.zeros((0, 3))
+    return np.asarray(f.map(rows)(np.asarray(m, float), np.asarray(n, float), np.asarray(fz, float))).T
+
+
+def term_matrix(terms: list[Term], m: np.ndarray, n: np.ndarray, fz: np.ndarray) -> np.ndarray:
+    """Values of force-air terms over arrays, (N, len(terms)), through the step's grammar."""
+    sm, sn, sz = ca.SX.sym("m"), ca.SX.sym("n"), ca.SX.sym("fz")
+    env = term_variables(sm, sn, sz)
+    f = ca.Function("terms", [sm, sn, sz], [ca.vertcat(*[term_expr(t, env) for t in terms])])
+    return np.asarray(f.map(len(m))(m, n, fz)).T.reshape(len(m), len(terms))
+
+
+def wind_from_deg(north, east):
+    """Meteorological direction (deg, [0, 360)) the wind blows FROM, clockwise from north. NumPy."""
+    towards = np.degrees(np.arctan2(-np.asarray(east), -np.asarray(north)))
+    from_deg = np.where(towards < 0, towards + 360.0, towards)
+    return np.where(from_deg >= 360.0, 0.0, from_deg)
+
+
+def wind_from_deg_sx(north: ca.SX, east: ca.SX) -> ca.SX:
+    """``wind_from_deg`` for the step."""
+    towards = ca.atan2(-east, -north) * (180 / math.pi)  # (-180, 180]
+    from_deg = towards + ca.if_else(towards < 0, 360, 0)
+    return ca.if_else(from_deg >= 360, 0, from_deg)  # -tiny + 360 rounds to 360 in float
