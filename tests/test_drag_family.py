@@ -78,7 +78,7 @@ def test_step_airflow_equals_the_inverted_law():
     af = parse_airframe(_drag_file(law), "x.toml")
     stage = next(s for s in build_step(af).stages if s.name == "force_air")
     fx, fy, _ = drag_force(law, np.array([3.0]), np.array([2.0]), np.zeros(1))
-    _, air = stage.function(np.array([fx[0], fy[0], 0.0]), 0.0)
+    air = stage.function(np.array([fx[0], fy[0], 0.0]), 0.0)[stage.outputs.index("air_rel_ned")]
     np.testing.assert_allclose(np.asarray(air).ravel()[:2], [3.0, 2.0], atol=1e-5)
 
 

@@ -10,11 +10,13 @@ import pytest
 
 from dobwind.analysis.figures import settling_time_s as analysis_settling_time
 from dobwind.analysis.linear import axis_system
+from dobwind.cli import main
 from dobwind.envelope import calibration_envelope, uncertainty_table
+from dobwind.errors import InputError
 from dobwind.logs import read_log, required_columns, step_inputs
 from dobwind.model import reference
 from dobwind.model.airframe import Envelope, ForceAirModel, Uncertainty, load_airframe, parse_airframe
-from dobwind.model.airframe_toml import dumps
+from dobwind.model.airframe_toml import dump_airframe, dumps
 from dobwind.model.exercise import flight_inputs
 from dobwind.model.settling import settling_time_s
 from dobwind.model.status import DT_TOLERANCE, REJECTED_MASK, STATUS_BITS
@@ -23,7 +25,7 @@ from dobwind.model.terms import parse_term
 from dobwind.replay import run_backend
 from dobwind.simulate import write_log
 from tests.flight import accel_inputs, balance, thrust_inputs
-from tests.helpers import M300, all_modes, make_airframe
+from tests.helpers import M300, airframe_dict, all_modes, make_airframe
 
 BIT = {bit.name: bit.value for bit in STATUS_BITS}
 BAD_DT, SETTLING, EXTRAPOLATED = BIT["BAD_DT"], BIT["SETTLING"], BIT["EXTRAPOLATED"]
@@ -289,3 +291,34 @@ def test_the_first_sample_after_a_gap_ignores_the_stale_previous_sample(doc):
     if "acc_bias" in model.state:
         bias = model.state.slice("acc_bias")
         np.testing.assert_array_equal(results[0][bias], gap[bias])
+
+
+def test_envelope_and_uncertainty_tables_round_trip_through_toml():
+    af = _quality_airframe()
+    again = parse_airframe(dump_airframe(af), "<again>")
+    assert again.envelope == af.envelope and again.uncertainty == af.uncertainty
+    assert parse_airframe(dump_airframe(make_airframe()), "<plain>").envelope is None  # optional
+
+
+@pytest.mark.parametrize("table,key,value,where", [
+    ("envelope", "force_z", [2.0, 1.0], "envelope.force_z"),
+    ("envelope", "force_h_max", -1.0, "envelope.force_h_max"),
+    ("envelope", "airflow_hmax", 3.0, "envelope.airflow_hmax"),       # a typo: unknown key
+    ("uncertainty", "sigma_h", [0.1, 0.2], "uncertainty.sigma_h"),    # 2 values for 3 speeds
+    ("uncertainty", "sigma_up", [0.1, -0.2, 0.3], "uncertainty.sigma_up"),
+    ("uncertainty", "speeds", [0.0, 4.0, 4.0], "uncertainty.speeds"),
+])
+def test_bad_tables_name_the_key(table, key, value, where, tmp_path, capsys):
+    doc = airframe_dict()
+    doc["envelope"] = {"force_h_max": 3.0, "force_z": [-1.0, 1.0], "airflow_h_max": 5.0}
+    doc["uncertainty"] = {"speeds": [0.0, 4.0, 8.0], "sigma_h": [0.1, 0.3, 0.7], "sigma_up": [0.2, 0.2, 0.6]}
+    parse_airframe(dumps(doc), "<good>")  # the tables as given are valid
+    doc[table][key] = value
+    path = tmp_path / "bad.toml"
+    path.write_text(dumps(doc))
+    with pytest.raises(InputError) as raised:
+        parse_airframe(path.read_text(), str(path))
+    assert raised.value.where == where
+    assert main(["check", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and where in err and str(path) in err

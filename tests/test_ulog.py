@@ -8,13 +8,14 @@ import pytest
 from dobwind.cli import main
 from dobwind.model.airframe import load_airframe, parse_airframe
 from dobwind.model.airframe_toml import dumps
-from dobwind.model.status import STATUS_LANDED, STATUS_NO_DATA
+from dobwind.model.status import STATUS_BITS, STATUS_LANDED, STATUS_NO_DATA, accepted
 from dobwind.replay import replay, replay_ulog
 from dobwind.simulate import column_order, simulate
 from dobwind.logs import write_csv
 from tests.helpers import M300, ROOT, airframe_dict
 from tests.ulog_writer import Topic, write_ulog
 
+STATUS_SETTLING = next(bit.value for bit in STATUS_BITS if bit.name == "SETTLING")
 ESC_REPORT = {"esc_report": [("int32_t", "esc_rpm"), ("float", "esc_voltage")]}
 SAMPLE = ROOT.parent / "shared" / "data" / "px4-ulog" / "sample_log_small.ulg"
 
@@ -87,8 +88,9 @@ def _csv(path, cols):
 def test_rpm_mapping_matches_the_same_flight_as_csv(tmp_path):
     af, cols = _flight()
     model, flight, traj = replay_ulog(af, str(_ulog(tmp_path / "rpm.ulg", cols)))
+    np.testing.assert_array_equal(traj.status, replay(af, str(_csv(tmp_path / "same.csv", cols)))[2].status)
     _, log, ref = replay(af, str(_csv(tmp_path / "rpm.csv", cols)))
-    assert flight.log.rows == log.rows and np.all(traj.status == 0)
+    assert flight.log.rows == log.rows and np.all(accepted(traj.status))
     wind = model.outputs.slice("wind_ned")
     # ULog stores float32 and integer rpm: agreement to that resolution, not to the last bit.
     np.testing.assert_allclose(traj.outputs[200:, wind], ref.outputs[200:, wind], atol=0.05)
@@ -124,19 +126,24 @@ def test_collective_without_hover_thrust_exits_2(tmp_path, capsys):
 
 def test_gap_marks_rows_and_the_estimate_recovers(tmp_path):
     af, cols = _flight()
-    _, flight, traj = replay_ulog(af, str(_ulog(tmp_path / "gap.ulg", cols, gap=(10.0, 10.5))), rate_hz=100.0)
+    model, flight, traj = replay_ulog(af, str(_ulog(tmp_path / "gap.ulg", cols, gap=(10.0, 10.5))), rate_hz=100.0)
     t = flight.log.time_s
     inside = (t > 10.02) & (t < 10.47)
     assert np.all(traj.status[inside] == STATUS_NO_DATA)
-    assert np.all(traj.status[t > 10.6] == 0) and np.all(traj.status[(t > 1) & (t < 9.9)] == 0)
+    assert np.all(accepted(traj.status[t > 10.6])) and np.all(accepted(traj.status[(t > 1) & (t < 9.9)]))
+    # Accepted but not trusted for one settling time after the start and after the gap, then trusted.
+    settle = model.settling_time_s
+    assert np.all(traj.status[(t > 10.6) & (t < 10.45 + settle)] == STATUS_SETTLING)
+    assert np.all(traj.status[t > 10.6 + settle] == 0) and np.all(traj.status[(t > settle + 0.1) & (t < 9.9)] == 0)
     assert np.all(np.isfinite(traj.outputs))
 
 
 def test_landed_rows_are_flagged_and_not_fed(tmp_path):
     af, cols = _flight()
-    _, flight, traj = replay_ulog(af, str(_ulog(tmp_path / "land.ulg", cols, landed_until=3.0)))
+    model, flight, traj = replay_ulog(af, str(_ulog(tmp_path / "land.ulg", cols, landed_until=3.0)))
     t = flight.log.time_s
-    assert np.all(traj.status[t < 2.9] == STATUS_LANDED) and np.all(traj.status[t > 3.3] == 0)
+    assert np.all(traj.status[t < 2.9] == STATUS_LANDED) and np.all(accepted(traj.status[t > 3.3]))
+    assert np.all(traj.status[t > 3.3 + model.settling_time_s] == 0)
 
 
 @pytest.mark.parametrize("damage", ["garbage", "truncated_header"])
