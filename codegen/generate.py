@@ -168,10 +168,10 @@ def write_files_atomically(files: dict[str, str], out_dir: str | Path) -> list[P
 def generate_to_dir(af: Airframe, out_dir: str | Path, precision: str = "single", option: str = "-o") -> list[Path]:
     """Renders everything, then replaces ``out_dir`` as a whole (a sibling folder swapped in), so a
     full disk or a signal leaves either the old folder or the new one, never a mix."""
-    code = generate_code(af, precision)
     target = Target(option, str(out_dir), "dir")
     check_replaceable(target, is_generated_name)
-    with staged_folder(target) as work:
+    with staged_folder(target) as work:  # the render runs inside: a signal then removes the folder too
+        code = generate_code(af, precision)
         write_files_atomically(code.files, work)
     return [Path(out_dir) / name for name in code.files]
 

@@ -13,6 +13,8 @@ import time
 from pathlib import Path
 from typing import Callable, TextIO
 
+from dobwind.interrupts import signals_deferred
+
 TEMP_PREFIX = ".dobwind-tmp-"
 
 
@@ -42,13 +44,16 @@ def write_file_atomically(path: str | Path, write: Callable[[Path], None]) -> Pa
     """Calls write(temporary path) beside ``path`` and renames the result into place."""
     target = Path(path)
     target.parent.mkdir(parents=True, exist_ok=True)
-    tmp = new_temp_file(target.parent, target.name)
+    tmp = None
     try:
+        with signals_deferred():  # a signal between creating and remembering the name would strand it
+            tmp = new_temp_file(target.parent, target.name)
         write(tmp)
         public_mode(tmp)
         os.replace(tmp, target)
     except BaseException:
-        tmp.unlink(missing_ok=True)
+        if tmp is not None:
+            tmp.unlink(missing_ok=True)
         raise
     return target
 

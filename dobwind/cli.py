@@ -12,7 +12,7 @@ import numpy as np
 from typing import Any, NoReturn, Sequence
 
 from dobwind.errors import EXIT_BAD_INPUT, EXIT_CHECK_FAILED, CheckFailed, InputError
-from dobwind.interrupts import signals_raise
+from dobwind.interrupts import Interrupted, signals_raise
 from dobwind.outputs import OutputFiles, Target, check_replaceable, check_targets
 
 
@@ -297,7 +297,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         try:
             args = parser.parse_args(argv)
             command = args.command
-            return int(args.func(args))
+            status = int(args.func(args))
+            if caught.signo is not None:  # its exception was swallowed (CasADi): still a stop
+                raise Interrupted(caught.signo)
+            return status
         except InputError as exc:
             sys.stderr.write(f"dobwind {command}: {exc}\n")
             return EXIT_BAD_INPUT

@@ -4,6 +4,7 @@ line and exits 128 + the signal number (no KeyboardInterrupt traceback).
 """
 from __future__ import annotations
 
+import os
 import signal
 import threading
 from contextlib import contextmanager
@@ -32,6 +33,19 @@ class Caught:
         return signal.Signals(self.signo).name if self.signo else ""
 
 
+# The one piece of process-wide state, as signals themselves are process-wide: CasADi's SWIG wrappers
+# clear a Python exception raised while they try argument conversions, so a caught signal must stay
+# visible to the places that make outputs permanent (raise_if_caught before every commit).
+_ACTIVE: list[Caught] = []
+
+
+def raise_if_caught() -> None:
+    """Raises Interrupted if a signal arrived whose exception something swallowed on the way."""
+    for caught in _ACTIVE:
+        if caught.signo is not None:
+            raise Interrupted(caught.signo)
+
+
 @contextmanager
 def signals_raise() -> Iterator[Caught]:
     """Within the block, SIGINT/SIGTERM raise Interrupted (once: a second signal during the cleanup is
@@ -48,9 +62,11 @@ def signals_raise() -> Iterator[Caught]:
         raise Interrupted(signo)
 
     previous = {s: signal.signal(s, handler) for s in HANDLED}
+    _ACTIVE.append(caught)
     try:
         yield caught
     finally:
+        _ACTIVE.remove(caught)
         for s, old in previous.items():
             signal.signal(s, old)
 
@@ -58,12 +74,24 @@ def signals_raise() -> Iterator[Caught]:
 @contextmanager
 def signals_deferred() -> Iterator[None]:
     """Holds SIGINT/SIGTERM back while a group of renames runs, so they all happen or none do; a
-    signal that arrived meanwhile is delivered when the block ends."""
+    signal that arrived meanwhile goes to the earlier handler when the block ends. (Swapping the
+    Python handler, not pthread_sigmask: the kernel hands a blocked signal to any other thread.)"""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, HANDLED)
+    pending: list[int] = []
+    previous = {s: signal.signal(s, lambda signo, _frame: pending.append(signo)) for s in HANDLED}
     try:
         yield
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        for s, old in previous.items():
+            signal.signal(s, old)
+        if pending:
+            _redeliver(pending[0], previous[pending[0]])
+
+
+def _redeliver(signo: int, handler) -> None:
+    if callable(handler):
+        handler(signo, None)
+    elif handler == signal.SIG_DFL:
+        os.kill(os.getpid(), signo)

@@ -20,7 +20,7 @@ from typing import Callable, Iterator, Sequence
 
 from dobwind.atomic import TEMP_PREFIX, new_temp_file, public_mode, remove_stale, temp_prefix
 from dobwind.errors import InputError
-from dobwind.interrupts import signals_deferred
+from dobwind.interrupts import raise_if_caught, signals_deferred
 
 
 @dataclass(frozen=True)
@@ -85,7 +85,8 @@ def check_target(target: Target, inputs: Sequence[str] = ()) -> None:
     if not stat.S_ISDIR(st_folder.st_mode):
         raise _refuse(target, f"{shown(folder)} is a file, not a folder")
     try:  # a real file, not os.access: root passes access() on read-only mounts and on /proc
-        new_temp_file(folder, "probe").unlink()
+        with signals_deferred():
+            new_temp_file(folder, "probe").unlink()
     except OSError as exc:
         raise _refuse(target, f"cannot write in {shown(folder)}: {exc.strerror}") from None
 
@@ -126,8 +127,9 @@ class OutputFiles:
         final.parent.mkdir(parents=True, exist_ok=True)
         self._made_dirs.extend(reversed(missing))
         remove_stale(final.parent)
-        tmp = new_temp_file(final.parent, final.name)
-        self._staged.append((tmp, final))
+        with signals_deferred():  # created and remembered together, so a signal cannot strand it
+            tmp = new_temp_file(final.parent, final.name)
+            self._staged.append((tmp, final))
         return tmp
 
     def __exit__(self, kind, exc, tb) -> None:
@@ -156,6 +158,7 @@ class OutputFiles:
 
     def _commit(self) -> None:
         with signals_deferred():
+            raise_if_caught()
             backups: list[tuple[Path, Path | None]] = []
             try:
                 for tmp, final in self._staged:
@@ -199,6 +202,7 @@ GENERATED_NAME = re.compile(r"[a-z][a-z0-9_]*_wind(_selftest)?\.[ch]|CMakeLists\
 def _swap_in(new: Path, final: Path) -> None:
     """Renames the old folder aside, the new one in, then removes the old; restores it on failure."""
     with signals_deferred():
+        raise_if_caught()
         old = None
         if final.exists():
             old = Path(tempfile.mkdtemp(prefix=temp_prefix(), suffix=f"-old-{final.name}", dir=final.parent))
@@ -220,16 +224,20 @@ def staged_folder(target: Target) -> Iterator[Path]:
     try:
         final.parent.mkdir(parents=True, exist_ok=True)
         remove_stale(final.parent)
-        new = Path(tempfile.mkdtemp(prefix=temp_prefix(), suffix=f"-{final.name}", dir=final.parent))
     except OSError as exc:
         raise _write_failed([target], exc) from None
+    new = None
     try:
+        with signals_deferred():
+            new = Path(tempfile.mkdtemp(prefix=temp_prefix(), suffix=f"-{final.name}", dir=final.parent))
         yield new
         public_mode(new, directory=True)
         _swap_in(new, final)
     except OSError as exc:
-        shutil.rmtree(new, ignore_errors=True)
+        if new is not None:
+            shutil.rmtree(new, ignore_errors=True)
         raise _write_failed([target], exc) from None
     except BaseException:
-        shutil.rmtree(new, ignore_errors=True)
+        if new is not None:
+            shutil.rmtree(new, ignore_errors=True)
         raise
