@@ -16,6 +16,7 @@ from dobwind.codegen.printer import CPrinter, LiteralError
 from dobwind.codegen.sections import build_sections, c_element, signal_sizes
 from dobwind.codegen.tolerance import MIN_SPEED_FOR_DIRECTION, SELFTEST_TOLERANCE
 from dobwind.errors import InputError
+from dobwind.outputs import GENERATED_NAME, Target, check_replaceable, staged_folder
 from dobwind.model import reference
 from dobwind.model.airframe import Airframe
 from dobwind.model.exercise import flight_inputs
@@ -174,7 +175,18 @@ def write_files_atomically(files: dict[str, str], out_dir: str | Path) -> list[P
             for name, text in files.items()]
 
 
-def generate_to_dir(af: Airframe, out_dir: str | Path, precision: str = "single",
+def generate_to_dir(af: Airframe, out_dir: str | Path, precision: str = "single", option: str = "-o",
                     source: str | None = None) -> list[Path]:
-    code = generate_code(af, precision, source=source)  # everything is rendered before anything is written
-    return write_files_atomically(code.files, out_dir)
+    """Renders everything, then replaces ``out_dir`` as a whole (a sibling folder swapped in), so a
+    full disk or a signal leaves either the old folder or the new one, never a mix."""
+    target = Target(option, str(out_dir), "dir")
+    check_replaceable(target, is_generated_name)
+    with staged_folder(target) as work:  # the render runs inside: a signal then removes the folder too
+        code = generate_code(af, precision, source=source)
+        write_files_atomically(code.files, work)
+    return [Path(out_dir) / name for name in code.files]
+
+
+def is_generated_name(name: str) -> bool:
+    """Files that generate writes (any airframe's): the only ones a folder it replaces may hold."""
+    return GENERATED_NAME.fullmatch(name) is not None

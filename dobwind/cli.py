@@ -13,6 +13,8 @@ from typing import Any, NoReturn, Sequence
 
 from dobwind import options as opt
 from dobwind.errors import EXIT_BAD_INPUT, EXIT_CHECK_FAILED, CheckFailed, InputError
+from dobwind.interrupts import Interrupted, signals_raise
+from dobwind.outputs import OutputFiles, Target, check_replaceable, check_targets
 
 EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE, what a shell reports for a C tool killed by the closed pipe
 
@@ -31,12 +33,17 @@ def _print_json(obj: dict[str, Any]) -> None:
 
 def cmd_generate(args: argparse.Namespace) -> int:
     from dobwind.analysis.stability import require_stable
-    from dobwind.codegen.generate import generate_to_dir
+    from dobwind.codegen.generate import generate_to_dir, is_generated_name
     from dobwind.model.airframe import load_airframe
 
+    if args.output is not None:
+        check_targets([Target("-o", args.output, "dir")], [args.airframe])
     af = load_airframe(args.airframe)
     require_stable(af, "refusing to generate code", args.airframe)  # the same gate as `check`
-    out_dir = args.output or f"generated_c/{af.name}"
+    out_dir = args.output if args.output is not None else f"generated_c/{af.name}"
+    target = Target("-o", out_dir, "dir")
+    check_targets([target], [args.airframe])
+    check_replaceable(target, is_generated_name)
     files = generate_to_dir(af, out_dir, args.precision, source=args.airframe)
     for path in files:
         print(path)
@@ -98,8 +105,11 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     from dobwind.model.airframe import load_airframe
     from dobwind.simulate import write_log
 
+    target = Target("-o", args.output)
+    check_targets([target], [args.airframe] if args.airframe else [])
     af = load_airframe(args.airframe or _default_airframe())
-    rows = write_log(args.output, af, args.scenario, args.seed, args.hold, args.rate)
+    with OutputFiles([target]) as out:
+        rows = write_log(out.stage(args.output), af, args.scenario, args.seed, args.hold, args.rate)
     rate = args.rate or 50.0
     print(f"{args.output}: {rows} rows, {rows / rate:.1f} s of '{args.scenario}' at {rate:g} Hz")
     return 0
@@ -112,12 +122,15 @@ def cmd_fit(args: argparse.Namespace) -> int:
     from dobwind.model.airframe import load_airframe
     from dobwind.model.airframe_toml import dump_airframe
 
+    plot = args.plot if args.plot is not None else str(args.output).removesuffix(".toml") + "_fit.png"
+    targets = [Target("-o", args.output), Target("--plot", plot)]
+    check_targets(targets, [args.airframe, *args.logs])
     af = load_airframe(args.airframe)
     new, report, points = fit_airframe(af, list(args.logs), args.terms, args.dynamic, args.model, args.still_air)
     text = dump_airframe(new)
-    write_atomically(args.output, lambda handle: handle.write(text))
-    plot = args.plot or str(args.output).removesuffix(".toml") + "_fit.png"
-    fit_plot(new, points, plot)
+    with OutputFiles(targets) as out:
+        write_atomically(out.stage(args.output), lambda handle: handle.write(text))
+        fit_plot(new, points, str(out.stage(plot)))
     if args.json:
         _print_json({**report.__dict__, "airframe": str(args.output), "plot": plot})
     else:
@@ -133,21 +146,23 @@ def cmd_replay(args: argparse.Namespace) -> int:
     from dobwind.model.status import accepted
     from dobwind.replay import replay, score, text_report, write_output
 
+    check_targets(_replay_targets(args), [args.airframe, args.log])
     af = load_airframe(args.airframe)
     if str(args.log).lower().endswith(".ulg"):
         return _replay_ulog(args, af)
     if args.rate is not None:
         raise InputError(args.log, "--rate", "only applies to ULog files (CSV logs keep their own clock)")
     model, log, traj = replay(af, args.log, args.backend, args.precision)
-    if args.output:
-        write_output(args.output, log, traj)
     metrics = score(log, traj, model) if log.true_wind is not None else {
         "rows": log.rows, "rejected_rows": int((~accepted(traj.status)).sum())}
-    if args.plot:
-        from dobwind.plots import replay_plot
+    with OutputFiles(_replay_targets(args)) as out:
+        if args.output is not None:
+            write_output(out.stage(args.output), log, traj)
+        if args.plot is not None:
+            from dobwind.plots import replay_plot
 
-        replay_plot(log.time_s, traj.outputs[:, model.outputs.slice("wind_ned")], log.true_wind,
-                    f"{af.name}: {args.log}", args.plot)
+            replay_plot(log.time_s, traj.outputs[:, model.outputs.slice("wind_ned")], log.true_wind,
+                        f"{af.name}: {args.log}", str(out.stage(args.plot)))
     if args.json:
         _print_json({"airframe": af.name, "log": str(args.log), "backend": args.backend, **metrics})
     elif log.true_wind is not None:
@@ -157,6 +172,10 @@ def cmd_replay(args: argparse.Namespace) -> int:
     return 0
 
 
+def _replay_targets(args: argparse.Namespace) -> list[Target]:
+    return [Target(option, path) for option, path in (("-o", args.output), ("--plot", args.plot)) if path is not None]
+
+
 def _replay_ulog(args: argparse.Namespace, af) -> int:
     from dobwind.model.status import accepted, describe
     from dobwind.replay import replay_ulog, write_output
@@ -164,8 +183,6 @@ def _replay_ulog(args: argparse.Namespace, af) -> int:
 
     model, flight, traj = replay_ulog(af, args.log, args.backend, args.precision, args.rate)
     log = flight.log
-    if args.output:
-        write_output(args.output, log, traj)
     wind = traj.outputs[:, model.outputs.slice("wind_ned")]
     valid = accepted(traj.status)  # quality-flagged samples are estimates too; status_counts shows the flags
     summary = {"airframe": af.name, "log": str(args.log), "backend": args.backend, "rows": log.rows,
@@ -175,11 +192,15 @@ def _replay_ulog(args: argparse.Namespace, af) -> int:
                "outputs_finite": bool(np.all(np.isfinite(traj.outputs)))}
     if flight.px4_wind is not None:
         summary["px4"] = compare_with_px4(log.time_s, wind, valid, flight.px4_wind)
-    if args.plot:
-        from dobwind.plots import replay_plot
+    with OutputFiles(_replay_targets(args)) as out:
+        if args.output is not None:
+            write_output(out.stage(args.output), log, traj)
+        if args.plot is not None:
+            from dobwind.plots import replay_plot
 
-        others = [] if flight.px4_wind is None else [(f"PX4 ({flight.px4_wind[0]})", flight.px4_wind[1], flight.px4_wind[2])]
-        replay_plot(log.time_s, np.where(valid[:, None], wind, np.nan), None, f"{af.name}: {args.log}", args.plot, others)
+            others = [] if flight.px4_wind is None else [(f"PX4 ({flight.px4_wind[0]})", flight.px4_wind[1], flight.px4_wind[2])]
+            replay_plot(log.time_s, np.where(valid[:, None], wind, np.nan), None, f"{af.name}: {args.log}",
+                        str(out.stage(args.plot)), others)
     if args.json:
         _print_json(summary)
         return 0
@@ -282,26 +303,40 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
-    from dobwind.demo import run_demo
+    from dobwind.demo import is_demo_name, run_demo
 
+    target = Target("-o", args.output, "dir")
+    check_targets([target])
+    check_replaceable(target, is_demo_name)
     return run_demo(args.output)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
-    try:
-        code = int(args.func(args))
-        sys.stdout.flush()  # inside the try: a reader that went away is reported here, not at exit
-        return code
-    except InputError as exc:
-        sys.stderr.write(f"dobwind {args.command}: {exc}\n")
-        return EXIT_BAD_INPUT
-    except CheckFailed as exc:
-        sys.stderr.write(f"dobwind {args.command}: {exc}\n")
-        return EXIT_CHECK_FAILED
-    except BrokenPipeError:
-        return _reader_went_away()
+    with signals_raise() as caught:
+        command = "?"
+        try:
+            args = parser.parse_args(argv)
+            command = args.command
+            status = int(args.func(args))
+            if caught.signo is not None:  # its exception was swallowed (CasADi): still a stop
+                raise Interrupted(caught.signo)
+            sys.stdout.flush()  # inside the try: a reader that went away is reported here, not at exit
+            return status
+        except InputError as exc:
+            sys.stderr.write(f"dobwind {command}: {exc}\n")
+            return EXIT_BAD_INPUT
+        except CheckFailed as exc:
+            sys.stderr.write(f"dobwind {command}: {exc}\n")
+            return EXIT_CHECK_FAILED
+        except BrokenPipeError:
+            return _reader_went_away()
+        except BaseException:
+            if caught.signo is None:
+                raise
+            # The `with` blocks on the way out have removed every temporary; earlier outputs are untouched.
+            sys.stderr.write(f"dobwind {command}: stopped by {caught.name}; no partial output left\n")
+            return 128 + caught.signo
 
 
 def _reader_went_away() -> int:

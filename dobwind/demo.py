@@ -24,6 +24,7 @@ from dobwind.model.airframe import load_airframe
 from dobwind.model.airframe_toml import dump_airframe
 from dobwind.model.exercise import flight_inputs
 from dobwind.model.step import build_step
+from dobwind.outputs import Target, staged_folder
 from dobwind.plots import replay_plot
 from dobwind.replay import replay, score, score_wind
 from dobwind.simulate import write_log
@@ -39,9 +40,22 @@ def _fmt(a: float | None, b: float | None, digits: int = 3) -> str:
     return "-" if a is None or b is None else f"{a:.{digits}f} / {b:.{digits}f}"
 
 
+def is_demo_name(name: str) -> bool:
+    """What the demo writes into its folder: the only entries a folder it replaces may hold."""
+    return (name in ("logs", "analysis", "c", "fit.png") or name.endswith("_fitted.toml")
+            or (name.startswith("replay_") and name.endswith(".png")))
+
+
 def run_demo(out_dir: str) -> int:
+    """Builds the whole demo folder beside ``out_dir`` and swaps it in at the end: an interrupted or
+    failed demo leaves the previous one as it was."""
+    with staged_folder(Target("-o", out_dir, "dir")) as work:
+        return _pipeline(work, Path(out_dir))
+
+
+def _pipeline(out: Path, shown: Path) -> int:
+    """Writes into ``out``; names ``shown`` (where the folder will be) in what it prints."""
     start = time.perf_counter()
-    out = Path(out_dir)
     af = load_airframe(REFERENCE_AIRFRAME)
 
     logs = {}
@@ -50,7 +64,7 @@ def run_demo(out_dir: str) -> int:
         write_log(path, af, name, seed)
         logs[name] = str(path)
     print(f"== simulate: {', '.join(f'{n} ({Path(p).stat().st_size // 1_000_000} MB)' for n, p in logs.items())} "
-          f"in {out / 'logs'}")
+          f"in {shown / 'logs'}")
 
     fitted, fit_report, points = fit_airframe(af, [logs["sweep"], logs["vertical"]], "auto")
     fitted_path = out / f"{af.name}_fitted.toml"
@@ -66,10 +80,10 @@ def run_demo(out_dir: str) -> int:
     obs, ramp = report["observer"][0], report["ramp"]
     print(f"== analyze: observer bandwidth {obs['bandwidth_hz']:.3f} Hz (paper 0.5 Hz); schedule "
           f"{'stable' if report['schedule']['stable'] else 'UNSTABLE'}; ramp lag {ramp['lag_reduction_s']:.2f} s less than "
-          f"a fixed {ramp['fixed_cutoff_hz']:g} Hz filter (paper 2.2 s); plots in {out / 'analysis'}")
+          f"a fixed {ramp['fixed_cutoff_hz']:g} Hz filter (paper 2.2 s); plots in {shown / 'analysis'}")
 
     written = generate_to_dir(fitted, out / "c" / fitted.name, "single")
-    print(f"== generate: {', '.join(p.name for p in written)} in {written[0].parent}")
+    print(f"== generate: {', '.join(p.name for p in written)} in {shown / 'c' / fitted.name}")
     verification = verify_airframe(fitted, "both", steps=20000)
     worst = {p.precision: p.flight.worst_ratio for p in verification.precisions if p.flight}
     print(f"== verify: {'PASS' if verification.passed else 'FAIL'} (worst error / tolerance: double {worst['double']:.3g}, "
@@ -108,7 +122,7 @@ def run_demo(out_dir: str) -> int:
          _fmt(outdoor[1]["per_segment"]["direction_mean"], outdoor[1]["per_segment"]["direction_max"], 2)),
     ]
     width = max(len(r[0]) for r in rows)
-    print(f"== results (replayed through the generated single-precision C; plots replay_*.png in {out})")
+    print(f"== results (replayed through the generated single-precision C; plots replay_*.png in {shown})")
     print(f"   {'':{width}s}  {'paper':>12s}  {'dobwind':>15s}  {'tilt method':>15s}")
     for label, paper, ours, theirs in rows:
         print(f"   {label:{width}s}  {paper:>12s}  {ours:>15s}  {theirs:>15s}")

@@ -11,12 +11,13 @@ import numpy as np  # noqa: E402
 
 
 def save(fig, path: str | Path) -> None:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp.png")
-    fig.savefig(tmp, dpi=100)
-    plt.close(fig)
-    tmp.replace(path)
+    """PNG through a temporary (removed on any failure), whatever the name's extension."""
+    from dobwind.atomic import write_file_atomically
+
+    try:
+        write_file_atomically(path, lambda tmp: fig.savefig(tmp, dpi=100, format="png"))
+    finally:
+        plt.close(fig)
 
 
 def replay_plot(t: np.ndarray, wind: np.ndarray, truth: np.ndarray | None, title: str, path: str,

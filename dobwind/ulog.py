@@ -13,6 +13,9 @@ that row has no data: its inputs are NaN and replay marks it with the NO_DATA st
 """
 from __future__ import annotations
 
+import contextlib
+import io
+import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -35,17 +38,53 @@ class UlogFlight:
     notes: tuple[str, ...]
 
 
-def _open(path: str):
+class _NoProgress(Exception):
+    pass
+
+
+class _BudgetedFile:
+    """The log file as pyulog reads it, with a budget of read calls: pyulog's corruption recovery can
+    seek back and forth forever on some corrupt files (a pure-Python loop that no timeout thread can
+    stop), so far more reads than the file has bytes ends the parse instead. Bytes are not counted:
+    recovering from one corrupt header legitimately rereads up to 64 KiB per byte it advances."""
+
+    def __init__(self, handle, size: int) -> None:
+        self._handle = handle
+        self._calls_left = READS_PER_BYTE * size + EXTRA_READS
+
+    def read(self, n: int = -1) -> bytes:
+        self._calls_left -= 1
+        if self._calls_left < 0:
+            raise _NoProgress
+        return self._handle.read(n)
+
+    def __getattr__(self, name: str):
+        return getattr(self._handle, name)
+
+
+READS_PER_BYTE = 3    # resynchronising after corruption advances one byte per two reads
+EXTRA_READS = 1 << 16
+
+
+def _open(path: str) -> tuple[object, str | None]:
+    """pyulog's parse of ``path`` and its first complaint, if it printed one (pyulog prints to stdout,
+    which must stay one JSON object under --json)."""
     try:
         from pyulog import ULog
     except ImportError:  # pragma: no cover - the ulog extra is part of `make setup`
         raise InputError(path, None, "reading ULog needs pyulog (pip install 'dobwind[ulog]')") from None
+    printed = io.StringIO()
     try:
-        return ULog(path)
-    except FileNotFoundError:
-        raise InputError(path, None, "cannot read: no such file") from None
+        with open(path, "rb") as handle, contextlib.redirect_stdout(printed):
+            ulog = ULog(_BudgetedFile(handle, os.fstat(handle.fileno()).st_size))
+    except _NoProgress:
+        raise InputError(path, None, "not a readable ULog file (corrupt: the parser made no progress)") from None
+    except OSError as exc:
+        raise InputError(path, None, f"cannot read: {exc.strerror}") from None
     except Exception as exc:  # pyulog raises many kinds on corrupt or truncated files
         raise InputError(path, None, f"not a readable ULog file ({type(exc).__name__}: {str(exc)[:80]})") from None
+    complaints = [line.strip() for line in printed.getvalue().splitlines() if line.strip()]
+    return ulog, (complaints[0][:120] if complaints else None)
 
 
 def _topic(ulog, name: str, fields: list[str]) -> dict[str, np.ndarray] | None:
@@ -87,7 +126,7 @@ def _quaternions(src: dict, t: np.ndarray) -> np.ndarray:
 
 
 def read_ulog(path: str, af: Airframe, rate_hz: float | None = None) -> UlogFlight:
-    ulog = _open(path)
+    ulog, complaint = _open(path)
     need: dict[str, tuple[list[str], str]] = {
         "vehicle_local_position": (["vx", "vy", "vz"] + (["ax", "ay", "az"] if af.observer.acceleration == "ned" else []),
                                    "ground velocity" + (" and acceleration" if af.observer.acceleration == "ned" else "")),
@@ -109,7 +148,7 @@ def read_ulog(path: str, af: Airframe, rate_hz: float | None = None) -> UlogFlig
         missing.append("vehicle_thrust_setpoint or vehicle_attitude_setpoint (collective thrust)")
     if missing:
         raise InputError(path, "topic" + ("s " if len(missing) > 1 else " ") + ", ".join(missing), "missing from the log")
-    notes = []
+    notes = [] if complaint is None else [f"pyulog: {complaint} (the parse went on past it)"]
     hover_topic = _topic(ulog, "hover_thrust_estimate", ["hover_thrust"]) if thrust_src else None
     hover_param = ulog.initial_parameters.get("MPC_THR_HOVER")
     if thrust_src and hover_topic is None and hover_param is None:

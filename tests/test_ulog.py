@@ -179,3 +179,64 @@ def test_real_sample_log(tmp_path, capsys):
     assert len(out.read_text().splitlines()) == summary["rows"] + 1
     assert main(["replay", str(M300), str(SAMPLE)]) == 2
     assert "esc_status" in capsys.readouterr().err
+
+
+# --- corrupt files: no hang, one line or a clean result, stdout stays one JSON object -------------
+
+def _corrupt_cases(tmp_path, good: bytes) -> list:
+    import random
+
+    rng = random.Random(16)
+    # This seed's random bytes send pyulog's definitions reader seeking back and forth for ever.
+    cases = [good[:16] + random.Random(0).randbytes(100_000)]
+    for _ in range(5):
+        flipped = bytearray(good)
+        for _ in range(6):
+            k = rng.randrange(16, len(flipped))
+            flipped[k] ^= 1 << rng.randrange(8)
+        cases.append(bytes(flipped))
+    paths = []
+    for i, blob in enumerate(cases):
+        path = tmp_path / f"corrupt{i}.ulg"
+        path.write_bytes(blob)
+        paths.append(path)
+    return paths
+
+
+def test_corrupt_ulogs_end_quickly_with_one_line_or_one_json_object(tmp_path):
+    import json
+    import subprocess
+    import sys
+    import time
+
+    af, cols = _flight(rate=50.0)
+    good = _ulog(tmp_path / "good.ulg", cols).read_bytes()
+    outcomes = set()
+    for path in _corrupt_cases(tmp_path, good):
+        start = time.monotonic()
+        done = subprocess.run([sys.executable, "-m", "dobwind.cli", "replay", str(M300), str(path), "--json"],
+                              capture_output=True, text=True, timeout=60)
+        assert time.monotonic() - start < 30, path
+        assert "Traceback" not in done.stderr
+        if done.returncode == 0:
+            assert isinstance(json.loads(done.stdout), dict) and done.stderr == ""
+        else:
+            assert done.returncode == 2 and done.stdout == "" and done.stderr.count("\n") == 1, done.stderr
+            assert str(path) in done.stderr
+        outcomes.add(done.returncode)
+    assert 2 in outcomes  # the random tail at least is refused
+
+
+def test_the_read_budget_stops_pyulogs_endless_loop(tmp_path):
+    from dobwind.errors import InputError
+    from dobwind.ulog import _open
+    import random
+    import time
+
+    good = _ulog(tmp_path / "good.ulg", _flight(rate=50.0)[1]).read_bytes()
+    path = tmp_path / "loop.ulg"
+    path.write_bytes(good[:16] + random.Random(0).randbytes(100_000))
+    start = time.monotonic()
+    with pytest.raises(InputError, match="made no progress"):
+        _open(str(path))
+    assert time.monotonic() - start < 20

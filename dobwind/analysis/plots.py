@@ -12,15 +12,16 @@ import numpy as np  # noqa: E402
 
 from dobwind.analysis.figures import bandwidth_hz, response  # noqa: E402
 from dobwind.analysis.ramp import RampResult  # noqa: E402
+from dobwind.atomic import write_file_atomically  # noqa: E402
 
 PAPER_BANDWIDTH_HZ = 0.5
 
 
 def _save(fig, path: Path) -> Path:
-    tmp = path.with_name(f".{path.name}.tmp.png")
-    fig.savefig(tmp, dpi=110)
-    plt.close(fig)
-    tmp.replace(path)
+    try:
+        write_file_atomically(path, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
+    finally:
+        plt.close(fig)
     return path
 
 

@@ -6,7 +6,7 @@ import dataclasses
 import math
 import sys
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -20,6 +20,7 @@ from dobwind.errors import EXIT_CHECK_FAILED, InputError
 from dobwind.jsonout import print_json
 from dobwind.model.airframe import DISCRETIZATIONS, Airframe, load_airframe
 from dobwind.model.step import build_step
+from dobwind.outputs import OutputFiles, Target, check_targets
 
 AXES = "xyz"
 SCHEDULE_GRID_POINTS = 61
@@ -152,16 +153,24 @@ def text(report: dict[str, Any], freqs_hz: list[float]) -> str:
     return "\n".join(lines)
 
 
-def write_plots(report: dict[str, Any], systems: dict[str, Any], out_dir: Path) -> list[Path]:
-    out_dir.mkdir(parents=True, exist_ok=True)
+def write_plots(report: dict[str, Any], systems: dict[str, Any], out_dir: Path,
+                stage: Callable[[Path], Path] | None = None) -> list[Path]:
+    """The PNGs into out_dir; with ``stage`` (OutputFiles.stage) each goes to the temporary it names and
+    the caller renames them in together."""
+    if stage is None:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        stage = lambda path: path  # noqa: E731
     written = []
     name = report["airframe"]
     if report["cascade"]:
-        written.append(plots.bode(systems["observer"][:1] + systems["cascade"],
-                                  f"{name}: observer and scheduled low-pass (axis x)", out_dir / "bode.png"))
-    written.append(plots.bode(systems["discretizations"], f"{name}: discretizations, same gain", out_dir / "discretizations.png"))
+        plots.bode(systems["observer"][:1] + systems["cascade"], f"{name}: observer and scheduled low-pass (axis x)",
+                   stage(out_dir / "bode.png"))
+        written.append(out_dir / "bode.png")
+    plots.bode(systems["discretizations"], f"{name}: discretizations, same gain", stage(out_dir / "discretizations.png"))
+    written.append(out_dir / "discretizations.png")
     if "ramp" in systems:
-        written.append(plots.ramp(systems["ramp"], out_dir / "ramp.png"))
+        plots.ramp(systems["ramp"], stage(out_dir / "ramp.png"))
+        written.append(out_dir / "ramp.png")
     return written
 
 
@@ -179,6 +188,9 @@ def _check_frequencies(af: Airframe, source: str, freqs_hz: list[float]) -> None
 
 
 def analyze_command(args: argparse.Namespace) -> int:
+    target = Target("-o", args.output, "dir") if args.output is not None else None
+    if target is not None:
+        check_targets([target], [args.airframe])
     af = load_airframe(args.airframe)
     _check_frequencies(af, args.airframe, list(args.freq))
     if args.bandwidth is not None:
@@ -195,8 +207,9 @@ def analyze_command(args: argparse.Namespace) -> int:
                   f"({af.observer.discretization}):\ngains = [{gain:.6g}, {gain:.6g}, {gain:.6g}]")
         return 0
     report, systems = analyze(af, list(args.freq))
-    if args.output:
-        report["plots"] = [str(p) for p in write_plots(report, systems, Path(args.output))]
+    if target is not None:
+        with OutputFiles([target]) as out:
+            report["plots"] = [str(p) for p in write_plots(report, systems, Path(args.output), out.stage)]
     if args.json:
         print_json(report)
     else:
