@@ -88,12 +88,16 @@ def _default_airframe() -> str:
 def cmd_simulate(args: argparse.Namespace) -> int:
     from dobwind.model.airframe import load_airframe
     from dobwind.simulate import write_log
+    from dobwind.vehicle import load_vehicle
 
     af = load_airframe(args.airframe or _default_airframe())
+    vehicle = load_vehicle(args.vehicle) if args.vehicle else None
     if args.hold is not None and args.hold <= 0:
         raise InputError("simulate", "--hold", "must be > 0 seconds")
-    rows = write_log(args.output, af, args.scenario, args.seed, args.hold, args.rate)
-    rate = args.rate or 50.0
+    if args.rate is not None and not args.rate > 0:
+        raise InputError("simulate", "--rate", "must be > 0 Hz")
+    rows = write_log(args.output, af, args.scenario, args.seed, args.hold, args.rate, vehicle, args.vehicle)
+    rate = args.rate or (vehicle.rate_hz if vehicle else 50.0)
     print(f"{args.output}: {rows} rows, {rows / rate:.1f} s of '{args.scenario}' at {rate:g} Hz")
     return 0
 
@@ -251,7 +255,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", required=True)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--hold", type=float, help="seconds per hold (default: the scenario's own)")
-    p.add_argument("--rate", type=float, help="sample rate in Hz (default 50)")
+    p.add_argument("--rate", type=float, help="sample rate in Hz (default 50, or the vehicle file's rate)")
+    p.add_argument("--vehicle", help="the true vehicle's physics and sensors (TOML; default: a vehicle of the "
+                   "airframe's size with built-in drag)")
     p.set_defaults(func=cmd_simulate)
 
     p = sub.add_parser("demo", help="the whole pipeline on the reference airframe")
