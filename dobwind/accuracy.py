@@ -13,7 +13,6 @@ Quick mode (--quick, or DOBWIND_ACCURACY_QUICK=1): one seed, three vehicles, spl
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
@@ -50,6 +49,7 @@ class Config:
     output: Path
     workers: int
     leave_one_out: bool
+    fit_options: tuple[str, ...] = ()
 
 
 def available_vehicles(vehicle_dir: Path) -> tuple[str, ...]:
@@ -58,7 +58,7 @@ def available_vehicles(vehicle_dir: Path) -> tuple[str, ...]:
 
 
 def run_vehicles(config: Config, scratch: Path) -> list[dict[str, Any]]:
-    jobs = [Job(v, str(config.vehicle_dir), s, config.hold_s, str(scratch / f"{v}_{s}"))
+    jobs = [Job(v, str(config.vehicle_dir), s, config.hold_s, str(scratch / f"{v}_{s}"), config.fit_options)
             for v in config.vehicles for s in config.seeds]
     if config.workers <= 1:
         return [run_job(job) for job in jobs]
@@ -84,8 +84,9 @@ def vehicle_tables(config: Config, results: list[dict[str, Any]]) -> tuple[list[
 
 
 def report(config: Config, results: list[dict[str, Any]], real: dict[str, Any] | None, elapsed_s: float) -> tuple[str, dict]:
+    fit = f"fit {' '.join(config.fit_options)} (NOT the plain workflow)" if config.fit_options else "fit with no options"
     lines = [f"dobwind accuracy: {len(config.vehicles)} vehicles x {len(config.seeds)} seeds; calibration holds "
-             f"{config.hold_s or 'default'} s; fit with no options; replay --backend c (single precision)", ""]
+             f"{config.hold_s or 'default'} s; {fit}; replay --backend c (single precision)", ""]
     vehicle_lines, worst_by_vehicle = vehicle_tables(config, results)
     lines += vehicle_lines
     overall = worst(results)
@@ -116,6 +117,9 @@ def parse_config(argv: list[str] | None) -> Config:
     parser.add_argument("--data", default=str(DEFAULT_DATA), help="Neural-Fly folder (skipped when absent)")
     parser.add_argument("--workers", type=int, default=MAX_WORKERS)
     parser.add_argument("-o", "--output", default="out/accuracy", help="folder for accuracy.json and accuracy.txt")
+    parser.add_argument("--fit-option", action="append", default=[], metavar="OPT",
+                        help="diagnosis only: pass OPT to every simulated vehicle's `dobwind fit` (repeatable; "
+                        "the benchmark proper uses none), e.g. --fit-option=--terms --fit-option=auto")
     args = parser.parse_args(argv)
     quick = args.quick or os.environ.get("DOBWIND_ACCURACY_QUICK", "") not in ("", "0")
     vehicle_dir = Path(args.vehicle_dir)
@@ -130,7 +134,7 @@ def parse_config(argv: list[str] | None) -> Config:
         parser.error("--hold: must be > 0 seconds")
     seeds = args.seeds or (1 if quick else 2)
     return Config(names, tuple(range(1, seeds + 1)), args.hold, vehicle_dir, Path(args.data), Path(args.output),
-                  args.workers, leave_one_out=not quick)
+                  args.workers, leave_one_out=not quick, fit_options=tuple(args.fit_option))
 
 
 def main(argv: list[str] | None = None) -> int:

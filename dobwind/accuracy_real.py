@@ -7,6 +7,7 @@ The user's workflow is the command line with no options: `fit` on logs, `replay 
 """
 from __future__ import annotations
 
+import json
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -21,8 +22,6 @@ HELD_OUT_GOAL_MPS = 0.5   # held-out runs within this on average (#12)
 
 
 def _replay(fitted: str, log: Path, nominal: float, workdir: Path) -> dict[str, Any]:
-    import json
-
     child = run_child(["replay", fitted, str(log), "--backend", "c", "--json"], workdir)
     if child.exit_code != 0:
         return {"nominal_mps": nominal, "error": f"replay exit {child.exit_code}: {child.last_stderr}"}

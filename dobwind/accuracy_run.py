@@ -53,6 +53,7 @@ class Job:
     seed: int
     hold_s: float | None    # calibration hold (the sweep's 324 holds); None: the scenario's own
     workdir: str
+    fit_options: tuple[str, ...] = ()  # empty for the benchmark proper: a user's plain `dobwind fit`
 
 
 def _seed(job: Job, scenario: str) -> int:
@@ -80,7 +81,7 @@ def _json(child: Child) -> dict[str, Any] | None:
 def _fit(job: Job, logs: list[str]) -> tuple[str, dict[str, Any]]:
     nominal = str(Path(job.vehicle_dir) / f"{job.vehicle}.airframe.toml")
     fitted = str(Path(job.workdir) / "fitted.toml")
-    child = run_child(["fit", nominal, *logs, "-o", fitted, "--json"], Path(job.workdir))
+    child = run_child(["fit", nominal, *logs, "-o", fitted, "--json", *job.fit_options], Path(job.workdir))
     report = _json(child) or {}
     return fitted, {"exit_code": child.exit_code, "message": child.last_stderr, "time_s": child.wall_s,
                     "peak_rss_mb": child.peak_rss_mb, "cv_rmse_mps": report.get("horizontal_cv_rmse_mps"),
