@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 
-.PHONY: setup test demo regen bench clean realdata
+.PHONY: setup test demo regen bench clean realdata accuracy
 
 setup: $(STAMP)
 
@@ -33,3 +33,8 @@ clean:
 # Optional: the real Neural-Fly runs beside the checkout (never copied into the project).
 realdata: $(STAMP)
 	$(BIN)/python -m dobwind.harness.realdata
+
+# Issue #12's generalization benchmark: six simulated vehicles x 2 seeds through the whole command-line
+# workflow, plus the real runs when present (~25 min on 2 cores). ACCURACY_ARGS=--quick: under 5 min.
+accuracy: $(STAMP)
+	$(BIN)/python -m dobwind.accuracy $(ACCURACY_ARGS)

@@ -104,13 +104,16 @@ def _default_airframe() -> str:
 def cmd_simulate(args: argparse.Namespace) -> int:
     from dobwind.model.airframe import load_airframe
     from dobwind.simulate import write_log
+    from dobwind.vehicle import load_vehicle
 
     target = Target("-o", args.output)
     check_targets([target], [args.airframe] if args.airframe else [])
     af = load_airframe(args.airframe or _default_airframe())
+    vehicle = load_vehicle(args.vehicle) if args.vehicle else None
     with OutputFiles([target]) as out:
-        rows = write_log(out.stage(args.output), af, args.scenario, args.seed, args.hold, args.rate)
-    rate = args.rate or 50.0
+        rows = write_log(out.stage(args.output), af, args.scenario, args.seed, args.hold, args.rate, vehicle,
+                         args.vehicle)
+    rate = args.rate or (vehicle.rate_hz if vehicle else 50.0)
     print(f"{args.output}: {rows} rows, {rows / rate:.1f} s of '{args.scenario}' at {rate:g} Hz")
     return 0
 
@@ -292,8 +295,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=opt.SEED, default=0, help=f"turbulence and timing noise ({opt.SEED.text()})")
     p.add_argument("--hold", type=opt.SIMULATE_HOLD,
                    help=f"seconds per hold ({opt.SIMULATE_HOLD.text()}; default: the scenario's own)")
-    p.add_argument("--rate", type=opt.SIMULATE_RATE, help=f"sample rate ({opt.SIMULATE_RATE.text()}; default 50); "
-                   f"at most {opt.SIMULATE_MAX_ROWS:,} rows in all")
+    p.add_argument("--rate", type=opt.SIMULATE_RATE, help=f"sample rate ({opt.SIMULATE_RATE.text()}; default 50, "
+                   f"or the vehicle file's rate); at most {opt.SIMULATE_MAX_ROWS:,} rows in all")
+    p.add_argument("--vehicle", help="the true vehicle's physics and sensors (TOML; default: a vehicle of the "
+                   "airframe's size with built-in drag)")
     p.set_defaults(func=cmd_simulate)
 
     p = sub.add_parser("demo", help="the whole pipeline on the reference airframe")

@@ -23,6 +23,7 @@ from scipy.spatial.transform import Rotation
 from dobwind.errors import InputError
 from dobwind.model.airframe import Airframe
 from dobwind.model.exercise import rpm_for_rotor_thrust
+from dobwind.vehicle import Sensors, VehicleSpec, body_force, thrust_factor
 
 SCENARIOS = ("sweep", "vertical", "tunnel", "still-air", "outdoor")
 
@@ -177,20 +178,75 @@ def _refuse_too_many_rows(name: str, total_s: float, rate_hz: float, rows: int) 
                          f"the {SIMULATE_MAX_ROWS:,} allowed (lower --rate or --hold)")
 
 
+@dataclass(frozen=True)
+class _Dynamics:
+    """What the ideal position controller did: collective thrust, attitude, and the rotors' state."""
+    u_f: np.ndarray            # N, true collective thrust
+    rot: Rotation              # body FRD -> NED
+    factor: np.ndarray         # true thrust / the nominal curve's, per sample
+    logged_thrust: np.ndarray  # N, what a collective-thrust log reports before its noise and bias
+    rotor_imbalance: float
+
+
+def _attitude(need: np.ndarray, yaw: np.ndarray) -> tuple[np.ndarray, np.ndarray, Rotation]:
+    """Thrust magnitude, body z axis (NED) and the attitude that deliver `need` (= u_f z_b) at this yaw."""
+    u_f = np.linalg.norm(need, axis=1)
+    z_b = need / u_f[:, None]
+    heading = np.column_stack([np.cos(yaw), np.sin(yaw), np.zeros(len(yaw))])
+    y_b = np.cross(z_b, heading)
+    y_b /= np.linalg.norm(y_b, axis=1)[:, None]
+    x_b = np.cross(y_b, z_b)
+    return u_f, z_b, Rotation.from_matrix(np.stack([x_b, y_b, z_b], axis=2))
+
+
+def _inflow(air_rel: np.ndarray, z_b: np.ndarray) -> np.ndarray:
+    """Axial inflow: air moving down through the rotor discs, relative to the vehicle (m/s)."""
+    return np.einsum("ij,ij->i", air_rel, z_b)
+
+
+def _heading_frame_dynamics(vehicle: TrueVehicle, air_rel: np.ndarray, acc: np.ndarray, yaw: np.ndarray) -> _Dynamics:
+    """The built-in vehicle: drag in the heading frame, independent of the tilt."""
+    m, g = vehicle.mass_kg, vehicle.gravity_mps2
+    force = aerodynamic_force(vehicle, air_rel, yaw)
+    u_f, z_b, rot = _attitude(m * g * np.array([0, 0, 1.0]) + force - m * acc, yaw)
+    factor = np.clip(1 - vehicle.inflow_loss_per_mps * _inflow(air_rel, z_b), 0.8, 1.2) * vehicle.thrust_scale
+    return _Dynamics(u_f, rot, factor, u_f, vehicle.rotor_imbalance)
+
+
+BODY_FIXED_POINT_ITERATIONS = 6  # the tilt changes the body-frame airflow, which changes the force and tilt
+
+
+def _body_frame_dynamics(spec: VehicleSpec, air_rel: np.ndarray, acc: np.ndarray, yaw: np.ndarray) -> _Dynamics:
+    """A vehicle file's physics: the force acts on the body-frame airflow at the REAL attitude, which
+    itself balances that force; solved by fixed-point iteration from level flight."""
+    m, g = spec.mass_kg, spec.gravity_mps2
+    weight = m * g
+    u_f, z_b, rot = _attitude(np.tile([0.0, 0.0, weight], (len(yaw), 1)) - m * acc, yaw)
+    for _ in range(BODY_FIXED_POINT_ITERATIONS):
+        force = rot.apply(body_force(spec, rot.inv().apply(air_rel), u_f / weight))
+        u_f, z_b, rot = _attitude(weight * np.array([0, 0, 1.0]) + force - m * acc, yaw)
+    factor = thrust_factor(spec, u_f / weight, _inflow(air_rel, z_b))
+    # A collective-thrust log reports the autopilot's thrust from its nominal model, i.e. the
+    # rotors' true thrust divided by the true/nominal factor.
+    return _Dynamics(u_f, rot, factor, u_f / factor, spec.rotor_imbalance)
+
+
 def simulate(af: Airframe, name: str, seed: int = 0, hold_s: float | None = None,
-             rate_hz: float | None = None) -> dict[str, np.ndarray]:
-    """Log columns (INTERFACES.md section 2) plus `segment`, for the scenario."""
+             rate_hz: float | None = None, vehicle: VehicleSpec | None = None) -> dict[str, np.ndarray]:
+    """Log columns (INTERFACES.md section 2) plus `segment`, for the scenario; the true vehicle is
+    `vehicle` (a vehicle file), or by default one of the airframe's size (`true_vehicle`)."""
     rng = np.random.default_rng(seed)
     scen = scenario(name, hold_s, rng)
-    vehicle = true_vehicle(af)
-    rate = rate_hz or scen.rate_hz
+    builtin = true_vehicle(af) if vehicle is None else None
+    sensors: TrueVehicle | Sensors = builtin if builtin is not None else vehicle.sensors  # type: ignore[union-attr]
+    rate = rate_hz or (scen.rate_hz if vehicle is None else vehicle.rate_hz)
     period = 1.0 / rate
     durations = np.array([s.duration_s for s in scen.segments])
     starts = np.concatenate([[0.0], np.cumsum(durations)[:-1]])
     total = float(durations.sum())
     n = int(total * rate)
     _refuse_too_many_rows(name, total, rate, n)
-    t = np.arange(n) * period + np.clip(rng.normal(0, vehicle.jitter * period, n), -0.3 * period, 0.3 * period)
+    t = np.arange(n) * period + np.clip(rng.normal(0, sensors.jitter * period, n), -0.3 * period, 0.3 * period)
     t[0] = 0.0
     ramps = np.array([max(s.ramp_s, 1e-3) for s in scen.segments])
     vel, acc = _profile(t, starts, ramps, np.array([s.velocity_ned for s in scen.segments], dtype=float))
@@ -202,26 +258,32 @@ def simulate(af: Airframe, name: str, seed: int = 0, hold_s: float | None = None
     sigma = np.column_stack([scen.turbulence_h + scen.turbulence_frac * mean_speed] * 2 + [np.full(n, scen.turbulence_v)])
     wind = wind_mean + _turbulence(n, period, sigma, scen.turbulence_time_s, rng)
 
-    m, g = vehicle.mass_kg, vehicle.gravity_mps2
-    air_rel = wind - vel
-    force = aerodynamic_force(vehicle, air_rel, yaw)
-    need = m * g * np.array([0, 0, 1.0]) + force - m * acc  # = u_f z_b
-    u_f = np.linalg.norm(need, axis=1)
-    z_b = need / u_f[:, None]
-    heading = np.column_stack([np.cos(yaw), np.sin(yaw), np.zeros(n)])
-    y_b = np.cross(z_b, heading)
-    y_b /= np.linalg.norm(y_b, axis=1)[:, None]
-    x_b = np.cross(y_b, z_b)
-    rot = Rotation.from_matrix(np.stack([x_b, y_b, z_b], axis=2))
+    if builtin is not None:
+        dyn, g = _heading_frame_dynamics(builtin, wind - vel, acc, yaw), builtin.gravity_mps2
+    else:
+        dyn, g = _body_frame_dynamics(vehicle, wind - vel, acc, yaw), vehicle.gravity_mps2  # type: ignore[arg-type,union-attr]
+    cols: dict[str, np.ndarray] = {"t": t, "segment": np.searchsorted(starts, t, side="right") - 1}
+    cols.update(_sensor_columns(af, sensors, dyn, vel, acc, g, rng))
+    cols["yaw_ref"] = np.angle(np.exp(1j * yaw))
+    for i, axis in enumerate("ned"):
+        cols[f"wind_{axis}"] = wind[:, i]
+    return cols
 
-    noisy_rot = Rotation.from_rotvec(rng.normal(0, math.radians(vehicle.attitude_noise_deg), (n, 3))) * rot
+
+def _sensor_columns(af: Airframe, sensors: TrueVehicle | Sensors, dyn: _Dynamics, vel: np.ndarray, acc: np.ndarray,
+                    g: float, rng: np.random.Generator) -> dict[str, np.ndarray]:
+    """What the autopilot logs: every channel with its noise and bias (the order of the random draws
+    is part of the seeded output)."""
+    n = len(vel)
+    rot = dyn.rot
+    noisy_rot = Rotation.from_rotvec(rng.normal(0, math.radians(sensors.attitude_noise_deg), (n, 3))) * rot
     xyzw = noisy_rot.as_quat()
     xyzw *= np.sign(xyzw[:, 3:4] + 1e-12)  # scalar part non-negative, a common logging convention
-    cols: dict[str, np.ndarray] = {"t": t, "segment": np.searchsorted(starts, t, side="right") - 1}
-    v_meas = vel + rng.normal(0, vehicle.vel_noise, (n, 3))
-    a_meas = acc + np.asarray(vehicle.acc_bias_ned) + rng.normal(0, vehicle.acc_noise, (n, 3))
-    sf = (rot.inv().apply(acc - g * np.array([0, 0, 1.0])) + np.asarray(vehicle.sf_bias_body)
-          + rng.normal(0, vehicle.acc_noise, (n, 3)))
+    cols: dict[str, np.ndarray] = {}
+    v_meas = vel + rng.normal(0, sensors.vel_noise, (n, 3))
+    a_meas = acc + np.asarray(sensors.acc_bias_ned) + rng.normal(0, sensors.acc_noise, (n, 3))
+    sf = (rot.inv().apply(acc - g * np.array([0, 0, 1.0])) + np.asarray(sensors.sf_bias_body)
+          + rng.normal(0, sensors.acc_noise, (n, 3)))
     for i, axis in enumerate("ned"):
         cols[f"vel_{axis}"] = v_meas[:, i]
         cols[f"acc_{axis}"] = a_meas[:, i]
@@ -229,38 +291,35 @@ def simulate(af: Airframe, name: str, seed: int = 0, hold_s: float | None = None
         cols[f"sf_{axis}"] = sf[:, i]
     for i, part in enumerate(("q_w", "q_x", "q_y", "q_z")):
         cols[part] = xyzw[:, (3, 0, 1, 2)[i]]
-    # Axial inflow (air moving down through the rotor disc, relative to the vehicle) weakens thrust.
-    inflow = np.einsum("ij,ij->i", air_rel, z_b)
-    factor = np.clip(1 - vehicle.inflow_loss_per_mps * inflow, 0.8, 1.2) * vehicle.thrust_scale
-    cols["thrust"] = u_f * (1 + vehicle.thrust_bias) * (1 + rng.normal(0, vehicle.thrust_noise, n))
+    cols["thrust"] = dyn.logged_thrust * (1 + sensors.thrust_bias) * (1 + rng.normal(0, sensors.thrust_noise, n))
     if af.thrust.source == "rpm":
         rotors = af.thrust.rotors
-        imbalance = 1 + vehicle.rotor_imbalance * np.where(np.arange(rotors) % 2 == 0, 1.0, -1.0)
-        per_rotor = (u_f / rotors)[:, None] / (factor[:, None] * imbalance[None, :])
+        imbalance = 1 + dyn.rotor_imbalance * np.where(np.arange(rotors) % 2 == 0, 1.0, -1.0)
+        per_rotor = (dyn.u_f / rotors)[:, None] / (dyn.factor[:, None] * imbalance[None, :])
         rpm = rpm_for_rotor_thrust(af.thrust.coefficients, af.thrust.max_rpm, per_rotor)
-        rpm += rng.normal(0, vehicle.rpm_noise, rpm.shape)
+        rpm += rng.normal(0, sensors.rpm_noise, rpm.shape)
         for i in range(rotors):
             cols[f"rpm_{i + 1}"] = rpm[:, i]
-    cols["yaw_ref"] = np.angle(np.exp(1j * yaw))
-    for i, axis in enumerate("ned"):
-        cols[f"wind_{axis}"] = wind[:, i]
     return cols
 
 
-def log_comments(af: Airframe, name: str, seed: int) -> list[str]:
+def log_comments(af: Airframe, name: str, seed: int, vehicle_source: str | None = None) -> list[str]:
+    truth = ("true vehicle physics differ from the airframe's model" if vehicle_source is None
+             else f"true vehicle from {vehicle_source}")
     return [f"dobwind simulate {name} --seed {seed}: airframe {af.name} (sha256 {af.content_sha256[:12]})",
-            "true vehicle physics differ from the airframe's model; wind_* is the true wind at the vehicle"]
+            f"{truth}; wind_* is the true wind at the vehicle"]
 
 
 def write_log(path, af: Airframe, name: str, seed: int = 0, hold_s: float | None = None,
-              rate_hz: float | None = None) -> int:
+              rate_hz: float | None = None, vehicle: VehicleSpec | None = None,
+              vehicle_source: str | None = None) -> int:
     """Simulate a scenario and write it as a flight-log CSV (atomically); returns the row count."""
     from dobwind.logs import write_csv
 
-    cols = simulate(af, name, seed, hold_s=hold_s, rate_hz=rate_hz)
+    cols = simulate(af, name, seed, hold_s=hold_s, rate_hz=rate_hz, vehicle=vehicle)
     names = column_order(cols)
     write_csv(path, names, np.column_stack([cols[n] for n in names]),
-              ["%.6f"] + ["%.7g"] * (len(names) - 2) + ["%d"], log_comments(af, name, seed))
+              ["%.6f"] + ["%.7g"] * (len(names) - 2) + ["%d"], log_comments(af, name, seed, vehicle_source))
     return len(cols["t"])
 
 

@@ -97,10 +97,11 @@ def test_replay_json_with_nan_true_wind(tmp_path, capsys):
 
 def test_fit_json_with_a_non_finite_figure(tmp_path, capsys, monkeypatch):
     import dobwind.fit as fit
+    import dobwind.fitfamily as fitfamily
     from dobwind.model.airframe import load_airframe
 
     af = load_airframe(M300)
-    monkeypatch.setattr(fit, "fit_airframe", lambda *a, **k: (af, fit.FitReport(points=9), None))
+    monkeypatch.setattr(fitfamily, "fit_airframe", lambda *a, **k: (af, fit.FitReport(points=9), None))
     monkeypatch.setattr(fit, "fit_plot", lambda *a, **k: None)
     out = tmp_path / "fitted.toml"
     code, report = _json_run(["fit", str(M300), "x.csv", "-o", str(out), "--json"], capsys)

@@ -1,0 +1,143 @@
+"""One benchmark pipeline: the user's whole workflow through the `dobwind` command line, in children.
+
+simulate sweep + vertical (calibration) -> fit with no options -> replay tunnel, still-air and outdoor
+(other seeds) through the generated C. Every step is a separate process, exactly as a user types it;
+its exit status, last stderr line, wall time and peak memory are recorded. A failed step is a result.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+CALIBRATION = ("sweep", "vertical")
+TESTS = ("tunnel", "still-air", "outdoor")
+SEED_OFFSET = {"sweep": 1, "vertical": 2, "tunnel": 3, "still-air": 4, "outdoor": 5}
+
+
+@dataclass(frozen=True)
+class Child:
+    """A finished child process: its exit status, output, wall time and peak resident memory."""
+    exit_code: int
+    stdout: str
+    last_stderr: str
+    wall_s: float
+    peak_rss_mb: float
+
+
+def run_child(args: list[str], workdir: Path) -> Child:
+    """Run `python -m dobwind.cli ARGS`; os.wait4 gives this child's own rusage (not all children's)."""
+    out_path, err_path = workdir / ".child.out", workdir / ".child.err"
+    start = time.perf_counter()
+    with open(out_path, "w") as out, open(err_path, "w") as err:
+        proc = subprocess.Popen([sys.executable, "-m", "dobwind.cli", *args], stdout=out, stderr=err)
+        _, status, usage = os.wait4(proc.pid, 0)
+        proc.returncode = os.waitstatus_to_exitcode(status)  # reaped here: Popen must not wait again
+    wall = time.perf_counter() - start
+    lines = [line for line in err_path.read_text().splitlines() if line.strip()]
+    # ru_maxrss is in kilobytes on Linux.
+    return Child(proc.returncode, out_path.read_text(), lines[-1] if lines else "", wall, usage.ru_maxrss / 1024.0)
+
+
+@dataclass(frozen=True)
+class Job:
+    vehicle: str            # name: benchmarks/vehicles/<name>.vehicle.toml and .airframe.toml
+    vehicle_dir: str
+    seed: int
+    hold_s: float | None    # calibration hold (the sweep's 324 holds); None: the scenario's own
+    workdir: str
+    fit_options: tuple[str, ...] = ()  # empty for the benchmark proper: a user's plain `dobwind fit`
+
+
+def _seed(job: Job, scenario: str) -> int:
+    # Calibration and test flights never share a seed, and seeds differ between runs of a vehicle.
+    return 100 * job.seed + SEED_OFFSET[scenario]
+
+
+def _simulate(job: Job, scenario: str, hold: float | None) -> tuple[str, Child]:
+    base = Path(job.vehicle_dir) / job.vehicle
+    log = str(Path(job.workdir) / f"{scenario}.csv")
+    args = ["simulate", scenario, "--airframe", f"{base}.airframe.toml", "--vehicle", f"{base}.vehicle.toml",
+            "--seed", str(_seed(job, scenario)), "-o", log]
+    if hold is not None:
+        args += ["--hold", f"{hold:g}"]
+    return log, run_child(args, Path(job.workdir))
+
+
+def _json(child: Child) -> dict[str, Any] | None:
+    try:
+        return json.loads(child.stdout) if child.exit_code == 0 else None
+    except json.JSONDecodeError:
+        return None
+
+
+def _fit(job: Job, logs: list[str]) -> tuple[str, dict[str, Any]]:
+    nominal = str(Path(job.vehicle_dir) / f"{job.vehicle}.airframe.toml")
+    fitted = str(Path(job.workdir) / "fitted.toml")
+    child = run_child(["fit", nominal, *logs, "-o", fitted, "--json", *job.fit_options], Path(job.workdir))
+    report = _json(child) or {}
+    return fitted, {"exit_code": child.exit_code, "message": child.last_stderr, "time_s": child.wall_s,
+                    "peak_rss_mb": child.peak_rss_mb, "cv_rmse_mps": report.get("horizontal_cv_rmse_mps"),
+                    "rmse_mps": report.get("horizontal_rmse_mps"),
+                    "extrapolation_rmse_mps": report.get("horizontal_extrapolation_rmse_mps"),
+                    "terms": report.get("horizontal_terms"), "thrust_scale": report.get("thrust_scale"),
+                    "warnings": report.get("warnings", [])}
+
+
+def _rms(values: list[float]) -> float:
+    return math.sqrt(sum(v * v for v in values) / len(values)) if values else math.nan
+
+
+def goal_metrics(scenario: str, replay: dict[str, Any]) -> dict[str, Any]:
+    """The figures the #12 goals speak of, from `dobwind replay --json`."""
+    seg = replay.get("per_segment") or {}
+    if scenario == "still-air":
+        wind = replay.get("mean_estimated_wind") or {}
+        return {"horizontal_mps": wind.get("horizontal_mps"), "vertical_mps": wind.get("vertical_mps")}
+    metrics = {"speed_mean": seg.get("speed_mean"), "speed_max": seg.get("speed_max"),
+               "direction_mean": seg.get("direction_mean"), "direction_max": seg.get("direction_max")}
+    if scenario == "tunnel":
+        # RMS over the unseen holds: the same statistic as the fit's CV RMSE, so their ratio is fair.
+        metrics["speed_rms"] = _rms([row["speed_error"] for row in seg.get("table", [])])
+    return metrics
+
+
+def run_job(job: Job) -> dict[str, Any]:
+    """The whole workflow for one vehicle and seed; failures are recorded, never raised."""
+    Path(job.workdir).mkdir(parents=True, exist_ok=True)
+    result: dict[str, Any] = {"vehicle": job.vehicle, "seed": job.seed, "hold_s": job.hold_s}
+    logs, rows = [], 0
+    for scenario in CALIBRATION:
+        log, child = _simulate(job, scenario, job.hold_s)
+        if child.exit_code != 0:
+            result["error"] = f"simulate {scenario}: exit {child.exit_code}: {child.last_stderr}"
+            return result
+        logs.append(log)
+        found = re.search(r": (\d+) rows, ", child.stdout)  # simulate prints "LOG: N rows, ..."
+        rows += int(found.group(1)) if found else 0
+    result["calibration_rows"] = rows
+    fitted, result["fit"] = _fit(job, logs)
+    for log in logs:
+        Path(log).unlink()  # the calibration logs are the largest files: free the disk early
+    if result["fit"]["exit_code"] != 0:
+        result["error"] = f"fit: exit {result['fit']['exit_code']}: {result['fit']['message']}"
+        return result
+    for scenario in TESTS:
+        log, child = _simulate(job, scenario, None)
+        replay = run_child(["replay", fitted, log, "--backend", "c", "--json"], Path(job.workdir)) if child.exit_code == 0 else child
+        parsed = _json(replay)
+        if parsed is None:
+            result[scenario] = {"error": f"exit {replay.exit_code}: {replay.last_stderr}"}
+        else:
+            result[scenario] = goal_metrics(scenario, parsed)
+        Path(log).unlink(missing_ok=True)
+    tunnel, cv = result["tunnel"].get("speed_rms"), result["fit"]["cv_rmse_mps"]
+    result["cv_ratio"] = tunnel / cv if tunnel is not None and cv else None
+    return result
