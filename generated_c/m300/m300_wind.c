@@ -5,7 +5,7 @@
  * d9fe9baff7b6cfef8d666b58101c13ced95956e1653f591ef4ca4a5757c1bf1d.
  * DO NOT EDIT: regenerate with `dobwind generate <airframe file>`.
  *
- * Total ops per accepted step: 286 (33 math-library calls), of which
+ * Total ops per accepted step: 296 (33 math-library calls), of which
  * 86 validate the input and 22 check the result.
  */
 #include "m300_wind.h"
@@ -65,7 +65,10 @@ void m300_wind_init(m300_wind_state_t *state)
     state->last.wind_speed_h = 0.0f;
     state->last.wind_speed_up = 0.0f;
     state->last.wind_from_deg = 0.0f;
+    state->last.wind_sigma_h = 0.0f;
+    state->last.wind_sigma_up = 0.0f;
     state->initialized = 0.0f;
+    state->run_s = 0.0f;
     (void)i;
 }
 
@@ -124,7 +127,7 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const int t47 = !t46;
         const float t48 = (t47 ? 1.0f : 0.0f);
         const int t49 = 1e-05f <= in->dt;
-        const int t50 = in->dt <= 0.1f;
+        const int t50 = in->dt <= 0.10001f;
         const int t51 = t49 & t50;
         const int t52 = !t51;
         const float t53 = (t52 ? 2.0f : 0.0f);
@@ -163,7 +166,10 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         status = t85;
     }
     if (status != 0.0f) {
-        *out = state->last; /* rejected: state untouched, last valid output repeated */
+        /* rejected: the estimate is untouched and the last accepted output repeated; only the gap
+         * bookkeeping records that this sample was missed */
+        state->run_s = 0.0f;
+        *out = state->last;
         return (int)status;
     }
 
@@ -216,7 +222,7 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         u_f = t13;
     }
 
-    /* ---- acceleration: kinematic acceleration p'' (m/s^2, NED), minus its velocity-aided bias (time constant 20 s) (25 ops, 1 math calls) ---- */
+    /* ---- acceleration: kinematic acceleration p'' (m/s^2, NED), minus its velocity-aided bias (time constant 20 s) (31 ops, 1 math calls) ---- */
     float p_ddot[3];
     float acc_bias_new[3];
     {
@@ -226,31 +232,37 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         p_ddot[1] = t1;
         const float t2 = in->acc_ned[2] - state->acc_bias[2];
         p_ddot[2] = t2;
-        const float t3 = in->dt / 20.0f;
-        const float t4 = -t3;
-        const float t5 = expm1f(t4);
-        const float t6 = state->initialized * t5;
+        const int t3 = 0.0f < state->run_s;
+        const float t4 = in->dt / 20.0f;
+        const float t5 = -t4;
+        const float t6 = expm1f(t5);
         const float t7 = in->vel_ned[0] - state->vel_prev[0];
         const float t8 = t7 / in->dt;
         const float t9 = in->acc_ned[0] - t8;
         const float t10 = t9 - state->acc_bias[0];
         const float t11 = t6 * t10;
-        const float t12 = state->acc_bias[0] - t11;
-        acc_bias_new[0] = t12;
-        const float t13 = in->vel_ned[1] - state->vel_prev[1];
-        const float t14 = t13 / in->dt;
-        const float t15 = in->acc_ned[1] - t14;
-        const float t16 = t15 - state->acc_bias[1];
-        const float t17 = t6 * t16;
-        const float t18 = state->acc_bias[1] - t17;
-        acc_bias_new[1] = t18;
-        const float t19 = in->vel_ned[2] - state->vel_prev[2];
-        const float t20 = t19 / in->dt;
-        const float t21 = in->acc_ned[2] - t20;
-        const float t22 = t21 - state->acc_bias[2];
-        const float t23 = t6 * t22;
-        const float t24 = state->acc_bias[2] - t23;
-        acc_bias_new[2] = t24;
+        const float t12 = -t11;
+        const float t13 = (t3 ? t12 : 0.0f);
+        const float t14 = state->acc_bias[0] + t13;
+        acc_bias_new[0] = t14;
+        const float t15 = in->vel_ned[1] - state->vel_prev[1];
+        const float t16 = t15 / in->dt;
+        const float t17 = in->acc_ned[1] - t16;
+        const float t18 = t17 - state->acc_bias[1];
+        const float t19 = t6 * t18;
+        const float t20 = -t19;
+        const float t21 = (t3 ? t20 : 0.0f);
+        const float t22 = state->acc_bias[1] + t21;
+        acc_bias_new[1] = t22;
+        const float t23 = in->vel_ned[2] - state->vel_prev[2];
+        const float t24 = t23 / in->dt;
+        const float t25 = in->acc_ned[2] - t24;
+        const float t26 = t25 - state->acc_bias[2];
+        const float t27 = t6 * t26;
+        const float t28 = -t27;
+        const float t29 = (t3 ? t28 : 0.0f);
+        const float t30 = state->acc_bias[2] + t29;
+        acc_bias_new[2] = t30;
     }
 
     /* ---- external_force: f_e solved from m p'' = -u_f z_b + m g e3 + f_e (N, NED) (10 ops) ---- */
@@ -425,6 +437,26 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         wind_from_deg = t17;
     }
 
+    /* ---- quality: quality bits of an accepted sample: SETTLING for 3.50562 s after the start or a gap (4 ops) ---- */
+    float run_s_new;
+    float quality_status;
+    {
+        const float t0 = state->run_s + in->dt;
+        const float t1 = (t0 < 3.505618f ? t0 : 3.505618f);
+        run_s_new = t1;
+        const int t2 = t1 < 3.505618f;
+        const float t3 = (t2 ? 64.0f : 0.0f);
+        quality_status = t3;
+    }
+
+    /* ---- uncertainty: no [uncertainty] table: sigma outputs are -1 (unknown) (0 ops) ---- */
+    float wind_sigma_h;
+    float wind_sigma_up;
+    {
+        wind_sigma_h = (-1.0f);
+        wind_sigma_up = (-1.0f);
+    }
+
     /* ---- check_result: an accepted sample must give a finite result, else it is rejected too (22 ops) ---- */
     float result_status;
     {
@@ -453,6 +485,7 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         result_status = t21;
     }
     if (result_status != 0.0f) {
+        state->run_s = 0.0f;
         *out = state->last;
         return (int)result_status;
     }
@@ -485,7 +518,10 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
     state->last.wind_speed_h = wind_speed_h;
     state->last.wind_speed_up = wind_speed_up;
     state->last.wind_from_deg = wind_from_deg;
+    state->last.wind_sigma_h = wind_sigma_h;
+    state->last.wind_sigma_up = wind_sigma_up;
     state->initialized = 1.0f;
+    state->run_s = run_s_new;
     *out = state->last;
-    return 0;
+    return (int)quality_status; /* 0, or quality bits of an accepted sample (SETTLING, EXTRAPOLATED) */
 }

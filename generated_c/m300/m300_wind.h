@@ -22,7 +22,7 @@
  *   force-air       horizontal speed = 0.9 + 0.06*m + 0.16*n + 0.09*m^2 + 0.07*n^2 m/s
  *                   vertical (down)  = 0.5*fz m/s
  *   low-pass        cutoff [0.2, 0.35, 0.5] Hz at wind speeds [0.0, 3.0, 10.0] m/s
- *   limits          max_dt 0.1 s, max tilt 60.0 deg
+ *   limits          max_dt 0.1 s (accepted up to 1e-4 beyond), max tilt 60.0 deg
  *
  * Use: call m300_wind_init() once, then m300_wind_step() for every sample. All state
  * lives in the caller's struct: no heap, no globals, no I/O; reentrant. Needs only <math.h>.
@@ -34,14 +34,24 @@
 extern "C" {
 #endif
 
-/* Status bits returned by m300_wind_step(); 0 means the estimate is valid. On any nonzero
- * status the sample was rejected: the state is unchanged and *out repeats the last valid output. */
-#define M300_WIND_STATUS_NONFINITE 0x01u /* an input is NaN, infinite or beyond +-1e6 */
-#define M300_WIND_STATUS_BAD_DT 0x02u /* dt < 1e-5 s (including dt <= 0) or dt > limits.max_dt */
-#define M300_WIND_STATUS_BAD_QUATERNION 0x04u /* quaternion norm outside [0.9, 1.1] */
-#define M300_WIND_STATUS_TILT 0x08u /* tilt beyond limits.max_tilt_deg */
-#define M300_WIND_STATUS_BAD_THRUST 0x10u /* a rotor rpm or the collective thrust is negative */
-#define M300_WIND_STATUS_NUMERIC 0x20u /* the inputs were accepted but the result is not finite (sum of magnitudes beyond 1e30) */
+/* Status bits returned by m300_wind_step(); 0 means the estimate is valid and trusted.
+ * Rejection bits (in M300_WIND_REJECTED_MASK): the sample was rejected; the estimate is
+ * unchanged and *out repeats the last accepted output. Only the gap bookkeeping (run_s) advances, so
+ * that the next accepted sample knows it follows a gap.
+ * Quality bits (SETTLING, EXTRAPOLATED): the sample WAS accepted (state and *out updated), but the
+ * estimate is not to be trusted yet or lies outside the calibration. Accepted means
+ * (status & M300_WIND_REJECTED_MASK) == 0; an autopilot acting on wind should require
+ * status == 0. */
+#define M300_WIND_STATUS_NONFINITE 0x01u /* rejects: an input is NaN, infinite or beyond +-1e6 */
+#define M300_WIND_STATUS_BAD_DT 0x02u /* rejects: dt < 1e-5 s (including dt <= 0) or dt > limits.max_dt * (1 + 1e-4) */
+#define M300_WIND_STATUS_BAD_QUATERNION 0x04u /* rejects: quaternion norm outside [0.9, 1.1] */
+#define M300_WIND_STATUS_TILT 0x08u /* rejects: tilt beyond limits.max_tilt_deg */
+#define M300_WIND_STATUS_BAD_THRUST 0x10u /* rejects: a rotor rpm or the collective thrust is negative */
+#define M300_WIND_STATUS_NUMERIC 0x20u /* rejects: the inputs were accepted but the result is not finite (sum of magnitudes beyond 1e30) */
+#define M300_WIND_STATUS_SETTLING 0x40u /* quality: accepted, but within one settling time of the first sample or of a gap (a rejected sample): the filters have not caught up yet */
+#define M300_WIND_STATUS_EXTRAPOLATED 0x80u /* quality: accepted, but the heading-frame force or the model's airflow speed is outside the envelope calibrated by fit */
+#define M300_WIND_REJECTED_MASK 0x3Fu /* every rejection bit */
+#define M300_WIND_SETTLING_TIME_S 3.505618f /* SETTLING lasts this long (s) after the start or a gap */
 
 typedef struct {
     float force_ned[3]; /* N: filtered external force, NED */
@@ -49,6 +59,8 @@ typedef struct {
     float wind_speed_h; /* m/s: horizontal wind speed */
     float wind_speed_up; /* m/s: vertical wind, positive up */
     float wind_from_deg; /* deg: direction the wind blows FROM, clockwise from north, [0, 360) */
+    float wind_sigma_h; /* m/s: 1-sigma error of the horizontal wind speed from the calibration residuals (-1: the airframe records no uncertainty) */
+    float wind_sigma_up; /* m/s: 1-sigma error of the vertical wind (-1: unknown) */
 } m300_wind_output_t;
 
 typedef struct {
@@ -70,12 +82,14 @@ typedef struct {
     float acc_bias[3]; /* m/s^2: acceleration input minus the velocity's derivative, slowly averaged (the input's bias), NED */
     m300_wind_output_t last; /* -: last valid output */
     float initialized; /* -: 0 until the first accepted sample, then 1 */
+    float run_s; /* s: accepted time since the start or the last gap, capped at the settling time; set to 0 by a rejected sample (the only field a rejection changes) */
 } m300_wind_state_t;
 
 /* Resets the estimator; the first accepted sample initialises it to that sample's force. */
 void m300_wind_init(m300_wind_state_t *state);
 
-/* One estimator step. Returns 0 (estimate valid) or a combination of the status bits above. */
+/* One estimator step. Returns 0 (estimate valid and trusted) or a combination of the status bits
+ * above; *out is the new estimate when no bit of M300_WIND_REJECTED_MASK is set. */
 int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_wind_output_t *out);
 
 #ifdef __cplusplus
