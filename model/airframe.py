@@ -208,7 +208,7 @@ class _Reader:
             raise self.fail(name, f"every value must be > 0, got {value!r}")
         return tuple(float(v) for v in value)
 
-    def table_of(self, name: str, known: tuple[str, ...], required: bool = True) -> "_Reader | None":
+    def table_of(self, name: str, known: tuple[str, ...] | None = None, required: bool = True) -> "_Reader | None":
         value = self.raw(name, required=required)
         if value is None:
             return None
