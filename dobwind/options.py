@@ -38,7 +38,7 @@ class Bound:
 
 SEED = Bound(0, 2**32 - 1, integer=True)
 SIMULATE_RATE = Bound(1.0, 500.0, "Hz")
-SIMULATE_HOLD = Bound(6.0, 600.0, "s")  # half a hold must cover the 3 s transitions
+SIMULATE_HOLD = Bound(0.1, 600.0, "s")  # short holds are for quick tests; calibration wants several seconds
 SIMULATE_MAX_ROWS = 2_000_000  # about 2 GB while simulating; a 500 Hz calibration sweep with 7 s holds is 1.1 M
 VERIFY_STEPS = Bound(100, 2_000_000, "steps", integer=True)
 ULOG_RATE = Bound(1.0, 1000.0, "Hz")

@@ -123,7 +123,7 @@ def test_every_numeric_option_is_bounded(argv, option, tmp_path, capsys):
 
 def test_the_option_ranges_are_stated_in_help(capsys):
     code, stdout, _ = _run(["simulate", "--help"], capsys)
-    assert code == 0 and "1 to 500 Hz" in stdout and "6 to 600 s" in stdout and "0 to 4294967295" in stdout
+    assert code == 0 and "1 to 500 Hz" in stdout and "0.1 to 600 s" in stdout and "0 to 4294967295" in stdout
 
 
 def test_the_nyquist_bound_follows_the_airframe(tmp_path, capsys):
