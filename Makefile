@@ -22,7 +22,7 @@ demo: $(STAMP)
 
 # Refresh the checked-in C for every airframe in airframes/ (tests fail while it is stale).
 regen: $(STAMP)
-	$(BIN)/python -m dobwind.codegen.regen
+	$(BIN)/python -m dobwind.regen
 
 bench: $(STAMP)
 	$(BIN)/python -m dobwind.harness.bench
@@ -32,7 +32,7 @@ clean:
 
 # Optional: the real Neural-Fly runs beside the checkout (never copied into the project).
 realdata: $(STAMP)
-	$(BIN)/python -m dobwind.harness.realdata
+	$(BIN)/python -m dobwind.realdata
 
 # Issue #12's generalization benchmark: six simulated vehicles x 2 seeds through the whole command-line
 # workflow, plus the real runs when present (~25 min on 2 cores). ACCURACY_ARGS=--quick: under 5 min.

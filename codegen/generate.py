@@ -4,24 +4,24 @@ Output is deterministic (no timestamps, no paths): generating twice gives identi
 """
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
 import jinja2
 import numpy as np
 
-from dobwind import __version__
-from dobwind.atomic import write_text_atomically
 from dobwind.codegen.printer import CPrinter, LiteralError
 from dobwind.codegen.sections import build_sections, c_element, signal_sizes
 from dobwind.codegen.tolerance import MIN_SPEED_FOR_DIRECTION, SELFTEST_TOLERANCE
-from dobwind.errors import InputError
-from dobwind.outputs import GENERATED_NAME, Target, check_replaceable, staged_folder
 from dobwind.model import reference
 from dobwind.model.airframe import Airframe
+from dobwind.model.errors import InputError
 from dobwind.model.exercise import flight_inputs
 from dobwind.model.status import REJECTED_MASK, STATUS_BITS
+from dobwind.model.stability import require_stable
 from dobwind.model.step import StepModel, build_step
+from dobwind.model.version import VERSION
 
 SELFTEST_ROWS = 120
 
@@ -133,7 +133,7 @@ def _render(af: Airframe, precision: str, model: StepModel) -> GeneratedCode:
         "name": af.name,
         "prefix": prefix,
         "precision": precision,
-        "version": __version__,
+        "version": VERSION,
         "sha256": af.content_sha256,
         "real": printer.real,
         "zero": printer.zero(),
@@ -164,29 +164,23 @@ def _render(af: Airframe, precision: str, model: StepModel) -> GeneratedCode:
 
 
 def _refuse_unstable(af: Airframe) -> None:
-    from dobwind.analysis.stability import require_stable
-
     require_stable(af, "refusing to generate code")
 
 
-def write_files_atomically(files: dict[str, str], out_dir: str | Path) -> list[Path]:
-    """Each file is written to a temporary name beside its target and renamed into place."""
-    return [write_text_atomically(Path(out_dir) / name, lambda handle, text=text: handle.write(text))
-            for name, text in files.items()]
-
-
-def generate_to_dir(af: Airframe, out_dir: str | Path, precision: str = "single", option: str = "-o",
-                    source: str | None = None) -> list[Path]:
-    """Renders everything, then replaces ``out_dir`` as a whole (a sibling folder swapped in), so a
-    full disk or a signal leaves either the old folder or the new one, never a mix."""
-    target = Target(option, str(out_dir), "dir")
-    check_replaceable(target, is_generated_name)
-    with staged_folder(target) as work:  # the render runs inside: a signal then removes the folder too
-        code = generate_code(af, precision, source=source)
-        write_files_atomically(code.files, work)
-    return [Path(out_dir) / name for name in code.files]
+# What generate writes for any airframe: the only names a folder it replaces may hold.
+GENERATED_NAME = re.compile(r"[a-z][a-z0-9_]*_wind(_selftest)?\.[ch]|CMakeLists\.txt")
 
 
 def is_generated_name(name: str) -> bool:
-    """Files that generate writes (any airframe's): the only ones a folder it replaces may hold."""
     return GENERATED_NAME.fullmatch(name) is not None
+
+
+def write_files(files: dict[str, str], out_dir: str | Path) -> list[Path]:
+    """Writes into a folder the caller owns (a build or staging folder); atomic replacement of a user's
+    folder is the applications' job (``dobwind.emit``)."""
+    paths = []
+    for name, text in files.items():
+        path = Path(out_dir) / name
+        path.write_text(text, encoding="utf-8")
+        paths.append(path)
+    return paths

@@ -1,3 +1,4 @@
 """dobwind: airframe description -> verified, dependency-free C wind estimator."""
+from dobwind.model.version import VERSION as __version__
 
-__version__ = "0.1.0"
+__all__ = ["__version__"]

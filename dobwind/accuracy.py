@@ -28,7 +28,7 @@ from dobwind.accuracy_report import goal_lines, row_values, table, worst
 from dobwind.accuracy_run import Job, run_job
 from dobwind.atomic import write_text_atomically
 from dobwind.cli import _Parser
-from dobwind.harness.realdata import DEFAULT_DATA
+from dobwind.realdata import DEFAULT_DATA
 
 ROOT = Path(__file__).resolve().parents[1]
 VEHICLE_DIR = ROOT / "benchmarks" / "vehicles"

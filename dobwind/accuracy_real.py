@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from dobwind.accuracy_run import run_child
-from dobwind.harness.realdata import AIRFRAME, NOMINAL_MPS, convert, runs
+from dobwind.realdata import AIRFRAME, NOMINAL_MPS, convert, runs
 from dobwind.model.airframe import load_airframe
 
 BASELINE_TRAIN = ("nowind", "70wind", "100wind")

@@ -32,8 +32,9 @@ def _print_json(obj: dict[str, Any]) -> None:
 
 
 def cmd_generate(args: argparse.Namespace) -> int:
-    from dobwind.analysis.stability import require_stable
-    from dobwind.codegen.generate import generate_to_dir, is_generated_name
+    from dobwind.model.stability import require_stable
+    from dobwind.codegen.generate import is_generated_name
+    from dobwind.emit import generate_to_dir
     from dobwind.model.airframe import load_airframe
 
     if args.output is not None:
@@ -70,7 +71,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
-    from dobwind.analysis.stability import require_stable
+    from dobwind.model.stability import require_stable
     from dobwind.model.airframe import load_airframe
     from dobwind.model.step import build_step
 

@@ -14,7 +14,7 @@ import numpy as np
 
 from dobwind import baseline
 from dobwind.analysis.report import analyze, write_plots
-from dobwind.codegen.generate import generate_to_dir
+from dobwind.emit import generate_to_dir
 from dobwind.fit import fit_plot, text_report
 from dobwind.fitfamily import fit_airframe
 from dobwind.harness.verify import verify_airframe

@@ -9,7 +9,6 @@ earlier outputs exactly as they were.
 from __future__ import annotations
 
 import os
-import re
 import shutil
 import stat
 import tempfile
@@ -194,9 +193,6 @@ def check_replaceable(target: Target, owned: Callable[[str], bool]) -> None:
     if foreign:
         raise _refuse(target, f"holds {shown(foreign[0])}, which this command does not write: refusing to replace "
                               "the folder (choose an empty or new folder)")
-
-
-GENERATED_NAME = re.compile(r"[a-z][a-z0-9_]*_wind(_selftest)?\.[ch]|CMakeLists\.txt")
 
 
 def _swap_in(new: Path, final: Path) -> None:

@@ -24,7 +24,7 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
-from dobwind.codegen.generate import generate_code, write_files_atomically
+from dobwind.codegen.generate import generate_code, write_files
 from dobwind.harness import cortex
 from dobwind.harness.build import run, system_compiler
 from dobwind.model.airframe import load_airframe
@@ -157,7 +157,7 @@ def bench(af_path: str) -> list[Row]:
             real = "float" if precision == "single" else "double"
             pdir = work / precision
             pdir.mkdir()
-            write_files_atomically(generate_code(model.airframe, precision, model).files, pdir)
+            write_files(generate_code(model.airframe, precision, model).files, pdir)
             ours_main = pdir / "ours_main.c"
             ours_main.write_text(_OURS.format(name=name, prefix=f"{name}_wind_", rows=ROWS, ni=model.inputs.size,
                                               fill=_fill_lines(model, real)))
@@ -184,7 +184,7 @@ def bench(af_path: str) -> list[Row]:
                 obj = mdir / "casadi_obj.o"
                 run([cortex.ARM_GCC, *cortex.CPU_FLAGS, "-Os", "-Dcasadi_real=float", "-Dcasadi_int=long long int",
                      "-c", str(cas_src), "-o", str(obj)])
-                flash["casadi generate()"] = (cortex._size(elf), len(cortex.double_precision_symbols(obj)))
+                flash["casadi generate()"] = (cortex.flash_size_bytes(elf), len(cortex.double_precision_symbols(obj)))
             for label, exe in (("dobwind", ours), ("casadi generate()", cas)):
                 instructions, ns = _per_step(exe)
                 results.append(Row(precision, label, instructions, ns, *flash[label]))

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import jinja2
 
-from dobwind.errors import CheckFailed
+from dobwind.model.errors import CheckFailed
 from dobwind.model.layout import Layout
 from dobwind.model.step import StepModel
 
@@ -17,7 +17,7 @@ STRICT_FLAGS = ("-Wall", "-Wextra", "-Wpedantic", "-Wconversion", "-Wdouble-prom
 C_STD = "-std=c99"
 CXX_STD = "-std=c++11"
 
-_ENV = jinja2.Environment(
+HARNESS_TEMPLATES = jinja2.Environment(
     loader=jinja2.PackageLoader("dobwind.harness", "templates"),
     undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True, keep_trailing_newline=True,
 )
@@ -71,7 +71,7 @@ def write_shim(model: StepModel, precision: str, out_dir: Path) -> Path:
     state = _element_paths(model.state, "s->")
     inputs = _element_paths(model.inputs, "in->")
     outputs = _element_paths(model.outputs, "out->")
-    text = _ENV.get_template("shim.c.j2").render(
+    text = HARNESS_TEMPLATES.get_template("shim.c.j2").render(
         name=name, prefix=f"{name}_wind_", n_in=model.inputs.size, n_state=model.state.size, n_out=model.outputs.size,
         load_state=[f"{p} = ({real})x[{i}];" for i, p in enumerate(state)],
         save_state=[f"x[{i}] = (double){p};" for i, p in enumerate(state)],

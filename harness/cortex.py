@@ -51,7 +51,7 @@ def available() -> bool:
     return shutil.which(ARM_GCC) is not None
 
 
-def _size(path: Path) -> int:
+def flash_size_bytes(path: Path) -> int:
     out = run(["arm-none-eabi-size", "-A", str(path)]).stdout
     total = 0
     for line in out.splitlines():
@@ -99,4 +99,4 @@ def check_generated(code_dir: Path, name: str, input_fields, work: Path) -> Cort
             shutil.copy(header, work / header.name)
     with_step = build_firmware([source], firmware_main(name, input_fields, "float", True), work, "with_step")
     empty = build_firmware([], firmware_main(name, input_fields, "float", False), work, "empty")
-    return CortexBuild(tuple(double_precision_symbols(obj)), _size(obj), _size(with_step), _size(empty))
+    return CortexBuild(tuple(double_precision_symbols(obj)), flash_size_bytes(obj), flash_size_bytes(with_step), flash_size_bytes(empty))

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dobwind.codegen.generate import generate_code, write_files_atomically
+from dobwind.codegen.generate import generate_code, write_files
 from dobwind.harness.build import build_shared_library
 from dobwind.model.reference import Trajectory
 from dobwind.model.step import StepModel
@@ -70,5 +70,5 @@ def compile_step(model: StepModel, precision: str, work_dir: Path | None = None,
 
 def _build_and_load(model: StepModel, precision: str, work: Path, extra_flags: tuple[str, ...]) -> CStep:
     code = generate_code(model.airframe, precision, model)
-    write_files_atomically(code.files, work)
+    write_files(code.files, work)
     return CStep(model, build_shared_library(model, precision, work, work, extra_flags))

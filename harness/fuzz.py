@@ -5,8 +5,8 @@ from pathlib import Path
 
 import numpy as np
 
-from dobwind.codegen.generate import generate_code, write_files_atomically
-from dobwind.harness.build import _ENV, run, system_compiler
+from dobwind.codegen.generate import generate_code, write_files
+from dobwind.harness.build import HARNESS_TEMPLATES, run, system_compiler
 from dobwind.model.exercise import flight_inputs
 from dobwind.model.step import StepModel
 
@@ -16,12 +16,12 @@ SANITIZE = ("-fsanitize=address,undefined,float-cast-overflow,float-divide-by-ze
 
 def build_fuzzer(model: StepModel, precision: str, work: Path) -> Path:
     code = generate_code(model.airframe, precision, model)
-    write_files_atomically(code.files, work)
+    write_files(code.files, work)
     real = "float" if precision == "single" else "double"
     base = flight_inputs(model, 1, seed=5, bad_every=0)[0]
     literal = (lambda v: f"{float(np.float32(v))!r}f") if precision == "single" else (lambda v: repr(float(v)))
     name = model.airframe.name
-    text = _ENV.get_template("fuzz.c.j2").render(
+    text = HARNESS_TEMPLATES.get_template("fuzz.c.j2").render(
         name=name, prefix=f"{name}_wind_", real=real, n_in=model.inputs.size, elements=model.inputs.element_names(),
         base=", ".join(literal(v) for v in base), denormal="1e-40f" if precision == "single" else "4e-320",
     )

@@ -8,9 +8,9 @@ from pathlib import Path
 
 import numpy as np
 
-from dobwind.codegen.generate import generate_code, write_files_atomically
+from dobwind.codegen.generate import generate_code, write_files
 from dobwind.codegen.tolerance import TOLERANCE
-from dobwind.errors import CheckFailed
+from dobwind.model.errors import CheckFailed
 from dobwind.harness.build import available_compilers, build_shared_library, run, strict_compile, system_compiler
 from dobwind.harness.compare import Comparison, compare
 from dobwind.harness.cstep import CStep
@@ -94,7 +94,7 @@ def reference_cases(model: StepModel, states: np.ndarray, inputs: np.ndarray) ->
 def verify_precision(model: StepModel, precision: str, steps: int, seed: int, work: Path) -> PrecisionReport:
     report = PrecisionReport(precision)
     code = generate_code(model.airframe, precision, model)
-    write_files_atomically(code.files, work)
+    write_files(code.files, work)
     name = model.airframe.name
     for compiler in available_compilers():
         try:

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from dobwind.errors import InputError
+from dobwind.model.errors import InputError
 from dobwind.model.forceair import HORIZONTAL_DRAG_KEYS, VERTICAL_DRAG_KEYS, DragLaw
 from dobwind.model.terms import Term, TermError, parse_term
 

@@ -56,12 +56,12 @@ def test_verify_command_passes_on_the_reference_airframe():
 def test_verify_can_fail_on_a_wrong_constant(tmp_path):
     """The comparison must catch a one-character error in the generated code."""
     model = build_step(load_airframe(M300))
-    from dobwind.codegen.generate import generate_code, write_files_atomically
+    from dobwind.codegen.generate import generate_code, write_files
     files = generate_code(model.airframe, "double", model).files
     source = files["m300_wind.c"]
     assert "8.0 * p_ddot[0]" in source
     files["m300_wind.c"] = source.replace("8.0 * p_ddot[0]", "8.001 * p_ddot[0]")
-    write_files_atomically(files, tmp_path)
+    write_files(files, tmp_path)
     cstep = CStep(model, build_shared_library(model, "double", tmp_path, tmp_path))
     rows = flight_inputs(model, 2000, seed=6)
     result = compare(model, cstep.run(rows), reference.run(model, rows), TOLERANCE["double"])
@@ -106,8 +106,8 @@ def test_cortex_m4f_build_has_no_double_precision(doc, tmp_path):
     _need_cross_compiler()
     af = load_airframe(M300) if doc is None else parse_airframe(dumps(doc), "<m4>")
     model = build_step(af)
-    from dobwind.codegen.generate import generate_code, write_files_atomically
-    write_files_atomically(generate_code(af, "single", model).files, tmp_path)
+    from dobwind.codegen.generate import generate_code, write_files
+    write_files(generate_code(af, "single", model).files, tmp_path)
     build = cortex.check_generated(tmp_path, af.name, model.inputs.fields, tmp_path)
     assert build.double_symbols == ()
     assert 0 < build.object_text_bytes < build.firmware_flash_bytes

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from dobwind.harness import realdata
+from dobwind import realdata
 
 
 @pytest.fixture(scope="module")

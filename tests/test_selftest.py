@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from dobwind.codegen.generate import generate_code, write_files_atomically
+from dobwind.codegen.generate import generate_code, write_files
 from dobwind.harness.build import system_compiler
 from dobwind.model.airframe import load_airframe
 from dobwind.model.step import build_step
@@ -27,7 +27,7 @@ def _run_selftest(model, precision: str, folder: Path, patch=None) -> subprocess
     files = dict(generate_code(model.airframe, precision, model).files)
     if patch is not None:
         files["m300_wind.c"] = patch(files["m300_wind.c"])
-    write_files_atomically(files, folder)
+    write_files(files, folder)
     exe = folder / "selftest"
     subprocess.run([system_compiler(), "-std=c99", "-O2", str(folder / "m300_wind.c"),
                     str(folder / "m300_wind_selftest.c"), "-o", str(exe), "-lm"], check=True, capture_output=True)

@@ -15,7 +15,7 @@ from dobwind.analysis.design import design_gain
 from dobwind.analysis.figures import figures, noise_gain
 from dobwind.analysis.linear import axis_system, continuous_observer, jacobian_function, linearize
 from dobwind.analysis.ramp import ramp_experiment
-from dobwind.analysis.stability import unstable_reason
+from dobwind.model.stability import unstable_reason
 from dobwind.errors import EXIT_CHECK_FAILED, InputError
 from dobwind.jsonout import print_json
 from dobwind.model.airframe import DISCRETIZATIONS, Airframe, load_airframe

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 
-from dobwind.errors import InputError
+from dobwind.model.errors import InputError
 from dobwind.model.airframe import Airframe
 from dobwind.model.discretization import first_order
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from dobwind.codegen.generate import generate_to_dir
+from dobwind.emit import generate_to_dir
 from dobwind.model.airframe import load_airframe
 
 ROOT = Path(__file__).resolve().parents[1]

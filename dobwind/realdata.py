@@ -5,7 +5,7 @@ runs are converted in memory into a temporary folder, calibrated leave-one-out (
 score the fifth), and only the figures are printed. There is no anemometer series, so each run is
 scored by its mean estimated horizontal speed against the nominal tunnel speed.
 
-    python -m dobwind.harness.realdata [DATA_DIR] [--json]
+    python -m dobwind.realdata [DATA_DIR] [--json]
 """
 from __future__ import annotations
 
@@ -109,7 +109,7 @@ def check(data_dir: Path = DEFAULT_DATA) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m dobwind.harness.realdata")
+    parser = argparse.ArgumentParser(prog="python -m dobwind.realdata")
     parser.add_argument("data", nargs="?", default=str(DEFAULT_DATA))
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args(argv)
