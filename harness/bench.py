@@ -25,9 +25,10 @@ import casadi as ca
 import numpy as np
 
 from dobwind.codegen.generate import generate_code, write_files_atomically
-from dobwind.harness import cortex
+from dobwind.harness import cortex, m4cycles
 from dobwind.harness.build import run, system_compiler
 from dobwind.model.airframe import load_airframe
+from dobwind.model import reference
 from dobwind.model.exercise import flight_inputs
 from dobwind.model.step import StepModel, build_step
 
@@ -100,6 +101,7 @@ class Row:
     ns_per_step: float
     m4f_flash_bytes: int | None
     m4f_double_symbols: int | None
+    m4f_cycles_estimate: float | None = None  # mean over the bench rows; see harness/m4cycles.py
 
 
 def _data_file(model: StepModel, work: Path) -> Path:
@@ -175,11 +177,13 @@ def bench(af_path: str) -> list[Row]:
             run([system_compiler(), *FLAGS, f"-Dcasadi_real={real}", "-Dcasadi_int=long long int", str(cas_main),
                  str(cas_src), str(data), "-o", str(cas), "-lm"])
             flash: dict[str, tuple[int | None, int | None]] = {"dobwind": (None, None), "casadi generate()": (None, None)}
+            cycles = None
             if precision == "single" and cortex.available():
                 mdir = pdir / "m4f"
                 mdir.mkdir()
                 build = cortex.check_generated(pdir, name, model.inputs.fields, mdir)
                 flash["dobwind"] = (build.firmware_flash_bytes, len(build.double_symbols))
+                cycles = _m4f_cycles(model, mdir / "with_step.elf")
                 cmain_text = _casadi_firmware_main(fname, model)
                 elf = cortex.build_firmware([cas_src], cmain_text, mdir, "casadi_fw",
                                             ("-Dcasadi_real=float", "-Dcasadi_int=long long int"))
@@ -189,8 +193,22 @@ def bench(af_path: str) -> list[Row]:
                 flash["casadi generate()"] = (cortex._size(elf), len(cortex.double_precision_symbols(obj)))
             for label, exe in (("dobwind", ours), ("casadi generate()", cas)):
                 instructions, ns = _per_step(exe)
-                results.append(Row(precision, label, instructions, ns, *flash[label]))
+                results.append(Row(precision, label, instructions, ns, *flash[label],
+                                   cycles if label == "dobwind" and precision == "single" else None))
     return results
+
+
+def _m4f_cycles(model: StepModel, elf: Path) -> float | None:
+    """The instruction-level M4F estimate of the firmware's step over the bench rows (None without
+    Unicorn). The emulated outputs must match the Python reference, or the estimate ran something else."""
+    if not m4cycles.available():
+        return None
+    rows = flight_inputs(model, ROWS, seed=11).astype(np.float32)
+    result = m4cycles.estimate(elf, f"{model.airframe.name}_wind_", rows, model.state.size, model.outputs.size)
+    want = reference.run(model, rows.astype(np.float64)).outputs
+    if not np.allclose(result.outputs, want, rtol=1e-3, atol=1e-2, equal_nan=True):
+        raise RuntimeError("the emulated Cortex-M4F step does not reproduce the reference outputs")
+    return result.mean_cycles
 
 
 def _casadi_firmware_main(fname: str, model: StepModel) -> str:
@@ -219,12 +237,14 @@ int main(void)
 
 
 def table(rows: list[Row]) -> str:
-    out = ["| precision | implementation | x86-64 instructions/step | ns/step | Cortex-M4F flash (bytes) | double-precision symbols |",
-           "|---|---|---:|---:|---:|---:|"]
+    out = ["| precision | implementation | x86-64 instructions/step | ns/step | Cortex-M4F flash (bytes) | "
+           "double-precision symbols | M4F cycles/step (estimate) |",
+           "|---|---|---:|---:|---:|---:|---:|"]
     for r in rows:
         flash = "-" if r.m4f_flash_bytes is None else str(r.m4f_flash_bytes)
         dbl = "-" if r.m4f_double_symbols is None else str(r.m4f_double_symbols)
-        out.append(f"| {r.precision} | {r.implementation} | {r.instructions_per_step:.0f} | {r.ns_per_step:.1f} | {flash} | {dbl} |")
+        cyc = "-" if r.m4f_cycles_estimate is None else f"{r.m4f_cycles_estimate:.0f}"
+        out.append(f"| {r.precision} | {r.implementation} | {r.instructions_per_step:.0f} | {r.ns_per_step:.1f} | {flash} | {dbl} | {cyc} |")
     by = {(r.precision, r.implementation): r for r in rows}
     for p in ("double", "single"):
         ours, theirs = by.get((p, "dobwind")), by.get((p, "casadi generate()"))

@@ -80,7 +80,7 @@ static float m300_wind_expm1(float x)
 }
 
 /* atan2 in single precision, instead of libm's atan2f: the smaller magnitude over the larger (in
- * [0, 1]), a minimax polynomial for atan there (absolute error about 1e-7 rad, tests/test_kernels.py),
+ * [0, 1]), a minimax polynomial for atan there (absolute error under 4e-7 rad, tests/test_kernels.py),
  * then the octant. Both zero gives 0 rather than 0/0; the step calls it on the wind, whose finiteness
  * the result check tests afterwards, so an infinite or NaN argument only has to return. */
 static float m300_wind_atan2(float y, float x)
