@@ -52,7 +52,7 @@ static m300_wind_sincos_t m300_wind_sincos(float x)
 }
 
 /* expm1 in single precision, instead of libm's expm1f: a minimax polynomial on |x| <= ln2/2 (relative
- * error about 1e-7, tests/test_kernels.py), where the step's arguments (-rate * dt) normally are. Beyond,
+ * error under 2e-7, tests/test_kernels.py), where the step's arguments (-rate * dt) normally are. Beyond,
  * x = k ln2 + r with |r| <= ln2/2 (ln2 in two parts, the first of 12 bits so that k * it is exact) and
  * expm1(x) = 2^k (expm1(r) + 1) - 1; the clamp to [-87, 88] keeps 2^k a normal float (below -87 the
  * result is -1 to float precision) and maps a NaN to -87, so the conversion to int is defined. */
