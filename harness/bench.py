@@ -2,7 +2,9 @@
 
 Same compiler, flags, data and driver loop for both. Instructions per step come from valgrind
 callgrind (exact, unlike wall time on a shared machine): the difference of two runs of different
-lengths divided by the extra steps, so start-up costs cancel. ns/step is the median of repeated runs.
+lengths divided by the extra steps, so start-up costs cancel. ns/step is the median of 15 rounds of 10^6
+steps, the two implementations run in turn within each round (interleaved). The Cortex-M4F cycles are an
+instruction-level estimate of the real firmware (harness/m4cycles.py), not a measurement.
 Flash is a minimal Cortex-M4F firmware (-Os, gc-sections) calling the step, single precision.
 
     python -m dobwind.harness.bench [AIRFRAME] [--json]
@@ -138,16 +140,25 @@ def _instructions(exe: Path, steps: int) -> int:
     return int(match.group(1))
 
 
-def _per_step(exe: Path) -> tuple[float, float]:
+def _instructions_per_step(exe: Path) -> float:
     short, long = 2000, 12000
-    instructions = (_instructions(exe, long) - _instructions(exe, short)) / (long - short)
-    steps = 1_000_000
-    times = []
-    for _ in range(5):
-        start = time.perf_counter()
-        subprocess.run([str(exe), str(steps)], capture_output=True, check=True)
-        times.append(time.perf_counter() - start)
-    return instructions, statistics.median(times) / steps * 1e9
+    return (_instructions(exe, long) - _instructions(exe, short)) / (long - short)
+
+
+TIMING_ROUNDS = 15
+TIMING_STEPS = 1_000_000
+
+
+def _interleaved_ns(exes: list[Path]) -> list[float]:
+    """Median wall time per step of each program, run in turn round after round, so that a load change
+    on the shared machine hits every program alike rather than whichever ran during it."""
+    times: list[list[float]] = [[] for _ in exes]
+    for _ in range(TIMING_ROUNDS):
+        for i, exe in enumerate(exes):
+            start = time.perf_counter()
+            subprocess.run([str(exe), str(TIMING_STEPS)], capture_output=True, check=True)
+            times[i].append(time.perf_counter() - start)
+    return [statistics.median(t) / TIMING_STEPS * 1e9 for t in times]
 
 
 def bench(af_path: str) -> list[Row]:
@@ -191,8 +202,9 @@ def bench(af_path: str) -> list[Row]:
                 run([cortex.ARM_GCC, *cortex.CPU_FLAGS, *cortex.FIRMWARE_FLAGS, "-Dcasadi_real=float", "-Dcasadi_int=long long int",
                      "-c", str(cas_src), "-o", str(obj)])
                 flash["casadi generate()"] = (cortex._size(elf), len(cortex.double_precision_symbols(obj)))
-            for label, exe in (("dobwind", ours), ("casadi generate()", cas)):
-                instructions, ns = _per_step(exe)
+            pair = (("dobwind", ours), ("casadi generate()", cas))
+            for (label, exe), ns in zip(pair, _interleaved_ns([ours, cas])):
+                instructions = _instructions_per_step(exe)
                 results.append(Row(precision, label, instructions, ns, *flash[label],
                                    cycles if label == "dobwind" and precision == "single" else None))
     return results
