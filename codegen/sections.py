@@ -209,15 +209,18 @@ def build_validation(stage: Stage, sizes: dict[str, int], printer: CPrinter) -> 
     fast_lines: list[str] = []
     slow_lines: list[str] = []
     accept = None
+    fast_ops = 0  # what an accepted sample runs
     for k, ins in enumerate(code):
         writer.index = k
         if ins.op == ca.OP_OUTPUT and out_names[ins.res[0]] == "accepted":
             accept = writer.work[ins.args[0]]
             continue
+        before = writer.ops
         writer.emit(ins, function, stage, out_names, sizes, fast_lines if k in fast else slow_lines)
+        fast_ops += (writer.ops - before) if k in fast else 0
     if accept is None:
         raise ValueError("the validate stage has no accepted output")
-    section = Section(stage.name, stage.doc, (), tuple(fast_lines), writer.ops, writer.calls)
+    section = Section(stage.name, stage.doc, (), tuple(fast_lines), fast_ops, writer.calls)
     return Validation(section, accept, (f"{printer.real} status;", *slow_lines))
 
 

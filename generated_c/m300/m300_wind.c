@@ -5,8 +5,8 @@
  * d9fe9baff7b6cfef8d666b58101c13ced95956e1653f591ef4ca4a5757c1bf1d.
  * DO NOT EDIT: regenerate with `dobwind generate <airframe file>`.
  *
- * Total ops per accepted step: 294 (31 math-library calls), of which
- * 90 validate the input and 21 check the result.
+ * Total ops per accepted step: 280 (31 math-library calls), of which
+ * 76 validate the input and 21 check the result.
  */
 #include "m300_wind.h"
 
@@ -142,7 +142,7 @@ void m300_wind_init(m300_wind_state_t *state)
 
 int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_wind_output_t *out)
 {
-    /* ---- validate: reject NaN/inf, bad dt, non-unit quaternion, excessive tilt, negative thrust (90 ops) ---- */
+    /* ---- validate: reject NaN/inf, bad dt, non-unit quaternion, excessive tilt, negative thrust (76 ops) ---- */
     {
         const float t0 = fabsf(in->dt);
         const int t1 = t0 <= 1000000.0f;
