@@ -94,6 +94,11 @@ def _needed_by(code: list[_Instruction], output: int) -> set[int]:
     return marked
 
 
+def _has_normal_reciprocal(value: float | None) -> bool:
+    """A constant divisor whose reciprocal is a normal float (then x / c becomes x * (1/c))."""
+    return value is not None and value != 0.0 and 1.2e-38 < abs(1.0 / value) < 3.4e38
+
+
 class _Writer:
     """Prints one stage's instructions as C lines (SSA temporaries t0, t1, ...)."""
 
@@ -133,7 +138,7 @@ class _Writer:
                 self.sincos[key] = self.temp(f"{p.kernel_prefix}sincos_t", f"{p.kernel_prefix}sincos({self.work[ins.args[0]]})", lines)
                 self.calls += 1
             return self.temp(p.real, f"{self.sincos[key]}.{'c' if ins.op == ca.OP_COS else 's'}", lines, counted=False)
-        if ins.op == ca.OP_DIV and ins.args[1] in self.constants and self.constants[ins.args[1]] != 0.0:
+        if ins.op == ca.OP_DIV and _has_normal_reciprocal(self.constants.get(ins.args[1])):
             return self.temp(p.real, f"{self.work[ins.args[0]]} * {p.literal(1.0 / self.constants[ins.args[1]])}", lines)
         if ins.op == ca.OP_DIV and ins.uses[1] in self.shared_denominators:
             key = ins.uses[1]

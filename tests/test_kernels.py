@@ -100,3 +100,27 @@ def test_the_frozen_coefficients_are_a_near_minimax_fit():
 def test_m4f_cycle_table_follows_the_trm(mnemonic, operands, previous, cycles):
     prev = Instruction(4, *previous) if previous else None
     assert cost(Instruction(4, mnemonic, operands), prev) == cycles
+
+
+def test_single_precision_step_uses_the_kernels_and_shares_divisions():
+    """The printer's single-precision rewrites; double keeps libm and every division (bit-identical)."""
+    af = load_airframe(M300)
+    single = generate_code(af, "single").files["m300_wind.c"]
+    double = generate_code(af, "double").files["m300_wind.c"]
+    step = single[single.index("int m300_wind_step("):]
+    assert step.count("m300_wind_sincos(") == 1  # one reduction for sin and cos of yaw_ref
+    assert "expm1f(" not in single and "atan2f(" not in single and "sinf(" not in single
+    assert step.count("/ in->dt") == 1 and "1.0f / in->dt" in step  # one reciprocal, then products
+    assert step.count(" / ") == 3  # 1/|q|^2, 1/dt and the airflow scale over sqrt
+    dstep = double[double.index("int m300_wind_step("):]
+    assert dstep.count("/ in->dt") == 3 and "expm1(" in dstep and "atan2(" in dstep
+
+
+def test_status_bits_are_assembled_only_on_rejection():
+    for precision in ("single", "double"):
+        source = generate_code(load_airframe(M300), precision).files["m300_wind.c"]
+        validate = source[source.index("---- validate:"):source.index("---- attitude:")]
+        fast, reject = validate.split("if (!(", 1)
+        assert "? 1.0" not in fast and "status" not in fast  # no bit sums on an accepted sample
+        for bit in ("1.0", "2.0", "4.0", "8.0", "16.0"):  # NONFINITE ... BAD_THRUST
+            assert f"? {bit}" in reject
