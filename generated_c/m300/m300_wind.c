@@ -13,6 +13,7 @@
 #include <math.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <string.h>
 
 /* sin and cos of one angle in single precision, instead of libm's sinf/cosf whose reduction of huge
  * arguments costs about 3 KB of flash on a Cortex-M. x = k pi/2 + r with k rounded; r by Cody-Waite
@@ -70,12 +71,11 @@ static float m300_wind_expm1(float x)
         const float xc = x > -87.0f ? (x < 88.0f ? x : 88.0f) : -87.0f;
         const float kf = (xc * 1.44269502f + 12582912.0f) - 12582912.0f; /* round to nearest, as in sincos */
         const float p = m300_wind_expm1_poly((xc - kf * 0.693115234f) - kf * 3.19461833e-05f);
-        union {
-            float f;
-            uint32_t u;
-        } scale;
-        scale.u = (uint32_t)((int)kf + 127) << 23;
-        return scale.f * p + (scale.f - 1.0f);
+        /* 2^k from its IEEE 754 bits; memcpy is defined in C and C++ alike (a union is not in C++) */
+        const uint32_t bits = (uint32_t)((int)kf + 127) << 23;
+        float scale;
+        memcpy(&scale, &bits, sizeof scale);
+        return scale * p + (scale - 1.0f);
     }
 }
 
