@@ -12,6 +12,7 @@ import jinja2
 import numpy as np
 
 from dobwind.codegen.printer import CPrinter, LiteralError
+from dobwind.codegen.kernels import kernel_literals
 from dobwind.codegen.sections import build_sections, c_element, signal_sizes
 from dobwind.codegen.tolerance import MIN_SPEED_FOR_DIRECTION, SELFTEST_TOLERANCE
 from dobwind.model import reference
@@ -67,7 +68,11 @@ def _commit_lines(model: StepModel, printer: CPrinter) -> list[str]:
     for field, signal in model.next_state:
         size = model.state.field(field).size
         for i in range(size):
-            lines.append(f"{c_element('state.' + field, i, size, printer)} = {c_element(signal, i, sizes[signal], printer)};")
+            target = c_element('state.' + field, i, size, printer)
+            if field.startswith("last."):
+                # The output gets the value too, rather than a copy of state->last read back after the stores.
+                target = f"{c_element('out.' + field[5:], i, size, printer).replace('out.', 'out->', 1)} = {target}"
+            lines.append(f"{target} = {c_element(signal, i, sizes[signal], printer)};")
     return lines
 
 
@@ -126,9 +131,10 @@ def generate_code(af: Airframe, precision: str = "single", model: StepModel | No
 
 def _render(af: Airframe, precision: str, model: StepModel) -> GeneratedCode:
     prefix = f"{af.name}_wind_"
-    printer = CPrinter(precision, trig_prefix=prefix)
+    printer = CPrinter(precision, kernel_prefix=prefix)
     validate, sections, check = build_sections(model, printer)
-    uses_trig = any(f"{prefix}trig(" in line for s in (validate, *sections, check) for line in s.lines)
+    every_line = [line for s in (validate.section, *sections, check) for line in s.lines] + list(validate.reject_lines)
+    kernels = {k: any(f"{prefix}{k}(" in line for line in every_line) for k in ("sincos", "expm1", "atan2")}
     common = {
         "name": af.name,
         "prefix": prefix,
@@ -138,7 +144,7 @@ def _render(af: Airframe, precision: str, model: StepModel) -> GeneratedCode:
         "real": printer.real,
         "zero": printer.zero(),
     }
-    total_ops = validate.ops + sum(s.ops for s in sections) + check.ops
+    total_ops = validate.section.ops + sum(s.ops for s in sections) + check.ops
     header = _ENV.get_template("header.h.j2").render(
         **common, af=af, guard=f"{af.name.upper()}_WIND_H", status_bits=STATUS_BITS, rejected_mask=REJECTED_MASK,
         settling_time=printer.literal(model.settling_time_s),
@@ -148,8 +154,8 @@ def _render(af: Airframe, precision: str, model: StepModel) -> GeneratedCode:
     source = _ENV.get_template("source.c.j2").render(
         **common, validate=validate, sections=sections, check=check, commit=_commit_lines(model, printer),
         reset=[f"state->{field} = {printer.literal(value)};" for field, value in model.reset_on_reject],
-        total_ops=total_ops, total_calls=validate.calls + sum(s.calls for s in sections) + check.calls,
-        uses_trig=uses_trig,
+        total_ops=total_ops, total_calls=validate.section.calls + sum(s.calls for s in sections) + check.calls,
+        kernels=kernels, coefficients=kernel_literals(printer),
         state_fields=[f for f in model.state.fields],
     )
     selftest = _ENV.get_template("selftest.c.j2").render(**common, **_selftest_context(model, printer, precision))

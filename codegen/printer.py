@@ -48,14 +48,15 @@ def check_literal(value: float, precision: str) -> None:
 @dataclass(frozen=True)
 class CPrinter:
     precision: str  # "single" | "double"
-    # In single precision sin and cos go to a small static helper in the generated file (named
-    # <trig_prefix>trig) instead of libm's sinf/cosf, whose large-argument reduction costs about 3 KB
-    # of flash on a Cortex-M; see the source template.
-    trig_prefix: str | None = None
+    # In single precision sin/cos, expm1 and atan2 go to small static kernels in the generated file
+    # (named <kernel_prefix>sincos, ...expm1, ...atan2) instead of libm's, which handle every argument
+    # and cost about 2 KB of flash and hundreds of cycles on a Cortex-M; see codegen/kernels.py. Double
+    # precision keeps libm so that it stays bit-identical to the CasADi reference.
+    kernel_prefix: str | None = None
 
     @property
-    def inline_trig(self) -> bool:
-        return self.precision == "single" and self.trig_prefix is not None
+    def inline_kernels(self) -> bool:
+        return self.precision == "single" and self.kernel_prefix is not None
 
     @property
     def real(self) -> str:
@@ -105,8 +106,10 @@ class CPrinter:
 
         if op in _INFIX:
             return f"{num(0)} {_INFIX[op]} {num(1)}", False
-        if op in (ca.OP_SIN, ca.OP_COS) and self.inline_trig:
-            return f"{self.trig_prefix}trig({num(0)}, {1 if op == ca.OP_COS else 0})", False
+        if op == ca.OP_EXPM1 and self.inline_kernels:
+            return f"{self.kernel_prefix}expm1({num(0)})", False
+        if op == ca.OP_ATAN2 and self.inline_kernels:
+            return f"{self.kernel_prefix}atan2({num(0)}, {num(1)})", False
         if op in _UNARY_CALLS:
             return self.call(_UNARY_CALLS[op], num(0)), False
         if op in (ca.OP_FMIN, ca.OP_FMAX):

@@ -58,51 +58,181 @@ def _pruned(stage: Stage, keep: list[int]) -> ca.Function:
     return ca.Function(stage.name, symbols, [outputs[i] for i in keep], {"cse": True})
 
 
+@dataclass(frozen=True)
+class _Instruction:
+    op: int
+    args: tuple[int, ...]
+    res: tuple[int, ...]
+    uses: tuple[tuple[int, int], ...]  # the values read: (work slot, version), since slots are reused
+    defines: tuple[int, int] | None   # the value written, or None for an output
+
+
+def _instructions(function: ca.Function) -> list[_Instruction]:
+    version: dict[int, int] = {}
+    out = []
+    for k in range(function.n_instructions()):
+        op = function.instruction_id(k)
+        args, res = tuple(function.instruction_input(k)), tuple(function.instruction_output(k))
+        uses = tuple((a, version.get(a, 0)) for a in args) if op not in (ca.OP_CONST, ca.OP_INPUT) else ()
+        defines = None
+        if op != ca.OP_OUTPUT:
+            version[res[0]] = version.get(res[0], 0) + 1
+            defines = (res[0], version[res[0]])
+        out.append(_Instruction(op, args, res, uses, defines))
+    return out
+
+
+def _needed_by(code: list[_Instruction], output: int) -> set[int]:
+    """Indices of the instructions that output number ``output`` depends on."""
+    needed: set[tuple[int, int]] = set()
+    marked: set[int] = set()
+    for k in range(len(code) - 1, -1, -1):
+        ins = code[k]
+        if (ins.op == ca.OP_OUTPUT and ins.res[0] == output) or (ins.defines is not None and ins.defines in needed):
+            needed.update(ins.uses)
+            marked.add(k)
+    return marked
+
+
+def _has_normal_reciprocal(value: float | None) -> bool:
+    """A constant divisor whose reciprocal is a normal float (then x / c becomes x * (1/c))."""
+    return value is not None and value != 0.0 and 1.2e-38 < abs(1.0 / value) < 3.4e38
+
+
+class _Writer:
+    """Prints one stage's instructions as C lines (SSA temporaries t0, t1, ...)."""
+
+    def __init__(self, printer: CPrinter, code: list[_Instruction]) -> None:
+        self.printer = printer
+        self.work: dict[int, str] = {}
+        self.is_bool: dict[int, bool] = {}
+        self.constants: dict[int, float] = {}
+        self.serial = self.ops = self.calls = 0
+        self.index = 0  # the instruction being printed (constants are read from the Function by index)
+        self.sincos: dict[tuple[int, int], str] = {}     # angle value -> its sincos temporary
+        self.reciprocal: dict[tuple[int, int], str] = {}  # denominator value -> 1/it
+        # Single precision: a denominator used more than once becomes one reciprocal and products
+        # (a division costs 14 cycles on a Cortex-M4F, a product 1). Double keeps every division, so
+        # that it stays bit-identical to the reference.
+        counts: dict[tuple[int, int], int] = {}
+        for ins in code:
+            if ins.op == ca.OP_DIV:
+                counts[ins.uses[1]] = counts.get(ins.uses[1], 0) + 1
+        self.shared_denominators = {key for key, n in counts.items() if n > 1} if printer.inline_kernels else set()
+
+    def temp(self, ctype: str, expr: str, lines: list[str], counted: bool = True) -> str:
+        name = f"t{self.serial}"
+        self.serial += 1
+        self.ops += counted
+        lines.append(f"const {ctype} {name} = {expr};")
+        return name
+
+    def special(self, ins: _Instruction, lines: list[str]) -> str | None:
+        """Single-precision rewrites: one sincos per angle, shared reciprocals, constant divisors."""
+        p = self.printer
+        if not p.inline_kernels:
+            return None
+        if ins.op in (ca.OP_SIN, ca.OP_COS):
+            key = ins.uses[0]
+            if key not in self.sincos:
+                self.sincos[key] = self.temp(f"{p.kernel_prefix}sincos_t", f"{p.kernel_prefix}sincos({self.work[ins.args[0]]})", lines)
+                self.calls += 1
+            return self.temp(p.real, f"{self.sincos[key]}.{'c' if ins.op == ca.OP_COS else 's'}", lines, counted=False)
+        if ins.op == ca.OP_DIV and _has_normal_reciprocal(self.constants.get(ins.args[1])):
+            return self.temp(p.real, f"{self.work[ins.args[0]]} * {p.literal(1.0 / self.constants[ins.args[1]])}", lines)
+        if ins.op == ca.OP_DIV and ins.uses[1] in self.shared_denominators:
+            key = ins.uses[1]
+            if key not in self.reciprocal:
+                self.reciprocal[key] = self.temp(p.real, f"{p.one()} / {self.work[ins.args[1]]}", lines)
+            return self.temp(p.real, f"{self.work[ins.args[0]]} * {self.reciprocal[key]}", lines)
+        return None
+
+    def emit(self, ins: _Instruction, function: ca.Function, stage: Stage, out_names: list[str],
+             sizes: dict[str, int], lines: list[str]) -> None:
+        p = self.printer
+        if ins.op == ca.OP_CONST:
+            value = float(function.instruction_constant(self.index))
+            self.work[ins.res[0]], self.constants[ins.res[0]], self.is_bool[ins.res[0]] = p.literal(value), value, False
+            return
+        if ins.op == ca.OP_INPUT:
+            signal = stage.inputs[ins.args[0]]
+            self.work[ins.res[0]], self.is_bool[ins.res[0]] = c_element(signal, ins.args[1], sizes[signal], p), False
+            self.constants.pop(ins.res[0], None)
+            return
+        if ins.op == ca.OP_OUTPUT:
+            signal = out_names[ins.res[0]]
+            value = self.work[ins.args[0]]
+            if self.is_bool[ins.args[0]]:
+                value = f"({p.real}){value}"
+            lines.append(f"{c_element(signal, ins.res[1], sizes[signal], p)} = {value};")
+            return
+        name = self.special(ins, lines)
+        boolean = False
+        if name is None:
+            expr, boolean = p.operation(ins.op, [self.work[a] for a in ins.args], [self.is_bool[a] for a in ins.args],
+                                        lambda i: self.constants.get(ins.args[i]) if i < len(ins.args) else None)
+            name = self.temp("int" if boolean else p.real, expr, lines)
+            self.calls += ins.op in CALL_OPS
+        self.work[ins.res[0]], self.is_bool[ins.res[0]] = name, boolean
+        self.constants.pop(ins.res[0], None)
+
+
+def _declarations(out_names: list[str], sizes: dict[str, int], printer: CPrinter) -> tuple[str, ...]:
+    return tuple(f"{printer.real} {name};" if sizes[name] == 1 else f"{printer.real} {name}[{sizes[name]}];"
+                 for name in out_names)
+
+
 def build_section(stage: Stage, used: set[str], sizes: dict[str, int], printer: CPrinter) -> Section:
     keep = [i for i, name in enumerate(stage.outputs) if name in used]
     out_names = [stage.outputs[i] for i in keep]
     function = _pruned(stage, keep)
-    work: dict[int, str] = {}
-    is_bool: dict[int, bool] = {}
-    constants: dict[int, float] = {}
+    code = _instructions(function)
+    writer = _Writer(printer, code)
     lines: list[str] = []
-    ops = calls = 0
-    for k in range(function.n_instructions()):
-        op = function.instruction_id(k)
-        args = function.instruction_input(k)
-        res = function.instruction_output(k)
-        if op == ca.OP_CONST:
-            value = float(function.instruction_constant(k))
-            work[res[0]], constants[res[0]], is_bool[res[0]] = printer.literal(value), value, False
-        elif op == ca.OP_INPUT:
-            signal = stage.inputs[args[0]]
-            work[res[0]], is_bool[res[0]] = c_element(signal, args[1], sizes[signal], printer), False
-            constants.pop(res[0], None)
-        elif op == ca.OP_OUTPUT:
-            signal = out_names[res[0]]
-            value = work[args[0]]
-            if is_bool[args[0]]:
-                value = f"({printer.real}){value}"
-            lines.append(f"{c_element(signal, res[1], sizes[signal], printer)} = {value};")
-        else:
-            expr, boolean = printer.operation(op, [work[a] for a in args], [is_bool[a] for a in args],
-                                              lambda i: constants.get(args[i]) if i < len(args) else None)
-            name = f"t{ops}"
-            lines.append(f"const {'int' if boolean else printer.real} {name} = {expr};")
-            work[res[0]], is_bool[res[0]] = name, boolean
-            constants.pop(res[0], None)
-            ops += 1
-            calls += op in CALL_OPS
-    declarations = tuple(
-        f"{printer.real} {name};" if sizes[name] == 1 else f"{printer.real} {name}[{sizes[name]}];" for name in out_names
-    )
-    return Section(stage.name, stage.doc, declarations, tuple(lines), ops, calls)
+    for k, ins in enumerate(code):
+        writer.index = k
+        writer.emit(ins, function, stage, out_names, sizes, lines)
+    return Section(stage.name, stage.doc, _declarations(out_names, sizes, printer), tuple(lines), writer.ops,
+                   writer.calls)
 
 
-def build_sections(model: StepModel, printer: CPrinter) -> tuple[Section, tuple[Section, ...], Section]:
+@dataclass(frozen=True)
+class Validation:
+    """The validate stage split in two: the fast path computes only the int ``accept`` (every test
+    passed); the status bits are assembled in ``reject_lines``, which run only on a rejection."""
+    section: Section          # lines: the fast path
+    accept: str               # C int expression, nonzero when the sample passes every test
+    reject_lines: tuple[str, ...]
+
+
+def build_validation(stage: Stage, sizes: dict[str, int], printer: CPrinter) -> Validation:
+    out_names = list(stage.outputs)  # ("status", "accepted")
+    function = _pruned(stage, list(range(len(out_names))))
+    code = _instructions(function)
+    fast = _needed_by(code, out_names.index("accepted"))
+    writer = _Writer(printer, code)
+    fast_lines: list[str] = []
+    slow_lines: list[str] = []
+    accept = None
+    fast_ops = 0  # what an accepted sample runs
+    for k, ins in enumerate(code):
+        writer.index = k
+        if ins.op == ca.OP_OUTPUT and out_names[ins.res[0]] == "accepted":
+            accept = writer.work[ins.args[0]]
+            continue
+        before = writer.ops
+        writer.emit(ins, function, stage, out_names, sizes, fast_lines if k in fast else slow_lines)
+        fast_ops += (writer.ops - before) if k in fast else 0
+    if accept is None:
+        raise ValueError("the validate stage has no accepted output")
+    section = Section(stage.name, stage.doc, (), tuple(fast_lines), fast_ops, writer.calls)
+    return Validation(section, accept, (f"{printer.real} status;", *slow_lines))
+
+
+def build_sections(model: StepModel, printer: CPrinter) -> tuple[Validation, tuple[Section, ...], Section]:
     """(validate, the computing stages, the result check)."""
     sizes = signal_sizes(model)
     used = used_signals(model) | {"status", "result_status", "quality_status"}
-    validate = build_section(model.validate, used, sizes, printer)
+    validate = build_validation(model.validate, sizes, printer)
     check = build_section(model.check_result, used, sizes, printer)
     return validate, tuple(build_section(stage, used, sizes, printer) for stage in model.stages), check

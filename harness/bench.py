@@ -2,7 +2,9 @@
 
 Same compiler, flags, data and driver loop for both. Instructions per step come from valgrind
 callgrind (exact, unlike wall time on a shared machine): the difference of two runs of different
-lengths divided by the extra steps, so start-up costs cancel. ns/step is the median of repeated runs.
+lengths divided by the extra steps, so start-up costs cancel. ns/step is the median of 15 rounds of 10^6
+steps, the two implementations run in turn within each round (interleaved). The Cortex-M4F cycles are an
+instruction-level estimate of the real firmware (harness/m4cycles.py), not a measurement.
 Flash is a minimal Cortex-M4F firmware (-Os, gc-sections) calling the step, single precision.
 
     python -m dobwind.harness.bench [AIRFRAME] [--json]
@@ -25,14 +27,17 @@ import casadi as ca
 import numpy as np
 
 from dobwind.codegen.generate import generate_code, write_files
-from dobwind.harness import cortex
+from dobwind.harness import cortex, m4cycles
 from dobwind.harness.build import run, system_compiler
 from dobwind.model.airframe import load_airframe
+from dobwind.model import reference
 from dobwind.model.exercise import flight_inputs
 from dobwind.model.step import StepModel, build_step
 
 ROWS = 1000
-FLAGS = ("-std=c99", "-O2")
+# -fno-math-errno (the flag the README recommends): sqrt then compiles to the instruction (sqrtss, vsqrt.f32)
+# instead of a call kept for errno; the step's square roots never see a negative argument.
+FLAGS = ("-std=c99", "-O2", "-fno-math-errno")
 
 _OURS = """\
 #include <stdio.h>
@@ -98,6 +103,7 @@ class Row:
     ns_per_step: float
     m4f_flash_bytes: int | None
     m4f_double_symbols: int | None
+    m4f_cycles_estimate: float | None = None  # mean over the bench rows; see harness/m4cycles.py
 
 
 def _data_file(model: StepModel, work: Path) -> Path:
@@ -134,16 +140,25 @@ def _instructions(exe: Path, steps: int) -> int:
     return int(match.group(1))
 
 
-def _per_step(exe: Path) -> tuple[float, float]:
+def _instructions_per_step(exe: Path) -> float:
     short, long = 2000, 12000
-    instructions = (_instructions(exe, long) - _instructions(exe, short)) / (long - short)
-    steps = 1_000_000
-    times = []
-    for _ in range(5):
-        start = time.perf_counter()
-        subprocess.run([str(exe), str(steps)], capture_output=True, check=True)
-        times.append(time.perf_counter() - start)
-    return instructions, statistics.median(times) / steps * 1e9
+    return (_instructions(exe, long) - _instructions(exe, short)) / (long - short)
+
+
+TIMING_ROUNDS = 15
+TIMING_STEPS = 1_000_000
+
+
+def _interleaved_ns(exes: list[Path]) -> list[float]:
+    """Median wall time per step of each program, run in turn round after round, so that a load change
+    on the shared machine hits every program alike rather than whichever ran during it."""
+    times: list[list[float]] = [[] for _ in exes]
+    for _ in range(TIMING_ROUNDS):
+        for i, exe in enumerate(exes):
+            start = time.perf_counter()
+            subprocess.run([str(exe), str(TIMING_STEPS)], capture_output=True, check=True)
+            times[i].append(time.perf_counter() - start)
+    return [statistics.median(t) / TIMING_STEPS * 1e9 for t in times]
 
 
 def bench(af_path: str) -> list[Row]:
@@ -173,22 +188,39 @@ def bench(af_path: str) -> list[Row]:
             run([system_compiler(), *FLAGS, f"-Dcasadi_real={real}", "-Dcasadi_int=long long int", str(cas_main),
                  str(cas_src), str(data), "-o", str(cas), "-lm"])
             flash: dict[str, tuple[int | None, int | None]] = {"dobwind": (None, None), "casadi generate()": (None, None)}
+            cycles = None
             if precision == "single" and cortex.available():
                 mdir = pdir / "m4f"
                 mdir.mkdir()
                 build = cortex.check_generated(pdir, name, model.inputs.fields, mdir)
                 flash["dobwind"] = (build.firmware_flash_bytes, len(build.double_symbols))
+                cycles = _m4f_cycles(model, mdir / "with_step.elf")
                 cmain_text = _casadi_firmware_main(fname, model)
                 elf = cortex.build_firmware([cas_src], cmain_text, mdir, "casadi_fw",
                                             ("-Dcasadi_real=float", "-Dcasadi_int=long long int"))
                 obj = mdir / "casadi_obj.o"
-                run([cortex.ARM_GCC, *cortex.CPU_FLAGS, "-Os", "-Dcasadi_real=float", "-Dcasadi_int=long long int",
+                run([cortex.ARM_GCC, *cortex.CPU_FLAGS, *cortex.FIRMWARE_FLAGS, "-Dcasadi_real=float", "-Dcasadi_int=long long int",
                      "-c", str(cas_src), "-o", str(obj)])
                 flash["casadi generate()"] = (cortex.flash_size_bytes(elf), len(cortex.double_precision_symbols(obj)))
-            for label, exe in (("dobwind", ours), ("casadi generate()", cas)):
-                instructions, ns = _per_step(exe)
-                results.append(Row(precision, label, instructions, ns, *flash[label]))
+            pair = (("dobwind", ours), ("casadi generate()", cas))
+            for (label, exe), ns in zip(pair, _interleaved_ns([ours, cas])):
+                instructions = _instructions_per_step(exe)
+                results.append(Row(precision, label, instructions, ns, *flash[label],
+                                   cycles if label == "dobwind" and precision == "single" else None))
     return results
+
+
+def _m4f_cycles(model: StepModel, elf: Path) -> float | None:
+    """The instruction-level M4F estimate of the firmware's step over the bench rows (None without
+    Unicorn). The emulated outputs must match the Python reference, or the estimate ran something else."""
+    if not m4cycles.available():
+        return None
+    rows = flight_inputs(model, ROWS, seed=11).astype(np.float32)
+    result = m4cycles.estimate(elf, f"{model.airframe.name}_wind_", rows, model.state.size, model.outputs.size)
+    want = reference.run(model, rows.astype(np.float64)).outputs
+    if not np.allclose(result.outputs, want, rtol=1e-3, atol=1e-2, equal_nan=True):
+        raise RuntimeError("the emulated Cortex-M4F step does not reproduce the reference outputs")
+    return result.mean_cycles
 
 
 def _casadi_firmware_main(fname: str, model: StepModel) -> str:
@@ -217,12 +249,14 @@ int main(void)
 
 
 def table(rows: list[Row]) -> str:
-    out = ["| precision | implementation | x86-64 instructions/step | ns/step | Cortex-M4F flash (bytes) | double-precision symbols |",
-           "|---|---|---:|---:|---:|---:|"]
+    out = ["| precision | implementation | x86-64 instructions/step | ns/step | Cortex-M4F flash (bytes) | "
+           "double-precision symbols | M4F cycles/step (estimate) |",
+           "|---|---|---:|---:|---:|---:|---:|"]
     for r in rows:
         flash = "-" if r.m4f_flash_bytes is None else str(r.m4f_flash_bytes)
         dbl = "-" if r.m4f_double_symbols is None else str(r.m4f_double_symbols)
-        out.append(f"| {r.precision} | {r.implementation} | {r.instructions_per_step:.0f} | {r.ns_per_step:.1f} | {flash} | {dbl} |")
+        cyc = "-" if r.m4f_cycles_estimate is None else f"{r.m4f_cycles_estimate:.0f}"
+        out.append(f"| {r.precision} | {r.implementation} | {r.instructions_per_step:.0f} | {r.ns_per_step:.1f} | {flash} | {dbl} | {cyc} |")
     by = {(r.precision, r.implementation): r for r in rows}
     for p in ("double", "single"):
         ours, theirs = by.get((p, "dobwind")), by.get((p, "casadi generate()"))

@@ -11,6 +11,8 @@ from dobwind.model.layout import Layout
 
 ARM_GCC = "arm-none-eabi-gcc"
 CPU_FLAGS = ("-mcpu=cortex-m4", "-mthumb", "-mfpu=fpv4-sp-d16", "-mfloat-abi=hard")
+# The firmware flags the README recommends: without -fno-math-errno, sqrtf stays a library call (errno).
+FIRMWARE_FLAGS = ("-Os", "-std=c99", "-fno-math-errno")
 # Soft-double helpers (EABI names) and double-precision libm entry points.
 _DOUBLE_SYMBOL = re.compile(
     r"^(__aeabi_d\w+|__aeabi_f2d|__aeabi_d2f|__(add|sub|mul|div|extendsf|truncdf)df\w*|"
@@ -84,7 +86,7 @@ def build_firmware(sources: list[Path], main_text: str, work: Path, label: str,
     main = work / f"{label}_main.c"
     main.write_text(main_text)
     elf = work / f"{label}.elf"
-    run([ARM_GCC, *CPU_FLAGS, "-Os", "-std=c99", "-ffunction-sections", "-fdata-sections", *flags,
+    run([ARM_GCC, *CPU_FLAGS, *FIRMWARE_FLAGS, "-ffunction-sections", "-fdata-sections", *flags,
          f"-I{work}", str(main), *map(str, sources), "--specs=nosys.specs", "--specs=nano.specs",
          "-Wl,--gc-sections", "-o", str(elf), "-lm"])
     return elf
@@ -93,7 +95,7 @@ def build_firmware(sources: list[Path], main_text: str, work: Path, label: str,
 def check_generated(code_dir: Path, name: str, input_fields, work: Path) -> CortexBuild:
     source = code_dir / f"{name}_wind.c"
     obj = work / f"{name}_wind.o"
-    run([ARM_GCC, *CPU_FLAGS, "-Os", "-std=c99", *STRICT_FLAGS, "-ffunction-sections", "-c", str(source), "-o", str(obj)])
+    run([ARM_GCC, *CPU_FLAGS, *FIRMWARE_FLAGS, *STRICT_FLAGS, "-ffunction-sections", "-c", str(source), "-o", str(obj)])
     for header in code_dir.glob("*.h"):
         if header.resolve() != (work / header.name).resolve():
             shutil.copy(header, work / header.name)

@@ -90,14 +90,14 @@ def term_variables(m: ca.SX, n: ca.SX, fz: ca.SX) -> dict[str, ca.SX]:
 
 def polynomial_airflow(horizontal: tuple[tuple[Term, ...], tuple[float, ...]],
                        vertical: tuple[tuple[Term, ...], tuple[float, ...]], m: ca.SX, n: ca.SX, fz: ca.SX):
-    """The paper's family: airflow (x, y, z), heading frame, from the heading-frame force, and the
-    modelled horizontal airflow speed."""
+    """The paper's family: airflow (x, y, z), heading frame, from the heading-frame force, the modelled
+    horizontal airflow speed, and the factor k with (x, y) = k (m, n)."""
     variables = term_variables(m, n, fz)
     fh = variables["fh"]
     speed_h = ca.fmax(polynomial_expr(*horizontal, variables), 0)
     # The air moves along the horizontal force; the guard makes (m, n)/fh -> 0 instead of 0/0.
     scale = speed_h / ca.sqrt(fh * fh + FORCE_DIRECTION_EPS_N ** 2)
-    return scale * m, scale * n, polynomial_expr(*vertical, variables), speed_h
+    return scale * m, scale * n, polynomial_expr(*vertical, variables), speed_h, scale
 
 
 def horizontal_drag_basis(vx, vy, s):

@@ -209,7 +209,10 @@ def build_step(af: Airframe) -> StepModel:
             + ca.if_else(tilt_ok, 0, bits["TILT"])
             + ca.if_else(thrust_ok, 0, bits["BAD_THRUST"])
         )
-        return {"status": status}
+        # The same tests as one truth value: the C checks this alone and assembles the status bits only
+        # for a rejected sample (validation then costs a few instructions per input).
+        accepted = _all([finite, dt_ok, q_ok, tilt_ok, thrust_ok])
+        return {"status": status, "accepted": accepted}
 
     thrust_input = "in.rotor_rpm" if af.thrust.source == "rpm" else "in.thrust"
     validate_stage = b.add("validate", "reject NaN/inf, bad dt, non-unit quaternion, excessive tilt, negative thrust",
@@ -342,11 +345,17 @@ def build_step(af: Airframe) -> StepModel:
         if af.drag is not None:
             rel_x, rel_y, rel_z = forceair.drag_airflow(af.drag, mm, nn, fz)
             speed_h = ca.sqrt(rel_x * rel_x + rel_y * rel_y)
+            north, east = forceair.heading_to_ned(rel_x, rel_y, c, sn)
         else:
-            rel_x, rel_y, rel_z, speed_h = forceair.polynomial_airflow(
+            rel_x, rel_y, rel_z, speed_h, along = forceair.polynomial_airflow(
                 (af.horizontal.terms, af.horizontal.coefficients), (af.vertical.terms, af.vertical.coefficients),
                 mm, nn, fz)
-        north, east = forceair.heading_to_ned(rel_x, rel_y, c, sn)
+            if obs.force_offset_n[0] == 0.0 and obs.force_offset_n[1] == 0.0:
+                # (x, y) = k (m, n) and (m, n) is the NED force turned by -yaw: turned back, k times the NED
+                # force itself (four products and two sums fewer than the rotation).
+                north, east = along * s["f_filt_new"][0], along * s["f_filt_new"][1]
+            else:
+                north, east = forceair.heading_to_ned(rel_x, rel_y, c, sn)
         return {"force_heading": ca.vertcat(mm, nn, fz), "airflow_speed_h": speed_h,
                 "air_rel_ned": ca.vertcat(north, east, rel_z)}
 
@@ -381,9 +390,10 @@ def build_step(af: Airframe) -> StepModel:
         committed.append("acc_bias_new")  # reaches the outputs only from the next sample on
 
     def check_result(s: Signals) -> Signals:
-        values = ca.vertcat(*[s[name] for name in committed])
-        # One sum: NaN and infinity propagate into it, and so does any overflow.
-        ok = ca.sum1(ca.fabs(values)) <= RESULT_MAGNITUDE_LIMIT
+        # One sum: NaN and infinity propagate into it, and so does any overflow. The wind speed is a square
+        # root, never negative, so it needs no fabs.
+        values = [ca.fabs(s[name]) if name != "wind_speed_h" else s[name] for name in committed]
+        ok = ca.sum1(ca.vertcat(*values)) <= RESULT_MAGNITUDE_LIMIT
         bit = next(b.value for b in STATUS_BITS if b.name == "NUMERIC")
         return {"result_status": ca.if_else(ok, 0, bit)}
 

@@ -5,34 +5,102 @@
  * d9fe9baff7b6cfef8d666b58101c13ced95956e1653f591ef4ca4a5757c1bf1d.
  * DO NOT EDIT: regenerate with `dobwind generate <airframe file>`.
  *
- * Total ops per accepted step: 296 (33 math-library calls), of which
- * 86 validate the input and 22 check the result.
+ * Total ops per accepted step: 280 (31 math-library calls), of which
+ * 76 validate the input and 21 check the result.
  */
 #include "m300_wind.h"
 
 #include <math.h>
 #include <stddef.h>
+#include <stdint.h>
+#include <string.h>
 
-/* sin (want_cos = 0) or cos (want_cos = 1) in single precision, instead of libm's sinf/cosf whose
- * large-argument reduction costs about 3 KB of flash on a Cortex-M. Cody-Waite reduction by pi/2 in
- * three parts, then minimax polynomials on [-pi/4, pi/4]: within a few 1e-7 of the exact value for
- * |x| up to about 1e4 rad. Only called after validation, so |x| <= 1e6 and the conversion to long
- * is defined. */
-static float m300_wind_trig(float x, int want_cos)
+/* sin and cos of one angle in single precision, instead of libm's sinf/cosf whose reduction of huge
+ * arguments costs about 3 KB of flash on a Cortex-M. x = k pi/2 + r with k rounded; r by Cody-Waite
+ * reduction with pi/2 in three parts, the first two of 12 bits, and k split into a multiple of 1024 and
+ * a remainder (10 significant bits each), so that every product is exact and the subtractions cancel
+ * exactly for |x| <= 1e6 (validation guarantees it; the conversion to long is then defined too). Then
+ * minimax polynomials on [-pi/4, pi/4], and the quadrant's swap and signs. */
+typedef struct {
+    float s;
+    float c;
+} m300_wind_sincos_t;
+
+static m300_wind_sincos_t m300_wind_sincos(float x)
 {
-    const float q = x * 0.636619772f;
-    const long k = (long)(q >= 0.0f ? q + 0.5f : q - 0.5f);
-    const float kf = (float)k;
-    const float r = ((x - kf * 1.5703125f) - kf * 4.83751297e-4f) - kf * 7.54979013e-8f;
+    /* k = round(x 2/pi) by adding and subtracting 1.5 * 2^23 (exact for |x 2/pi| < 2^22; C99's
+     * FLT_EVAL_METHOD 0 and no -ffast-math keep the two operations as written) */
+    const float kf = (x * 0.636619747f + 12582912.0f) - 12582912.0f;
+    const long k = (long)kf;
+    const long k_high = (k / 1024L) * 1024L;
+    const float kh = (float)k_high;
+    const float kl = (float)(k - k_high);
+    const float r = ((((x - kh * 1.57080078f) - kl * 1.57080078f) - kh * (-4.45358455e-06f))
+                     - kl * (-4.45358455e-06f)) - kf * (-8.70551631e-10f);
     const float z = r * r;
-    const float s = r + r * z * (-1.66666546e-1f + z * (8.33216087e-3f + z * -1.95152959e-4f));
-    const float c = 1.0f - 0.5f * z + z * z * (4.16666456e-2f + z * (-1.38873163e-3f + z * 2.44331571e-5f));
-    switch (((unsigned long)k + (unsigned long)want_cos) & 3u) {
-    case 0u: return s;
-    case 1u: return c;
-    case 2u: return -s;
-    default: return -c;
+    const float s = r + r * z * ((-0.166666546f) + z * (0.00833216087f + z * (-0.000195152959f)));
+    const float c = 1.0f - 0.5f * z + z * z * (0.0416666456f + z * ((-0.00138873163f) + z * 2.44331571e-05f));
+    m300_wind_sincos_t out;
+    out.s = (k & 1L) ? c : s;
+    out.c = (k & 1L) ? s : c;
+    if (k & 2L) {
+        out.s = -out.s;
     }
+    if ((k + 1L) & 2L) {
+        out.c = -out.c;
+    }
+    return out;
+}
+
+/* expm1 in single precision, instead of libm's expm1f: a minimax polynomial on |x| <= ln2/2 (relative
+ * error under 2e-7, tests/test_kernels.py), where the step's arguments (-rate * dt) normally are. Beyond,
+ * x = k ln2 + r with |r| <= ln2/2 (ln2 in two parts, the first of 12 bits so that k * it is exact) and
+ * expm1(x) = 2^k (expm1(r) + 1) - 1; the clamp to [-87, 88] keeps 2^k a normal float (below -87 the
+ * result is -1 to float precision) and maps a NaN to -87, so the conversion to int is defined. */
+static float m300_wind_expm1_poly(float r)
+{
+    return r + r * r * (0.5f + r * (0.166665494f + r * (0.0416668542f + r * (0.00836603343f + r * 0.00138982164f))));
+}
+
+static float m300_wind_expm1(float x)
+{
+    if (x >= -0.346573591f && x <= 0.346573591f) {
+        return m300_wind_expm1_poly(x);
+    }
+    {
+        const float xc = x > -87.0f ? (x < 88.0f ? x : 88.0f) : -87.0f;
+        const float kf = (xc * 1.44269502f + 12582912.0f) - 12582912.0f; /* round to nearest, as in sincos */
+        const float p = m300_wind_expm1_poly((xc - kf * 0.693115234f) - kf * 3.19461833e-05f);
+        /* 2^k from its IEEE 754 bits; memcpy is defined in C and C++ alike (a union is not in C++) */
+        const uint32_t bits = (uint32_t)((int)kf + 127) << 23;
+        float scale;
+        memcpy(&scale, &bits, sizeof scale);
+        return scale * p + (scale - 1.0f);
+    }
+}
+
+/* atan2 in single precision, instead of libm's atan2f: the smaller magnitude over the larger (in
+ * [0, 1]), a minimax polynomial for atan there (absolute error under 4e-7 rad, tests/test_kernels.py),
+ * then the octant. Both zero gives 0 rather than 0/0; the step calls it on the wind, whose finiteness
+ * the result check tests afterwards, so an infinite or NaN argument only has to return. */
+static float m300_wind_atan2(float y, float x)
+{
+    const float ax = fabsf(x);
+    const float ay = fabsf(y);
+    const int steep = ay > ax;
+    const float hi = steep ? ay : ax;
+    const float lo = steep ? ax : ay;
+    const float a = hi > 0.0f ? lo / hi : 0.0f;
+    const float s = a * a;
+    float r = a + a * s * ((-0.333316594f) + s * (0.199627027f + s * ((-0.139765739f) + s * (0.0979420915f
+                 + s * ((-0.0577731989f) + s * (0.0230398383f + s * (-0.00435531652f)))))));
+    if (steep) {
+        r = 1.57079637f - r;
+    }
+    if (x < 0.0f) {
+        r = 3.14159274f - r;
+    }
+    return y < 0.0f ? -r : r;
 }
 
 void m300_wind_init(m300_wind_state_t *state)
@@ -74,8 +142,7 @@ void m300_wind_init(m300_wind_state_t *state)
 
 int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_wind_output_t *out)
 {
-    /* ---- validate: reject NaN/inf, bad dt, non-unit quaternion, excessive tilt, negative thrust (86 ops) ---- */
-    float status;
+    /* ---- validate: reject NaN/inf, bad dt, non-unit quaternion, excessive tilt, negative thrust (76 ops) ---- */
     {
         const float t0 = fabsf(in->dt);
         const int t1 = t0 <= 1000000.0f;
@@ -124,14 +191,9 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const float t44 = fabsf(in->yaw_ref);
         const int t45 = t44 <= 1000000.0f;
         const int t46 = t43 & t45;
-        const int t47 = !t46;
-        const float t48 = (t47 ? 1.0f : 0.0f);
         const int t49 = 1e-05f <= in->dt;
         const int t50 = in->dt <= 0.10001f;
         const int t51 = t49 & t50;
-        const int t52 = !t51;
-        const float t53 = (t52 ? 2.0f : 0.0f);
-        const float t54 = t48 + t53;
         const float t55 = in->q[0] * in->q[0];
         const float t56 = in->q[1] * in->q[1];
         const float t57 = t55 + t56;
@@ -142,17 +204,11 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const int t62 = 0.81f <= t61;
         const int t63 = t61 <= 1.21f;
         const int t64 = t62 & t63;
-        const int t65 = !t64;
-        const float t66 = (t65 ? 4.0f : 0.0f);
-        const float t67 = t54 + t66;
         const float t68 = 0.5f * t61;
         const float t69 = t55 - t56;
         const float t70 = t69 - t58;
         const float t71 = t70 + t60;
         const int t72 = t68 <= t71;
-        const int t73 = !t72;
-        const float t74 = (t73 ? 8.0f : 0.0f);
-        const float t75 = t67 + t74;
         const int t76 = 0.0f <= in->rotor_rpm[0];
         const int t77 = 0.0f <= in->rotor_rpm[1];
         const int t78 = t76 & t77;
@@ -160,20 +216,36 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const int t80 = t78 & t79;
         const int t81 = 0.0f <= in->rotor_rpm[3];
         const int t82 = t80 & t81;
-        const int t83 = !t82;
-        const float t84 = (t83 ? 16.0f : 0.0f);
-        const float t85 = t75 + t84;
-        status = t85;
-    }
-    if (status != 0.0f) {
-        /* rejected: the estimate is untouched and the last accepted output repeated; only the gap
-         * bookkeeping records that this sample was missed */
-        state->run_s = 0.0f;
-        *out = state->last;
-        return (int)status;
+        const int t86 = t46 & t51;
+        const int t87 = t86 & t64;
+        const int t88 = t87 & t72;
+        const int t89 = t88 & t82;
+        if (!(t89)) {
+            /* rejected: the estimate is untouched and the last accepted output repeated; only the gap
+             * bookkeeping records that this sample was missed. The status bits are assembled here only. */
+            float status;
+            const int t47 = !t46;
+            const float t48 = (t47 ? 1.0f : 0.0f);
+            const int t52 = !t51;
+            const float t53 = (t52 ? 2.0f : 0.0f);
+            const float t54 = t48 + t53;
+            const int t65 = !t64;
+            const float t66 = (t65 ? 4.0f : 0.0f);
+            const float t67 = t54 + t66;
+            const int t73 = !t72;
+            const float t74 = (t73 ? 8.0f : 0.0f);
+            const float t75 = t67 + t74;
+            const int t83 = !t82;
+            const float t84 = (t83 ? 16.0f : 0.0f);
+            const float t85 = t75 + t84;
+            status = t85;
+            state->run_s = 0.0f;
+            *out = state->last;
+            return (int)status;
+        }
     }
 
-    /* ---- attitude: unit quaternion -> body down axis z_b (and rotation) in NED (21 ops) ---- */
+    /* ---- attitude: unit quaternion -> body down axis z_b (and rotation) in NED (22 ops) ---- */
     float z_b[3];
     {
         const float t0 = in->q[1] * in->q[3];
@@ -187,19 +259,20 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const float t8 = t6 + t7;
         const float t9 = in->q[3] * in->q[3];
         const float t10 = t8 + t9;
-        const float t11 = t3 / t10;
-        z_b[0] = t11;
-        const float t12 = in->q[2] * in->q[3];
-        const float t13 = in->q[0] * in->q[1];
-        const float t14 = t12 - t13;
-        const float t15 = 2.0f * t14;
-        const float t16 = t15 / t10;
-        z_b[1] = t16;
-        const float t17 = t4 - t5;
-        const float t18 = t17 - t7;
-        const float t19 = t18 + t9;
-        const float t20 = t19 / t10;
-        z_b[2] = t20;
+        const float t11 = 1.0f / t10;
+        const float t12 = t3 * t11;
+        z_b[0] = t12;
+        const float t13 = in->q[2] * in->q[3];
+        const float t14 = in->q[0] * in->q[1];
+        const float t15 = t13 - t14;
+        const float t16 = 2.0f * t15;
+        const float t17 = t16 * t11;
+        z_b[1] = t17;
+        const float t18 = t4 - t5;
+        const float t19 = t18 - t7;
+        const float t20 = t19 + t9;
+        const float t21 = t20 * t11;
+        z_b[2] = t21;
     }
 
     /* ---- thrust: collective thrust u_f (N) along -z_b (14 ops) ---- */
@@ -222,7 +295,7 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         u_f = t13;
     }
 
-    /* ---- acceleration: kinematic acceleration p'' (m/s^2, NED), minus its velocity-aided bias (time constant 20 s) (31 ops, 1 math calls) ---- */
+    /* ---- acceleration: kinematic acceleration p'' (m/s^2, NED), minus its velocity-aided bias (time constant 20 s) (32 ops, 1 math calls) ---- */
     float p_ddot[3];
     float acc_bias_new[3];
     {
@@ -233,36 +306,37 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const float t2 = in->acc_ned[2] - state->acc_bias[2];
         p_ddot[2] = t2;
         const int t3 = 0.0f < state->run_s;
-        const float t4 = in->dt / 20.0f;
+        const float t4 = in->dt * 0.05f;
         const float t5 = -t4;
-        const float t6 = expm1f(t5);
+        const float t6 = m300_wind_expm1(t5);
         const float t7 = in->vel_ned[0] - state->vel_prev[0];
-        const float t8 = t7 / in->dt;
-        const float t9 = in->acc_ned[0] - t8;
-        const float t10 = t9 - state->acc_bias[0];
-        const float t11 = t6 * t10;
-        const float t12 = -t11;
-        const float t13 = (t3 ? t12 : 0.0f);
-        const float t14 = state->acc_bias[0] + t13;
-        acc_bias_new[0] = t14;
-        const float t15 = in->vel_ned[1] - state->vel_prev[1];
-        const float t16 = t15 / in->dt;
-        const float t17 = in->acc_ned[1] - t16;
-        const float t18 = t17 - state->acc_bias[1];
-        const float t19 = t6 * t18;
-        const float t20 = -t19;
-        const float t21 = (t3 ? t20 : 0.0f);
-        const float t22 = state->acc_bias[1] + t21;
-        acc_bias_new[1] = t22;
-        const float t23 = in->vel_ned[2] - state->vel_prev[2];
-        const float t24 = t23 / in->dt;
-        const float t25 = in->acc_ned[2] - t24;
-        const float t26 = t25 - state->acc_bias[2];
-        const float t27 = t6 * t26;
-        const float t28 = -t27;
-        const float t29 = (t3 ? t28 : 0.0f);
-        const float t30 = state->acc_bias[2] + t29;
-        acc_bias_new[2] = t30;
+        const float t8 = 1.0f / in->dt;
+        const float t9 = t7 * t8;
+        const float t10 = in->acc_ned[0] - t9;
+        const float t11 = t10 - state->acc_bias[0];
+        const float t12 = t6 * t11;
+        const float t13 = -t12;
+        const float t14 = (t3 ? t13 : 0.0f);
+        const float t15 = state->acc_bias[0] + t14;
+        acc_bias_new[0] = t15;
+        const float t16 = in->vel_ned[1] - state->vel_prev[1];
+        const float t17 = t16 * t8;
+        const float t18 = in->acc_ned[1] - t17;
+        const float t19 = t18 - state->acc_bias[1];
+        const float t20 = t6 * t19;
+        const float t21 = -t20;
+        const float t22 = (t3 ? t21 : 0.0f);
+        const float t23 = state->acc_bias[1] + t22;
+        acc_bias_new[1] = t23;
+        const float t24 = in->vel_ned[2] - state->vel_prev[2];
+        const float t25 = t24 * t8;
+        const float t26 = in->acc_ned[2] - t25;
+        const float t27 = t26 - state->acc_bias[2];
+        const float t28 = t6 * t27;
+        const float t29 = -t28;
+        const float t30 = (t3 ? t29 : 0.0f);
+        const float t31 = state->acc_bias[2] + t30;
+        acc_bias_new[2] = t31;
     }
 
     /* ---- external_force: f_e solved from m p'' = -u_f z_b + m g e3 + f_e (N, NED) (10 ops) ---- */
@@ -335,7 +409,7 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const float t9 = t4 + t8;
         const float t10 = (-6.28318531f) * t9;
         const float t11 = t10 * in->dt;
-        const float t12 = expm1f(t11);
+        const float t12 = m300_wind_expm1(t11);
         const float t13 = state->initialized * t12;
         const float t14 = t0 - t13;
         const float t15 = 1.0f - t14;
@@ -365,44 +439,39 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         v_filt_new[2] = t33;
     }
 
-    /* ---- force_air: heading-frame force -> relative airflow (air minus vehicle velocity), NED (32 ops, 3 math calls) ---- */
+    /* ---- force_air: heading-frame force -> relative airflow (air minus vehicle velocity), NED (25 ops, 2 math calls) ---- */
     float air_rel_ned[3];
     {
-        const float t0 = m300_wind_trig(in->yaw_ref, 1);
-        const float t1 = t0 * f_filt_new[0];
-        const float t2 = m300_wind_trig(in->yaw_ref, 0);
-        const float t3 = t2 * f_filt_new[1];
-        const float t4 = t1 + t3;
-        const float t5 = 0.06f * t4;
-        const float t6 = 0.9f + t5;
-        const float t7 = t0 * f_filt_new[1];
-        const float t8 = t2 * f_filt_new[0];
-        const float t9 = t7 - t8;
-        const float t10 = 0.16f * t9;
-        const float t11 = t6 + t10;
-        const float t12 = t4 * t4;
-        const float t13 = 0.09f * t12;
-        const float t14 = t11 + t13;
-        const float t15 = t9 * t9;
-        const float t16 = 0.07f * t15;
-        const float t17 = t14 + t16;
-        const float t18 = (t17 > 0.0f ? t17 : 0.0f);
-        const float t19 = t12 + t15;
-        const float t20 = t19 + 1e-06f;
-        const float t21 = sqrtf(t20);
-        const float t22 = t18 / t21;
-        const float t23 = t22 * t4;
-        const float t24 = t0 * t23;
-        const float t25 = t22 * t9;
-        const float t26 = t2 * t25;
-        const float t27 = t24 - t26;
-        air_rel_ned[0] = t27;
-        const float t28 = t2 * t23;
-        const float t29 = t0 * t25;
-        const float t30 = t28 + t29;
-        air_rel_ned[1] = t30;
-        const float t31 = 0.5f * f_filt_new[2];
-        air_rel_ned[2] = t31;
+        const m300_wind_sincos_t t0 = m300_wind_sincos(in->yaw_ref);
+        const float t1 = t0.c;
+        const float t2 = t1 * f_filt_new[0];
+        const float t3 = t0.s;
+        const float t4 = t3 * f_filt_new[1];
+        const float t5 = t2 + t4;
+        const float t6 = 0.06f * t5;
+        const float t7 = 0.9f + t6;
+        const float t8 = t1 * f_filt_new[1];
+        const float t9 = t3 * f_filt_new[0];
+        const float t10 = t8 - t9;
+        const float t11 = 0.16f * t10;
+        const float t12 = t7 + t11;
+        const float t13 = t5 * t5;
+        const float t14 = 0.09f * t13;
+        const float t15 = t12 + t14;
+        const float t16 = t10 * t10;
+        const float t17 = 0.07f * t16;
+        const float t18 = t15 + t17;
+        const float t19 = (t18 > 0.0f ? t18 : 0.0f);
+        const float t20 = t13 + t16;
+        const float t21 = t20 + 1e-06f;
+        const float t22 = sqrtf(t21);
+        const float t23 = t19 / t22;
+        const float t24 = t23 * f_filt_new[0];
+        air_rel_ned[0] = t24;
+        const float t25 = t23 * f_filt_new[1];
+        air_rel_ned[1] = t25;
+        const float t26 = 0.5f * f_filt_new[2];
+        air_rel_ned[2] = t26;
     }
 
     /* ---- wind: wind triangle and the reported quantities (18 ops, 2 math calls) ---- */
@@ -426,7 +495,7 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         wind_speed_up = t7;
         const float t8 = -t1;
         const float t9 = -t0;
-        const float t10 = atan2f(t8, t9);
+        const float t10 = m300_wind_atan2(t8, t9);
         const float t11 = 57.2957795f * t10;
         const int t12 = t11 < 0.0f;
         const float t13 = (t12 ? 360.0f : 0.0f);
@@ -457,7 +526,7 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         wind_sigma_up = (-1.0f);
     }
 
-    /* ---- check_result: an accepted sample must give a finite result, else it is rejected too (22 ops) ---- */
+    /* ---- check_result: an accepted sample must give a finite result, else it is rejected too (21 ops) ---- */
     float result_status;
     {
         const float t0 = fabsf(f_filt_new[0]);
@@ -471,18 +540,17 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const float t8 = t6 + t7;
         const float t9 = fabsf(wind_ned[2]);
         const float t10 = t8 + t9;
-        const float t11 = fabsf(wind_speed_h);
-        const float t12 = t10 + t11;
-        const float t13 = fabsf(acc_bias_new[0]);
-        const float t14 = t12 + t13;
-        const float t15 = fabsf(acc_bias_new[1]);
-        const float t16 = t14 + t15;
-        const float t17 = fabsf(acc_bias_new[2]);
-        const float t18 = t16 + t17;
-        const int t19 = t18 <= 1e+30f;
-        const int t20 = !t19;
-        const float t21 = (t20 ? 32.0f : 0.0f);
-        result_status = t21;
+        const float t11 = t10 + wind_speed_h;
+        const float t12 = fabsf(acc_bias_new[0]);
+        const float t13 = t11 + t12;
+        const float t14 = fabsf(acc_bias_new[1]);
+        const float t15 = t13 + t14;
+        const float t16 = fabsf(acc_bias_new[2]);
+        const float t17 = t15 + t16;
+        const int t18 = t17 <= 1e+30f;
+        const int t19 = !t18;
+        const float t20 = (t19 ? 32.0f : 0.0f);
+        result_status = t20;
     }
     if (result_status != 0.0f) {
         state->run_s = 0.0f;
@@ -509,19 +577,18 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
     state->acc_bias[0] = acc_bias_new[0];
     state->acc_bias[1] = acc_bias_new[1];
     state->acc_bias[2] = acc_bias_new[2];
-    state->last.force_ned[0] = f_filt_new[0];
-    state->last.force_ned[1] = f_filt_new[1];
-    state->last.force_ned[2] = f_filt_new[2];
-    state->last.wind_ned[0] = wind_ned[0];
-    state->last.wind_ned[1] = wind_ned[1];
-    state->last.wind_ned[2] = wind_ned[2];
-    state->last.wind_speed_h = wind_speed_h;
-    state->last.wind_speed_up = wind_speed_up;
-    state->last.wind_from_deg = wind_from_deg;
-    state->last.wind_sigma_h = wind_sigma_h;
-    state->last.wind_sigma_up = wind_sigma_up;
+    out->force_ned[0] = state->last.force_ned[0] = f_filt_new[0];
+    out->force_ned[1] = state->last.force_ned[1] = f_filt_new[1];
+    out->force_ned[2] = state->last.force_ned[2] = f_filt_new[2];
+    out->wind_ned[0] = state->last.wind_ned[0] = wind_ned[0];
+    out->wind_ned[1] = state->last.wind_ned[1] = wind_ned[1];
+    out->wind_ned[2] = state->last.wind_ned[2] = wind_ned[2];
+    out->wind_speed_h = state->last.wind_speed_h = wind_speed_h;
+    out->wind_speed_up = state->last.wind_speed_up = wind_speed_up;
+    out->wind_from_deg = state->last.wind_from_deg = wind_from_deg;
+    out->wind_sigma_h = state->last.wind_sigma_h = wind_sigma_h;
+    out->wind_sigma_up = state->last.wind_sigma_up = wind_sigma_up;
     state->initialized = 1.0f;
     state->run_s = run_s_new;
-    *out = state->last;
     return (int)quality_status; /* 0, or quality bits of an accepted sample (SETTLING, EXTRAPOLATED) */
 }
