@@ -126,8 +126,8 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const int t46 = t43 & t45;
         const int t47 = !t46;
         const float t48 = (t47 ? 1.0f : 0.0f);
-        const int t49 = 1e-05f <= in->dt;
-        const int t50 = in->dt <= 0.10001f;
+        const int t49 = 1.00000007e-05f <= in->dt;
+        const int t50 = in->dt <= 0.100009993f;
         const int t51 = t49 & t50;
         const int t52 = !t51;
         const float t53 = (t52 ? 2.0f : 0.0f);
@@ -139,8 +139,8 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const float t59 = t57 + t58;
         const float t60 = in->q[3] * in->q[3];
         const float t61 = t59 + t60;
-        const int t62 = 0.81f <= t61;
-        const int t63 = t61 <= 1.21f;
+        const int t62 = 0.810000002f <= t61;
+        const int t63 = t61 <= 1.20999992f;
         const int t64 = t62 & t63;
         const int t65 = !t64;
         const float t66 = (t65 ? 4.0f : 0.0f);
@@ -444,7 +444,7 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const float t0 = state->run_s + in->dt;
         const float t1 = (t0 < 3.505618f ? t0 : 3.505618f);
         run_s_new = t1;
-        const int t2 = t1 < 3.505618f;
+        const int t2 = t1 < 3.5056181f;
         const float t3 = (t2 ? 64.0f : 0.0f);
         quality_status = t3;
     }
@@ -479,7 +479,7 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const float t16 = t14 + t15;
         const float t17 = fabsf(acc_bias_new[2]);
         const float t18 = t16 + t17;
-        const int t19 = t18 <= 1e+30f;
+        const int t19 = t18 <= 9.99999939e+29f;
         const int t20 = !t19;
         const float t21 = (t20 ? 32.0f : 0.0f);
         result_status = t21;
