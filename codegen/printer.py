@@ -64,6 +64,10 @@ class CPrinter:
     # <trig_prefix>trig) instead of libm's sinf/cosf, whose large-argument reduction costs about 3 KB
     # of flash on a Cortex-M; see the source template.
     trig_prefix: str | None = None
+    # Print constants compared with < or <= on the safe side (the validation limits and the result
+    # check; see _compared). Off elsewhere: a constant that also appears in an fmin/fmax (the settling
+    # time's cap) must stay the same float in both places.
+    directed_limits: bool = False
 
     @property
     def inline_trig(self) -> bool:
@@ -94,7 +98,7 @@ class CPrinter:
         the double value, so that a float input decides exactly as the reference does (for
         ``x <= 0.10001`` the largest float <= 0.10001, not the nearest, which lies above it)."""
         value = constant_arg(i)
-        if value is None or self.precision != "single" or op not in (ca.OP_LT, ca.OP_LE):
+        if value is None or not self.directed_limits or self.precision != "single" or op not in (ca.OP_LT, ca.OP_LE):
             return f"(({self.real}){args[i]})" if bools[i] else args[i]
         # Constant on the left of <= or on the right of <: round up; otherwise round down.
         up = (i == 0) == (op == ca.OP_LE)

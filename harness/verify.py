@@ -13,7 +13,7 @@ import numpy as np
 from dobwind.codegen.generate import generate_code, write_files_atomically
 from dobwind.codegen.tolerance import TOLERANCE
 from dobwind.errors import CheckFailed, InputError
-from dobwind.harness.build import available_compilers, build_shared_library, run, strict_compile, system_compiler
+from dobwind.harness.build import Compiler, available_compilers, build_shared_library, run, strict_compile, system_compiler
 from dobwind.harness.compare import Comparison, compare
 from dobwind.harness.cstep import CStep
 from dobwind.model import reference
@@ -111,14 +111,14 @@ def folder_precision(c_dir: Path, name: str) -> str:
 
 
 def verify_precision(model: StepModel, precision: str, steps: int, seed: int, work: Path,
-                     c_dir: Path | None = None) -> PrecisionReport:
+                     c_dir: Path | None = None, compilers: list[Compiler] | None = None) -> PrecisionReport:
     """With ``c_dir`` the C in that folder is checked as it is (a hand edit shows); otherwise fresh C."""
     report = PrecisionReport(precision)
     if c_dir is None:
         write_files_atomically(generate_code(model.airframe, precision, model).files, work)
     code_dir = work if c_dir is None else c_dir
     name = model.airframe.name
-    for compiler in available_compilers():
+    for compiler in compilers if compilers is not None else available_compilers():
         try:
             for source in (f"{name}_wind.c", f"{name}_wind_selftest.c"):
                 strict_compile(compiler, code_dir / source, work)

@@ -444,7 +444,7 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const float t0 = state->run_s + in->dt;
         const float t1 = (t0 < 3.505618f ? t0 : 3.505618f);
         run_s_new = t1;
-        const int t2 = t1 < 3.5056181f;
+        const int t2 = t1 < 3.505618f;
         const float t3 = (t2 ? 64.0f : 0.0f);
         quality_status = t3;
     }
