@@ -99,9 +99,9 @@ def c_mutants(af: Airframe) -> list[CMutant]:
         CMutant("result limit <= becomes <", "check_result", r"<= ([\d.e+-]+f?);", r"< \1;", precisions=("double",)),
         # --- the commit and the outputs ------------------------------------------------------------
         CMutant("NaN wind_from_deg output", "commit", r"state->last\.wind_from_deg = wind_from_deg;",
-                "state->last.wind_from_deg = ({real})NAN;"),
+                "state->last.wind_from_deg = wind_from_deg + ({real})NAN;"),
         CMutant("NaN wind_sigma_h output", "commit", r"state->last\.wind_sigma_h = wind_sigma_h;",
-                "state->last.wind_sigma_h = ({real})NAN;"),
+                "state->last.wind_sigma_h = wind_sigma_h + ({real})NAN;"),
         CMutant("early return before the state commit", "file", r"(\n\s*/\* ---- commit)",
                 "\n    *out = state->last;\n    return (int)quality_status;\\1"),
         CMutant("initialized never set", "commit", r"state->initialized = 1\.0f?;", "state->initialized = ({real})0;"),
