@@ -27,9 +27,8 @@ from pathlib import Path
 from dobwind.codegen.generate import generate_code, write_files_atomically
 from dobwind.codegen.printer import CPrinter
 from dobwind.errors import EXIT_BAD_INPUT, EXIT_CHECK_FAILED, CheckFailed
-from dobwind.harness.build import Compiler, system_compiler
 from dobwind.harness.mutant_table import MODEL_TESTS, CMutant, ModelMutant, c_mutants, model_mutants
-from dobwind.harness.verify import PrecisionReport, verify_precision
+from dobwind.harness.verify import PrecisionReport, ReferenceChecks, verify_precision
 from dobwind.model.airframe import load_airframe
 from dobwind.model.step import StepModel, build_step
 
@@ -107,15 +106,17 @@ def caught_by(report: PrecisionReport) -> tuple[str, ...]:
     return tuple(checks)
 
 
-def check_c(model: StepModel, files: dict[str, str], precision: str, steps: int, root: Path, label: str) -> tuple[str, ...]:
+def check_c(model: StepModel, files: dict[str, str], precision: str, steps: int, root: Path, label: str,
+            references: ReferenceChecks | None = None) -> tuple[str, ...]:
     folder = root / label / "c"
     folder.mkdir(parents=True)
     write_files_atomically(files, folder)
     work = root / label / "work"  # a fresh library path: ctypes would reuse an already loaded one
     work.mkdir()
     try:
-        report = verify_precision(model, precision, steps, seed=1, work=work, c_dir=folder,
-                                  compilers=[Compiler("cc (C99)", system_compiler(), "c")])
+        # No separate strict compiles: the shared library is built with the same strict flags.
+        report = verify_precision(model, precision, steps, seed=1, work=work, c_dir=folder, compilers=[],
+                                  references=references or ReferenceChecks.build(model, precision, steps, 1))
     except CheckFailed as exc:  # the shared library did not build
         return (f"build: {str(exc).splitlines()[-1][:60]}",)
     return caught_by(report)
@@ -128,14 +129,15 @@ def run_c_mutants(model: StepModel, steps: int, root: Path, only: str | None) ->
     outcomes = []
     for precision in ("single", "double"):
         files = generate_code(af, precision, model).files
-        baseline = check_c(model, files, precision, steps, root, f"baseline-{precision}")
+        references = ReferenceChecks.build(model, precision, steps, seed=1)
+        baseline = check_c(model, files, precision, steps, root, f"baseline-{precision}", references)
         if baseline:
             raise AnchorError(f"the unmutated {precision}-precision C already fails: {', '.join(baseline)}")
         for k, mutant in enumerate(m for m in c_mutants(af) if precision in m.precisions):
             if only and only not in mutant.name:
                 continue
             mutated = dict(files, **{source: apply_c_mutant(files[source], mutant, precision, prefix)})
-            found = check_c(model, mutated, precision, steps, root, f"{precision}-{k}")
+            found = check_c(model, mutated, precision, steps, root, f"{precision}-{k}", references)
             outcomes.append(Outcome(mutant.name, f"C {precision}: {mutant.region}", found))
             print(f"  {outcomes[-1].where:28s} {mutant.name:45s} {', '.join(found) or 'SURVIVED'}", flush=True)
     return outcomes

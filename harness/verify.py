@@ -111,7 +111,8 @@ def folder_precision(c_dir: Path, name: str) -> str:
 
 
 def verify_precision(model: StepModel, precision: str, steps: int, seed: int, work: Path,
-                     c_dir: Path | None = None, compilers: list[Compiler] | None = None) -> PrecisionReport:
+                     c_dir: Path | None = None, compilers: list[Compiler] | None = None,
+                     references: ReferenceChecks | None = None) -> PrecisionReport:
     """With ``c_dir`` the C in that folder is checked as it is (a hand edit shows); otherwise fresh C."""
     report = PrecisionReport(precision)
     if c_dir is None:
@@ -134,16 +135,30 @@ def verify_precision(model: StepModel, precision: str, steps: int, seed: int, wo
     except CheckFailed as exc:
         report.selftest = str(exc).strip().splitlines()[-1]
     cstep = CStep(model, build_shared_library(model, precision, code_dir, work))
-
-    states, inputs = random_cases(model, RANDOM_CASES, seed)
-    limits = boundary_cases(model, precision)  # already in the precision's numbers
-    states = np.vstack([_as_precision(states, precision), limits.states])
-    inputs = np.vstack([_as_precision(inputs, precision), limits.inputs])
-    report.cases = compare(model, cstep.cases(states, inputs), reference_cases(model, states, inputs),
-                           TOLERANCE[precision])
-    flight = _as_precision(flight_inputs(model, steps, seed), precision)
-    report.flight = compare(model, cstep.run(flight), reference.run(model, flight), TOLERANCE[precision])
+    checks = references if references is not None else ReferenceChecks.build(model, precision, steps, seed)
+    report.cases = compare(model, cstep.cases(checks.states, checks.inputs), checks.cases, TOLERANCE[precision])
+    report.flight = compare(model, cstep.run(checks.flight_inputs), checks.flight, TOLERANCE[precision])
     return report
+
+
+@dataclass(frozen=True)
+class ReferenceChecks:
+    """The comparison's inputs and the reference's answers; the mutation suite reuses one per precision."""
+    states: np.ndarray
+    inputs: np.ndarray
+    cases: Trajectory
+    flight_inputs: np.ndarray
+    flight: Trajectory
+
+    @staticmethod
+    def build(model: StepModel, precision: str, steps: int, seed: int) -> "ReferenceChecks":
+        states, inputs = random_cases(model, RANDOM_CASES, seed)
+        limits = boundary_cases(model, precision)  # already in the precision's numbers
+        states = np.vstack([_as_precision(states, precision), limits.states])
+        inputs = np.vstack([_as_precision(inputs, precision), limits.inputs])
+        flight = _as_precision(flight_inputs(model, steps, seed), precision)
+        return ReferenceChecks(states, inputs, reference_cases(model, states, inputs), flight,
+                               reference.run(model, flight))
 
 
 def verify_airframe(af: Airframe, precision: str = "both", steps: int = 20000, seed: int = 1,
