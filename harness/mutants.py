@@ -160,7 +160,8 @@ def run_model_mutant(mutant: ModelMutant, root: Path, tests: tuple[str, ...]) ->
     # pytest exits 1 when tests failed; anything else (usage, collection, internal error) is no verdict.
     where = f"model: {mutant.module.rsplit('.', 1)[-1]}"
     if done.returncode == 1 and failed:
-        return Outcome(mutant.name, where, tuple(f"test {f.split('::')[-1][:50]}" for f in failed))
+        # The first failing test, without its parameters (-x stops there).
+        return Outcome(mutant.name, where, tuple(f"test {f.split('::')[-1].split('[')[0]}" for f in failed))
     if done.returncode == 0:
         return Outcome(mutant.name, where, ())
     raise AnchorError(f"model mutant {mutant.name!r}: pytest exit {done.returncode}:\n{done.stdout[-2000:]}")
