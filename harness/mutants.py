@@ -70,14 +70,17 @@ def region_span(text: str, region: str, prefix: str) -> tuple[int, int]:
 
 
 def _mutate_literals(body: str, mutant: CMutant, printer: CPrinter) -> tuple[str, int]:
+    """Every literal within 1e-6 relative of ``mutant.near``, scaled or replaced; and how many."""
+    hits: list[str] = []
+
     def replace(match: re.Match) -> str:
         value = float(match.group(0).rstrip("f"))
-        if not math.isclose(value, mutant.near, rel_tol=1e-6, abs_tol=0.0):
+        if mutant.near is None or not math.isclose(value, mutant.near, rel_tol=1e-6, abs_tol=0.0):
             return match.group(0)
-        replace.hits += 1
-        return printer.literal(mutant.value if mutant.value is not None else value * mutant.scale)
-    replace.hits = 0
-    return _LITERAL.sub(replace, body), replace.hits
+        hits.append(match.group(0))
+        return printer.literal(mutant.value if mutant.value is not None else value * (mutant.scale or 1.0))
+
+    return _LITERAL.sub(replace, body), len(hits)
 
 
 def apply_c_mutant(text: str, mutant: CMutant, precision: str, prefix: str) -> str:
