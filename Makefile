@@ -41,6 +41,6 @@ accuracy: $(STAMP)
 
 # Issue #10/#16's mutation suite: single-point mutants of the generated C (both precisions) and of the
 # model, each expected to be caught by verify, the self-test or the tests; exit 1 on a survivor, 2 when
-# a mutant's anchor no longer matches (re-anchor in harness/mutant_table.py). About 25 min on 2 cores.
+# a mutant's anchor no longer matches (re-anchor in harness/mutant_table.py). About 20 min on a loaded 2-core machine.
 mutants: $(STAMP)
 	$(BIN)/python -m dobwind.harness.mutants $(MUTANTS_ARGS)
