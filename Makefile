@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 
-.PHONY: setup test demo regen bench clean realdata accuracy
+.PHONY: setup test demo regen bench clean realdata accuracy mutants
 
 setup: $(STAMP)
 
@@ -40,3 +40,9 @@ realdata: $(STAMP)
 # workflow, plus the real runs when present (~25 min on 2 cores). ACCURACY_ARGS=--quick: under 5 min.
 accuracy: $(STAMP)
 	$(BIN)/python -m dobwind.accuracy $(ACCURACY_ARGS)
+
+# Issue #10/#16's mutation suite: single-point mutants of the generated C (both precisions) and of the
+# model, each expected to be caught by verify, the self-test or the tests; exit 1 on a survivor, 2 when
+# a mutant's anchor no longer matches (re-anchor in harness/mutant_table.py). About 20 min on a loaded 2-core machine.
+mutants: $(STAMP)
+	$(BIN)/python -m dobwind.harness.mutants $(MUTANTS_ARGS)

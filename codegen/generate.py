@@ -18,6 +18,7 @@ from dobwind.codegen.tolerance import MIN_SPEED_FOR_DIRECTION, SELFTEST_TOLERANC
 from dobwind.model import reference
 from dobwind.model.airframe import Airframe
 from dobwind.model.errors import InputError
+from dobwind.model.boundaries import boundary_cases
 from dobwind.model.exercise import flight_inputs
 from dobwind.model.status import REJECTED_MASK, STATUS_BITS
 from dobwind.model.stability import require_stable
@@ -94,10 +95,10 @@ def _selftest_context(model: StepModel, printer: CPrinter, precision: str) -> di
     # Rounded to 7 decimals so that last-bit libm differences between machines cannot change the text.
     expected = np.round(traj.outputs, 7) + 0.0
     tol = SELFTEST_TOLERANCE[precision]
-    unpack = [f"in.{name} = u[{column}];" for column, name in enumerate(model.inputs.element_names())]
+    unpack = [f"in->{name} = u[{column}];" for column, name in enumerate(model.inputs.element_names())]
     outputs = model.outputs.element_names()
     from_col, speed_col = outputs.index("wind_from_deg"), outputs.index("wind_speed_h")
-    checks = [{"got": f"out.{label}", "want": f"y[{column}]", "label": label}
+    checks = [{"got": f"out->{label}", "want": f"y[{column}]", "label": label}
               for column, label in enumerate(outputs) if column != from_col]
     return {
         "rows": SELFTEST_ROWS,
@@ -106,6 +107,7 @@ def _selftest_context(model: StepModel, printer: CPrinter, precision: str) -> di
         "input_rows": [", ".join(_fmt(v, precision, printer) for v in row) for row in inputs],
         "output_rows": [", ".join(_fmt(v, precision, printer) for v in row) for row in expected],
         "statuses": ", ".join(str(int(s)) for s in traj.status),
+        **_limit_context(model, printer, precision),
         "unpack": unpack,
         "checks": checks,
         "from_want": f"y[{from_col}]",
@@ -114,6 +116,23 @@ def _selftest_context(model: StepModel, printer: CPrinter, precision: str) -> di
         "atol": repr(tol.atol),
         "angle_tol": repr(tol.angle_deg),
         "min_speed": repr(MIN_SPEED_FOR_DIRECTION),
+    }
+
+
+def _limit_context(model: StepModel, printer: CPrinter, precision: str) -> dict:
+    """The limit cases (model/boundaries.py): one step each from its own state."""
+    cases = boundary_cases(model, precision)
+    mapped = model.step.map(len(cases.labels))
+    _, ys, st = mapped(cases.states.T, cases.inputs.T)
+    expected = np.round(np.asarray(ys).T, 7) + 0.0
+    return {
+        "limit_rows": len(cases.labels),
+        "n_state": model.state.size,
+        "limit_state_rows": [", ".join(_fmt(v, precision, printer) for v in row) for row in cases.states],
+        "limit_input_rows": [", ".join(_fmt(v, precision, printer) for v in row) for row in cases.inputs],
+        "limit_output_rows": [", ".join(_fmt(v, precision, printer) for v in row) for row in expected],
+        "limit_statuses": ", ".join(str(int(s)) for s in np.asarray(st).ravel()),
+        "load_state": [f"state->{name} = x[{column}];" for column, name in enumerate(model.state.element_names())],
     }
 
 

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 import casadi as ca
+import numpy as np
 
 _UNARY_CALLS = {
     ca.OP_EXP: "exp", ca.OP_LOG: "log", ca.OP_SQRT: "sqrt", ca.OP_SIN: "sin", ca.OP_COS: "cos",
@@ -45,6 +46,17 @@ def check_literal(value: float, precision: str) -> None:
         raise LiteralError(f"constant {value:.9g} would round to 0 in single precision (|x| >= {FLT_TRUE_MIN:.9g})")
 
 
+def directed_float(value: float, up: bool) -> float:
+    """The float32 nearest ``value`` on one side: the smallest float >= value (``up``) or the largest
+    float <= value."""
+    nearest = np.float32(value)
+    if up and float(nearest) < value:
+        nearest = np.nextafter(nearest, np.float32(np.inf))
+    elif not up and float(nearest) > value:
+        nearest = np.nextafter(nearest, np.float32(-np.inf))
+    return float(nearest)
+
+
 @dataclass(frozen=True)
 class CPrinter:
     precision: str  # "single" | "double"
@@ -53,6 +65,10 @@ class CPrinter:
     # and cost about 2 KB of flash and hundreds of cycles on a Cortex-M; see codegen/kernels.py. Double
     # precision keeps libm so that it stays bit-identical to the CasADi reference.
     kernel_prefix: str | None = None
+    # Print constants compared with < or <= on the safe side (the validation limits and the result
+    # check; see _compared). Off elsewhere: a constant that also appears in an fmin/fmax (the settling
+    # time's cap) must stay the same float in both places.
+    directed_limits: bool = False
 
     @property
     def inline_kernels(self) -> bool:
@@ -76,6 +92,18 @@ class CPrinter:
         # Every negative literal, -0.0 included (value < 0 is False for it), goes in parentheses so that
         # a negation printed before it can never make "--0.0f".
         return f"({text})" if math.copysign(1.0, value) < 0 else text
+
+    def _compared(self, args: list[str], bools: list[bool], i: int, op: int,
+                  constant_arg: Callable[[int], float | None]) -> str:
+        """A comparison operand. A single-precision limit is printed as the float on the safe side of
+        the double value, so that a float input decides exactly as the reference does (for
+        ``x <= 0.10001`` the largest float <= 0.10001, not the nearest, which lies above it)."""
+        value = constant_arg(i)
+        if value is None or not self.directed_limits or self.precision != "single" or op not in (ca.OP_LT, ca.OP_LE):
+            return f"(({self.real}){args[i]})" if bools[i] else args[i]
+        # Constant on the left of <= or on the right of <: round up; otherwise round down.
+        up = (i == 0) == (op == ca.OP_LE)
+        return self.literal(directed_float(value, up))
 
     def call(self, name: str, *args: str) -> str:
         suffix = "f" if self.precision == "single" else ""
@@ -137,7 +165,8 @@ class CPrinter:
                 return self.call("sqrt", num(0)), False
             return self.call("pow", num(0), num(1)), False
         if op in _COMPARE:
-            return f"{num(0)} {_COMPARE[op]} {num(1)}", True
+            return (f"{self._compared(args, bools, 0, op, constant_arg)} {_COMPARE[op]} "
+                    f"{self._compared(args, bools, 1, op, constant_arg)}"), True
         if op == ca.OP_NOT:
             return (f"!{args[0]}" if bools[0] else f"{args[0]} == {self.zero()}"), True
         # Both sides are already computed and free of side effects, so bitwise & and | on 0/1 give

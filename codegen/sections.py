@@ -1,6 +1,7 @@
 """Stages of the step as labelled C sections: named locals, SSA temporaries, op counts."""
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import casadi as ca
@@ -233,6 +234,7 @@ def build_sections(model: StepModel, printer: CPrinter) -> tuple[Validation, tup
     """(validate, the computing stages, the result check)."""
     sizes = signal_sizes(model)
     used = used_signals(model) | {"status", "result_status", "quality_status"}
-    validate = build_validation(model.validate, sizes, printer)
-    check = build_section(model.check_result, used, sizes, printer)
+    limits = dataclasses.replace(printer, directed_limits=True)  # the rejection tests
+    validate = build_validation(model.validate, sizes, limits)
+    check = build_section(model.check_result, used, sizes, limits)
     return validate, tuple(build_section(stage, used, sizes, printer) for stage in model.stages), check

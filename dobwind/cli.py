@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from pathlib import Path
 
 import numpy as np
 from typing import Any, NoReturn, Sequence
@@ -56,7 +57,8 @@ def cmd_verify(args: argparse.Namespace) -> int:
     from dobwind.model.airframe import load_airframe
 
     af = load_airframe(args.airframe)
-    report = verify_airframe(af, args.precision, steps=args.steps, seed=args.seed)
+    report = verify_airframe(af, args.precision, steps=args.steps, seed=args.seed,
+                             c_dir=None if args.c_dir is None else Path(args.c_dir))
     if args.json:
         _print_json(report.as_dict())
     else:
@@ -244,6 +246,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--steps", type=opt.VERIFY_STEPS, default=20000,
                    help=f"length of the simulated flight compared step by step ({opt.VERIFY_STEPS.text()})")
     p.add_argument("--seed", type=opt.SEED, default=1, help=f"flight and random cases ({opt.SEED.text()})")
+    p.add_argument("--c-dir", help="verify the generated C in this folder as it is (e.g. generated_c/m300) "
+                   "instead of freshly generated C; its precision is read from its header")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_verify)
 

@@ -1,7 +1,9 @@
-"""`dobwind verify`: generate into a temporary folder, compile strictly with every compiler at hand,
-and compare the C step with the Python reference on random cases and on a long flight."""
+"""`dobwind verify`: generate into a temporary folder (or take a given folder of generated C), compile
+strictly with every compiler at hand, run the self-test, and compare the C step with the Python
+reference on random cases, on cases at every limit (model/boundaries.py) and on a long flight."""
 from __future__ import annotations
 
+import re
 import tempfile
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -10,12 +12,13 @@ import numpy as np
 
 from dobwind.codegen.generate import generate_code, write_files
 from dobwind.codegen.tolerance import TOLERANCE
-from dobwind.model.errors import CheckFailed
-from dobwind.harness.build import available_compilers, build_shared_library, run, strict_compile, system_compiler
+from dobwind.model.errors import CheckFailed, InputError
+from dobwind.harness.build import Compiler, available_compilers, build_shared_library, run, strict_compile, system_compiler
 from dobwind.harness.compare import Comparison, compare
 from dobwind.harness.cstep import CStep
 from dobwind.model import reference
 from dobwind.model.airframe import Airframe
+from dobwind.model.boundaries import boundary_cases
 from dobwind.model.exercise import flight_inputs, random_cases
 from dobwind.model.reference import Trajectory
 from dobwind.model.step import StepModel, build_step
@@ -69,7 +72,7 @@ class VerifyReport:
             for label, result in p.compilers.items():
                 lines.append(f"    compile {label:14s} {result}")
             lines.append(f"    self-test: {p.selftest}")
-            for title, comp in (("random cases", p.cases), ("flight", p.flight)):
+            for title, comp in (("random and limit cases", p.cases), ("flight", p.flight)):
                 if comp is None:
                     continue
                 worst = sorted(comp.outputs, key=lambda e: -e.worst_ratio)[:4]
@@ -91,42 +94,85 @@ def reference_cases(model: StepModel, states: np.ndarray, inputs: np.ndarray) ->
     return Trajectory(np.asarray(xs).T, np.asarray(ys).T, np.asarray(st).ravel().astype(np.int64))
 
 
-def verify_precision(model: StepModel, precision: str, steps: int, seed: int, work: Path) -> PrecisionReport:
+def folder_precision(c_dir: Path, name: str) -> str:
+    """The precision a generated folder was written in, from its header's first comment line."""
+    header = c_dir / f"{name}_wind.h"
+    for needed in (header, c_dir / f"{name}_wind.c", c_dir / f"{name}_wind_selftest.c"):
+        if not needed.is_file():
+            raise InputError(str(c_dir), None, f"no {needed.name}: not generated C for the airframe {name!r}")
+    try:
+        first = header.read_text(errors="replace").splitlines()[1:2]
+    except OSError as exc:
+        raise InputError(str(header), None, f"cannot read: {exc.strerror}") from None
+    found = re.search(r"\((single|double) precision\)", first[0] if first else "")
+    if found is None:
+        raise InputError(str(header), "line 2", "no '(single precision)' or '(double precision)': not written by generate")
+    return found.group(1)
+
+
+def verify_precision(model: StepModel, precision: str, steps: int, seed: int, work: Path,
+                     c_dir: Path | None = None, compilers: list[Compiler] | None = None,
+                     references: ReferenceChecks | None = None) -> PrecisionReport:
+    """With ``c_dir`` the C in that folder is checked as it is (a hand edit shows); otherwise fresh C."""
     report = PrecisionReport(precision)
-    code = generate_code(model.airframe, precision, model)
-    write_files(code.files, work)
+    if c_dir is None:
+        write_files(generate_code(model.airframe, precision, model).files, work)
+    code_dir = work if c_dir is None else c_dir
     name = model.airframe.name
-    for compiler in available_compilers():
+    for compiler in compilers if compilers is not None else available_compilers():
         try:
             for source in (f"{name}_wind.c", f"{name}_wind_selftest.c"):
-                strict_compile(compiler, work / source, work)
+                strict_compile(compiler, code_dir / source, work)
             report.compilers[compiler.label] = "ok"
         except CheckFailed as exc:
             report.compilers[compiler.label] = str(exc).splitlines()[-1][:200]
     try:
         exe = work / "selftest"
-        run([system_compiler(), "-std=c99", "-O2", str(work / f"{name}_wind.c"), str(work / f"{name}_wind_selftest.c"),
+        run([system_compiler(), "-std=c99", "-O2", str(code_dir / f"{name}_wind.c"), str(code_dir / f"{name}_wind_selftest.c"),
              "-o", str(exe), "-lm"])
         done = run([str(exe)])
         report.selftest, report.selftest_ok = done.stdout.strip().splitlines()[-1], True
     except CheckFailed as exc:
         report.selftest = str(exc).strip().splitlines()[-1]
-    cstep = CStep(model, build_shared_library(model, precision, work, work))
-
-    states, inputs = random_cases(model, RANDOM_CASES, seed, boundaries=precision == "double")
-    states, inputs = _as_precision(states, precision), _as_precision(inputs, precision)
-    report.cases = compare(model, cstep.cases(states, inputs), reference_cases(model, states, inputs),
-                           TOLERANCE[precision])
-    flight = _as_precision(flight_inputs(model, steps, seed), precision)
-    report.flight = compare(model, cstep.run(flight), reference.run(model, flight), TOLERANCE[precision])
+    cstep = CStep(model, build_shared_library(model, precision, code_dir, work))
+    checks = references if references is not None else ReferenceChecks.build(model, precision, steps, seed)
+    report.cases = compare(model, cstep.cases(checks.states, checks.inputs), checks.cases, TOLERANCE[precision])
+    report.flight = compare(model, cstep.run(checks.flight_inputs), checks.flight, TOLERANCE[precision])
     return report
 
 
-def verify_airframe(af: Airframe, precision: str = "both", steps: int = 20000, seed: int = 1) -> VerifyReport:
-    model = build_step(af)
+@dataclass(frozen=True)
+class ReferenceChecks:
+    """The comparison's inputs and the reference's answers; the mutation suite reuses one per precision."""
+    states: np.ndarray
+    inputs: np.ndarray
+    cases: Trajectory
+    flight_inputs: np.ndarray
+    flight: Trajectory
+
+    @staticmethod
+    def build(model: StepModel, precision: str, steps: int, seed: int) -> "ReferenceChecks":
+        states, inputs = random_cases(model, RANDOM_CASES, seed)
+        limits = boundary_cases(model, precision)  # already in the precision's numbers
+        states = np.vstack([_as_precision(states, precision), limits.states])
+        inputs = np.vstack([_as_precision(inputs, precision), limits.inputs])
+        flight = _as_precision(flight_inputs(model, steps, seed), precision)
+        return ReferenceChecks(states, inputs, reference_cases(model, states, inputs), flight,
+                               reference.run(model, flight))
+
+
+def verify_airframe(af: Airframe, precision: str = "both", steps: int = 20000, seed: int = 1,
+                    c_dir: Path | None = None, model: StepModel | None = None) -> VerifyReport:
+    """``c_dir``: verify that folder's C (its own precision; ``precision`` must be it or "both")."""
+    model = model or build_step(af)
+    if c_dir is not None:
+        found = folder_precision(Path(c_dir), af.name)
+        if precision not in ("both", found):
+            raise InputError(str(c_dir), None, f"holds {found}-precision C, not {precision}")
+        precision = found
     precisions = ("double", "single") if precision == "both" else (precision,)
     reports = []
     for p in precisions:
         with tempfile.TemporaryDirectory(prefix=f"dobwind-verify-{p}-") as tmp:
-            reports.append(verify_precision(model, p, steps, seed, Path(tmp)))
+            reports.append(verify_precision(model, p, steps, seed, Path(tmp), None if c_dir is None else Path(c_dir)))
     return VerifyReport(af.name, reports)

@@ -10,6 +10,10 @@ import numpy as np
 
 from dobwind.model.step import StepModel
 
+# The largest heading the random cases use: within it the generated single-precision trig helper stays
+# within a few 1e-7 of the exact value (codegen/templates/source.c.j2).
+TRIG_CHECK_RAD = 1e4
+
 
 def euler_to_quaternion(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.ndarray:
     """ZYX Euler angles -> (w, x, y, z), body FRD to NED. Rows are samples."""
@@ -133,4 +137,8 @@ def random_cases(model: StepModel, n: int, seed: int = 0, boundaries: bool = Tru
             inputs[k, lin.slice("dt")] = model.airframe.limits.max_dt_s
         elif kinds[k] == 5:
             states[k, lst.slice("last.wind_speed_h")] = rng.choice(model.airframe.filter.speeds_mps)
+        elif kinds[k] == 6:
+            # Headings far outside [-pi, pi] (accepted up to 1e6): the single-precision sine and cosine
+            # must reduce them as well as libm does, and a slip in the reduction grows with |yaw|.
+            inputs[k, lin.slice("yaw_ref")] = rng.uniform(-TRIG_CHECK_RAD, TRIG_CHECK_RAD)
     return states, inputs

@@ -26,3 +26,30 @@ def test_clang_present_is_claimed_once_it_ran():
     report = verify_airframe(load_airframe(M300), "double", steps=200)
     assert "clang (C99)" in report.builds()
     assert report.text().splitlines()[0].endswith("(builds: cc (C99), c++ (C++11), clang (C99))")
+
+
+def test_verify_checks_a_given_folder_and_catches_a_hand_edit(tmp_path, capsys):
+    from dobwind.cli import main
+    from tests.helpers import ROOT
+
+    checked_in = ROOT / "generated_c" / "m300"
+    assert main(["verify", str(M300), "--c-dir", str(checked_in), "--steps", "200"]) == 0
+    assert "single precision" in capsys.readouterr().out
+    edited = tmp_path / "m300"
+    shutil.copytree(checked_in, edited)
+    source = edited / "m300_wind.c"
+    text = source.read_text()
+    assert text.count("in->dt <= ") == 1
+    source.write_text(text.replace("in->dt <= ", "in->dt < "))  # a step of exactly max_dt now rejected
+    assert main(["verify", str(M300), "--c-dir", str(edited), "--steps", "200"]) == 1
+    out = capsys.readouterr().out
+    assert "FAIL" in out.splitlines()[0] and "status mismatches" in out
+
+
+def test_verify_refuses_a_folder_without_the_airframes_c(tmp_path, capsys):
+    from dobwind.cli import main
+
+    assert main(["verify", str(M300), "--c-dir", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and str(tmp_path) in err and "m300_wind.h" in err
+    assert main(["verify", str(M300), "--c-dir", str(tmp_path / "x"), "--precision", "double"]) == 2

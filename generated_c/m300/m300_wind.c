@@ -191,8 +191,8 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const float t44 = fabsf(in->yaw_ref);
         const int t45 = t44 <= 1000000.0f;
         const int t46 = t43 & t45;
-        const int t49 = 1e-05f <= in->dt;
-        const int t50 = in->dt <= 0.10001f;
+        const int t49 = 1.00000007e-05f <= in->dt;
+        const int t50 = in->dt <= 0.100009993f;
         const int t51 = t49 & t50;
         const float t55 = in->q[0] * in->q[0];
         const float t56 = in->q[1] * in->q[1];
@@ -201,8 +201,8 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const float t59 = t57 + t58;
         const float t60 = in->q[3] * in->q[3];
         const float t61 = t59 + t60;
-        const int t62 = 0.81f <= t61;
-        const int t63 = t61 <= 1.21f;
+        const int t62 = 0.810000002f <= t61;
+        const int t63 = t61 <= 1.20999992f;
         const int t64 = t62 & t63;
         const float t68 = 0.5f * t61;
         const float t69 = t55 - t56;
@@ -547,7 +547,7 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const float t15 = t13 + t14;
         const float t16 = fabsf(acc_bias_new[2]);
         const float t17 = t15 + t16;
-        const int t18 = t17 <= 1e+30f;
+        const int t18 = t17 <= 9.99999939e+29f;
         const int t19 = !t18;
         const float t20 = (t19 ? 32.0f : 0.0f);
         result_status = t20;

@@ -1,0 +1,161 @@
+"""The mutation suite's mutants, as data: where each one applies and what it changes.
+
+A C mutant is anchored on a REGION of the generated source (a labelled section such as ``validate``,
+``commit`` or ``external_force``; ``kernel:<name>`` for a single-precision kernel; ``file`` for all of it)
+and, inside it, either on a regular expression or on a LITERAL NEAR A MODEL VALUE (m*g, the observer
+rate, a validation limit): both survive rewrites of the surrounding arithmetic. Every anchor must
+match exactly ``count`` times, or the runner stops: a mutation that does not apply is not caught.
+When the generated C changes shape, re-anchor here; the runner needs no change.
+
+A model mutant replaces one exact piece of a module's source text before the tests import it.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from dobwind.model.airframe import Airframe
+from dobwind.model.status import DT_TOLERANCE, INPUT_MAGNITUDE_LIMIT, QUATERNION_NORM_TOLERANCE
+from dobwind.model.settling import settling_time_s
+
+BOTH = ("single", "double")
+
+
+@dataclass(frozen=True)
+class CMutant:
+    name: str
+    region: str                      # section label, "kernel:<name>" or "file"
+    pattern: str = ""                # regex; replaced by ``replacement`` ({real} = float/double)
+    replacement: str = ""
+    near: float | None = None        # instead of a pattern: the literal(s) within 1e-6 relative of this
+    scale: float | None = None       # ... multiplied by this
+    value: float | None = None       # ... or replaced by this
+    count: int | None = 1            # None: at least once (a constant the C may repeat)
+    precisions: tuple[str, ...] = BOTH
+
+
+@dataclass(frozen=True)
+class ModelMutant:
+    name: str
+    module: str   # dotted module name, e.g. dobwind.model.dynamics
+    old: str      # exact source text, present exactly once
+    new: str
+
+
+# The tests that model mutants run: the step against an independent transcription, its physics,
+# and the closed-form pins of the limits and of the heading.
+MODEL_TESTS = ("tests/test_model.py", "tests/test_limits_pinned.py")
+
+
+def c_mutants(af: Airframe) -> list[CMutant]:
+    mg = af.mass_kg * af.gravity_mps2
+    rate_half = af.observer.gains[0] / af.mass_kg / 2
+    cos_tilt = math.cos(math.radians(af.limits.max_tilt_deg))
+    q_lo, q_hi = (1 - QUATERNION_NORM_TOLERANCE) ** 2, (1 + QUATERNION_NORM_TOLERANCE) ** 2
+    top_dt = af.limits.max_dt_s * (1 + DT_TOLERANCE)
+    big = INPUT_MAGNITUDE_LIMIT
+    finite_test = r"(fabsf?\(in->{0}\);\n\s*const int \w+ = )(\w+) <= [^;]+;"
+    out = [
+        # --- validation: limits, operators, dropped tests, status bits -------------------------
+        CMutant("dt upper bound <= becomes <", "validate", r"in->dt <= ", "in->dt < "),
+        CMutant("dt upper bound x1.001", "validate", near=top_dt, scale=1.001),
+        CMutant("dt lower bound x10 (1e-5 -> 1e-4)", "validate", r"(\S+) <= in->dt", r"(\1 * ({real})10) <= in->dt"),
+        CMutant("dt lower bound <= becomes <", "validate", r"(\S+) <= in->dt", r"\1 < in->dt"),
+        CMutant("yaw_ref limit 1e6 -> 2e6", "validate", finite_test.format("yaw_ref"), r"\1\2 <= ({real})2e6;"),
+        CMutant("yaw_ref limit <= becomes <", "validate", finite_test.format("yaw_ref"),
+                r"\1\2 < ({real})" + f"{big:.1f};"),
+        CMutant("vel_ned[1] magnitude test dropped", "validate", finite_test.format(r"vel_ned\[1\]"),
+                r"\1\2 == \2;"),
+        CMutant("quaternion lower bound 0.81 -> 0.8", "validate", near=q_lo, value=0.8),
+        CMutant("quaternion upper bound 1.21 -> 1.22", "validate", near=q_hi, value=1.22),
+        CMutant("quaternion lower bound <= becomes <", "validate", r"(0\.81\d*) <= ", r"\1 < ",
+                precisions=("double",)),
+        CMutant("tilt threshold cos(max_tilt) -0.01", "validate", near=cos_tilt, value=cos_tilt - 0.01),
+        CMutant("tilt test <= becomes <", "validate",
+                r"(?s)(const double (t\d+) = [\d.e+-]+ \* \w+;.*?= \2) <= ", r"\1 < ", precisions=("double",)),
+        *[CMutant(f"rpm check on rotor {i + 1} dropped", "validate", rf"0\.0f? <= in->rotor_rpm\[{i}\];",
+                  f"in->rotor_rpm[{i}] == in->rotor_rpm[{i}];") for i in range(af.thrust.rotors)
+          if af.thrust.source == "rpm"],
+        CMutant("BAD_THRUST bit dropped", "validate", r"\? 16\.0f? :", "? ({real})0 :"),
+        CMutant("TILT bit 8 -> 4", "validate", r"\? 8\.0f? :", "? ({real})4 :"),
+        CMutant("rejection resets no run_s", "validate", r"state->run_s = 0\.0f?;(\s*\*out = state->last;\s*return \(int\)status;)",
+                r"\1"),
+        CMutant("rejection returns 0", "validate", r"return \(int\)status;", "(void)status; return 0;"),
+        # --- the estimate ------------------------------------------------------------------------
+        CMutant("m*g x1.001", "external_force", near=mg, scale=1.001),
+        CMutant("m*g x1.0001 (single precision's m*g)", "external_force", near=mg, scale=1.0001),
+        CMutant("gravity sign", "external_force", near=mg, scale=-1.0),
+        CMutant("mass x1.01", "external_force", near=af.mass_kg, scale=1.01, count=3),
+        CMutant("observer rate x2", "observer", near=rate_half, scale=2.0),
+        CMutant("low-pass 2 pi -> pi", "low_pass", near=-2 * math.pi, scale=0.5),
+        CMutant("force direction guard 1e-6 -> 1e-2", "force_air", near=1e-6, value=1e-2),
+        CMutant("wind triangle sign", "wind", r"air_rel_ned\[0\] \+ v_filt_new\[0\]", "air_rel_ned[0] - v_filt_new[0]"),
+        CMutant("wind_speed_up sign", "wind", r"wind_speed_up = (\w+);", r"wind_speed_up = -\1;"),
+        CMutant("degrees per radian x1.01", "wind", near=180 / math.pi, scale=1.01),
+        CMutant("settling time x1.1", "quality", near=settling_time_s(af), scale=1.1, count=None),
+        CMutant("SETTLING bit dropped", "quality", r"\? 64\.0f? :", "? ({real})0 :"),
+        CMutant("quaternion order in z_b (w*y -> x*y)", "attitude", r"in->q\[0\] \* in->q\[2\]", "in->q[1] * in->q[2]"),
+        CMutant("result limit 1e30 x10", "check_result", r"<= ([\d.e+-]+f?);", r"<= (\1 * ({real})10);"),
+        CMutant("result limit <= becomes <", "check_result", r"<= ([\d.e+-]+f?);", r"< \1;", precisions=("double",)),
+        # --- the commit and the outputs ------------------------------------------------------------
+        CMutant("NaN wind_from_deg output", "commit", r"state->last\.wind_from_deg = wind_from_deg;",
+                "state->last.wind_from_deg = wind_from_deg + ({real})NAN;"),
+        CMutant("NaN wind_sigma_h output", "commit", r"state->last\.wind_sigma_h = wind_sigma_h;",
+                "state->last.wind_sigma_h = wind_sigma_h + ({real})NAN;"),
+        CMutant("early return before the state commit", "file", r"(\n\s*/\* ---- commit)",
+                "\n    *out = state->last;\n    return (int)quality_status;\\1"),
+        CMutant("initialized never set", "commit", r"state->initialized = 1\.0f?;", "state->initialized = ({real})0;"),
+        CMutant("vel_prev[1] from the wrong axis", "commit", r"state->vel_prev\[1\] = in->vel_ned\[1\];",
+                "state->vel_prev[1] = in->vel_ned[0];"),
+        CMutant("v_filt[2] commits the observer value", "commit", r"state->v_filt\[2\] = v_filt_new\[2\];",
+                "state->v_filt[2] = v_obs_new[2];"),
+        # --- the single-precision kernels (codegen/kernels.py) ----------------------------------------
+        CMutant("sincos: sine cubic coefficient x1.01", "kernel:sincos", near=-1.66666546e-1, scale=1.01,
+                precisions=("single",)),
+        CMutant("sincos: cosine quartic coefficient x1.01", "kernel:sincos", near=4.16666456e-2, scale=1.01,
+                precisions=("single",)),
+        CMutant("sincos: pi/2 head 1.57080078 -> 1.5703 (both uses)", "kernel:sincos", near=1.57080078, value=1.5703, count=2,
+                precisions=("single",)),
+        CMutant("expm1: cubic coefficient x1.01", "kernel:expm1_poly", near=0.166665494, scale=1.01,
+                precisions=("single",)),
+        CMutant("expm1: ln2 head x1.01", "kernel:expm1", near=0.693115234, scale=1.01, precisions=("single",)),
+        CMutant("atan2: cubic coefficient x1.01", "kernel:atan2", near=-0.333316594, scale=1.01,
+                precisions=("single",)),
+        CMutant("atan2: pi/2 1.57079637 -> 1.5703", "kernel:atan2", near=1.57079637, value=1.5703,
+                precisions=("single",)),
+    ]
+    if af.observer.estimates_acceleration_bias:
+        out += [
+            # Single precision multiplies by the reciprocal of a constant divisor (codegen/sections.py).
+            CMutant("bias time constant / 2", "acceleration", near=af.observer.acceleration_bias_time_s, scale=0.5,
+                    precisions=("double",)),
+            CMutant("bias time constant / 2 (its reciprocal x2)", "acceleration",
+                    near=1.0 / af.observer.acceleration_bias_time_s, scale=2.0, precisions=("single",)),
+            CMutant("bias gate 0 < run_s becomes <=", "acceleration", r"0\.0f? < state->run_s", "({real})0 <= state->run_s"),
+        ]
+    return out
+
+
+def model_mutants() -> list[ModelMutant]:
+    return [
+        ModelMutant("gravity sign", "dobwind.model.dynamics", "+ mass * gravity * E3 + f_e)", "- mass * gravity * E3 + f_e)"),
+        ModelMutant("observer factor 2 (paper)", "dobwind.model.discretization", "a = dt * (rate_per_s / 2)",
+                    "a = dt * rate_per_s"),
+        ModelMutant("quaternion order (x, y, z, w)", "dobwind.model.dynamics", "w, x, y, z = q[0], q[1], q[2], q[3]",
+                    "x, y, z, w = q[0], q[1], q[2], q[3]"),
+        ModelMutant("heading-frame sign", "dobwind.model.forceair", "n = -sin_yaw * force_ned[0]", "n = sin_yaw * force_ned[0]"),
+        ModelMutant("yaw_from_quaternion with w*z - x*y", "dobwind.logs", "np.arctan2(2 * (w * z + x * y)",
+                    "np.arctan2(2 * (w * z - x * y)"),
+        ModelMutant("MIN_DT_S 1e-5 -> 1e-4", "dobwind.model.status", "MIN_DT_S = 1e-5", "MIN_DT_S = 1e-4"),
+        ModelMutant("DT_TOLERANCE 1e-4 -> 1e-3", "dobwind.model.status", "DT_TOLERANCE = 1e-4", "DT_TOLERANCE = 1e-3"),
+        ModelMutant("quaternion tolerance 0.1 -> 0.2", "dobwind.model.status", "QUATERNION_NORM_TOLERANCE = 0.1",
+                    "QUATERNION_NORM_TOLERANCE = 0.2"),
+        ModelMutant("input limit 1e6 -> 1e7", "dobwind.model.status", "INPUT_MAGNITUDE_LIMIT = 1e6",
+                    "INPUT_MAGNITUDE_LIMIT = 1e7"),
+        ModelMutant("wind triangle sign", "dobwind.model.step", 'w = s["air_rel_ned"] + s["v_filt_new"]',
+                    'w = s["air_rel_ned"] - s["v_filt_new"]'),
+        ModelMutant("low-pass 2 pi -> pi", "dobwind.model.step", "(-2 * math.pi) * cutoff", "(-math.pi) * cutoff"),
+        ModelMutant("heading to NED sign", "dobwind.model.forceair", "return cos_yaw * x - sin_yaw * y,",
+                    "return cos_yaw * x + sin_yaw * y,"),
+    ]
+

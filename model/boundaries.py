@@ -1,0 +1,198 @@
+"""(state, input) cases on both sides of every limit the step tests, in the precision the C holds.
+
+Each limit is crossed along one parameter (an input element, a quaternion component, a state value)
+from a neutral sample: level, hovering, no horizontal force, so that the heading (yaw_ref up to 1e6 rad)
+cannot move the outputs and only the status decides. The crossing is found by bisection on the
+precision's own number grid, evaluated with the step itself, so the rows sit at the representable values
+on each side of the flip:
+
+- a limit compared directly with an input (|x| <= 1e6, dt bounds, rpm >= 0) gets the two values at the
+  flip and one ulp beyond each: the C compares the same float against a constant printed on the safe
+  side (see ``codegen.printer.directed_float``), so it must decide exactly as the reference;
+- a limit on a computed value (quaternion norm, tilt, result magnitude, settling time) gets the same in
+  double, where C and reference run the same operations; in single precision the sums round
+  differently from the double reference, so those rows stand COMPUTED_MARGIN_ULPS off the flip.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from dobwind.model.status import INPUT_MAGNITUDE_LIMIT, MIN_DT_S, DT_TOLERANCE, QUATERNION_NORM_TOLERANCE, \
+    RESULT_MAGNITUDE_LIMIT
+from dobwind.model.step import StepModel
+
+# Float32 ulps between a single-precision row and the flip of a computed limit: well above the few ulps
+# by which a float sum of squares differs from its double value.
+COMPUTED_MARGIN_ULPS = 16
+_BISECTION_STEPS = 70
+
+Row = tuple[np.ndarray, np.ndarray]  # (state, input)
+Family = Callable[[float], Row]
+
+
+@dataclass(frozen=True)
+class BoundaryCases:
+    labels: tuple[str, ...]
+    states: np.ndarray  # (n, state size): each case starts from its own state
+    inputs: np.ndarray  # (n, input size)
+
+
+def _dtype(precision: str) -> type:
+    return np.float32 if precision == "single" else np.float64
+
+
+def _as_bits(value: float, precision: str) -> int:
+    """Positive floats in increasing order map to increasing integers (IEEE 754 layout)."""
+    return int(np.array(value, dtype=_dtype(precision)).view(np.int32 if precision == "single" else np.int64))
+
+
+def _from_bits(bits: int, precision: str) -> float:
+    return float(np.array(bits, dtype=np.int32 if precision == "single" else np.int64).view(_dtype(precision)))
+
+
+def neutral_row(model: StepModel) -> Row:
+    """A running estimator (initialized, settled) and a level, hovering, unaccelerated sample."""
+    from dobwind.model.exercise import rpm_for_rotor_thrust  # exercise imports this module
+
+    af, lin, lst = model.airframe, model.inputs, model.state
+    state = np.zeros(lst.size)
+    state[lst.slice("initialized")] = 1.0
+    state[lst.slice("run_s")] = model.settling_time_s
+    row = np.zeros(lin.size)
+    row[lin.slice("dt")] = af.observer.sample_time_s
+    row[lin.offset("q")] = 1.0
+    hover = af.mass_kg * af.gravity_mps2
+    if "rotor_rpm" in lin:
+        rpm = rpm_for_rotor_thrust(af.thrust.coefficients, af.thrust.max_rpm, np.array([hover / af.thrust.rotors]))
+        row[lin.slice("rotor_rpm")] = float(rpm[0])
+    elif "thrust" in lin:
+        row[lin.slice("thrust")] = hover
+    if "specific_force" in lin:
+        row[lin.offset("specific_force") + 2] = -af.gravity_mps2
+    return state, row
+
+
+def _statuses(model: StepModel, rows: list[Row], precision: str) -> np.ndarray:
+    dtype = _dtype(precision)
+    states = np.array([s for s, _ in rows], dtype=dtype).astype(float)
+    inputs = np.array([u for _, u in rows], dtype=dtype).astype(float)
+    return np.array([int(model.step(x, u)[2]) for x, u in zip(states, inputs)], dtype=np.int64)
+
+
+def _flip(model: StepModel, family: Family, lo: float, hi: float, precision: str) -> tuple[int, int] | None:
+    """Adjacent grid values (as bit patterns) across which the status changes, for 0 < lo < hi; None
+    when the status is the same at both ends (a limit this airframe cannot reach from the neutral
+    sample, e.g. a result check that a huge model constant trips at any force)."""
+    a, b = _as_bits(lo, precision), _as_bits(hi, precision)
+    low_status, high_status = _statuses(model, [family(lo), family(hi)], precision)
+    if low_status == high_status:
+        return None
+    for _ in range(_BISECTION_STEPS):
+        if b - a <= 1:
+            break
+        mid = (a + b) // 2
+        if _statuses(model, [family(_from_bits(mid, precision))], precision)[0] == low_status:
+            a = mid
+        else:
+            b = mid
+    return a, b
+
+
+def _crossing(model: StepModel, family: Family, lo: float, hi: float, precision: str, computed: bool) -> list[Row]:
+    found = _flip(model, family, lo, hi, precision)
+    if found is None:
+        return []
+    a, b = found
+    if computed and precision == "single":
+        offsets = (a - COMPUTED_MARGIN_ULPS, b + COMPUTED_MARGIN_ULPS)
+    else:
+        offsets = (a - 1, a, b, b + 1)
+    return [family(_from_bits(bits, precision)) for bits in offsets]
+
+
+def _with_input(base: Row, model: StepModel, index: int, scale: float = 1.0) -> Family:
+    def family(p: float) -> Row:
+        state, row = base[0], base[1].copy()
+        row[index] = scale * p
+        return state, row
+    return family
+
+
+def _with_quaternion(base: Row, model: StepModel, fixed: dict[int, float], varied: int) -> Family:
+    q0 = model.inputs.offset("q")
+
+    def family(p: float) -> Row:
+        state, row = base[0], base[1].copy()
+        row[q0:q0 + 4] = 0.0
+        for i, v in fixed.items():
+            row[q0 + i] = v
+        row[q0 + varied] = p
+        return state, row
+    return family
+
+
+def _with_state(base: Row, model: StepModel, fields: tuple[str, ...], element: int) -> Family:
+    def family(p: float) -> Row:
+        state, row = base[0].copy(), base[1]
+        for name in fields:
+            state[model.state.offset(name) + element] = p
+        return state, row
+    return family
+
+
+def _limit_families(model: StepModel, base: Row) -> list[tuple[str, Family, float, float, bool]]:
+    """(label, family, lo, hi, computed) for every limit of the validation and the result checks."""
+    af, lin = model.airframe, model.inputs
+    out: list[tuple[str, Family, float, float, bool]] = []
+    big = INPUT_MAGNITUDE_LIMIT
+    for index, name in enumerate(lin.element_names()):
+        out.append((f"|{name}| <= {big:g}", _with_input(base, model, index), big / 2, big * 2, False))
+        out.append((f"|-{name}| <= {big:g}", _with_input(base, model, index, -1.0), big / 2, big * 2, False))
+    dt = lin.offset("dt")
+    out.append(("dt >= MIN_DT_S", _with_input(base, model, dt), MIN_DT_S / 2, MIN_DT_S * 2, False))
+    top = af.limits.max_dt_s * (1 + DT_TOLERANCE)
+    out.append(("dt <= max_dt (1 + tol)", _with_input(base, model, dt), top / 2, top * 2, False))
+    tol = QUATERNION_NORM_TOLERANCE
+    out.append(("|q| >= 1 - tol", _with_quaternion(base, model, {}, 0), (1 - tol) * 0.95, (1 - tol) * 1.05, True))
+    out.append(("|q| <= 1 + tol", _with_quaternion(base, model, {}, 0), (1 + tol) * 0.95, (1 + tol) * 1.05, True))
+    half = math.radians(af.limits.max_tilt_deg) / 2
+    w = float(np.float32(math.cos(half)))
+    for axis in (1, 2):
+        out.append((f"tilt about q[{axis}] <= max_tilt", _with_quaternion(base, model, {0: w}, axis),
+                    0.85 * math.sin(half), 1.15 * math.sin(half), True))
+    out.append(("result sum <= RESULT_MAGNITUDE_LIMIT", _with_state(base, model, ("f_obs", "f_filt"), 2),
+                RESULT_MAGNITUDE_LIMIT / 10, RESULT_MAGNITUDE_LIMIT * 10, True))
+    settle, step = model.settling_time_s, af.observer.sample_time_s
+    out.append(("run_s + dt < settling time", _with_state(base, model, ("run_s",), 0), settle - 3 * step,
+                settle, True))
+    return out
+
+
+def _sign_rows(model: StepModel, base: Row, precision: str) -> tuple[list[str], list[Row]]:
+    """rpm >= 0 (thrust >= 0) on every rotor: 0, -0 and the smallest numbers on either side."""
+    lin = model.inputs
+    column = "rotor_rpm" if "rotor_rpm" in lin else "thrust"
+    tiny = float(np.nextafter(_dtype(precision)(0), _dtype(precision)(1)))
+    labels, rows = [], []
+    for index in range(lin.offset(column), lin.offset(column) + lin.field(column).size):
+        for value in (-tiny, -0.0, 0.0, tiny):
+            labels.append(f"{lin.element_names()[index]} >= 0 at {value!r}")
+            rows.append(_with_input(base, model, index)(value))
+    return labels, rows
+
+
+def boundary_cases(model: StepModel, precision: str) -> BoundaryCases:
+    base = neutral_row(model)
+    labels, rows = _sign_rows(model, base, precision)
+    for label, family, lo, hi, computed in _limit_families(model, base):
+        crossing = _crossing(model, family, lo, hi, precision, computed)
+        labels += [label] * len(crossing)
+        rows += crossing
+    dtype = _dtype(precision)
+    states = np.array([s for s, _ in rows], dtype=dtype).astype(float)
+    inputs = np.array([u for _, u in rows], dtype=dtype).astype(float)
+    return BoundaryCases(tuple(labels), states, inputs)
