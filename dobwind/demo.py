@@ -27,9 +27,10 @@ from dobwind.model.step import build_step
 from dobwind.outputs import Target, staged_folder
 from dobwind.plots import replay_plot
 from dobwind.replay import replay, score, score_wind
+from dobwind.resources import shipped_airframe
 from dobwind.simulate import write_log
 
-REFERENCE_AIRFRAME = Path(__file__).resolve().parents[1] / "airframes" / "m300.toml"
+REFERENCE_AIRFRAME = shipped_airframe()  # package data: works from a wheel as from the checkout
 SCENARIO_SEEDS = {"sweep": 1, "vertical": 2, "tunnel": 3, "still-air": 4, "outdoor": 5}
 
 PAPER = {"tunnel_speed": "0.11 / 0.21", "tunnel_direction": "2.8 / 5.3",
