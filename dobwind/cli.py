@@ -1,4 +1,4 @@
-"""The ``dobwind`` command line (INTERFACES.md section 4).
+"""The ``dobwind`` command line (docs/formats.md, and each subcommand's --help).
 
 Every user mistake ends as one stderr line and exit status 2; a failed check as exit status 1.
 """
