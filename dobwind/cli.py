@@ -167,7 +167,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
             from dobwind.plots import replay_plot
 
             replay_plot(log.time_s, traj.outputs[:, model.outputs.slice("wind_ned")], log.true_wind,
-                        f"{af.name}: {args.log}", str(out.stage(args.plot)))
+                        f"{af.name}: wind estimated over {os.path.basename(args.log)}", str(out.stage(args.plot)))
     if args.json:
         _print_json({"airframe": af.name, "log": str(args.log), "backend": args.backend, **metrics})
     elif log.true_wind is not None:
@@ -204,7 +204,8 @@ def _replay_ulog(args: argparse.Namespace, af) -> int:
             from dobwind.plots import replay_plot
 
             others = [] if flight.px4_wind is None else [(f"PX4 ({flight.px4_wind[0]})", flight.px4_wind[1], flight.px4_wind[2])]
-            replay_plot(log.time_s, np.where(valid[:, None], wind, np.nan), None, f"{af.name}: {args.log}",
+            replay_plot(log.time_s, np.where(valid[:, None], wind, np.nan), None,
+                        f"{af.name}: wind estimated over {os.path.basename(args.log)}",
                         str(out.stage(args.plot)), others)
     if args.json:
         _print_json(summary)

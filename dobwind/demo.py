@@ -97,8 +97,10 @@ def _pipeline(out: Path, shown: Path) -> int:
         ours = score(log, traj, model)
         tilt_wind = baseline.estimate(tilt, log)
         theirs = score_wind(log, tilt_wind, np.zeros(log.rows, dtype=int))
-        replay_plot(log.time_s, traj.outputs[:, model.outputs.slice("wind_ned")], log.true_wind, f"{name}: dobwind",
-                    str(out / f"replay_{name}.png"), others=[("tilt method", log.time_s, tilt_wind)])
+        no_vertical = np.column_stack([tilt_wind[:, :2], np.full(log.rows, np.nan)])  # tilt has no vertical estimate
+        replay_plot(log.time_s, traj.outputs[:, model.outputs.slice("wind_ned")], log.true_wind,
+                    f"{fitted.name}, '{name}' scenario: estimated and true wind (C, single precision)",
+                    str(out / f"replay_{name}.png"), others=[("tilt method", log.time_s, no_vertical)])
         results[name] = (ours, theirs)
 
     tun, still, outdoor = results["tunnel"], results["still-air"], results["outdoor"]

@@ -168,10 +168,10 @@ def write_plots(report: dict[str, Any], systems: dict[str, Any], out_dir: Path,
         plots.bode(systems["observer"][:1] + systems["cascade"], f"{name}: observer and scheduled low-pass (axis x)",
                    stage(out_dir / "bode.png"))
         written.append(out_dir / "bode.png")
-    plots.bode(systems["discretizations"], f"{name}: discretizations, same gain", stage(out_dir / "discretizations.png"))
+    plots.bode(systems["discretizations"], f"{name}: observer alone, four discretizations, same gains (axis x)", stage(out_dir / "discretizations.png"))
     written.append(out_dir / "discretizations.png")
     if "ramp" in systems:
-        plots.ramp(systems["ramp"], stage(out_dir / "ramp.png"))
+        plots.ramp(systems["ramp"], stage(out_dir / "ramp.png"), name)
         written.append(out_dir / "ramp.png")
     return written
 
