@@ -334,10 +334,36 @@ def build_parser() -> argparse.ArgumentParser:
                    "airframe's size with built-in drag)")
     p.set_defaults(func=cmd_simulate)
 
+    p = command("report", "one self-contained HTML page: airframe, estimate vs truth or the autopilot, errors, "
+                "status counts, analysis figures")
+    p.add_argument("airframe", help=AIRFRAME_HELP)
+    p.add_argument("log", help="flight log: CSV (docs/formats.md) or PX4 ULog (.ulg)")
+    p.add_argument("-o", "--output", required=True, help="the HTML file to write (required; figures are inlined)")
+    p.add_argument("--backend", choices=("python", "c"), default="python",
+                   help="run the CasADi reference (python) or the generated C, compiled on the fly (c)")
+    p.add_argument("--precision", choices=("single", "double"), default="single", help="C backend precision")
+    p.set_defaults(func=cmd_report)
+
     p = command("demo", "the whole pipeline on the reference airframe")
     p.add_argument("-o", "--output", default="out/demo", help="folder for logs, fitted airframe, plots and C")
     p.set_defaults(func=cmd_demo)
     return parser
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    from dobwind.model.airframe import load_airframe
+    from dobwind.report import flight_report
+
+    target = Target("-o", args.output)
+    check_targets([target], [args.airframe, args.log])
+    af = load_airframe(args.airframe)
+    page, summary = flight_report(af, args.airframe, args.log, args.backend, args.precision)
+    with OutputFiles([target]) as out:
+        from dobwind.atomic import write_text_atomically
+
+        write_text_atomically(out.stage(args.output), lambda handle: handle.write(page))
+    print(f"wrote {args.output} ({len(page) // 1024} KiB): {summary}")
+    return 0
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
