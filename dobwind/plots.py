@@ -46,14 +46,16 @@ def save(fig, path: str | Path) -> None:
         plt.close(fig)
 
 
-def wind_from_unwrapped_deg(wind: np.ndarray, min_speed_mps: float = MIN_DIRECTION_SPEED_MPS) -> np.ndarray:
+def wind_from_unwrapped_deg(wind: np.ndarray, min_speed_mps: float = MIN_DIRECTION_SPEED_MPS,
+                            windy: np.ndarray | None = None) -> np.ndarray:
     """Where the wind blows from, clockwise from north, unwrapped over time (continuous across north);
-    NaN where the horizontal speed is below ``min_speed_mps``. Each calm stretch restarts the unwrap,
-    and the result is shifted by whole turns so that its median lies in [0, 360)."""
+    NaN where the horizontal speed is below ``min_speed_mps`` (or where ``windy``, when given, is False:
+    the truth's speed decides whether there is a direction to show). The result is shifted by whole
+    turns so that its median lies in [0, 360)."""
     speed = np.hypot(wind[:, 0], wind[:, 1])
     raw = np.degrees(np.arctan2(-wind[:, 1], -wind[:, 0]))
     out = np.full(len(raw), np.nan)
-    keep = np.isfinite(raw) & (speed >= min_speed_mps)
+    keep = np.isfinite(raw) & (speed >= min_speed_mps if windy is None else windy)
     if not keep.any():
         return out
     out[keep] = np.degrees(np.unwrap(np.radians(raw[keep])))
@@ -99,8 +101,11 @@ def _direction_panel(ax, series: list[Series]) -> bool:
     """False (nothing drawn) when no series has wind strong enough for a direction."""
     reference = None
     drawn = False
+    truth = next((s for s in series if s.label == "true wind"), None)
+    # With a truth, its speed decides where a direction exists: in still air no estimate's direction is shown.
+    windy = None if truth is None else np.hypot(truth.wind[:, 0], truth.wind[:, 1]) >= MIN_DIRECTION_SPEED_MPS
     for s in series:
-        direction = wind_from_unwrapped_deg(s.wind)
+        direction = wind_from_unwrapped_deg(s.wind, windy=windy if windy is not None and len(windy) == len(s.wind) else None)
         if not np.isfinite(direction).any():
             continue
         if reference is not None and len(reference) == len(direction):
@@ -140,12 +145,13 @@ def replay_plot(t: np.ndarray, wind: np.ndarray, truth: np.ndarray | None, title
     series = _series(t, wind, truth, list(others))
     fig, axes = plt.subplots(3, 1, sharex=True, figsize=(10, 8), height_ratios=(1.2, 1.0, 0.8))
     _speed_panel(axes[0], series)
-    if not _direction_panel(axes[1], series):
-        axes[1].text(0.5, 0.5, f"no direction: the wind stays below {MIN_DIRECTION_SPEED_MPS:g} m/s",
-                     ha="center", va="center", transform=axes[1].transAxes, color="grey")
-        axes[1].set_yticks([])
-    _vertical_panel(axes[2], series)
-    axes[2].set_xlabel("time (s)")
+    if not _direction_panel(axes[1], series):  # calm air has no direction: no panel, and the title says so
+        axes[1].remove()
+        title += f"\n(no direction panel: the wind stays below {MIN_DIRECTION_SPEED_MPS:g} m/s)"
+        axes = [axes[0], axes[2]]
+    _vertical_panel(axes[-1], series)
+    axes[-1].set_xlabel("time (s)")
+    axes[-1].tick_params(labelbottom=True)
     axes[0].set_title(title)
     for ax in axes:
         ax.grid(True, alpha=0.3)

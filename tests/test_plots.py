@@ -53,3 +53,12 @@ def test_a_method_without_vertical_has_no_vertical_line_and_styles_differ():
     assert sorted(line.get_label() for line in ax.get_lines()) == ["dobwind", "true wind"]
     assert len({(s.colour, s.style) for s in series}) == len(series)
     plt.close(fig)
+
+
+def test_still_air_has_no_direction_panel_even_when_estimates_are_noisy():
+    t = np.linspace(0.0, 10.0, 100)
+    truth = np.zeros((100, 3))
+    noisy = _wind_from(np.random.default_rng(1).uniform(0, 360, 100), speed=0.8)
+    fig, ax = plt.subplots()
+    assert not plots._direction_panel(ax, plots._series(t, noisy, truth, [("tilt", t, noisy * 3)]))
+    plt.close(fig)

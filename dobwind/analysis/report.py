@@ -55,7 +55,7 @@ def analyze(af: Airframe, freqs_hz: list[float], with_ramp: bool = True) -> tupl
     model = build_step(af)
     report: dict[str, Any] = {
         "airframe": af.name, "sample_time_s": af.observer.sample_time_s, "discretization": af.observer.discretization,
-        "gains": list(af.observer.gains), "acceleration": af.observer.acceleration, "noise_unit": _noise_unit(af),
+        "gains": list(af.observer.gains), "gains_kg_per_s": list(af.observer.gains), "acceleration": af.observer.acceleration, "noise_unit": _noise_unit(af),
     }
     systems: dict[str, Any] = {"observer": [], "cascade": [], "discretizations": []}
     observer = []
