@@ -97,23 +97,25 @@ def _speed_panel(ax, series: list[Series]) -> None:
     ax.set_ylabel("horizontal wind speed (m/s)")
 
 
-def _direction_panel(ax, series: list[Series]) -> bool:
-    """False (nothing drawn) when no series has wind strong enough for a direction."""
-    reference = None
-    drawn = False
+def _directions(series: list[Series]) -> list[tuple[Series, np.ndarray]]:
+    """Each series' unwrapped wind-from angle, aligned by whole turns on the first; series with none left out.
+    With a truth, its speed decides where a direction exists: in still air no estimate's direction is shown."""
     truth = next((s for s in series if s.label == "true wind"), None)
-    # With a truth, its speed decides where a direction exists: in still air no estimate's direction is shown.
     windy = None if truth is None else np.hypot(truth.wind[:, 0], truth.wind[:, 1]) >= MIN_DIRECTION_SPEED_MPS
+    out: list[tuple[Series, np.ndarray]] = []
     for s in series:
         direction = wind_from_unwrapped_deg(s.wind, windy=windy if windy is not None and len(windy) == len(s.wind) else None)
         if not np.isfinite(direction).any():
             continue
-        if reference is not None and len(reference) == len(direction):
-            direction = _align_turns(direction, reference)
-        elif reference is None:
-            reference = direction
+        if out and len(out[0][1]) == len(direction):
+            direction = _align_turns(direction, out[0][1])
+        out.append((s, direction))
+    return out
+
+
+def _direction_panel(ax, directions: list[tuple[Series, np.ndarray]]) -> None:
+    for s, direction in directions:
         ax.plot(s.t, direction, color=s.colour, ls=s.style, lw=s.width, label=s.label)
-        drawn = True
     ax.set_ylabel("wind from (deg)")
     low, high = ax.get_ylim()
     span = high - low  # the smallest "round" compass step that gives at most 8 ticks
@@ -121,7 +123,6 @@ def _direction_panel(ax, series: list[Series]) -> bool:
     ax.yaxis.set_major_locator(MultipleLocator(step))
     # Unwrapped values, compass labels: 370 deg is printed as 10 (N), so a northerly wind reads as one.
     ax.yaxis.set_major_formatter(FuncFormatter(_compass_label))
-    return drawn
 
 
 def _compass_label(value: float, _pos: int | None = None) -> str:
@@ -143,15 +144,16 @@ def replay_plot(t: np.ndarray, wind: np.ndarray, truth: np.ndarray | None, title
     """Speed, direction (from) and vertical wind (up) over time; truth and other estimates if given.
     ``others``: (label, time, wind NED) for other estimators; a NaN vertical column means "no vertical"."""
     series = _series(t, wind, truth, list(others))
-    fig, axes = plt.subplots(3, 1, sharex=True, figsize=(10, 8), height_ratios=(1.2, 1.0, 0.8))
-    _speed_panel(axes[0], series)
-    if not _direction_panel(axes[1], series):  # calm air has no direction: no panel, and the title says so
-        axes[1].remove()
+    directions = _directions(series)
+    if directions:
+        fig, axes = plt.subplots(3, 1, sharex=True, figsize=(10, 8), height_ratios=(1.2, 1.0, 0.8))
+        _direction_panel(axes[1], directions)
+    else:  # calm air has no direction: no panel for it, and the title says so
+        fig, axes = plt.subplots(2, 1, sharex=True, figsize=(10, 6), height_ratios=(1.2, 0.8))
         title += f"\n(no direction panel: the wind stays below {MIN_DIRECTION_SPEED_MPS:g} m/s)"
-        axes = [axes[0], axes[2]]
+    _speed_panel(axes[0], series)
     _vertical_panel(axes[-1], series)
     axes[-1].set_xlabel("time (s)")
-    axes[-1].tick_params(labelbottom=True)
     axes[0].set_title(title)
     for ax in axes:
         ax.grid(True, alpha=0.3)

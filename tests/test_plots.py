@@ -59,6 +59,7 @@ def test_still_air_has_no_direction_panel_even_when_estimates_are_noisy():
     t = np.linspace(0.0, 10.0, 100)
     truth = np.zeros((100, 3))
     noisy = _wind_from(np.random.default_rng(1).uniform(0, 360, 100), speed=0.8)
-    fig, ax = plt.subplots()
-    assert not plots._direction_panel(ax, plots._series(t, noisy, truth, [("tilt", t, noisy * 3)]))
-    plt.close(fig)
+    assert plots._directions(plots._series(t, noisy, truth, [("tilt", t, noisy * 3)])) == []
+    windy = _wind_from(np.full(100, 270.0), speed=4.0)
+    drawn = plots._directions(plots._series(t, noisy, windy, [("tilt", t, noisy * 3)]))
+    assert [s.label for s, _ in drawn] == ["true wind", "dobwind", "tilt"]
