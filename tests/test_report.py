@@ -73,3 +73,13 @@ def test_report_opens_in_headless_chromium_without_errors(report_html, tmp_path)
     images, shown, problems = int(probe.group(1)), int(probe.group(2)), probe.group(3)
     assert images >= 3 and shown == images, f"{shown} of {images} figures decoded and laid out"
     assert problems == "[]", problems
+
+
+def test_report_on_a_bad_log_is_one_line_and_writes_nothing(tmp_path, capsys):
+    log = tmp_path / "bad.csv"
+    log.write_text("t,vel_n\n0,1\n")
+    out = tmp_path / "report.html"
+    assert main(["report", str(M300), str(log), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "bad.csv" in err and "column" in err
+    assert not out.exists() and list(tmp_path.iterdir()) == [log]
