@@ -7,7 +7,6 @@ no network (in the spirit of PX4 Flight Review, which needs both)."""
 from __future__ import annotations
 
 import base64
-import html
 import tempfile
 from dataclasses import dataclass
 from datetime import datetime, timezone
@@ -107,7 +106,7 @@ def render(af: Airframe, airframe_path: str, flight: Flight, metrics: dict[str, 
         created=datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"), airframe_path=airframe_path,
         airframe=airframe_rows(af), flight=flight, accepted=int(valid.sum()), notes=flight.notes,
         errors=error_rows(metrics) if metrics else [], metrics=metrics, comparison=comparison,
-        status=status_rows(flight.status), figures=figures, analysis=analysis, escape=html.escape)
+        status=status_rows(flight.status), figures=figures, analysis=analysis)
 
 
 def analysis_summary(report: dict[str, Any]) -> dict[str, Any]:
