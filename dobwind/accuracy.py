@@ -30,8 +30,7 @@ from dobwind.atomic import write_text_atomically
 from dobwind.cli import _Parser
 from dobwind.realdata import DEFAULT_DATA
 
-ROOT = Path(__file__).resolve().parents[1]
-VEHICLE_DIR = ROOT / "benchmarks" / "vehicles"
+VEHICLE_DIR = Path("benchmarks") / "vehicles"  # a benchmark of the checkout: `make accuracy` runs at its root
 QUICK_VEHICLES = ("px4quad", "m300", "caged")
 # 8 s holds: 324 sweep holds stay 43 minutes of flight (650,000 rows at 250 Hz), and every hold
 # still leaves a steady 2 s chunk after the transition for the fit.

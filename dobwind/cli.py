@@ -1,4 +1,4 @@
-"""The ``dobwind`` command line (INTERFACES.md section 4).
+"""The ``dobwind`` command line (docs/formats.md, and each subcommand's --help).
 
 Every user mistake ends as one stderr line and exit status 2; a failed check as exit status 1.
 """
@@ -13,6 +13,7 @@ import numpy as np
 from typing import Any, NoReturn, Sequence
 
 from dobwind import options as opt
+from dobwind.helpfmt import DefaultsFormatter
 from dobwind.errors import EXIT_BAD_INPUT, EXIT_CHECK_FAILED, CheckFailed, InputError
 from dobwind.interrupts import Interrupted, signals_raise
 from dobwind.outputs import OutputFiles, Target, check_replaceable, check_targets
@@ -99,9 +100,9 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 
 def _default_airframe() -> str:
-    from dobwind.demo import REFERENCE_AIRFRAME
+    from dobwind.resources import shipped_airframe
 
-    return str(REFERENCE_AIRFRAME)
+    return str(shipped_airframe())
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
@@ -113,10 +114,11 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     check_targets([target], [args.airframe] if args.airframe else [])
     af = load_airframe(args.airframe or _default_airframe())
     vehicle = load_vehicle(args.vehicle) if args.vehicle else None
+    # The log's rate: --rate, else the vehicle file's sensors, else the rate the airframe's observer expects.
+    rate = args.rate or (vehicle.rate_hz if vehicle else 1.0 / af.observer.sample_time_s)
     with OutputFiles([target]) as out:
-        rows = write_log(out.stage(args.output), af, args.scenario, args.seed, args.hold, args.rate, vehicle,
+        rows = write_log(out.stage(args.output), af, args.scenario, args.seed, args.hold, rate, vehicle,
                          args.vehicle)
-    rate = args.rate or (vehicle.rate_hz if vehicle else 50.0)
     print(f"{args.output}: {rows} rows, {rows / rate:.1f} s of '{args.scenario}' at {rate:g} Hz")
     return 0
 
@@ -168,7 +170,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
             from dobwind.plots import replay_plot
 
             replay_plot(log.time_s, traj.outputs[:, model.outputs.slice("wind_ned")], log.true_wind,
-                        f"{af.name}: {args.log}", str(out.stage(args.plot)))
+                        f"{af.name}: wind estimated over {os.path.basename(args.log)}", str(out.stage(args.plot)))
     if args.json:
         _print_json({"airframe": af.name, "log": str(args.log), "backend": args.backend, **metrics})
     elif log.true_wind is not None:
@@ -205,7 +207,8 @@ def _replay_ulog(args: argparse.Namespace, af) -> int:
             from dobwind.plots import replay_plot
 
             others = [] if flight.px4_wind is None else [(f"PX4 ({flight.px4_wind[0]})", flight.px4_wind[1], flight.px4_wind[2])]
-            replay_plot(log.time_s, np.where(valid[:, None], wind, np.nan), None, f"{af.name}: {args.log}",
+            replay_plot(log.time_s, np.where(valid[:, None], wind, np.nan), None,
+                        f"{af.name}: wind estimated over {os.path.basename(args.log)}",
                         str(out.stage(args.plot)), others)
     if args.json:
         _print_json(summary)
@@ -225,47 +228,72 @@ def _replay_ulog(args: argparse.Namespace, af) -> int:
     return 0
 
 
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("dobwind")
+    except PackageNotFoundError:  # run from a checkout that was never installed
+        from dobwind import __version__
+
+        return __version__
+
+
+AIRFRAME_HELP = "airframe TOML file (see docs/formats.md for its keys and units)"
+JSON_HELP = "print the results as JSON (indent 2, units in the key names) instead of text"
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="dobwind", description="Airframe description -> verified C wind estimator.")
+    parser = _Parser(prog="dobwind", description="Airframe description -> verified C wind estimator.",
+                     formatter_class=DefaultsFormatter)
+    parser.add_argument("--version", action="version", version=f"dobwind {_version()}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser, metavar="COMMAND")
 
-    p = sub.add_parser("check", help="validate an airframe file and summarise its estimator")
-    p.add_argument("airframe")
-    p.add_argument("--json", action="store_true")
+    def command(name: str, text: str) -> argparse.ArgumentParser:
+        return sub.add_parser(name, help=text, description=text, formatter_class=DefaultsFormatter)
+
+    p = command("check", "validate an airframe file and summarise its estimator")
+    p.add_argument("airframe", help=AIRFRAME_HELP)
+    p.add_argument("--json", action="store_true", help=JSON_HELP)
     p.set_defaults(func=cmd_check)
 
-    p = sub.add_parser("generate", help="emit C for an airframe")
-    p.add_argument("airframe")
-    p.add_argument("-o", "--output", help="output folder (default generated_c/<name>/)")
-    p.add_argument("--precision", choices=("single", "double"), default="single")
+    p = command("generate", "emit C for an airframe")
+    p.add_argument("airframe", help=AIRFRAME_HELP)
+    p.add_argument("-o", "--output", help="output folder (default: generated_c/<name>/ in the working directory)")
+    p.add_argument("--precision", choices=("single", "double"), default="single",
+                   help="floating-point type of the generated C: float (single) or double")
     p.set_defaults(func=cmd_generate)
 
-    p = sub.add_parser("verify", help="generate, compile strictly, compare with the Python reference")
-    p.add_argument("airframe")
-    p.add_argument("--precision", choices=("single", "double", "both"), default="both")
+    p = command("verify", "generate, compile strictly, compare with the Python reference")
+    p.add_argument("airframe", help=AIRFRAME_HELP)
+    p.add_argument("--precision", choices=("single", "double", "both"), default="both",
+                   help="which generated C to build and compare")
     p.add_argument("--steps", type=opt.VERIFY_STEPS, default=20000,
                    help=f"length of the simulated flight compared step by step ({opt.VERIFY_STEPS.text()})")
-    p.add_argument("--seed", type=opt.SEED, default=1, help=f"flight and random cases ({opt.SEED.text()})")
+    p.add_argument("--seed", type=opt.SEED, default=1, help=f"random seed of the flight and of the random cases "
+                   f"({opt.SEED.text()})")
     p.add_argument("--c-dir", help="verify the generated C in this folder as it is (e.g. generated_c/m300) "
-                   "instead of freshly generated C; its precision is read from its header")
-    p.add_argument("--json", action="store_true")
+                   "instead of freshly generated C; its precision is read from its header (default: none)")
+    p.add_argument("--json", action="store_true", help=JSON_HELP)
     p.set_defaults(func=cmd_verify)
 
-    p = sub.add_parser("analyze", help="observer and filter poles, bandwidth, Bode plots")
-    p.add_argument("airframe")
-    p.add_argument("-o", "--output", help="folder for the PNG plots")
-    p.add_argument("--json", action="store_true")
+    p = command("analyze", "observer and filter poles, bandwidth, Bode plots; --bandwidth designs gains")
+    p.add_argument("airframe", help=AIRFRAME_HELP)
+    p.add_argument("-o", "--output", help="folder for the PNG plots (none are drawn without it); with --bandwidth: "
+                   "the new airframe TOML with the designed gains (default: none, nothing written)")
+    p.add_argument("--json", action="store_true", help=JSON_HELP)
     p.add_argument("--freq", type=opt.FREQUENCY, nargs="+", default=[0.1, 0.5, 1.0],
-                   help=f"frequencies to report ({opt.FREQUENCY.text()}, below the Nyquist frequency 1/(2 sample_time); "
-                        f"at most {opt.MAX_FREQUENCIES})")
-    p.add_argument("--bandwidth", type=opt.BANDWIDTH, help="print the gains that give this observer bandwidth "
-                   f"({opt.BANDWIDTH.text()}, below the Nyquist frequency)")
+                   help=f"frequencies to report gain and phase at, Hz ({opt.FREQUENCY.text()}, below the Nyquist "
+                        f"frequency 1/(2 sample_time); at most {opt.MAX_FREQUENCIES})")
+    p.add_argument("--bandwidth", type=opt.BANDWIDTH, help="design the observer gains (kg/s, equal on x y z) that give "
+                   f"this -3 dB bandwidth, Hz ({opt.BANDWIDTH.text()}, below the Nyquist frequency), then analyse "
+                   "the airframe with those gains (default: none, analyse the gains in the file)")
     p.set_defaults(func=cmd_analyze)
 
-    p = sub.add_parser("fit", help="fit the force-air model from logs with true wind")
-    p.add_argument("airframe")
-    p.add_argument("logs", nargs="+")
-    p.add_argument("-o", "--output", required=True, help="the new airframe file")
+    p = command("fit", "fit the force-air model from logs with true wind")
+    p.add_argument("airframe", help=AIRFRAME_HELP + "; its mass, thrust model and observer are kept")
+    p.add_argument("logs", nargs="+", help="calibration flight-log CSVs with true wind columns (docs/formats.md)")
+    p.add_argument("-o", "--output", required=True, help="the new airframe file (TOML, required)")
     p.add_argument("--model", choices=("auto", "drag", "polynomial"), default="auto",
                    help="force-air family: 'drag' (a drag law fitted forward and inverted in the step), "
                    "'polynomial' (the paper's), or 'auto': both, scored by grouped cross-validation and "
@@ -275,41 +303,72 @@ def build_parser() -> argparse.ArgumentParser:
                    "cross-validation (default: auto)")
     p.add_argument("--still-air", action="store_true",
                    help="the logs were flown in still air: wind columns may be absent and are taken as zero")
-    p.add_argument("--plot", help="PNG of the fitted surface and residuals (default: beside the output)")
+    p.add_argument("--plot", help="PNG of the fitted surface and residuals (default: OUTPUT without .toml + _fit.png)")
     p.add_argument("--dynamic", action="store_true",
                    help="calibrate on manoeuvring flight too (constant wind), not only on steady holds")
-    p.add_argument("--json", action="store_true")
+    p.add_argument("--json", action="store_true", help=JSON_HELP)
     p.set_defaults(func=cmd_fit)
 
-    p = sub.add_parser("replay", help="run the estimator over a flight log")
-    p.add_argument("airframe")
-    p.add_argument("log")
-    p.add_argument("-o", "--output")
-    p.add_argument("--backend", choices=("python", "c"), default="python")
+    p = command("replay", "run the estimator over a flight log")
+    p.add_argument("airframe", help=AIRFRAME_HELP)
+    p.add_argument("log", help="flight log: CSV (docs/formats.md) or PX4 ULog (.ulg)")
+    p.add_argument("-o", "--output", help="estimate CSV, one row per log row (docs/formats.md) (default: none, not written)")
+    p.add_argument("--backend", choices=("python", "c"), default="python",
+                   help="run the CasADi reference (python) or the generated C, compiled on the fly (c)")
     p.add_argument("--precision", choices=("single", "double"), default="single", help="C backend precision")
     p.add_argument("--rate", type=opt.ULOG_RATE,
-                   help=f"ULog only: resample at this rate ({opt.ULOG_RATE.text()}) instead of the attitude's clock")
-    p.add_argument("--plot")
-    p.add_argument("--json", action="store_true")
+                   help=f"ULog only: resample at this rate, Hz ({opt.ULOG_RATE.text()}) (default: none, the "
+                   "attitude topic's clock)")
+    p.add_argument("--plot", help="PNG of the estimated wind against the truth or the autopilot's wind "
+                   "(default: none, not drawn)")
+    p.add_argument("--json", action="store_true", help=JSON_HELP)
     p.set_defaults(func=cmd_replay)
 
-    p = sub.add_parser("simulate", help="synthesize a flight log with known wind")
-    p.add_argument("scenario", help="sweep | vertical | tunnel | still-air | outdoor")
-    p.add_argument("--airframe", help="default: airframes/m300.toml")
-    p.add_argument("-o", "--output", required=True)
+    p = command("simulate", "synthesize a flight log with known wind")
+    p.add_argument("scenario", help="sweep (the paper's calibration) | vertical (climbs and descents) | tunnel "
+                   "(60 deg, 3-10 m/s) | still-air (manoeuvres) | outdoor (turbulent)")
+    p.add_argument("--airframe", help="airframe TOML (default: the shipped reference airframe m300)")
+    p.add_argument("-o", "--output", required=True, help="the flight-log CSV to write (required)")
     p.add_argument("--seed", type=opt.SEED, default=0, help=f"turbulence and timing noise ({opt.SEED.text()})")
     p.add_argument("--hold", type=opt.SIMULATE_HOLD,
                    help=f"seconds per hold ({opt.SIMULATE_HOLD.text()}; default: the scenario's own)")
-    p.add_argument("--rate", type=opt.SIMULATE_RATE, help=f"sample rate ({opt.SIMULATE_RATE.text()}; default 50, "
-                   f"or the vehicle file's rate); at most {opt.SIMULATE_MAX_ROWS:,} rows in all")
+    p.add_argument("--rate", type=opt.SIMULATE_RATE, help=f"sample rate, Hz ({opt.SIMULATE_RATE.text()}; default: "
+                   f"the vehicle file's rate, else 1 / the airframe's observer.sample_time); at most "
+                   f"{opt.SIMULATE_MAX_ROWS:,} rows in all")
     p.add_argument("--vehicle", help="the true vehicle's physics and sensors (TOML; default: a vehicle of the "
                    "airframe's size with built-in drag)")
     p.set_defaults(func=cmd_simulate)
 
-    p = sub.add_parser("demo", help="the whole pipeline on the reference airframe")
-    p.add_argument("-o", "--output", default="out/demo")
+    p = command("report", "one self-contained HTML page: airframe, estimate vs truth or the autopilot, errors, "
+                "status counts, analysis figures")
+    p.add_argument("airframe", help=AIRFRAME_HELP)
+    p.add_argument("log", help="flight log: CSV (docs/formats.md) or PX4 ULog (.ulg)")
+    p.add_argument("-o", "--output", required=True, help="the HTML file to write (required; figures are inlined)")
+    p.add_argument("--backend", choices=("python", "c"), default="python",
+                   help="run the CasADi reference (python) or the generated C, compiled on the fly (c)")
+    p.add_argument("--precision", choices=("single", "double"), default="single", help="C backend precision")
+    p.set_defaults(func=cmd_report)
+
+    p = command("demo", "the whole pipeline on the reference airframe")
+    p.add_argument("-o", "--output", default="out/demo", help="folder for logs, fitted airframe, plots and C")
     p.set_defaults(func=cmd_demo)
     return parser
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    from dobwind.model.airframe import load_airframe
+    from dobwind.report import flight_report
+
+    target = Target("-o", args.output)
+    check_targets([target], [args.airframe, args.log])
+    af = load_airframe(args.airframe)
+    page, summary = flight_report(af, args.airframe, args.log, args.backend, args.precision)
+    with OutputFiles([target]) as out:
+        from dobwind.atomic import write_text_atomically
+
+        write_text_atomically(out.stage(args.output), lambda handle: handle.write(page))
+    print(f"wrote {args.output} ({len(page) // 1024} KiB): {summary}")
+    return 0
 
 
 def cmd_demo(args: argparse.Namespace) -> int:

@@ -27,9 +27,10 @@ from dobwind.model.step import build_step
 from dobwind.outputs import Target, staged_folder
 from dobwind.plots import replay_plot
 from dobwind.replay import replay, score, score_wind
+from dobwind.resources import shipped_airframe
 from dobwind.simulate import write_log
 
-REFERENCE_AIRFRAME = Path(__file__).resolve().parents[1] / "airframes" / "m300.toml"
+REFERENCE_AIRFRAME = shipped_airframe()  # package data: works from a wheel as from the checkout
 SCENARIO_SEEDS = {"sweep": 1, "vertical": 2, "tunnel": 3, "still-air": 4, "outdoor": 5}
 
 PAPER = {"tunnel_speed": "0.11 / 0.21", "tunnel_direction": "2.8 / 5.3",
@@ -96,8 +97,10 @@ def _pipeline(out: Path, shown: Path) -> int:
         ours = score(log, traj, model)
         tilt_wind = baseline.estimate(tilt, log)
         theirs = score_wind(log, tilt_wind, np.zeros(log.rows, dtype=int))
-        replay_plot(log.time_s, traj.outputs[:, model.outputs.slice("wind_ned")], log.true_wind, f"{name}: dobwind",
-                    str(out / f"replay_{name}.png"), others=[("tilt method", log.time_s, tilt_wind)])
+        no_vertical = np.column_stack([tilt_wind[:, :2], np.full(log.rows, np.nan)])  # tilt has no vertical estimate
+        replay_plot(log.time_s, traj.outputs[:, model.outputs.slice("wind_ned")], log.true_wind,
+                    f"{fitted.name}, '{name}' scenario: estimated and true wind (C, single precision)",
+                    str(out / f"replay_{name}.png"), others=[("tilt method", log.time_s, no_vertical)])
         results[name] = (ours, theirs)
 
     tun, still, outdoor = results["tunnel"], results["still-air"], results["outdoor"]

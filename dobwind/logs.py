@@ -1,4 +1,4 @@
-"""Flight logs (CSV, INTERFACES.md section 2) in, estimates (section 3) out.
+"""Flight logs (CSV, docs/formats.md) in, estimates (the same page) out.
 
 Reading is fast on the common path (numpy's C parser); when that fails, a careful pass finds the first
 bad cell and names its line and column. Empty cells and the words nan/inf are values (the estimator

@@ -15,6 +15,7 @@ import ast
 import csv
 import gzip
 import json
+import os
 import sys
 import tempfile
 from pathlib import Path
@@ -27,10 +28,12 @@ from dobwind.logs import write_csv
 from dobwind.model.airframe import load_airframe
 from dobwind.model.status import accepted
 from dobwind.replay import WARMUP_S, replay
+from dobwind.resources import shipped_airframe
 
-ROOT = Path(__file__).resolve().parents[1]
-DEFAULT_DATA = ROOT.parent / "shared" / "data" / "neural-fly"
-AIRFRAME = ROOT / "airframes" / "nf_quad.toml"
+# The licensed data lives beside the checkout, never inside it: found from the working directory (make and
+# pytest run at the checkout's root), or wherever DOBWIND_NEURAL_FLY points.
+DEFAULT_DATA = Path(os.environ.get("DOBWIND_NEURAL_FLY", "../shared/data/neural-fly"))
+AIRFRAME = shipped_airframe("nf_quad")
 NOMINAL_MPS = {"nowind": 0.0, "35wind": 4.2, "70wind": 8.5, "70p20sint": 8.5, "100wind": 12.1}
 FLIP = np.diag([1.0, -1.0, -1.0])  # world (x, y, z up) -> NED, and body FLU -> FRD
 

@@ -1,7 +1,9 @@
-"""Refresh generated_c/<name>/ for the airframes in airframes/ whose C is checked in (`make regen`).
+"""Refresh generated_c/<name>/ for the shipped airframes whose C is checked in (`make regen`).
 
 Only the reference airframe's code is checked in; to check in another, generate it into
-generated_c/<name>/ once and regen keeps it current from then on."""
+generated_c/<name>/ once and regen keeps it current from then on. The airframes come from the package
+(importlib.resources); generated_c/ is a folder of the checkout, found from the working directory or
+the ROOT argument: `python -m dobwind.regen [ROOT]`."""
 from __future__ import annotations
 
 import sys
@@ -9,21 +11,25 @@ from pathlib import Path
 
 from dobwind.emit import generate_to_dir
 from dobwind.model.airframe import load_airframe
-
-ROOT = Path(__file__).resolve().parents[1]
+from dobwind.resources import shipped_airframe, shipped_airframe_names
 
 
 def checked_in_airframes() -> list[Path]:
-    return sorted((ROOT / "airframes").glob("*.toml"))
+    return [shipped_airframe(name) for name in shipped_airframe_names()]
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
+    args = sys.argv[1:] if argv is None else argv
+    root = Path(args[0]).resolve() if args else Path.cwd()
+    if not (root / "generated_c").is_dir():
+        sys.stderr.write(f"regen: {root / 'generated_c'}: no such folder (run at the checkout's root)\n")
+        return 2
     for path in checked_in_airframes():
         af = load_airframe(path)
-        if not (ROOT / "generated_c" / af.name).is_dir():
+        if not (root / "generated_c" / af.name).is_dir():
             continue
-        for written in generate_to_dir(af, ROOT / "generated_c" / af.name, "single"):
-            print(written.relative_to(ROOT))
+        for written in generate_to_dir(af, root / "generated_c" / af.name, "single"):
+            print(Path(written).relative_to(root))
     return 0
 
 

@@ -67,6 +67,25 @@ def score(log: FlightLog, traj: Trajectory, model: StepModel) -> dict:
     return score_wind(log, traj.outputs[:, model.outputs.slice("wind_ned")], traj.status)
 
 
+# Unit-named twins of the error keys (issue #15: one JSON style, units in the key names). The short
+# names stay beside them: scripts and the demo already read them.
+UNIT_KEYS = {"speed_mean": "speed_error_mean_mps", "speed_max": "speed_error_max_mps",
+             "direction_mean": "direction_error_mean_deg", "direction_max": "direction_error_max_deg",
+             "vertical_mean": "vertical_error_mean_mps", "vertical_max": "vertical_error_max_mps",
+             "true_speed": "true_speed_mps", "est_speed": "est_speed_mps", "speed_error": "speed_error_mps",
+             "direction_error": "direction_error_deg", "vertical_error": "vertical_error_mps"}
+
+
+def with_unit_keys(block: dict) -> dict:
+    """The block with each short error key followed by its unit-named twin (same value)."""
+    out: dict = {}
+    for key, value in block.items():
+        out[key] = value
+        if key in UNIT_KEYS:
+            out[UNIT_KEYS[key]] = value
+    return out
+
+
 def score_wind(log: FlightLog, wind: np.ndarray, status: np.ndarray) -> dict:
     """score() for any wind estimate (NED rows) with its status per row. Every accepted row after the
     warm-up is scored, quality-flagged ones included (a hold beyond the calibration is scored on purpose);
@@ -80,7 +99,7 @@ def score_wind(log: FlightLog, wind: np.ndarray, status: np.ndarray) -> dict:
         result["trusted_share"] = float(np.mean(trusted(status[valid])))
     if not valid.any():
         return result
-    result["per_sample"] = _stats(wind[valid], truth[valid]).__dict__
+    result["per_sample"] = with_unit_keys(_stats(wind[valid], truth[valid]).__dict__)
     result["mean_estimated_wind"] = {
         "horizontal_mps": float(np.mean(np.hypot(wind[valid, 0], wind[valid, 1]))),
         "vertical_mps": float(np.mean(np.abs(wind[valid, 2]))),
@@ -102,19 +121,19 @@ def score_wind(log: FlightLog, wind: np.ndarray, status: np.ndarray) -> dict:
             est_speed, true_speed = math.hypot(*est_mean[:2]), math.hypot(*true_mean[:2])
             direction = (abs(float(_wrap_deg(_from_deg(est_mean[None])[0] - _from_deg(true_mean[None])[0])))
                          if true_speed >= MIN_SPEED_FOR_DIRECTION else None)
-            rows.append({"segment": int(s), "true_speed": true_speed, "est_speed": est_speed,
-                         "speed_error": est_speed - true_speed, "direction_error": direction,
-                         "vertical_error": float(est_mean[2] - true_mean[2]), "samples": int(use.size)})
+            rows.append(with_unit_keys({"segment": int(s), "true_speed": true_speed, "est_speed": est_speed,
+                                        "speed_error": est_speed - true_speed, "direction_error": direction,
+                                        "vertical_error": float(est_mean[2] - true_mean[2]), "samples": int(use.size)}))
         if rows:
             speed = np.abs([r["speed_error"] for r in rows])
             dirs = np.array([r["direction_error"] for r in rows if r["direction_error"] is not None])
             vert = np.abs([r["vertical_error"] for r in rows])
-            result["per_segment"] = {
+            result["per_segment"] = with_unit_keys({
                 "segments": len(rows), "speed_mean": float(speed.mean()), "speed_max": float(speed.max()),
                 "direction_mean": float(dirs.mean()) if dirs.size else None,
                 "direction_max": float(dirs.max()) if dirs.size else None,
                 "vertical_mean": float(vert.mean()), "vertical_max": float(vert.max()), "table": rows,
-            }
+            })
     return result
 
 

@@ -233,7 +233,7 @@ def _body_frame_dynamics(spec: VehicleSpec, air_rel: np.ndarray, acc: np.ndarray
 
 def simulate(af: Airframe, name: str, seed: int = 0, hold_s: float | None = None,
              rate_hz: float | None = None, vehicle: VehicleSpec | None = None) -> dict[str, np.ndarray]:
-    """Log columns (INTERFACES.md section 2) plus `segment`, for the scenario; the true vehicle is
+    """Log columns (docs/formats.md, flight log) plus `segment`, for the scenario; the true vehicle is
     `vehicle` (a vehicle file), or by default one of the airframe's size (`true_vehicle`)."""
     rng = np.random.default_rng(seed)
     scen = scenario(name, hold_s, rng)

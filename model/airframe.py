@@ -1,4 +1,4 @@
-"""Airframe files (INTERFACES.md section 1): TOML in, a validated immutable ``Airframe`` out.
+"""Airframe files (docs/formats.md, airframe): TOML in, a validated immutable ``Airframe`` out.
 
 Every rule is checked here, so the rest of the code can trust the object. A bad file raises
 ``InputError`` naming the file and the dotted key.

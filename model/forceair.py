@@ -84,7 +84,7 @@ def heading_to_ned(x, y, cos_yaw, sin_yaw):
 
 
 def term_variables(m: ca.SX, n: ca.SX, fz: ca.SX) -> dict[str, ca.SX]:
-    """The variables force-air terms are written in (INTERFACES.md section 1)."""
+    """The variables force-air terms are written in (docs/formats.md, force_air)."""
     return {"m": m, "n": n, "fh": ca.sqrt(m * m + n * n), "fz": fz}
 
 

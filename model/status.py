@@ -1,4 +1,4 @@
-"""Status bits of the step (INTERFACES.md section 5). 0 means the estimate is valid and trusted.
+"""Status bits of the step (docs/c-api.md, the status). 0 means the estimate is valid and trusted.
 
 Two kinds of bit. A REJECTION bit means the sample was rejected: the estimate (filters, bias, output)
 is unchanged and the output repeats the last accepted one; only the gap bookkeeping advances. A

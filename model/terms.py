@@ -1,4 +1,4 @@
-"""The force-air term grammar (INTERFACES.md section 1) parsed into CasADi expressions.
+"""The force-air term grammar (docs/formats.md, airframe) parsed into CasADi expressions.
 
 A term is ``"1"`` or factors joined by ``*``; a factor is a variable or ``variable^p`` with p any real
 number. Variables: ``m``, ``n`` (heading-frame x and y force, N), ``fh`` = hypot(m, n), ``fz``

@@ -154,7 +154,7 @@ def test_a_closed_pipe_is_not_a_traceback(tmp_path):
 
 def test_a_byte_order_mark_is_not_part_of_the_first_column(tmp_path, capsys):
     log = tmp_path / "tunnel.csv"
-    assert main(["simulate", "tunnel", "--hold", "6", "-o", str(log)]) == 0
+    assert main(["simulate", "tunnel", "--hold", "6", "--rate", "50", "-o", str(log)]) == 0
     lines = log.read_text().splitlines()
     header = next(i for i, line in enumerate(lines) if not line.startswith("#"))
     plain = tmp_path / "plain.csv"
@@ -173,7 +173,7 @@ def test_a_byte_order_mark_is_not_part_of_the_first_column(tmp_path, capsys):
 @pytest.mark.parametrize("cell", ["", "nan", "inf", "1.5"])
 def test_a_segment_label_must_be_a_whole_number(tmp_path, capsys, cell):
     log = tmp_path / "tunnel.csv"
-    assert main(["simulate", "tunnel", "--hold", "6", "-o", str(log)]) == 0
+    assert main(["simulate", "tunnel", "--hold", "6", "--rate", "50", "-o", str(log)]) == 0
     lines = log.read_text().splitlines()
     header = next(i for i, line in enumerate(lines) if not line.startswith("#"))
     cells = lines[header + 5].split(",")

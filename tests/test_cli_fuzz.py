@@ -212,7 +212,7 @@ def test_there_are_enough_cases():
 @pytest.fixture(scope="module")
 def good_log(tmp_path_factory) -> list[str]:
     path = tmp_path_factory.mktemp("log") / "tunnel.csv"
-    assert main(["simulate", "tunnel", "--hold", "6", "-o", str(path)]) == 0
+    assert main(["simulate", "tunnel", "--hold", "6", "--rate", "50", "-o", str(path)]) == 0
     lines = path.read_text().splitlines()
     return lines[:_header_index(lines) + 301]  # 6 s is enough to exercise the readers
 

@@ -80,7 +80,7 @@ def test_verify_json_with_a_non_finite_figure(capsys, monkeypatch):
 
 def test_replay_json_with_nan_true_wind(tmp_path, capsys):
     log = tmp_path / "tunnel.csv"
-    assert main(["simulate", "tunnel", "--hold", "6", "-o", str(log)]) == 0
+    assert main(["simulate", "tunnel", "--hold", "6", "--rate", "50", "-o", str(log)]) == 0
     lines = log.read_text().splitlines()
     header = next(i for i, line in enumerate(lines) if not line.startswith("#"))
     column = lines[header].split(",").index("wind_n")

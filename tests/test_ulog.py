@@ -240,3 +240,13 @@ def test_the_read_budget_stops_pyulogs_endless_loop(tmp_path):
     with pytest.raises(InputError, match="made no progress"):
         _open(str(path))
     assert time.monotonic() - start < 20
+
+
+def test_report_compares_with_px4_wind_when_the_log_has_no_truth(tmp_path, capsys):
+    _, cols = _flight(rate=50.0)
+    path = _ulog(tmp_path / "wind.ulg", cols, wind=True)
+    page = tmp_path / "report.html"
+    assert main(["report", str(M300), str(path), "-o", str(page)]) == 0
+    text = page.read_text()
+    assert "compared with the autopilot" in text and "mean_vector_difference_mps" in text
+    assert text.count("data:image/png;base64,") >= 3

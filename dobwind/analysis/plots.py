@@ -15,6 +15,9 @@ from dobwind.analysis.ramp import RampResult  # noqa: E402
 from dobwind.atomic import write_file_atomically  # noqa: E402
 
 PAPER_BANDWIDTH_HZ = 0.5
+# Colour AND dash per line: euler and zoh nearly coincide, and only the dash tells them apart.
+LINE_STYLES = (("#0072B2", "-"), ("#D55E00", "--"), ("#009E73", ":"), ("#CC79A7", "-."), ("#E69F00", (0, (5, 2, 1, 2))),
+               ("#56B4E9", (0, (1, 1))), ("black", (0, (8, 3))))
 
 
 def _save(fig, path: Path) -> Path:
@@ -30,10 +33,12 @@ def bode(systems: list[tuple[str, object]], title: str, path: Path) -> Path:
     fig, (mag_ax, ph_ax) = plt.subplots(2, 1, sharex=True, figsize=(8.5, 7))
     nyquist = min(0.5 / sys.dt for _, sys in systems if sys.isdtime())
     freq = np.geomspace(0.005, nyquist * 0.999, 800)
-    for label, sys in systems:
+    for i, (label, sys) in enumerate(systems):
         h = response(sys, freq)
-        line, = mag_ax.semilogx(freq, 20 * np.log10(np.abs(h)), label=label)
-        ph_ax.semilogx(freq, np.degrees(np.unwrap(np.angle(h))), color=line.get_color())
+        colour, dash = LINE_STYLES[i % len(LINE_STYLES)]
+        width = 2.2 - 0.25 * min(i, 4)  # earlier lines wider, so a later one that coincides stays visible on top
+        line, = mag_ax.semilogx(freq, 20 * np.log10(np.abs(h)), label=label, color=colour, ls=dash, lw=width)
+        ph_ax.semilogx(freq, np.degrees(np.unwrap(np.angle(h))), color=colour, ls=dash, lw=width)
         bw = bandwidth_hz(sys)
         if math.isfinite(bw):
             mag_ax.plot([bw], [20 * math.log10(abs(response(sys, np.array([bw]))[0]))], "o", color=line.get_color())
@@ -47,20 +52,25 @@ def bode(systems: list[tuple[str, object]], title: str, path: Path) -> Path:
     mag_ax.set_ylabel("gain (dB)")
     ph_ax.set_ylabel("phase (deg)")
     ph_ax.set_xlabel("frequency (Hz)")
+    mag_ax.set_xlabel("frequency (Hz)")
+    mag_ax.tick_params(labelbottom=True)  # sharex hides the upper panel's tick labels; each panel names its axis
     mag_ax.set_title(title + "  (dots: -3 dB points)")
     mag_ax.legend(fontsize=8, loc="lower left")
     fig.tight_layout()
     return _save(fig, path)
 
 
-def ramp(result: RampResult, path: Path) -> Path:
+def ramp(result: RampResult, path: Path, airframe: str = "") -> Path:
     fig, ax = plt.subplots(figsize=(8.5, 4.5))
     ax.plot(result.time_s, result.truth_mps, "k", lw=1.2, label="true wind")
-    ax.plot(result.time_s, result.scheduled_mps, label=f"scheduled low-pass (lag {result.scheduled_lag_s:.2f} s)")
-    ax.plot(result.time_s, result.fixed_mps, label=f"fixed {result.fixed_cutoff_hz:g} Hz low-pass (lag {result.fixed_lag_s:.2f} s)")
+    ax.plot(result.time_s, result.scheduled_mps, color="#0072B2", lw=1.6,
+            label=f"scheduled low-pass (lag {result.scheduled_lag_s:.2f} s)")
+    ax.plot(result.time_s, result.fixed_mps, color="#D55E00", ls="--", lw=1.6,
+            label=f"fixed {result.fixed_cutoff_hz:g} Hz low-pass (lag {result.fixed_lag_s:.2f} s)")
     ax.set_xlabel("time (s)")
     ax.set_ylabel("horizontal wind speed (m/s)")
-    ax.set_title(f"Wind ramp to 10 m/s: the schedule cuts the lag by {result.lag_reduction_s:.2f} s")
+    prefix = f"{airframe}: " if airframe else ""
+    ax.set_title(f"{prefix}wind ramp to 10 m/s; the scheduled cutoff cuts the lag by {result.lag_reduction_s:.2f} s")
     ax.grid(True, alpha=0.3)
     ax.legend(loc="lower right")
     fig.tight_layout()

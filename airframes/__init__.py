@@ -1,0 +1,2 @@
+"""The shipped airframes (TOML package data, read through dobwind.resources). This file only makes the folder
+an importable package, which editable installs need to map it to dobwind.airframes."""
