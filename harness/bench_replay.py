@@ -57,7 +57,7 @@ def _measure(argv: list[str]) -> tuple[float, float]:
 
 
 def cases(work: Path, log: Path, suffix: str) -> list[Case]:
-    out = str(work / f"estimates{suffix}.csv")
+    out = str(work / f"estimates_{log.stem}.csv")
     return [
         Case(f"csv.reader pass{suffix}", [sys.executable, "-c", _CSV_PASS, str(log)]),
         Case(f"replay python -o{suffix}", _dobwind("replay", str(AIRFRAME), str(log), "-o", out)),
