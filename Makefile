@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 
-.PHONY: setup test demo regen bench clean realdata accuracy mutants
+.PHONY: setup test demo regen bench bench-replay clean realdata accuracy mutants
 
 setup: $(STAMP)
 
@@ -28,6 +28,10 @@ regen: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/pip install --quiet -e '.[bench]'
 	$(BIN)/python -m dobwind.harness.bench
+
+# Issue #13's replay goals: 1 h and 4 h logs at 100 Hz against a bare csv.reader pass (time, peak memory).
+bench-replay: $(STAMP)
+	$(BIN)/python -m dobwind.harness.bench_replay $(BENCH_REPLAY_ARGS)
 
 clean:
 	rm -rf $(VENV) out .pytest_cache

@@ -5,6 +5,7 @@ Every user mistake ends as one stderr line and exit status 2; a failed check as 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
 from pathlib import Path
@@ -151,8 +152,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
 
 def cmd_replay(args: argparse.Namespace) -> int:
     from dobwind.model.airframe import load_airframe
-    from dobwind.model.status import accepted
-    from dobwind.replay import replay, score, text_report, write_output
+    from dobwind.replay import text_report
 
     check_targets(_replay_targets(args), [args.airframe, args.log])
     af = load_airframe(args.airframe)
@@ -160,24 +160,43 @@ def cmd_replay(args: argparse.Namespace) -> int:
         return _replay_ulog(args, af)
     if args.rate is not None:
         raise InputError(args.log, "--rate", "only applies to ULog files (CSV logs keep their own clock)")
-    model, log, traj = replay(af, args.log, args.backend, args.precision)
-    metrics = score(log, traj, model) if log.true_wind is not None else {
-        "rows": log.rows, "rejected_rows": int((~accepted(traj.status)).sum())}
-    with OutputFiles(_replay_targets(args)) as out:
-        if args.output is not None:
-            write_output(out.stage(args.output), log, traj)
-        if args.plot is not None:
-            from dobwind.plots import replay_plot
-
-            replay_plot(log.time_s, traj.outputs[:, model.outputs.slice("wind_ned")], log.true_wind,
-                        f"{af.name}: wind estimated over {os.path.basename(args.log)}", str(out.stage(args.plot)))
+    result = _replay_csv(args, af)
+    metrics = result.metrics
     if args.json:
         _print_json({"airframe": af.name, "log": str(args.log), "backend": args.backend, **metrics})
-    elif log.true_wind is not None:
+    elif result.scored:
         print(text_report(metrics))
     else:
         print(f"rows {metrics['rows']}, rejected {metrics['rejected_rows']} (no true wind in the log to score against)")
     return 0
+
+
+def _replay_csv(args: argparse.Namespace, af):
+    """Streams the log: the estimates are written while it is read, all outputs renamed in at the end."""
+    from dobwind.progress import byte_bar, wanted
+    from dobwind.replay import replay_stream
+
+    try:
+        size = os.path.getsize(args.log)
+    except OSError:
+        size = 0  # the reader names the problem
+    with OutputFiles(_replay_targets(args)) as out, byte_bar(size, "replay", wanted(args.json)) as progress:
+        staged = out.stage(args.output) if args.output is not None else None
+        with open(staged, "w") if staged is not None else _no_file() as handle:
+            result = replay_stream(af, args.log, args.backend, args.precision, handle,
+                                   keep_series=args.plot is not None, progress=progress)
+        if args.plot is not None:
+            from dobwind.plots import replay_plot
+
+            series = result.series
+            replay_plot(series.t, series.wind, series.truth,
+                        f"{af.name}: wind estimated over {os.path.basename(args.log)}", str(out.stage(args.plot)))
+    return result
+
+
+@contextlib.contextmanager
+def _no_file():
+    yield None
 
 
 def _replay_targets(args: argparse.Namespace) -> list[Target]:

@@ -1,19 +1,21 @@
 """Flight logs (CSV, docs/formats.md) in, estimates (the same page) out.
 
-Reading is fast on the common path (numpy's C parser); when that fails, a careful pass finds the first
-bad cell and names its line and column. Empty cells and the words nan/inf are values (the estimator
-rejects those rows with a status); text that is not a number is an input error.
+Logs are read in bounded chunks (``iter_log``, see csvchunks.py) so that replay's memory does not grow
+with the log; ``read_log`` joins them for the commands that need the whole log. Empty cells and the
+words nan/inf are values (the estimator rejects those rows with a status); text that is not a number is
+an input error naming its true line and column.
 """
 from __future__ import annotations
 
-import io
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable, Iterator, TextIO
 
 import numpy as np
 
 from dobwind.atomic import write_text_atomically as write_atomically
+from dobwind.csvchunks import BLOCK_BYTES, read_blocks, read_header
 from dobwind.errors import InputError
 from dobwind.model.airframe import Airframe
 from dobwind.model.step import StepModel
@@ -66,70 +68,65 @@ def required_columns(af: Airframe) -> list[tuple[str, str]]:
     return cols
 
 
-def _parse_slow(lines: list[str], first_line: int, header: list[str], path: str) -> np.ndarray:
-    """Cell by cell, to name the first bad cell exactly."""
-    data = np.empty((len(lines), len(header)))
-    for r, line in enumerate(lines):
-        cells = line.rstrip("\r\n").split(",")
-        if len(cells) != len(header):
-            raise InputError(path, f"line {first_line + r}", f"has {len(cells)} fields, the header has {len(header)}")
-        for c, cell in enumerate(cells):
-            text = cell.strip()
-            if text == "":
-                data[r, c] = math.nan
-                continue
-            try:
-                data[r, c] = float(text)
-            except ValueError:
-                raise InputError(path, f"line {first_line + r}, column {header[c]}", f"not a number: {text[:40]!r}") from None
-    return data
+@dataclass(frozen=True)
+class LogChunk:
+    """A run of consecutive rows of a log: ``log`` holds them (same columns as the whole log), ``lines``
+    their file line numbers, ``first_row`` the index of the first one in the whole log."""
+    log: FlightLog
+    lines: np.ndarray
+    first_row: int
+
+
+def iter_log(path: str | Path, needed: list[tuple[str, str]] | None = None,
+             block_bytes: int = BLOCK_BYTES, progress: Callable[[int], None] | None = None) -> Iterator[LogChunk]:
+    """The log in bounded chunks, every check of ``read_log`` applied (time increasing across chunks
+    too). ``progress`` is told how many bytes each chunk took."""
+    path = str(path)
+    try:
+        handle = open(path, "rb")
+    except OSError as exc:
+        raise InputError(path, None, f"cannot read: {exc.strerror}") from None
+    with handle:
+        header = read_header(handle, path)
+        for name, purpose in needed or [("t", "sample time")]:
+            if name not in header.names:
+                raise InputError(path, f"column {name}", f"missing ({purpose})")
+        done, rows, last_t = handle.tell(), 0, -math.inf
+        for block in read_blocks(handle, header, path, block_bytes):
+            columns = {name: block.data[:, i] for i, name in enumerate(header.names)}
+            last_t = _check_time(columns["t"], last_t, block.lines, path)
+            _check_labels(columns, "segment", path, block.lines)
+            yield LogChunk(FlightLog(path, columns), block.lines, rows)
+            rows += len(block.lines)
+            if progress is not None:
+                progress(handle.tell() - done)
+                done = handle.tell()
+        if rows == 0:
+            raise InputError(path, None, "no data rows after the header")
+
+
+def _check_time(t: np.ndarray, previous: float, lines: np.ndarray, path: str) -> float:
+    """Finite and strictly increasing, from the previous chunk's last time on; returns the last time."""
+    if not np.all(np.isfinite(t)):
+        bad = int(np.flatnonzero(~np.isfinite(t))[0])
+        raise InputError(path, f"line {lines[bad]}, column t", "time must be a finite number")
+    steps = np.diff(t, prepend=previous)
+    if np.any(steps <= 0):
+        bad = int(np.flatnonzero(steps <= 0)[0])
+        raise InputError(path, f"line {lines[bad]}, column t", "time must be strictly increasing")
+    return float(t[-1])
 
 
 def read_log(path: str | Path, needed: list[tuple[str, str]] | None = None) -> FlightLog:
-    path = str(path)
-    try:
-        with open(path, encoding="utf-8-sig") as handle:  # -sig: a spreadsheet's byte-order mark is not a column name
-            text = handle.read()
-    except OSError as exc:
-        raise InputError(path, None, f"cannot read: {exc.strerror}") from None
-    except UnicodeDecodeError:
-        raise InputError(path, None, "not UTF-8 text") from None
-    lines = text.splitlines()
-    start = 0
-    while start < len(lines) and (lines[start].startswith("#") or not lines[start].strip()):
-        start += 1
-    if start >= len(lines):
-        raise InputError(path, None, "no header row")
-    header = [h.strip() for h in lines[start].split(",")]
-    if len(set(header)) != len(header):
-        dup = next(h for h in header if header.count(h) > 1)
-        raise InputError(path, f"line {start + 1}, column {dup}", "appears twice in the header")
-    body = [ln for ln in lines[start + 1:] if ln.strip()]
-    if not body:
-        raise InputError(path, None, "no data rows after the header")
-    for name, purpose in needed or [("t", "sample time")]:
-        if name not in header:
-            raise InputError(path, f"column {name}", f"missing ({purpose})")
-    try:
-        data = np.loadtxt(io.StringIO("\n".join(body)), delimiter=",", ndmin=2, dtype=float)
-        if data.shape[1] != len(header):
-            raise ValueError
-    except ValueError:
-        data = _parse_slow(body, start + 2, header, path)
-    columns = {name: data[:, i] for i, name in enumerate(header)}
-    t = columns["t"]
-    if not np.all(np.isfinite(t)):
-        bad = int(np.flatnonzero(~np.isfinite(t))[0])
-        raise InputError(path, f"line {start + 2 + bad}, column t", "time must be a finite number")
-    steps = np.diff(t)
-    if np.any(steps <= 0):
-        bad = int(np.flatnonzero(steps <= 0)[0]) + 1
-        raise InputError(path, f"line {start + 2 + bad}, column t", "time must be strictly increasing")
-    _check_labels(columns, "segment", path, start + 2)
-    return FlightLog(path, columns)
+    """The whole log in memory (fit and the plots need it); replay streams with ``iter_log``."""
+    chunks = [chunk.log.columns for chunk in iter_log(path, needed)]
+    names = list(chunks[0])
+    if len(chunks) == 1:
+        return FlightLog(str(path), chunks[0])
+    return FlightLog(str(path), {n: np.concatenate([c.pop(n) for c in chunks]) for n in names})
 
 
-def _check_labels(columns: dict[str, np.ndarray], name: str, path: str, first_line: int) -> None:
+def _check_labels(columns: dict[str, np.ndarray], name: str, path: str, lines: np.ndarray) -> None:
     """A label column (segment) holds whole numbers on every row: it groups rows, it is not a measurement."""
     if name not in columns:
         return
@@ -138,7 +135,7 @@ def _check_labels(columns: dict[str, np.ndarray], name: str, path: str, first_li
         bad = ~np.isfinite(values) | (values != np.round(values)) | (np.abs(values) > 2**31)
     if bad.any():
         row = int(np.flatnonzero(bad)[0])
-        raise InputError(path, f"line {first_line + row}, column {name}", "must be a whole number on every row")
+        raise InputError(path, f"line {lines[row]}, column {name}", "must be a whole number on every row")
 
 
 def yaw_from_quaternion(q: np.ndarray) -> np.ndarray:
@@ -146,12 +143,13 @@ def yaw_from_quaternion(q: np.ndarray) -> np.ndarray:
     return np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
 
 
-def step_inputs(model: StepModel, log: FlightLog) -> np.ndarray:
-    """The step's input rows from a log; the first row's dt is the nominal sample time."""
+def step_inputs(model: StepModel, log: FlightLog, previous_t: float | None = None) -> np.ndarray:
+    """The step's input rows from a log; the first row's dt is the nominal sample time, or the time since
+    ``previous_t`` (the previous chunk's last row) when the log is read in chunks."""
     af = model.airframe
     t = log.time_s
     dt = np.empty_like(t)
-    dt[0] = af.observer.sample_time_s
+    dt[0] = af.observer.sample_time_s if previous_t is None else t[0] - previous_t
     dt[1:] = np.diff(t)
     q = log.stack("q_w", "q_x", "q_y", "q_z")
     values = {"dt": dt, "vel_ned": log.stack("vel_n", "vel_e", "vel_d"), "q": q,
@@ -167,21 +165,60 @@ def step_inputs(model: StepModel, log: FlightLog) -> np.ndarray:
     return model.inputs.pack(values, rows=log.rows)
 
 
-def write_csv(path: str | Path, header: list[str], data: np.ndarray, formats: list[str],
-              comments: list[str] | None = None) -> None:
-    def write(handle) -> None:
+WRITE_ROWS = 4096  # rows per formatting call: bounded memory, and few enough calls to cost nothing
+
+
+class CsvWriter:
+    """Writes rows a block at a time. One %-format over a whole block gives np.savetxt's text byte for
+    byte (the same printf conversions) without its Python call per row, which made it the slowest part
+    of replay."""
+
+    def __init__(self, handle: TextIO, header: list[str], formats: list[str], comments: list[str] | None = None) -> None:
+        if len(formats) != len(header):
+            raise ValueError(f"{len(formats)} formats for {len(header)} columns")
+        self._handle = handle
+        self._row = ",".join(formats) + "\n"
         for line in comments or []:
             handle.write(f"# {line}\n")
         handle.write(",".join(header) + "\n")
-        np.savetxt(handle, data, fmt=formats, delimiter=",")
+
+    def write(self, data: np.ndarray) -> None:
+        for start in range(0, len(data), WRITE_ROWS):
+            block = data[start:start + WRITE_ROWS]
+            self._handle.write((self._row * len(block)) % tuple(block.ravel().tolist()))
+
+
+def write_csv(path: str | Path, header: list[str], data: np.ndarray, formats: list[str],
+              comments: list[str] | None = None) -> None:
+    write_atomically(path, lambda handle: CsvWriter(handle, header, formats, comments).write(data))
+
+
+def write_columns(path: str | Path, header: list[str], columns: dict[str, np.ndarray], formats: list[str],
+                  comments: list[str] | None = None) -> None:
+    """write_csv from named columns, stacked a block at a time (no second copy of a long log)."""
+    def write(handle: TextIO) -> None:
+        writer = CsvWriter(handle, header, formats, comments)
+        rows = len(columns[header[0]])
+        for start in range(0, rows, WRITE_ROWS):
+            writer.write(np.column_stack([columns[n][start:start + WRITE_ROWS] for n in header]))
 
     write_atomically(path, write)
 
 
-def write_estimates(path: str | Path, t: np.ndarray, outputs: np.ndarray, status: np.ndarray) -> None:
+def estimate_rows(t: np.ndarray, outputs: np.ndarray, status: np.ndarray) -> np.ndarray:
+    """The estimate file's rows (section 3's column order) from the step's outputs."""
     if outputs.shape[1] != len(ESTIMATE_COLUMNS) - 2:
         raise ValueError(f"{outputs.shape[1]} output columns for {len(ESTIMATE_COLUMNS) - 2} named ones")
     k = _OUTPUTS_BEFORE_STATUS
-    data = np.column_stack([t, outputs[:, :k], status, outputs[:, k:]])
-    formats = ["%.6f"] + ["%.6g"] * k + ["%d"] + ["%.6g"] * (outputs.shape[1] - k)
-    write_csv(path, list(ESTIMATE_COLUMNS), data, formats)
+    return np.column_stack([t, outputs[:, :k], status, outputs[:, k:]])
+
+
+def estimate_writer(handle: TextIO) -> CsvWriter:
+    k = _OUTPUTS_BEFORE_STATUS
+    formats = ["%.6f"] + ["%.6g"] * k + ["%d"] + ["%.6g"] * (len(ESTIMATE_COLUMNS) - 2 - k)
+    return CsvWriter(handle, list(ESTIMATE_COLUMNS), formats)
+
+
+def write_estimates(path: str | Path, t: np.ndarray, outputs: np.ndarray, status: np.ndarray) -> None:
+    rows = estimate_rows(t, outputs, status)
+    write_atomically(path, lambda handle: estimate_writer(handle).write(rows))

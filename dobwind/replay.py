@@ -1,64 +1,52 @@
 """`dobwind replay`: the estimator over a whole log, with error metrics when the log has true wind."""
 from __future__ import annotations
 
-import math
-import tempfile
 from dataclasses import dataclass
-from pathlib import Path
+from typing import Callable, TextIO
 
 import numpy as np
 
-from dobwind.logs import FlightLog, required_columns, read_log, step_inputs, write_estimates
+from dobwind.csvchunks import BLOCK_BYTES
+from dobwind.logs import (FlightLog, estimate_rows, estimate_writer, iter_log, read_log, required_columns,
+                          step_inputs, write_estimates)
 from dobwind.model import reference
 from dobwind.model.airframe import Airframe
 from dobwind.model.reference import Trajectory
-from dobwind.model.status import STATUS_LANDED, STATUS_NO_DATA, accepted, trusted
+from dobwind.model.status import STATUS_LANDED, STATUS_NO_DATA, accepted
 from dobwind.model.step import StepModel, build_step
-
-WARMUP_S = 5.0           # the observer and filter start up: not scored
-SEGMENT_SETTLE_S = 5.0   # the start of every segment (a transition) is not scored per segment
-MIN_SPEED_FOR_DIRECTION = 1.0
+from dobwind.scoring import (MIN_SPEED_FOR_DIRECTION, SEGMENT_SETTLE_S, UNIT_KEYS, WARMUP_S,  # noqa: F401 (re-exported)
+                             WindScore, with_unit_keys)
 
 
 def run_backend(model: StepModel, inputs: np.ndarray, backend: str, precision: str = "single") -> Trajectory:
-    if backend == "python":
-        return reference.run(model, inputs)
-    from dobwind.harness.cstep import compile_step
+    return Runner(model, backend, precision).run(inputs)
 
-    with tempfile.TemporaryDirectory(prefix="dobwind-replay-") as tmp:
-        cstep = compile_step(model, precision, Path(tmp))
-        if precision == "single":
+
+class Runner:
+    """The chosen backend over consecutive chunks of one log, the estimator state carried from each chunk
+    to the next: the results are those of one pass over the whole log, bit for bit."""
+
+    def __init__(self, model: StepModel, backend: str, precision: str = "single") -> None:
+        self._model, self._backend, self._precision = model, backend, precision
+        if backend == "python":
+            self._rolled = reference.rolled_step(model)
+            self._state: np.ndarray | None = None
+        else:
+            from dobwind.harness.cstep import compile_step
+
+            self._cstep = compile_step(model, precision)
+            self._state = self._cstep.initial_state()
+
+    def run(self, inputs: np.ndarray) -> Trajectory:
+        if self._backend == "python":
+            traj = reference.run(self._model, inputs, self._state, self._rolled)
+            self._state = traj.states[-1].copy()
+            return traj
+        if self._precision == "single":
             inputs = inputs.astype(np.float32).astype(np.float64)
-        return cstep.run(inputs, keep_states=False)
-
-
-def _wrap_deg(a: np.ndarray) -> np.ndarray:
-    return (a + 180.0) % 360.0 - 180.0
-
-
-def _from_deg(wind: np.ndarray) -> np.ndarray:
-    return np.degrees(np.arctan2(-wind[:, 1], -wind[:, 0])) % 360.0
-
-
-@dataclass(frozen=True)
-class Errors:
-    speed_mean: float
-    speed_max: float
-    direction_mean: float | None
-    direction_max: float | None
-    vertical_mean: float
-    vertical_max: float
-    count: int
-
-
-def _stats(est: np.ndarray, true: np.ndarray) -> Errors:
-    speed_err = np.abs(np.hypot(est[:, 0], est[:, 1]) - np.hypot(true[:, 0], true[:, 1]))
-    vert_err = np.abs(est[:, 2] - true[:, 2])
-    strong = np.hypot(true[:, 0], true[:, 1]) >= MIN_SPEED_FOR_DIRECTION
-    dir_err = np.abs(_wrap_deg(_from_deg(est[strong]) - _from_deg(true[strong])))
-    return Errors(float(speed_err.mean()), float(speed_err.max()),
-                  float(dir_err.mean()) if dir_err.size else None, float(dir_err.max()) if dir_err.size else None,
-                  float(vert_err.mean()), float(vert_err.max()), len(est))
+        traj = self._cstep.run(inputs, self._state, keep_states=False)
+        self._state = traj.states[-1].copy()
+        return traj
 
 
 def score(log: FlightLog, traj: Trajectory, model: StepModel) -> dict:
@@ -67,81 +55,69 @@ def score(log: FlightLog, traj: Trajectory, model: StepModel) -> dict:
     return score_wind(log, traj.outputs[:, model.outputs.slice("wind_ned")], traj.status)
 
 
-# Unit-named twins of the error keys (issue #15: one JSON style, units in the key names). The short
-# names stay beside them: scripts and the demo already read them.
-UNIT_KEYS = {"speed_mean": "speed_error_mean_mps", "speed_max": "speed_error_max_mps",
-             "direction_mean": "direction_error_mean_deg", "direction_max": "direction_error_max_deg",
-             "vertical_mean": "vertical_error_mean_mps", "vertical_max": "vertical_error_max_mps",
-             "true_speed": "true_speed_mps", "est_speed": "est_speed_mps", "speed_error": "speed_error_mps",
-             "direction_error": "direction_error_deg", "vertical_error": "vertical_error_mps"}
-
-
-def with_unit_keys(block: dict) -> dict:
-    """The block with each short error key followed by its unit-named twin (same value)."""
-    out: dict = {}
-    for key, value in block.items():
-        out[key] = value
-        if key in UNIT_KEYS:
-            out[UNIT_KEYS[key]] = value
-    return out
-
-
 def score_wind(log: FlightLog, wind: np.ndarray, status: np.ndarray) -> dict:
     """score() for any wind estimate (NED rows) with its status per row. Every accepted row after the
     warm-up is scored, quality-flagged ones included (a hold beyond the calibration is scored on purpose);
     ``trusted_share`` is the fraction of scored rows with status 0."""
     truth = log.true_wind
     assert truth is not None
-    t = log.time_s
-    valid = accepted(status) & (t >= t[0] + WARMUP_S)
-    result: dict = {"rows": log.rows, "scored_rows": int(valid.sum()), "rejected_rows": int((~accepted(status)).sum())}
-    if valid.any():
-        result["trusted_share"] = float(np.mean(trusted(status[valid])))
-    if not valid.any():
-        return result
-    result["per_sample"] = with_unit_keys(_stats(wind[valid], truth[valid]).__dict__)
-    result["mean_estimated_wind"] = {
-        "horizontal_mps": float(np.mean(np.hypot(wind[valid, 0], wind[valid, 1]))),
-        "vertical_mps": float(np.mean(np.abs(wind[valid, 2]))),
-        "true_horizontal_mps": float(np.mean(np.hypot(truth[valid, 0], truth[valid, 1]))),
-    }
-    if log.has("segment"):
-        seg = log.columns["segment"]
-        rows = []
-        # One sort instead of a mask per segment: an hour-long sweep has hundreds of segments.
-        order = np.argsort(seg, kind="stable")
-        labels, first = np.unique(seg[order], return_index=True)
-        for s, lo, hi in zip(labels, first, np.r_[first[1:], len(order)]):
-            members = order[lo:hi]
-            start = t[members[0]]
-            use = members[valid[members] & (t[members] >= start + SEGMENT_SETTLE_S)]
-            if use.size < 10:
-                continue
-            est_mean, true_mean = wind[use].mean(axis=0), truth[use].mean(axis=0)
-            est_speed, true_speed = math.hypot(*est_mean[:2]), math.hypot(*true_mean[:2])
-            direction = (abs(float(_wrap_deg(_from_deg(est_mean[None])[0] - _from_deg(true_mean[None])[0])))
-                         if true_speed >= MIN_SPEED_FOR_DIRECTION else None)
-            rows.append(with_unit_keys({"segment": int(s), "true_speed": true_speed, "est_speed": est_speed,
-                                        "speed_error": est_speed - true_speed, "direction_error": direction,
-                                        "vertical_error": float(est_mean[2] - true_mean[2]), "samples": int(use.size)}))
-        if rows:
-            speed = np.abs([r["speed_error"] for r in rows])
-            dirs = np.array([r["direction_error"] for r in rows if r["direction_error"] is not None])
-            vert = np.abs([r["vertical_error"] for r in rows])
-            result["per_segment"] = with_unit_keys({
-                "segments": len(rows), "speed_mean": float(speed.mean()), "speed_max": float(speed.max()),
-                "direction_mean": float(dirs.mean()) if dirs.size else None,
-                "direction_max": float(dirs.max()) if dirs.size else None,
-                "vertical_mean": float(vert.mean()), "vertical_max": float(vert.max()), "table": rows,
-            })
-    return result
+    scorer = WindScore()
+    scorer.add(log.time_s, wind, truth, status, log.columns.get("segment"))
+    return scorer.result()
 
 
 def replay(af: Airframe, log_path: str, backend: str = "python", precision: str = "single"):
+    """The whole log in memory: (model, log, trajectory). The command streams with ``replay_stream``."""
     model = build_step(af)
     log = read_log(log_path, required_columns(af))
     traj = run_backend(model, step_inputs(model, log), backend, precision)
     return model, log, traj
+
+
+@dataclass(frozen=True)
+class Streamed:
+    model: StepModel
+    metrics: dict                 # replay's metrics (rows and rejected rows when the log has no true wind)
+    scored: bool                  # the log had true wind
+    series: WindSeries | None     # time, estimate, truth and status of every row, when asked for (plots)
+
+
+@dataclass(frozen=True)
+class WindSeries:
+    t: np.ndarray
+    wind: np.ndarray
+    truth: np.ndarray | None
+
+
+def replay_stream(af: Airframe, log_path: str, backend: str = "python", precision: str = "single",
+                  output: TextIO | None = None, keep_series: bool = False,
+                  progress: Callable[[int], None] | None = None, block_bytes: int = BLOCK_BYTES) -> Streamed:
+    """replay() in bounded memory: the log is read, stepped, scored and written chunk by chunk."""
+    model = build_step(af)
+    runner = Runner(model, backend, precision)
+    writer = estimate_writer(output) if output is not None else None
+    scorer, counts = WindScore(), {"rows": 0, "rejected_rows": 0}
+    kept: list[tuple[np.ndarray, ...]] = []
+    previous_t: float | None = None
+    truth = None
+    for chunk in iter_log(log_path, required_columns(af), block_bytes, progress):
+        log = chunk.log
+        traj = runner.run(step_inputs(model, log, previous_t))
+        previous_t = float(log.time_s[-1])
+        wind, truth = traj.outputs[:, model.outputs.slice("wind_ned")], log.true_wind
+        if truth is not None:
+            scorer.add(log.time_s, wind, truth, traj.status, log.columns.get("segment"))
+        counts["rows"] += log.rows
+        counts["rejected_rows"] += int((~accepted(traj.status)).sum())
+        if writer is not None:
+            writer.write(estimate_rows(log.time_s, traj.outputs, traj.status))
+        if keep_series:
+            kept.append((log.time_s, wind, truth))
+    series = None
+    if keep_series:
+        series = WindSeries(np.concatenate([k[0] for k in kept]), np.concatenate([k[1] for k in kept]),
+                            None if truth is None else np.concatenate([k[2] for k in kept]))
+    return Streamed(model, scorer.result() if truth is not None else counts, truth is not None, series)
 
 
 def replay_ulog(af: Airframe, path: str, backend: str = "python", precision: str = "single",

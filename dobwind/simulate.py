@@ -314,12 +314,13 @@ def write_log(path, af: Airframe, name: str, seed: int = 0, hold_s: float | None
               rate_hz: float | None = None, vehicle: VehicleSpec | None = None,
               vehicle_source: str | None = None) -> int:
     """Simulate a scenario and write it as a flight-log CSV (atomically); returns the row count."""
-    from dobwind.logs import write_csv
+    from dobwind.logs import write_columns
 
     cols = simulate(af, name, seed, hold_s=hold_s, rate_hz=rate_hz, vehicle=vehicle)
     names = column_order(cols)
-    write_csv(path, names, np.column_stack([cols[n] for n in names]),
-              ["%.6f"] + ["%.7g"] * (len(names) - 2) + ["%d"], log_comments(af, name, seed, vehicle_source))
+    # Stacked a block of rows at a time: a whole-log table would be one more copy of the log in memory.
+    write_columns(path, names, cols, ["%.6f"] + ["%.7g"] * (len(names) - 2) + ["%d"],
+                  log_comments(af, name, seed, vehicle_source))
     return len(cols["t"])
 
 

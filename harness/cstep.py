@@ -2,6 +2,9 @@
 from __future__ import annotations
 
 import ctypes
+import hashlib
+import os
+import shutil
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -9,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from dobwind.codegen.generate import generate_code, write_files
-from dobwind.harness.build import build_shared_library
+from dobwind.harness.build import STRICT_FLAGS, build_shared_library, system_compiler, write_shim
 from dobwind.model.reference import Trajectory
 from dobwind.model.step import StepModel
 
@@ -60,15 +63,62 @@ def compile_step(model: StepModel, precision: str, work_dir: Path | None = None,
                  extra_flags: tuple[str, ...] = ()) -> CStep:
     """Generate, compile (strict flags) and load the C step for this model.
 
-    Without ``work_dir`` the sources and library go to a temporary folder that is removed once the
-    library is loaded: the loader keeps its own mapping, so deleting the file does not unload it."""
+    With ``work_dir`` the sources and library are built there. Without it the library comes from the
+    cache (``library_cache``), built on a miss: a replay then spends no time in the compiler."""
     if work_dir is not None:
         return _build_and_load(model, precision, Path(work_dir), extra_flags)
-    with tempfile.TemporaryDirectory(prefix="dobwind-") as tmp:
-        return _build_and_load(model, precision, Path(tmp), extra_flags)
+    return cached_step(model, precision, extra_flags)
 
 
 def _build_and_load(model: StepModel, precision: str, work: Path, extra_flags: tuple[str, ...]) -> CStep:
     code = generate_code(model.airframe, precision, model)
     write_files(code.files, work)
     return CStep(model, build_shared_library(model, precision, work, work, extra_flags))
+
+
+def cache_dir() -> Path:
+    """$DOBWIND_CACHE, else $XDG_CACHE_HOME/dobwind, else ~/.cache/dobwind."""
+    if os.environ.get("DOBWIND_CACHE"):
+        return Path(os.environ["DOBWIND_CACHE"])
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "dobwind"
+
+
+def _source_key(folder: Path, extra_flags: tuple[str, ...]) -> str:
+    """The hash of everything that decides the library's bytes: the generated sources and the shim, the
+    compiler and its flags."""
+    digest = hashlib.sha256()
+    for path in sorted(folder.iterdir()):
+        digest.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
+    digest.update("\0".join((system_compiler(), *STRICT_FLAGS, *extra_flags)).encode())
+    return digest.hexdigest()[:32]
+
+
+def cached_step(model: StepModel, precision: str, extra_flags: tuple[str, ...] = ()) -> CStep:
+    """The compiled step from the cache, keyed on the generated source; built and added on a miss.
+
+    The library is compiled in a private folder and renamed into place, so concurrent runs never see a
+    partial file (two that miss together both build, and the second rename replaces an identical file).
+    An unusable cache folder only costs the compilation: the private copy is loaded instead."""
+    with tempfile.TemporaryDirectory(prefix="dobwind-") as tmp:
+        work = Path(tmp)
+        code = generate_code(model.airframe, precision, model)
+        write_files(code.files, work)
+        write_shim(model, precision, work)
+        cached = cache_dir() / f"lib{model.airframe.name}_{precision}_{_source_key(work, extra_flags)}.so"
+        if cached.is_file():
+            return CStep(model, cached)
+        built = build_shared_library(model, precision, work, work, extra_flags)
+        staged = None
+        try:
+            cached.parent.mkdir(parents=True, exist_ok=True)
+            handle, name = tempfile.mkstemp(prefix=f".{cached.name}.", dir=cached.parent)
+            os.close(handle)
+            staged = Path(name)
+            shutil.copyfile(built, staged)
+            os.replace(staged, cached)
+            return CStep(model, cached)
+        except OSError:
+            if staged is not None:
+                staged.unlink(missing_ok=True)
+            return CStep(model, built)  # loaded before the folder goes: the loader keeps its mapping

@@ -1,0 +1,110 @@
+"""Replay's speed and memory on long logs (issue #13), against a bare ``csv.reader`` pass over the file.
+
+Makes a 1 h and a 4 h sweep at 100 Hz with ``dobwind simulate`` (kept in the work folder between runs),
+then runs each case as its own process, interleaved over the rounds so that the machine's load falls on
+all cases alike, and reports median wall times and each case's peak resident memory (``wait4``).
+
+    .venv/bin/python -m dobwind.harness.bench_replay [--rounds 3] [--work out/bench-replay]
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+AIRFRAME = Path(__file__).resolve().parents[1] / "airframes" / "m300.toml"
+SWEEP_HOLDS = 324            # the sweep scenario's holds: --hold = duration / 324
+GOAL_TIME_RATIO = 1.5
+GOAL_PEAK_MB = 300.0
+GOAL_4H_PEAK_RATIO = 1.3
+_CSV_PASS = "import csv,sys\nwith open(sys.argv[1], newline='') as f:\n    for row in csv.reader(f): pass\n"
+
+
+@dataclass(frozen=True)
+class Case:
+    label: str
+    argv: list[str]
+
+
+def _dobwind(*args: str) -> list[str]:
+    return [sys.executable, "-m", "dobwind.cli", *args]
+
+
+def _log(work: Path, hours: int) -> Path:
+    path = work / f"sweep_{hours}h_100hz.csv"
+    if not path.exists():
+        hold = f"{hours * 3600 / SWEEP_HOLDS:.6f}"
+        subprocess.run(_dobwind("simulate", "sweep", "--rate", "100", "--hold", hold, "-o", str(path)), check=True,
+                       stdout=subprocess.DEVNULL)
+    return path
+
+
+def _measure(argv: list[str]) -> tuple[float, float]:
+    """(wall seconds, peak resident MB) of one process."""
+    start = time.perf_counter()
+    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    _, status, usage = os.wait4(proc.pid, 0)
+    wall = time.perf_counter() - start
+    if os.waitstatus_to_exitcode(status) != 0:
+        raise SystemExit(f"{' '.join(argv)} failed: {proc.stderr.read().decode()[-500:]}")
+    proc.stderr.close()
+    return wall, usage.ru_maxrss / 1024.0
+
+
+def cases(work: Path, log: Path, suffix: str) -> list[Case]:
+    out = str(work / f"estimates_{log.stem}.csv")
+    return [
+        Case(f"csv.reader pass{suffix}", [sys.executable, "-c", _CSV_PASS, str(log)]),
+        Case(f"replay python -o{suffix}", _dobwind("replay", str(AIRFRAME), str(log), "-o", out)),
+        Case(f"replay c -o{suffix}", _dobwind("replay", str(AIRFRAME), str(log), "--backend", "c", "-o", out)),
+        Case(f"replay c, no -o{suffix}", _dobwind("replay", str(AIRFRAME), str(log), "--backend", "c")),
+    ]
+
+
+def run(rounds: int, work: Path, with_4h: bool) -> dict[str, tuple[float, float]]:
+    work.mkdir(parents=True, exist_ok=True)
+    all_cases = cases(work, _log(work, 1), " (1 h)")
+    if with_4h:
+        all_cases += [c for c in cases(work, _log(work, 4), " (4 h)") if "python" in c.label or "reader" in c.label]
+    subprocess.run(_dobwind("replay", str(AIRFRAME), str(_log(work, 1)), "--backend", "c"), check=True,
+                   stdout=subprocess.DEVNULL)  # warms the compiled-library cache, as any second run finds it
+    times: dict[str, list[float]] = {c.label: [] for c in all_cases}
+    peaks: dict[str, float] = {c.label: 0.0 for c in all_cases}
+    for _ in range(rounds):
+        for case in all_cases:
+            wall, peak = _measure(case.argv)
+            times[case.label].append(wall)
+            peaks[case.label] = max(peaks[case.label], peak)
+    return {label: (statistics.median(times[label]), peaks[label]) for label in times}
+
+
+def report(results: dict[str, tuple[float, float]]) -> str:
+    lines = ["| case | median s | vs csv.reader | peak MB |", "|---|---:|---:|---:|"]
+    for label, (wall, peak) in results.items():
+        base = results[f"csv.reader pass{label[label.rfind(' ('):]}"][0]
+        lines.append(f"| {label} | {wall:.2f} | {wall / base:.2f}x | {peak:.0f} |")
+    one = results["replay python -o (1 h)"][1]
+    if "replay python -o (4 h)" in results:
+        four = results["replay python -o (4 h)"][1]
+        lines.append(f"\n4 h peak / 1 h peak (python backend, -o): {four / one:.2f} (goal <= {GOAL_4H_PEAK_RATIO})")
+    lines.append(f"goals: replay <= {GOAL_TIME_RATIO}x the csv.reader pass, peak <= {GOAL_PEAK_MB:.0f} MB")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--work", type=Path, default=Path("out/bench-replay"))
+    parser.add_argument("--no-4h", action="store_true", help="skip the 4 h log (its simulation takes minutes)")
+    args = parser.parse_args(argv)
+    print(report(run(args.rounds, args.work, not args.no_4h)))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
