@@ -93,9 +93,14 @@ class FitReport:
     speeds: int = 0
     model: str = "polynomial"
     drag: dict[str, float] = field(default_factory=dict)
-    families: dict[str, dict[str, float | None]] = field(default_factory=dict)
+    families: dict[str, dict] = field(default_factory=dict)
     samples: int = 0
-    self_check: list[dict] = field(default_factory=list)
+    # Hold-level CV (dobwind/holdcv.py): RMS of held-out hold-mean speed errors; what replay's per-hold
+    # speed errors follow. horizontal_cv_rmse_mps stays the family's raw (per-sample or per-chunk) CV.
+    hold_cv_speed_mps: float | None = None
+    hold_cv_by_speed: dict | None = None                 # {"speeds_mps": [...], "rms_mps": [...]}
+    hold_extrapolation_speed_mps: float | None = None    # top blocks held out, hold-mean speed error
+    self_check: dict = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
 
 
