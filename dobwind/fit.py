@@ -407,7 +407,8 @@ def text_report(report: FitReport) -> str:
     vertical = ("kept from the airframe" if report.vertical_rmse_mps is None else
                 f"RMSE {report.vertical_rmse_mps:.3f} m/s, "
                 + _errors(report.vertical_cv_rmse_mps, report.vertical_extrapolation_rmse_mps))
-    families = [f"family {name}: " + ", ".join(f"{k} {'n/a' if v is None else f'{v:.3f}'}" for k, v in scores.items())
+    families = [f"family {name}: " + ", ".join(f"{k} {'n/a' if v is None else f'{v:.3f}'}" for k, v in scores.items()
+                                              if v is None or isinstance(v, float))
                 for name, scores in report.families.items()]
     chosen = [f"model: {report.model} (chosen by grouped CV and extrapolation of the airflow)"] + families
     if report.model == "drag":

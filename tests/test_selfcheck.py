@@ -164,3 +164,24 @@ def test_a_log_that_contributes_nothing_fails_and_nothing_is_written(tiny, tmp_p
     last = captured.err.strip().splitlines()[-1]
     assert last.startswith("dobwind fit: the fitted model cannot be trusted: ")
     assert f"{tiny['tunnel']}: contributed no usable sample" in last and "--force" in last
+
+
+def test_force_writes_a_model_that_failed_and_warns(tmp_path, capsys, monkeypatch):
+    """--force: the same failed verdict is written, exit 0, one warning line with the reasons."""
+    import dobwind.fit as fit
+    import dobwind.fitfamily as fitfamily
+
+    af = load_airframe(M300)
+    failed = verdict(af, [_log("a.csv", fit_samples=0)], 0.3, 10.0, Thresholds())
+    report = fit.FitReport(points=9, self_check=dataclasses.asdict(failed))
+    monkeypatch.setattr(fitfamily, "fit_airframe", lambda *a, **k: (af, report, None))
+    monkeypatch.setattr(fit, "fit_plot", lambda af, points, path: open(path, "wb").write(b"png"))
+    out = tmp_path / "forced.toml"
+    assert main(["fit", str(M300), "a.csv", "-o", str(out), "--force"]) == 0
+    captured = capsys.readouterr()
+    assert load_airframe(out).name == af.name and (tmp_path / "forced_fit.png").exists()
+    assert "self-check: FAIL: a.csv: contributed no usable sample" in captured.out
+    assert captured.err.strip().splitlines()[-1] == ("dobwind fit: warning: the self-check failed (a.csv: contributed "
+                                                     "no usable sample to the fit); written anyway (--force)")
+    assert main(["fit", str(M300), "a.csv", "-o", str(tmp_path / "refused.toml")]) == 1
+    assert not (tmp_path / "refused.toml").exists()
