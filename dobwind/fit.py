@@ -114,7 +114,8 @@ def _term_matrix(terms: list[str], m: np.ndarray, n: np.ndarray, fz: np.ndarray)
 
 
 def _moving_mean(x: np.ndarray, window: int) -> np.ndarray:
-    window = max(1, window)
+    # np.convolve "same" returns max(len(x), window) rows: a log shorter than the window must not grow.
+    window = max(1, min(window, len(x)))
     kernel = np.ones(window) / window
     return np.column_stack([np.convolve(x[:, i], kernel, mode="same") for i in range(x.shape[1])])
 
