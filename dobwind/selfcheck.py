@@ -25,7 +25,7 @@ from dobwind.logs import FlightLog, step_inputs
 from dobwind.model import reference
 from dobwind.model.airframe import Airframe
 from dobwind.model.status import accepted
-from dobwind.model.step import build_step
+from dobwind.model.step import StepModel, build_step
 
 WARMUP_S = 5.0            # the observer and filter start up: not scored (as `replay`)
 SEGMENT_SETTLE_S = 5.0    # a segment's first seconds are a transition: not scored (as `replay`), or the
@@ -111,10 +111,12 @@ def _segment_labels(log: FlightLog) -> np.ndarray:
     return np.floor((t - t[0]) / WINDOW_S).astype(np.int64)
 
 
-def check_log(af: Airframe, log: FlightLog, fit_samples: int, settle_s: float | None = None) -> LogCheck:
-    """One calibration log through the airframe's step: per-segment and per-log errors. A segment is
-    scored from ``settle_s`` after its start (default: see SEGMENT_SETTLE_S)."""
-    model = build_step(af)
+def check_log(af: Airframe, log: FlightLog, fit_samples: int, settle_s: float | None = None,
+              model: StepModel | None = None) -> LogCheck:
+    """One calibration log through the airframe's step (``model``, built from ``af`` when not given):
+    per-segment and per-log errors. A segment is scored from ``settle_s`` after its start (default: see
+    SEGMENT_SETTLE_S)."""
+    model = model if model is not None else build_step(af)
     settle = settle_s if settle_s is not None else min(SEGMENT_SETTLE_S, settling_time_s(axis_system(model, 0, with_filter=True)))
     traj = reference.run(model, step_inputs(model, log))
     wind = traj.outputs[:, model.outputs.slice("wind_ned")]
@@ -187,7 +189,8 @@ def verdict(af: Airframe, logs: list[LogCheck], cv_mps: float | None, speed_rang
 def self_check(af: Airframe, logs: list[FlightLog], fit_samples: list[int], cv_mps: float | None,
                speed_range_mps: float, limits: Thresholds = Thresholds()) -> SelfCheck:
     """Replay every calibration log through ``af`` and judge the fit (see the module docstring)."""
-    checks = [check_log(af, log, count) for log, count in zip(logs, fit_samples)]
+    model = build_step(af)
+    checks = [check_log(af, log, count, model=model) for log, count in zip(logs, fit_samples)]
     return verdict(af, checks, cv_mps, speed_range_mps, limits)
 
 

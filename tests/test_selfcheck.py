@@ -116,7 +116,7 @@ def tiny(tmp_path_factory):
     (folder / "tiny.vehicle.toml").write_text(dumps(TINY_VEHICLE))
     (folder / "tiny.airframe.toml").write_text(dumps(TINY_AIRFRAME))
     paths = {"airframe": str(folder / "tiny.airframe.toml")}
-    for name, seed, hold in (("sweep", 1, "5"), ("vertical", 2, "8"), ("tunnel", 3, "0.3")):
+    for name, seed, hold in (("sweep", 1, "5"), ("vertical", 2, "8"), ("tunnel", 3, "0.1")):
         path = folder / f"{name}.csv"
         assert main(["simulate", name, "--airframe", paths["airframe"], "--vehicle", str(folder / "tiny.vehicle.toml"),
                      "--seed", str(seed), "--hold", hold, "-o", str(path)]) == 0
@@ -150,7 +150,7 @@ def test_a_good_fit_passes_and_its_replay_matches_replay(tiny, tmp_path, capsys)
 
 
 def test_a_log_that_contributes_nothing_fails_and_nothing_is_written(tiny, tmp_path, capsys):
-    """A 2.4 s tunnel log ends before the estimator settles: it gives the fit nothing."""
+    """A 0.8 s tunnel log ends before the observer settles: it gives the fit nothing."""
     out = tmp_path / "bad.toml"
     plot = tmp_path / "bad_fit.png"
     out.write_text("earlier result\n")
