@@ -84,7 +84,11 @@ def _fit(job: Job, logs: list[str]) -> tuple[str, dict[str, Any]]:
     child = run_child(["fit", nominal, *logs, "-o", fitted, "--json", *job.fit_options], Path(job.workdir))
     report = _json(child) or {}
     return fitted, {"exit_code": child.exit_code, "message": child.last_stderr, "time_s": child.wall_s,
-                    "peak_rss_mb": child.peak_rss_mb, "cv_rmse_mps": report.get("horizontal_cv_rmse_mps"),
+                    "peak_rss_mb": child.peak_rss_mb, "raw_cv_rmse_mps": report.get("horizontal_cv_rmse_mps"),
+                    "cv_rmse_mps": report.get("hold_cv_speed_mps"), "hold_cv_by_speed": report.get("hold_cv_by_speed"),
+                    "hold_extrapolation_mps": report.get("hold_extrapolation_speed_mps"),
+                    "calibrated_speed_mps": (report.get("self_check") or {}).get("speed_range_mps"),
+                    "self_check_passed": (report.get("self_check") or {}).get("passed"),
                     "rmse_mps": report.get("horizontal_rmse_mps"),
                     "extrapolation_rmse_mps": report.get("horizontal_extrapolation_rmse_mps"),
                     "terms": report.get("horizontal_terms"), "thrust_scale": report.get("thrust_scale"),
@@ -104,9 +108,25 @@ def goal_metrics(scenario: str, replay: dict[str, Any]) -> dict[str, Any]:
     metrics = {"speed_mean": seg.get("speed_mean"), "speed_max": seg.get("speed_max"),
                "direction_mean": seg.get("direction_mean"), "direction_max": seg.get("direction_max")}
     if scenario == "tunnel":
-        # RMS over the unseen holds: the same statistic as the fit's CV RMSE, so their ratio is fair.
+        # RMS over the unseen holds: the same statistic as the fit's hold-level CV, so their ratio is fair.
         metrics["speed_rms"] = _rms([row["speed_error"] for row in seg.get("table", [])])
+        metrics["hold_speeds"] = [row["true_speed"] for row in seg.get("table", [])]
+        metrics["hold_errors"] = [row["speed_error"] for row in seg.get("table", [])]
     return metrics
+
+
+def predicted_rms(fit: dict[str, Any], hold_speeds: list[float]) -> float | None:
+    """The tunnel's per-hold RMS speed error as the fit predicts it: at each hold's speed, the hold-level
+    CV of that speed band inside the calibrated range, the hold-level extrapolation error beyond it."""
+    from dobwind.holdcv import HoldCV
+
+    table, cv, calibrated = fit.get("hold_cv_by_speed"), fit.get("cv_rmse_mps"), fit.get("calibrated_speed_mps")
+    if not hold_speeds or cv is None or calibrated is None:
+        return None
+    extrapolation = fit.get("hold_extrapolation_mps")
+    hold = HoldCV(cv, tuple((table or {}).get("speeds_mps", ())), tuple((table or {}).get("rms_mps", ())),
+                  math.nan if extrapolation is None else extrapolation)
+    return _rms([hold.predicted(s, calibrated) for s in hold_speeds])
 
 
 def run_job(job: Job) -> dict[str, Any]:
@@ -138,6 +158,21 @@ def run_job(job: Job) -> dict[str, Any]:
         else:
             result[scenario] = goal_metrics(scenario, parsed)
         Path(log).unlink(missing_ok=True)
-    tunnel, cv = result["tunnel"].get("speed_rms"), result["fit"]["cv_rmse_mps"]
-    result["cv_ratio"] = tunnel / cv if tunnel is not None and cv else None
+    _cv_ratios(result)
     return result
+
+
+def _cv_ratios(result: dict[str, Any]) -> None:
+    """tun/CV (the goal): the RMS speed error of the tunnel holds inside the calibrated airflow range
+    over the fit's hold-level CV for them: cross-validation speaks of unseen flight like the calibration.
+    The holds beyond it (the tunnel's 9 and 10 m/s against 0-8 calibrated) are judged by the error goals
+    and shown in tun/CV all, which predicts them by the fit's hold-level extrapolation figure."""
+    tunnel, calibrated = result["tunnel"], result["fit"].get("calibrated_speed_mps")
+    speeds, errors = tunnel.get("hold_speeds", []), tunnel.get("hold_errors", [])
+    inside = [i for i, s in enumerate(speeds) if calibrated is not None and s <= calibrated]
+    tunnel["speed_rms_calibrated"] = _rms([errors[i] for i in inside]) if inside else None
+    tunnel["predicted_rms"] = predicted_rms(result["fit"], speeds)
+    tunnel["predicted_rms_calibrated"] = predicted_rms(result["fit"], [speeds[i] for i in inside])
+    for key, actual, predicted in (("cv_ratio", tunnel["speed_rms_calibrated"], tunnel["predicted_rms_calibrated"]),
+                                   ("cv_ratio_all", tunnel.get("speed_rms"), tunnel["predicted_rms"])):
+        result[key] = actual / predicted if actual is not None and predicted else None

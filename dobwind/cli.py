@@ -130,24 +130,39 @@ def cmd_fit(args: argparse.Namespace) -> int:
     from dobwind.logs import write_atomically
     from dobwind.model.airframe import load_airframe
     from dobwind.model.airframe_toml import dump_airframe
+    from dobwind.selfcheck import Thresholds, text_table
 
     plot = args.plot if args.plot is not None else str(args.output).removesuffix(".toml") + "_fit.png"
     targets = [Target("-o", args.output), Target("--plot", plot)]
     check_targets(targets, [args.airframe, *args.logs])
     af = load_airframe(args.airframe)
-    new, report, points = fit_airframe(af, list(args.logs), args.terms, args.dynamic, args.model, args.still_air)
-    text = dump_airframe(new)
-    with OutputFiles(targets) as out:
-        write_atomically(out.stage(args.output), lambda handle: handle.write(text))
-        fit_plot(new, points, str(out.stage(plot)))
+    limits = Thresholds(cv_share=args.max_error_share, replay_share=args.max_error_share,
+                        floor_mps=args.error_floor, direction_deg=args.max_direction_error)
+    new, report, points = fit_airframe(af, list(args.logs), args.terms, args.dynamic, args.model, args.still_air,
+                                       limits)
+    passed = bool(report.self_check["passed"])
+    written = passed or args.force  # a model that failed its self-check is written only when forced
+    if written:
+        text = dump_airframe(new)
+        with OutputFiles(targets) as out:
+            write_atomically(out.stage(args.output), lambda handle: handle.write(text))
+            fit_plot(new, points, str(out.stage(plot)))
     if args.json:
-        _print_json({**report.__dict__, "airframe": str(args.output), "plot": plot})
+        _print_json({**report.__dict__, "written": written, "airframe": str(args.output) if written else None,
+                     "plot": plot if written else None})
     else:
         print(text_report(report))
-        print(f"wrote {args.output} and {plot}")
+        print(text_table(report.self_check))
+        print(f"wrote {args.output} and {plot}" if written else "nothing written")
     for warning in report.warnings:
         sys.stderr.write(f"dobwind fit: warning: {warning}\n")
-    return 0
+    if passed:
+        return 0
+    reasons = "; ".join(report.self_check["reasons"])
+    if args.force:
+        sys.stderr.write(f"dobwind fit: warning: the self-check failed ({reasons}); written anyway (--force)\n")
+        return 0
+    raise CheckFailed(f"the fitted model cannot be trusted: {reasons}; nothing written (--force writes it anyway)")
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
@@ -325,6 +340,21 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--plot", help="PNG of the fitted surface and residuals (default: OUTPUT without .toml + _fit.png)")
     p.add_argument("--dynamic", action="store_true",
                    help="calibrate on manoeuvring flight too (constant wind), not only on steady holds")
+    p.add_argument("--force", action="store_true",
+                   help="write the airframe even when the self-check fails (exit 0, with a warning)")
+    from dobwind.selfcheck import Thresholds  # the defaults live with the check
+
+    limits = Thresholds()
+    p.add_argument("--max-error-share", type=opt.ERROR_SHARE, default=limits.replay_share, metavar="SHARE",
+                   help="self-check: the largest hold-level CV and training-replay speed error (RMS over a log's "
+                   f"segments) as a share of the calibrated airflow speed range ({opt.ERROR_SHARE.text()}; "
+                   f"default {limits.replay_share:g})")
+    p.add_argument("--error-floor", type=opt.ERROR_FLOOR, default=limits.floor_mps, metavar="MPS",
+                   help=f"self-check: the speed limits are never below this ({opt.ERROR_FLOOR.text()}; "
+                   f"default {limits.floor_mps:g})")
+    p.add_argument("--max-direction-error", type=opt.DIRECTION_LIMIT, default=limits.direction_deg, metavar="DEG",
+                   help="self-check: the largest mean per-segment direction error of a training replay "
+                   f"({opt.DIRECTION_LIMIT.text()}; default {limits.direction_deg:g})")
     p.add_argument("--json", action="store_true", help=JSON_HELP)
     p.set_defaults(func=cmd_fit)
 

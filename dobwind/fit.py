@@ -93,9 +93,14 @@ class FitReport:
     speeds: int = 0
     model: str = "polynomial"
     drag: dict[str, float] = field(default_factory=dict)
-    families: dict[str, dict[str, float | None]] = field(default_factory=dict)
+    families: dict[str, dict] = field(default_factory=dict)
     samples: int = 0
-    self_check: list[dict] = field(default_factory=list)
+    # Hold-level CV (dobwind/holdcv.py): RMS of held-out hold-mean speed errors; what replay's per-hold
+    # speed errors follow. horizontal_cv_rmse_mps stays the family's raw (per-sample or per-chunk) CV.
+    hold_cv_speed_mps: float | None = None
+    hold_cv_by_speed: dict | None = None                 # {"speeds_mps": [...], "rms_mps": [...]}
+    hold_extrapolation_speed_mps: float | None = None    # top blocks held out, hold-mean speed error
+    self_check: dict = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
 
 
@@ -109,7 +114,8 @@ def _term_matrix(terms: list[str], m: np.ndarray, n: np.ndarray, fz: np.ndarray)
 
 
 def _moving_mean(x: np.ndarray, window: int) -> np.ndarray:
-    window = max(1, window)
+    # np.convolve "same" returns max(len(x), window) rows: a log shorter than the window must not grow.
+    window = max(1, min(window, len(x)))
     kernel = np.ones(window) / window
     return np.column_stack([np.convolve(x[:, i], kernel, mode="same") for i in range(x.shape[1])])
 
@@ -402,7 +408,8 @@ def text_report(report: FitReport) -> str:
     vertical = ("kept from the airframe" if report.vertical_rmse_mps is None else
                 f"RMSE {report.vertical_rmse_mps:.3f} m/s, "
                 + _errors(report.vertical_cv_rmse_mps, report.vertical_extrapolation_rmse_mps))
-    families = [f"family {name}: " + ", ".join(f"{k} {'n/a' if v is None else f'{v:.3f}'}" for k, v in scores.items())
+    families = [f"family {name}: " + ", ".join(f"{k} {'n/a' if v is None else f'{v:.3f}'}" for k, v in scores.items()
+                                              if v is None or isinstance(v, float))
                 for name, scores in report.families.items()]
     chosen = [f"model: {report.model} (chosen by grouped CV and extrapolation of the airflow)"] + families
     if report.model == "drag":

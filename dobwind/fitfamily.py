@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Any
 
 import numpy as np
 
-from dobwind import dragfit
+from dobwind import dragfit, holdcv
 from dobwind.analysis.figures import settling_time_s
 from dobwind.analysis.linear import axis_system
 from dobwind.envelope import calibration_envelope, uncertainty_table
@@ -18,6 +19,7 @@ from dobwind.model import reference
 from dobwind.model.airframe import Airframe, ForceAirModel
 from dobwind.model.status import accepted
 from dobwind.model.step import build_step
+from dobwind.selfcheck import Thresholds, self_check
 
 MODELS = ("auto", "drag", "polynomial")
 
@@ -67,22 +69,35 @@ def _none(value: float) -> float | None:
     return value if math.isfinite(value) else None
 
 
-def _family_scores(cv: tuple[float, float], extrapolation: float) -> dict[str, float | None]:
-    return {"cv_h_mps": _none(cv[0]), "cv_v_mps": _none(cv[1]), "extrapolation_h_mps": _none(extrapolation),
-            "score_mps": _none(dragfit.combined(cv[0], extrapolation))}
+def _family_scores(cv: tuple[float, float], extrapolation: float,
+                   hold: holdcv.HoldCV | None) -> dict[str, Any]:
+    """cv_h_mps: per-sample vector error (selects the terms); hold_cv_*: hold-mean speed errors on the
+    same folds, what replay's per-hold speed errors follow (dobwind/holdcv.py)."""
+    scores: dict[str, Any] = {"cv_h_mps": _none(cv[0]), "cv_v_mps": _none(cv[1]),
+                              "extrapolation_h_mps": _none(extrapolation),
+                              "score_mps": _none(dragfit.combined(cv[0], extrapolation))}
+    if hold is not None:
+        scores.update({"hold_cv_speed_mps": _none(hold.rms_mps),
+                       "hold_cv_by_speed": {"speeds_mps": list(hold.band_speeds_mps), "rms_mps": list(hold.band_rms_mps)},
+                       "hold_extrapolation_speed_mps": _none(hold.extrapolation_mps)})
+    return scores
 
 
-def _polynomial_scores(fitted: Airframe, samples: dragfit.DragSamples) -> dict[str, float | None]:
+def _polynomial_scores(fitted: Airframe, samples: dragfit.DragSamples) -> dict[str, Any]:
     fit_predict = dragfit.polynomial_fit_predict(list(fitted.horizontal.terms), list(fitted.vertical.terms),
                                                  fitted.observer.force_offset_n)
-    return _family_scores(dragfit.grouped_cv(samples, fit_predict), dragfit.extrapolation_error(samples, fit_predict))
+    return _family_scores(dragfit.grouped_cv(samples, fit_predict), dragfit.extrapolation_error(samples, fit_predict),
+                          holdcv.hold_cv(samples, fit_predict))
 
 
 def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynamic: bool = False,
-                 model: str = "auto", still_air: bool = False) -> tuple[Airframe, FitReport, Points | None]:
+                 model: str = "auto", still_air: bool = False,
+                 limits: Thresholds = Thresholds()) -> tuple[Airframe, FitReport, Points | None]:
+    """Both families fitted and scored, the better one chosen, then the self-check (report.self_check;
+    the caller refuses to write a model that failed it unless forced)."""
     logs = read_calibration_logs(af, log_paths, still_air)
     families: dict[str, tuple[Airframe, FitReport, Points | None]] = {}
-    scores: dict[str, dict[str, float | None]] = {}
+    scores: dict[str, dict[str, Any]] = {}
     failures: list[str] = []
     samples, per_log = drag_samples(af, logs)
     if model in ("drag", "auto"):
@@ -92,7 +107,8 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynami
             choice = dragfit.choose_drag_law(samples)
             fitted = drag_airframe(af, choice, samples)
             families["drag"] = (fitted, _drag_report(choice, len(samples), fitted.thrust.scale), None)
-            scores["drag"] = _family_scores((choice.cv_h_mps, choice.cv_v_mps), choice.extrapolation_h_mps)
+            scores["drag"] = _family_scores((choice.cv_h_mps, choice.cv_v_mps), choice.extrapolation_h_mps,
+                                            holdcv.hold_cv(samples, dragfit.drag_fit_predict(choice.active)))
     if model in ("polynomial", "auto"):
         try:
             fitted, report, points = fit_polynomial(af, logs, terms, dynamic)
@@ -102,14 +118,27 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynami
             failures.append(f"polynomial family: {exc}")
     if not families:
         raise CheckFailed("; ".join(failures) or "no model could be fitted")
-    chosen = min(families, key=lambda k: scores.get(k, {}).get("score_mps") or math.inf)
+    chosen = min(families, key=lambda k: scores.get(k, {}).get("score_mps") or math.inf)  # type: ignore[arg-type]
     new, report, points = families[chosen]
     report.model, report.families, report.samples = chosen, scores, len(samples)
+    for key in ("hold_cv_speed_mps", "hold_cv_by_speed", "hold_extrapolation_speed_mps"):
+        setattr(report, key, scores.get(chosen, {}).get(key))
     report.warnings += failures
     for index, count in enumerate(per_log):
         if count == 0:
             report.warnings.append(f"{log_paths[index]}: contributed no usable sample")
+    speed_range = _speed_range(samples, points)
+    cv = report.hold_cv_speed_mps if report.hold_cv_speed_mps is not None else report.horizontal_cv_rmse_mps
+    check = self_check(new, logs, per_log, cv, speed_range, limits)
+    report.self_check = dataclasses.asdict(check)
     return new, report, points
+
+
+def _speed_range(samples: dragfit.DragSamples, points: Points | None) -> float:
+    """The largest true horizontal airflow speed calibrated on (m/s)."""
+    if len(samples):
+        return float(np.max(np.hypot(samples.airflow[:, 0], samples.airflow[:, 1])))
+    return float(np.max(points.speed_h)) if points is not None and len(points) else 0.0
 
 
 def _drag_report(choice: dragfit.DragChoice, samples: int, thrust_scale: float) -> FitReport:

@@ -45,3 +45,6 @@ ULOG_RATE = Bound(1.0, 1000.0, "Hz")
 FREQUENCY = Bound(1e-4, 1e4, "Hz")        # then also below the airframe's Nyquist frequency
 BANDWIDTH = Bound(1e-3, 1e4, "Hz")        # then also below the airframe's Nyquist frequency
 MAX_FREQUENCIES = 50
+ERROR_SHARE = Bound(0.001, 10.0)          # fit self-check: share of the calibrated airflow speed range
+ERROR_FLOOR = Bound(0.0, 100.0, "m/s")
+DIRECTION_LIMIT = Bound(0.1, 180.0, "deg")

@@ -44,7 +44,17 @@ def test_whole_benchmark_on_a_tiny_vehicle(vehicle_dir, tmp_path, capsys):
     tunnel = run["tunnel"]
     # The RMS of the per-hold errors lies between their mean absolute value and their maximum.
     assert tunnel["speed_mean"] <= tunnel["speed_rms"] + 1e-12 <= tunnel["speed_max"] + 2e-12
-    assert run["cv_ratio"] == pytest.approx(tunnel["speed_rms"] / run["fit"]["cv_rmse_mps"])
+    # The ratio's denominator is the fit's own prediction for these holds: the hold-level CV of each
+    # hold's speed band, the hold-level extrapolation error beyond the calibrated range.
+    bands = run["fit"]["hold_cv_by_speed"]["rms_mps"]
+    assert 0 < tunnel["predicted_rms"] <= max(bands + [run["fit"]["hold_extrapolation_mps"]])
+    assert min(bands) <= tunnel["predicted_rms_calibrated"] <= max(bands)
+    inside = [e for s, e in zip(tunnel["hold_speeds"], tunnel["hold_errors"]) if s <= run["fit"]["calibrated_speed_mps"]]
+    assert 0 < len(inside) < len(tunnel["hold_speeds"])  # 3-10 m/s holds against a 0-8 m/s calibration
+    assert run["cv_ratio"] == pytest.approx(math.sqrt(sum(e * e for e in inside) / len(inside))
+                                            / tunnel["predicted_rms_calibrated"])
+    assert run["cv_ratio_all"] == pytest.approx(tunnel["speed_rms"] / tunnel["predicted_rms"])
+    assert run["fit"]["self_check_passed"] is True
     assert run["fit"]["peak_rss_mb"] > 50 and run["fit"]["time_s"] > 0  # the child's own figures
     for scenario, key in (("still-air", "horizontal_mps"), ("outdoor", "speed_mean"), ("outdoor", "direction_mean")):
         assert math.isfinite(run[scenario][key])

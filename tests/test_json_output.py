@@ -101,7 +101,12 @@ def test_fit_json_with_a_non_finite_figure(tmp_path, capsys, monkeypatch):
     from dobwind.model.airframe import load_airframe
 
     af = load_airframe(M300)
-    monkeypatch.setattr(fitfamily, "fit_airframe", lambda *a, **k: (af, fit.FitReport(points=9), None))
+    from dataclasses import asdict
+
+    from dobwind.selfcheck import Thresholds, verdict
+
+    passed = asdict(verdict(af, [], 0.05, 8.0, Thresholds()))  # the self-check is not what this test is about
+    monkeypatch.setattr(fitfamily, "fit_airframe", lambda *a, **k: (af, fit.FitReport(points=9, self_check=passed), None))
     monkeypatch.setattr(fit, "fit_plot", lambda *a, **k: None)
     out = tmp_path / "fitted.toml"
     code, report = _json_run(["fit", str(M300), "x.csv", "-o", str(out), "--json"], capsys)

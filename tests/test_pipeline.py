@@ -146,12 +146,20 @@ def test_fit_report_json(logs, tmp_path, capsys):
     assert set(chosen["families"]) == {"drag", "polynomial"} and chosen["model"] in chosen["families"]
     best = min(f["score_mps"] for f in chosen["families"].values())
     assert chosen["families"][chosen["model"]]["score_mps"] == best
+    assert chosen["self_check"]["passed"] and chosen["written"]
+    first = out.read_text()
+    # The paper's printed terms on this sweep: the fit's own CV looks tolerable per chunk, but the
+    # training replay misses by more than a metre per second (the "terrible and silent" default).
+    # The self-check refuses it: exit 1, the earlier result untouched.
     assert main(["fit", str(M300), logs["sweep"], logs["vertical"], "-o", str(out), "--json", "--model", "polynomial",
-                 "--terms", "airframe"]) == 0
+                 "--terms", "airframe"]) == 1
     report = json.loads(capsys.readouterr().out)
     assert report["horizontal_terms"] == ["1", "m", "n", "m^2", "n^2"]  # the airframe's own terms
     assert report["directions"] == 12 and report["speeds"] >= 8 and report["points"] > 100
     assert report["horizontal_cv_rmse_mps"] < 1.5
+    assert not report["self_check"]["passed"] and not report["written"] and out.read_text() == first
+    sweep = report["self_check"]["logs"][0]
+    assert sweep["speed_rms_mps"] > report["self_check"]["replay_limit_mps"]
     assert (tmp_path / "f_fit.png").read_bytes()[:4] == b"\x89PNG"
 
 

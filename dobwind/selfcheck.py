@@ -1,0 +1,226 @@
+"""The fit checks itself: every calibration log replayed through the NEW airframe's step.
+
+`fit` minimizes an error in its own terms (decimated samples, chunk means). What the user gets is the
+step: observer, scheduled low-pass, force-air model, wind triangle. So after fitting, each calibration
+log runs through that very step (the Python reference, which the C is verified against) and its
+estimate is compared with the true wind, per segment (the log's `segment` column, else fixed windows)
+and per log. The truth is delay-matched the way the drag fit does it: passed through the observer's and
+the low-pass's response H (at the cutoff the schedule gives for the log's median estimated speed).
+
+The verdict is a list of reasons not to trust the model, each with the threshold it broke. The
+thresholds are named parameters (``Thresholds``); the ones on speed are relative to the calibrated
+airflow speed range with an absolute floor, so one default serves a 3 m/s micro and a 15 m/s heavy lift.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from dobwind import dragfit
+from dobwind.analysis.figures import settling_time_s
+from dobwind.analysis.linear import axis_system
+from dobwind.logs import FlightLog, step_inputs
+from dobwind.model import reference
+from dobwind.model.airframe import Airframe
+from dobwind.model.status import accepted
+from dobwind.model.step import StepModel, build_step
+
+WARMUP_S = 5.0            # the observer and filter start up: not scored (as `replay`)
+SEGMENT_SETTLE_S = 5.0    # a segment's first seconds are a transition: not scored (as `replay`), or the
+                          # estimator's settling time when that is shorter (short calibration holds)
+WINDOW_S = 10.0           # segments of a log without a `segment` column
+MIN_SEGMENT_POINTS = 10
+MIN_SPEED_FOR_DIRECTION_MPS = 1.0
+
+
+@dataclass(frozen=True)
+class Thresholds:
+    """When a fitted model is not to be trusted. Speed limits: share * calibrated speed range, at least
+    the floor. Chosen so that a good fit on every benchmark vehicle passes with a wide margin (README)."""
+    cv_share: float = 0.06           # the honest (hold-level) CV
+    replay_share: float = 0.06       # each log's training replay: RMS of its per-segment speed errors
+    floor_mps: float = 0.15
+    direction_deg: float = 10.0      # each log's mean per-segment direction error
+    max_coefficient: float = 1e6     # any model coefficient, in its SI units
+
+    def speed_limit_mps(self, share: float, speed_range_mps: float) -> float:
+        return max(self.floor_mps, share * speed_range_mps)
+
+
+@dataclass
+class LogCheck:
+    log: str
+    rows: int
+    fit_samples: int            # decimated samples the fit took from this log
+    points_kept: int            # replayed samples scored (accepted, settled)
+    segments: list[dict] = field(default_factory=list)
+    speed_rms_mps: float | None = None
+    speed_max_mps: float | None = None
+    direction_mean_deg: float | None = None
+    direction_max_deg: float | None = None
+
+
+@dataclass
+class SelfCheck:
+    passed: bool
+    reasons: list[str]
+    cv_mps: float | None          # the CV judged: hold-level (the family's raw CV when that is missing)
+    speed_range_mps: float
+    cv_limit_mps: float
+    replay_limit_mps: float
+    direction_limit_deg: float
+    logs: list[LogCheck]
+
+
+def matched_truth(af: Airframe, log: FlightLog, wind_est: np.ndarray) -> np.ndarray:
+    """The true wind through H, the response the estimate went through (delay matching)."""
+    truth = np.nan_to_num(log.true_wind)
+    t = log.time_s
+    dt = float(np.median(np.diff(t))) if len(t) > 1 else af.observer.sample_time_s
+    speed = float(np.median(np.hypot(wind_est[:, 0], wind_est[:, 1]))) if len(wind_est) else 0.0
+    cutoff = float(np.interp(speed, af.filter.speeds_mps, af.filter.cutoffs_hz))
+    out = np.empty_like(truth)
+    for axis in range(3):
+        b, a = dragfit.observer_filter(af, dt, cutoff, axis)
+        out[:, axis] = dragfit._filtered(b, a, truth[:, axis])
+    return out
+
+
+def _wrap_deg(a: float) -> float:
+    return (a + 180.0) % 360.0 - 180.0
+
+
+def _segment_row(label: int, est: np.ndarray, true: np.ndarray) -> dict:
+    est_mean, true_mean = est.mean(axis=0), true.mean(axis=0)
+    est_speed, true_speed = math.hypot(*est_mean[:2]), math.hypot(*true_mean[:2])
+    direction = None
+    if true_speed >= MIN_SPEED_FOR_DIRECTION_MPS:
+        angle = math.atan2(est_mean[1], est_mean[0]) - math.atan2(true_mean[1], true_mean[0])
+        direction = abs(_wrap_deg(math.degrees(angle)))
+    return {"segment": label, "true_speed_mps": true_speed, "speed_error_mps": est_speed - true_speed,
+            "direction_error_deg": direction, "vertical_error_mps": float(est_mean[2] - true_mean[2]),
+            "points": int(len(est))}
+
+
+def _segment_labels(log: FlightLog) -> np.ndarray:
+    if log.has("segment"):
+        return log.columns["segment"].astype(np.int64)
+    t = log.time_s
+    return np.floor((t - t[0]) / WINDOW_S).astype(np.int64)
+
+
+def check_log(af: Airframe, log: FlightLog, fit_samples: int, settle_s: float | None = None,
+              model: StepModel | None = None) -> LogCheck:
+    """One calibration log through the airframe's step (``model``, built from ``af`` when not given):
+    per-segment and per-log errors. A segment is scored from ``settle_s`` after its start (default: see
+    SEGMENT_SETTLE_S)."""
+    model = model if model is not None else build_step(af)
+    settle = settle_s if settle_s is not None else min(SEGMENT_SETTLE_S, settling_time_s(axis_system(model, 0, with_filter=True)))
+    traj = reference.run(model, step_inputs(model, log))
+    wind = traj.outputs[:, model.outputs.slice("wind_ned")]
+    truth = matched_truth(af, log, wind)
+    t = log.time_s
+    usable = accepted(traj.status) & (t >= t[0] + WARMUP_S) & np.isfinite(log.true_wind).all(axis=1)
+    labels = _segment_labels(log)
+    order = np.argsort(labels, kind="stable")
+    values, first = np.unique(labels[order], return_index=True)
+    rows = []
+    for label, lo, hi in zip(values, first, np.r_[first[1:], len(order)]):
+        members = order[lo:hi]
+        use = members[usable[members] & (t[members] >= t[members[0]] + settle)]
+        if use.size >= MIN_SEGMENT_POINTS:
+            rows.append(_segment_row(int(label), wind[use], truth[use]))
+    check = LogCheck(log.path, log.rows, fit_samples, int(sum(r["points"] for r in rows)), rows)
+    if rows:
+        speed = np.array([r["speed_error_mps"] for r in rows])
+        check.speed_rms_mps = float(np.sqrt(np.mean(speed ** 2)))
+        check.speed_max_mps = float(np.max(np.abs(speed)))
+        dirs = [r["direction_error_deg"] for r in rows if r["direction_error_deg"] is not None]
+        check.direction_mean_deg = float(np.mean(dirs)) if dirs else None
+        check.direction_max_deg = float(np.max(dirs)) if dirs else None
+    return check
+
+
+def coefficients(af: Airframe) -> dict[str, float]:
+    """Every fitted number of the model, by name."""
+    values = {f"horizontal[{t}]": c for t, c in zip(af.horizontal.term_texts, af.horizontal.coefficients)}
+    values.update({f"vertical[{t}]": c for t, c in zip(af.vertical.term_texts, af.vertical.coefficients)})
+    if af.drag is not None:
+        values.update({f"drag.{k}": float(getattr(af.drag, k)) for k in dragfit.HORIZONTAL_DRAG_KEYS
+                       + dragfit.VERTICAL_DRAG_KEYS})
+    values.update({f"force_offset[{i}]": v for i, v in enumerate(af.observer.force_offset_n)})
+    values["thrust.scale"] = af.thrust.scale
+    return values
+
+
+def blown_up(af: Airframe, limit: float) -> list[str]:
+    """Coefficients that are non-finite or absurdly large (the data could not determine them)."""
+    bad = [f"{k} = {v:g}" for k, v in coefficients(af).items() if not (math.isfinite(v) and abs(v) <= limit)]
+    if not (math.isfinite(af.thrust.scale) and af.thrust.scale > 0):
+        bad.append(f"thrust.scale = {af.thrust.scale:g} (must be > 0)")
+    return bad
+
+
+def verdict(af: Airframe, logs: list[LogCheck], cv_mps: float | None, speed_range_mps: float,
+            limits: Thresholds) -> SelfCheck:
+    cv_limit = limits.speed_limit_mps(limits.cv_share, speed_range_mps)
+    replay_limit = limits.speed_limit_mps(limits.replay_share, speed_range_mps)
+    reasons = [f"coefficient {c} (limit |c| <= {limits.max_coefficient:g})" for c in blown_up(af, limits.max_coefficient)]
+    if cv_mps is None or not math.isfinite(cv_mps):
+        reasons.append("no cross-validation figure (the data has too few blocks to test the model on unseen flight)")
+    elif cv_mps > cv_limit:
+        reasons.append(f"hold-level CV {cv_mps:.3f} m/s > {cv_limit:.3f} m/s")
+    for check in logs:
+        if check.fit_samples == 0:
+            reasons.append(f"{check.log}: contributed no usable sample to the fit")
+        if check.speed_rms_mps is None:
+            reasons.append(f"{check.log}: no scorable segment in the training replay")
+        elif check.speed_rms_mps > replay_limit:
+            reasons.append(f"{check.log}: training replay speed error RMS {check.speed_rms_mps:.3f} m/s "
+                           f"> {replay_limit:.3f} m/s")
+        if check.direction_mean_deg is not None and check.direction_mean_deg > limits.direction_deg:
+            reasons.append(f"{check.log}: training replay direction error mean {check.direction_mean_deg:.2f} deg "
+                           f"> {limits.direction_deg:g} deg")
+    return SelfCheck(not reasons, reasons, cv_mps, speed_range_mps, cv_limit, replay_limit, limits.direction_deg, logs)
+
+
+def self_check(af: Airframe, logs: list[FlightLog], fit_samples: list[int], cv_mps: float | None,
+               speed_range_mps: float, limits: Thresholds = Thresholds()) -> SelfCheck:
+    """Replay every calibration log through ``af`` and judge the fit (see the module docstring)."""
+    model = build_step(af)
+    checks = [check_log(af, log, count, model=model) for log, count in zip(logs, fit_samples)]
+    return verdict(af, checks, cv_mps, speed_range_mps, limits)
+
+
+WORST_SEGMENTS_SHOWN = 5
+
+
+def _segment_lines(segments: list[dict]) -> list[str]:
+    worst = sorted(segments, key=lambda r: -abs(r["speed_error_mps"]))[:WORST_SEGMENTS_SHOWN]
+    lines = []
+    for r in worst:
+        d = "-" if r["direction_error_deg"] is None else f"{r['direction_error_deg']:.2f}"
+        lines.append(f"      segment {r['segment']:5d}: true {r['true_speed_mps']:6.2f} m/s, speed error "
+                     f"{r['speed_error_mps']:+.3f} m/s, direction error {d} deg, vertical error "
+                     f"{r['vertical_error_mps']:+.3f} m/s, {r['points']} points")
+    return lines
+
+
+def text_table(check: dict) -> str:
+    """The self-check (as stored in the fit report) for people: per log, and its worst segments."""
+    cv = "n/a" if check["cv_mps"] is None else f"{check['cv_mps']:.3f}"
+    lines = [f"self-check: every calibration log replayed through the new airframe's step; calibrated speed "
+             f"range {check['speed_range_mps']:.2f} m/s; hold-level CV {cv} m/s (limit {check['cv_limit_mps']:.3f})",
+             f"  limits per log: segment speed error RMS <= {check['replay_limit_mps']:.3f} m/s, mean direction "
+             f"error <= {check['direction_limit_deg']:g} deg"]
+    for c in check["logs"]:
+        speed = "n/a" if c["speed_rms_mps"] is None else f"{c['speed_rms_mps']:.3f} / {c['speed_max_mps']:.3f} m/s"
+        direction = ("n/a" if c["direction_mean_deg"] is None else
+                     f"{c['direction_mean_deg']:.2f} / {c['direction_max_deg']:.2f} deg")
+        lines.append(f"  {c['log']}: {c['fit_samples']} fit samples, {c['points_kept']} of {c['rows']} points kept "
+                     f"in {len(c['segments'])} segments; speed error RMS / max {speed}; direction mean / max {direction}")
+        lines += _segment_lines(c["segments"])
+    lines.append("self-check: " + ("PASS" if check["passed"] else "FAIL: " + "; ".join(check["reasons"])))
+    return "\n".join(lines)

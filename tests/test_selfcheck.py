@@ -1,0 +1,187 @@
+"""The fit checks itself: hold-level CV arithmetic, the verdict's thresholds, and `fit` refusing (exit 1,
+nothing written) or forcing (--force) a model that failed its self-check."""
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+
+import numpy as np
+import pytest
+
+from dobwind.cli import main
+from dobwind.holdcv import HoldCV, _window_ids, window_speed_errors
+from dobwind.model.airframe import load_airframe
+from dobwind.model.airframe_toml import dumps
+from dobwind.selfcheck import LogCheck, Thresholds, check_log, text_table, verdict
+from tests.helpers import M300
+
+TINY_VEHICLE = {"mass": 2.0, "rate": 20.0, "drag": {"x": {"quadratic": 0.03}, "y": {"quadratic": 0.04},
+                                                     "z": {"linear": 0.3}},
+                "rotor_drag": {"coefficient": 0.2}, "thrust": {"scale": 1.03}}
+TINY_AIRFRAME = {
+    "name": "tiny", "mass": 2.0, "thrust": {"source": "collective"},
+    "observer": {"sample_time": 0.05, "gains": [12.0, 12.0, 12.0], "discretization": "paper", "acceleration": "velocity"},
+    "force_air": {"horizontal": {"terms": ["fh^0.5"], "coefficients": [4.0]},
+                  "vertical": {"terms": ["fz"], "coefficients": [0.5]}},
+    "filter": {"speeds": [0.0, 3.0, 10.0], "cutoffs": [0.2, 0.35, 0.5]},
+}
+
+
+# --- hold-level CV ------------------------------------------------------------------------------
+
+def test_window_errors_average_noise_and_ignore_direction():
+    """Truth at 5 m/s along x; the prediction 4 % fast, turned 3 deg, with zero-mean noise of 0.5 m/s on
+    every sample. Per sample the vector error is about 0.6 m/s; per 100-sample window the hold-mean
+    speed error is 0.2 m/s (4 % of 5), up to the noise's mean over the window."""
+    rng = np.random.default_rng(3)
+    n = 1000
+    truth = np.tile([5.0, 0.0, 0.0], (n, 1))
+    turn = math.radians(3.0)
+    predicted = 1.04 * 5.0 * np.tile([math.cos(turn), math.sin(turn), 0.0], (n, 1))
+    predicted[:, :2] += rng.normal(0.0, 0.5, (n, 2))
+    per_sample = float(np.sqrt(np.mean(np.sum((predicted - truth)[:, :2] ** 2, axis=1))))
+    windows = _window_ids(np.zeros(n, dtype=int), 100)
+    errors = window_speed_errors(predicted, truth, windows)
+    assert len(errors) == 10 and per_sample > 0.5
+    assert np.all(np.abs(errors - 0.2) < 4 * 0.5 / math.sqrt(100))
+
+
+def test_windows_split_blocks_and_never_span_two():
+    group = np.array([0, 0, 0, 0, 0, 3, 3, 3])
+    ids = _window_ids(group, 2)
+    assert len(np.unique(ids)) == 3 + 2
+    assert len(set(ids[:5]) & set(ids[5:])) == 0
+
+
+def test_predicted_hold_error_inside_and_beyond_the_calibration():
+    hold = HoldCV(0.05, (1.0, 5.0), (0.10, 0.02), 0.3)
+    assert hold.predicted(3.0, 8.0) == pytest.approx(0.06)     # linear between bands
+    assert hold.predicted(0.0, 8.0) == pytest.approx(0.10)     # clamped below
+    assert hold.predicted(7.0, 8.0) == pytest.approx(0.02)     # clamped above, still calibrated
+    assert hold.predicted(9.0, 8.0) == pytest.approx(0.3)      # beyond the range: extrapolation
+    assert HoldCV(0.05, (), (), math.nan).predicted(9.0, 8.0) == pytest.approx(0.05)
+
+
+# --- the verdict ----------------------------------------------------------------------------------
+
+def _log(name, fit_samples=500, rms=0.05, direction=1.0):
+    return LogCheck(name, 1000, fit_samples, 800, [], rms, rms, direction, direction)
+
+
+def test_limits_scale_with_the_speed_range_above_a_floor():
+    limits = Thresholds(cv_share=0.05, replay_share=0.1, floor_mps=0.2)
+    af = load_airframe(M300)
+    check = verdict(af, [_log("a.csv")], 0.3, 10.0, limits)
+    assert check.cv_limit_mps == pytest.approx(0.5) and check.replay_limit_mps == pytest.approx(1.0)
+    assert check.passed and check.reasons == []
+    small = verdict(af, [_log("a.csv")], 0.19, 1.0, limits)  # 5 % of 1 m/s is below the floor
+    assert small.cv_limit_mps == pytest.approx(0.2) and small.passed
+
+
+@pytest.mark.parametrize("case,expected", [
+    ("cv", "hold-level CV 0.600 m/s > 0.500 m/s"),
+    ("nothing", "b.csv: contributed no usable sample"),
+    ("replay", "b.csv: training replay speed error RMS 1.200 m/s > 1.000 m/s"),
+    ("direction", "b.csv: training replay direction error mean 12.00 deg > 10 deg"),
+    ("coefficient", "coefficient horizontal[1] = inf"),
+    ("no cv", "no cross-validation figure"),
+])
+def test_each_reason_fails_the_check(case, expected):
+    af = load_airframe(M300)
+    logs, cv = [_log("a.csv"), _log("b.csv")], 0.3
+    if case == "cv":
+        cv = 0.6
+    elif case == "nothing":
+        logs[1] = _log("b.csv", fit_samples=0)
+    elif case == "replay":
+        logs[1] = _log("b.csv", rms=1.2)
+    elif case == "direction":
+        logs[1] = _log("b.csv", direction=12.0)
+    elif case == "coefficient":
+        coefficients = (math.inf,) + af.horizontal.coefficients[1:]
+        af = dataclasses.replace(af, horizontal=dataclasses.replace(af.horizontal, coefficients=coefficients))
+    else:
+        cv = None
+    check = verdict(af, logs, cv, 10.0, Thresholds(cv_share=0.05, replay_share=0.1, floor_mps=0.2))
+    assert not check.passed and len(check.reasons) == 1 and expected in check.reasons[0], check.reasons
+    assert "FAIL: " + check.reasons[0] in text_table(dataclasses.asdict(check))
+
+
+# --- the whole command ---------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def tiny(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("tiny")
+    (folder / "tiny.vehicle.toml").write_text(dumps(TINY_VEHICLE))
+    (folder / "tiny.airframe.toml").write_text(dumps(TINY_AIRFRAME))
+    paths = {"airframe": str(folder / "tiny.airframe.toml")}
+    for name, seed, hold in (("sweep", 1, "5"), ("vertical", 2, "8"), ("tunnel", 3, "0.1")):
+        path = folder / f"{name}.csv"
+        assert main(["simulate", name, "--airframe", paths["airframe"], "--vehicle", str(folder / "tiny.vehicle.toml"),
+                     "--seed", str(seed), "--hold", hold, "-o", str(path)]) == 0
+        paths[name] = str(path)
+    return paths
+
+
+def test_a_good_fit_passes_and_its_replay_matches_replay(tiny, tmp_path, capsys):
+    out = tmp_path / "good.toml"
+    capsys.readouterr()
+    assert main(["fit", tiny["airframe"], tiny["sweep"], tiny["vertical"], "-o", str(out), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    check = report["self_check"]
+    assert check["passed"] and report["written"] and out.exists()
+    assert [c["log"] for c in check["logs"]] == [tiny["sweep"], tiny["vertical"]]
+    sweep = check["logs"][0]
+    assert sweep["fit_samples"] > 100 and len(sweep["segments"]) > 100 and sweep["speed_rms_mps"] < check["replay_limit_mps"]
+    assert len(check["logs"][1]["segments"]) >= 10
+    # The self-check runs the same step as `replay` (an independent path: its own reader, runner and
+    # scoring). Scored from the same 5 s into each segment, the per-segment speed errors agree up to the
+    # delay matching of the truth, which a steady hold's mean hardly sees.
+    from dobwind.logs import read_log
+    from dobwind.replay import replay, score
+
+    fitted = load_airframe(out)
+    model, log, traj = replay(fitted, tiny["vertical"])
+    by_segment = {r["segment"]: r["speed_error"] for r in score(log, traj, model)["per_segment"]["table"]}
+    mine = {r["segment"]: r["speed_error_mps"] for r in check_log(fitted, read_log(tiny["vertical"]), 1, 5.0).segments}
+    assert len(by_segment) >= 10 and set(by_segment) == set(mine)
+    assert max(abs(by_segment[s] - mine[s]) for s in by_segment) < 0.01
+
+
+def test_a_log_that_contributes_nothing_fails_and_nothing_is_written(tiny, tmp_path, capsys):
+    """A 0.8 s tunnel log ends before the observer settles: it gives the fit nothing."""
+    out = tmp_path / "bad.toml"
+    plot = tmp_path / "bad_fit.png"
+    out.write_text("earlier result\n")
+    capsys.readouterr()
+    args = ["fit", tiny["airframe"], tiny["sweep"], tiny["vertical"], tiny["tunnel"], "-o", str(out)]
+    assert main(args + ["--json"]) == 1
+    captured = capsys.readouterr()
+    report = json.loads(captured.out)
+    assert not report["self_check"]["passed"] and not report["written"]
+    assert out.read_text() == "earlier result\n" and not plot.exists()
+    last = captured.err.strip().splitlines()[-1]
+    assert last.startswith("dobwind fit: the fitted model cannot be trusted: ")
+    assert f"{tiny['tunnel']}: contributed no usable sample" in last and "--force" in last
+
+
+def test_force_writes_a_model_that_failed_and_warns(tmp_path, capsys, monkeypatch):
+    """--force: the same failed verdict is written, exit 0, one warning line with the reasons."""
+    import dobwind.fit as fit
+    import dobwind.fitfamily as fitfamily
+
+    af = load_airframe(M300)
+    failed = verdict(af, [_log("a.csv", fit_samples=0)], 0.3, 10.0, Thresholds())
+    report = fit.FitReport(points=9, self_check=dataclasses.asdict(failed))
+    monkeypatch.setattr(fitfamily, "fit_airframe", lambda *a, **k: (af, report, None))
+    monkeypatch.setattr(fit, "fit_plot", lambda af, points, path: open(path, "wb").write(b"png"))
+    out = tmp_path / "forced.toml"
+    assert main(["fit", str(M300), "a.csv", "-o", str(out), "--force"]) == 0
+    captured = capsys.readouterr()
+    assert load_airframe(out).name == af.name and (tmp_path / "forced_fit.png").exists()
+    assert "self-check: FAIL: a.csv: contributed no usable sample" in captured.out
+    assert captured.err.strip().splitlines()[-1] == ("dobwind fit: warning: the self-check failed (a.csv: contributed "
+                                                     "no usable sample to the fit); written anyway (--force)")
+    assert main(["fit", str(M300), "a.csv", "-o", str(tmp_path / "refused.toml")]) == 1
+    assert not (tmp_path / "refused.toml").exists()
