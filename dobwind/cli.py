@@ -151,10 +151,15 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
     check_targets(_replay_targets(args), [args.airframe, args.log])
     af = load_airframe(args.airframe)
-    if str(args.log).lower().endswith(".ulg"):
+    from dobwind.autopilot import is_autopilot_log
+
+    if is_autopilot_log(args.log):
         return _replay_ulog(args, af)
-    if args.rate is not None:
-        raise InputError(args.log, "--rate", "only applies to ULog files (CSV logs keep their own clock)")
+    for option, value in (("--rate", args.rate), ("--topic", args.topic)):
+        if value:
+            raise InputError(args.log, option, "only applies to autopilot logs (CSV logs keep their own clock)")
+    if args.px4_wind is not None:
+        raise InputError(args.log, "--px4-wind", "only applies to autopilot logs (.ulg, .bin, ROS 2 bags)")
     model, log, traj = replay(af, args.log, args.backend, args.precision)
     metrics = score(log, traj, model) if log.true_wind is not None else {
         "rows": log.rows, "rejected_rows": int((~accepted(traj.status)).sum())}
@@ -176,7 +181,19 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
 
 def _replay_targets(args: argparse.Namespace) -> list[Target]:
-    return [Target(option, path) for option, path in (("-o", args.output), ("--plot", args.plot)) if path is not None]
+    return [Target(option, path) for option, path in (("-o", args.output), ("--plot", args.plot),
+                                                      ("--px4-wind", args.px4_wind)) if path is not None]
+
+
+def _topic_overrides(args: argparse.Namespace) -> dict[str, str]:
+    """--topic ROLE=NAME, repeated: the ROS 2 topic names that differ from the defaults."""
+    out = {}
+    for item in args.topic or []:
+        role, sep, name = item.partition("=")
+        if not sep or not role or not name:
+            raise InputError(args.log, "--topic", f"expects ROLE=/topic/name, got {item!r}")
+        out[role.strip()] = name.strip()
+    return out
 
 
 def _replay_ulog(args: argparse.Namespace, af) -> int:
@@ -184,12 +201,15 @@ def _replay_ulog(args: argparse.Namespace, af) -> int:
     from dobwind.replay import replay_ulog, write_output
     from dobwind.ulog import compare_with_px4
 
-    model, flight, traj = replay_ulog(af, args.log, args.backend, args.precision, args.rate)
+    model, flight, traj = replay_ulog(af, args.log, args.backend, args.precision, args.rate, _topic_overrides(args))
+    for warning in flight.warnings:
+        sys.stderr.write(f"dobwind replay: warning: {warning}\n")
     log = flight.log
     wind = traj.outputs[:, model.outputs.slice("wind_ned")]
     valid = accepted(traj.status)  # quality-flagged samples are estimates too; status_counts shows the flags
     summary = {"airframe": af.name, "log": str(args.log), "backend": args.backend, "rows": log.rows,
                "valid_rows": int(valid.sum()), "duration_s": float(log.time_s[-1]), "notes": list(flight.notes),
+               "warnings": list(flight.warnings),
                "status_counts": {describe(int(s)): int((traj.status == s).sum()) for s in np.unique(traj.status)},
                "mean_wind_speed_h_mps": float(np.mean(np.hypot(wind[valid, 0], wind[valid, 1]))) if valid.any() else None,
                "outputs_finite": bool(np.all(np.isfinite(traj.outputs)))}
@@ -198,6 +218,11 @@ def _replay_ulog(args: argparse.Namespace, af) -> int:
     with OutputFiles(_replay_targets(args)) as out:
         if args.output is not None:
             write_output(out.stage(args.output), log, traj)
+        if args.px4_wind is not None:
+            from dobwind.autopilot import px4_wind_rows, write_px4_wind
+
+            sigma = traj.outputs[:, model.outputs.slice("wind_sigma_h")][:, 0]
+            write_px4_wind(out.stage(args.px4_wind), px4_wind_rows(flight, wind, sigma, traj.status, valid))
         if args.plot is not None:
             from dobwind.plots import replay_plot
 
@@ -282,8 +307,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output")
     p.add_argument("--backend", choices=("python", "c"), default="python")
     p.add_argument("--precision", choices=("single", "double"), default="single", help="C backend precision")
-    p.add_argument("--rate", type=opt.ULOG_RATE,
-                   help=f"ULog only: resample at this rate ({opt.ULOG_RATE.text()}) instead of the attitude's clock")
+    p.add_argument("--rate", type=opt.ULOG_RATE, help=f"autopilot logs only: resample at this rate "
+                   f"({opt.ULOG_RATE.text()}) instead of the attitude's clock")
+    p.add_argument("--px4-wind", help="autopilot logs: also write the estimate as PX4's wind message holds it "
+                   "(timestamp, north/east wind and their variances) to this CSV")
+    p.add_argument("--topic", action="append", metavar="ROLE=NAME",
+                   help="ROS 2 bags: a topic name other than the default (roles: see docs; repeatable)")
     p.add_argument("--plot")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_replay)
