@@ -114,7 +114,7 @@ def truncation(path: str) -> str | None:
     return f"truncated: the file ends inside a message at byte {size:,}; replaying the readable part only"
 
 
-def _esc_missing(esc: dict, rotors: int, clock: np.ndarray, airborne: np.ndarray) -> tuple[np.ndarray, str | None]:
+def esc_missing(esc: dict, rotors: int, clock: np.ndarray, airborne: np.ndarray) -> tuple[np.ndarray, str | None]:
     """Rows whose rotor speeds are not measurements: an ESC that is offline (beyond esc_count, or its
     esc_online_flags bit clear) or that reports exactly 0 rpm while the vehicle is airborne (a spinning
     rotor never reads 0; a log from ESCs without telemetry reads 0 throughout)."""
@@ -215,7 +215,7 @@ def read_ulog(path: str, af: Airframe, rate_hz: float | None = None) -> UlogFlig
     landed = _ground(ulog, clock, notes)
     gappy = no_data.copy()
     if af.thrust.source == "rpm":
-        dead, note = _esc_missing(topics["esc_status"], af.thrust.rotors, clock, ~landed & ~no_data)
+        dead, note = esc_missing(topics["esc_status"], af.thrust.rotors, clock, ~landed & ~no_data)
         no_data |= dead
         if note:
             notes.append(note)
