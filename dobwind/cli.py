@@ -239,11 +239,12 @@ def _replay_ulog(args: argparse.Namespace, af) -> int:
     if summary["mean_wind_speed_h_mps"] is not None:
         print(f"mean horizontal wind {summary['mean_wind_speed_h_mps']:.2f} m/s")
     px4 = summary.get("px4")
+    label = px4["topic"] if px4 and " " in px4["topic"] else f"PX4 {px4['topic']}" if px4 else ""  # ArduPilot/ROS name themselves
     if px4 and px4.get("overlap_rows"):
-        print(f"PX4 {px4['topic']}: mean vector difference {px4['mean_vector_difference_mps']:.2f} m/s, mean speed "
+        print(f"{label}: mean vector difference {px4['mean_vector_difference_mps']:.2f} m/s, mean speed "
               f"difference (ours - PX4) {px4['mean_speed_difference_mps']:+.2f} m/s over {px4['overlap_rows']} instants")
     elif px4:
-        print(f"PX4 {px4['topic']}: no overlap with valid estimates")
+        print(f"{label}: no overlap with valid estimates")
     return 0
 
 

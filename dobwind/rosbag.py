@@ -204,10 +204,11 @@ def read_rosbag(path: str, af: Airframe, rate_hz: float | None = None,
             raise InputError(path, f"topic {wanted['imu' if role == 'attitude' and setup == 'mavros' else role]}",
                              f"missing from the bag or fewer than two messages ({what}){hint}")
     notes = [f"{setup} topics: " + ", ".join(f"{r} {wanted[r]} ({len(msgs[r])})" for r in wanted)]
-    return _assemble(path, af, s, rate_hz, notes)
+    return _assemble(path, af, s, rate_hz, notes, wanted["wind"])
 
 
-def _assemble(path: str, af: Airframe, s: dict, rate_hz: float | None, notes: list[str]) -> AutopilotFlight:
+def _assemble(path: str, af: Airframe, s: dict, rate_hz: float | None, notes: list[str],
+              wind_topic: str = "wind") -> AutopilotFlight:
     used = {r: s[r] for r in ("velocity", "attitude", "imu", "esc")}
     start, stop = max(x["t"][0] for x in used.values()), min(x["t"][-1] for x in used.values())
     att_t = s["attitude"]["t"]
@@ -247,7 +248,7 @@ def _assemble(path: str, af: Airframe, s: dict, rate_hz: float | None, notes: li
         notes.append(count_note(gappy, f"with a topic gap longer than max_dt ({af.limits.max_dt_s:g} s; esc: "
                                        f"{ROTOR_MAX_GAP_S:g} s)", "NO_DATA"))
     wind = s["wind"]
-    ap_wind = None if wind is None else ("bag wind", wind["t"] - clock[0], wind["v"])
+    ap_wind = None if wind is None else (f"ROS 2 {wind_topic}", wind["t"] - clock[0], wind["v"])
     return AutopilotFlight(FlightLog(path, blank(cols, no_data | landed)), no_data, landed, ap_wind, tuple(notes),
                            float(clock[0]))
 

@@ -146,7 +146,7 @@ def test_garbage_exits_2_without_traceback(tmp_path, capsys):
 
 def test_fit_on_dataflash_equals_fit_on_the_equivalent_csv(tmp_path, capsys):
     af = load_airframe(M300)
-    cols = simulate(af, "still-air", seed=4, hold_s=4.0, rate_hz=50.0)
+    cols = simulate(af, "still-air", seed=4, hold_s=2.0, rate_hz=25.0)
     cols = {**cols, "wind_n": np.zeros_like(cols["t"]), "wind_e": np.zeros_like(cols["t"])}
     fitted = []
     for log in (_bin(tmp_path / "still.bin", af, cols), _equivalent_csv(tmp_path / "still.csv", af, cols)):
