@@ -169,7 +169,9 @@ def _mavros_streams(path: str, msgs: dict, rotors: int) -> dict:
     return s
 
 
-def _setup(path: str, overrides: dict[str, str]) -> tuple[str, dict[str, str]]:
+def _setup(path: str, overrides: dict[str, str], from_airframe: dict[str, str]) -> tuple[str, dict[str, str]]:
+    """The setup (by the bag's topics) and its topic per role: defaults, then the airframe's
+    [ros2_topics] (roles of the other setup are ignored), then --topic (checked)."""
     from rosbags.rosbag2 import Reader
 
     try:
@@ -177,24 +179,31 @@ def _setup(path: str, overrides: dict[str, str]) -> tuple[str, dict[str, str]]:
             topics = {c.topic for c in reader.connections}
     except Exception as exc:
         raise InputError(path, None, f"not a readable ROS 2 bag ({type(exc).__name__}: {str(exc)[:100]})") from None
-    px4 = any(t.startswith("/fmu/") for t in topics | set(overrides.values())) or not any(t.startswith("/mavros/") for t in topics)
+    # The bag's topics decide; only a bag with neither kind goes by the names the user gave.
+    named = topics if any(t.startswith(("/fmu/", "/mavros/")) for t in topics) else set(overrides.values())
+    px4 = not any(t.startswith("/mavros/") for t in named)
     defaults = PX4_TOPICS if px4 else MAVROS_TOPICS
     unknown = set(overrides) - set(defaults)
     if unknown:
         raise InputError(path, f"--topic {sorted(unknown)[0]}", f"is not a role of the {'PX4' if px4 else 'mavros'} "
                          f"setup (roles: {', '.join(defaults)})")
-    return ("px4" if px4 else "mavros"), {**defaults, **overrides}
+    from_file = {r: t for r, t in from_airframe.items() if r in defaults}
+    return ("px4" if px4 else "mavros"), {**defaults, **from_file, **overrides}
 
 
 def read_rosbag(path: str, af: Airframe, rate_hz: float | None = None,
                 overrides: dict[str, str] | None = None) -> AutopilotFlight:
-    setup, wanted = _setup(path, overrides or {})
+    setup, wanted = _setup(path, overrides or {}, dict(af.ros2_topics))
     if af.thrust.source == "collective":
         raise InputError(path, "thrust.source", "\"collective\" is not read from ROS 2 bags yet (no thrust topic in "
                          "either default set): use an rpm airframe with ESC telemetry, or the autopilot's own log")
     msgs, topics = _collect(path, wanted)
     rotors = af.thrust.rotors
-    s = (_px4_streams if setup == "px4" else _mavros_streams)(path, msgs, rotors)
+    try:
+        s = (_px4_streams if setup == "px4" else _mavros_streams)(path, msgs, rotors)
+    except (AttributeError, IndexError, TypeError) as exc:  # a topic of another message type than the role's
+        raise InputError(path, "topics " + ", ".join(wanted[r] for r in wanted if msgs[r]),
+                         f"not the message types of the {setup} setup ({type(exc).__name__}: {str(exc)[:80]})") from None
     need = [("velocity", "ground velocity"), ("attitude", "attitude"), ("imu", "specific force"),
             ("esc", f"rotor speeds of {rotors} motors")]
     for role, what in need:

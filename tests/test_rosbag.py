@@ -157,3 +157,23 @@ def test_topic_names_are_overridable(tmp_path, capsys):
     capsys.readouterr()
     assert main(["replay", str(M300), str(bag), "--topic", "speed=/x"]) == 2
     assert "roles" in capsys.readouterr().err
+
+
+def test_topic_names_from_the_airframe_file(tmp_path, capsys):
+    from dobwind.model.airframe_toml import dump_airframe
+    from dobwind.model.airframe import parse_airframe
+
+    af, cols = _flight()
+    bag = _mavros_bag(tmp_path / "renamed", af, cols, "db3", velocity_topic="/drone1/velocity_local")
+    text = M300.read_text() + '\n[ros2_topics]\nvelocity = "/drone1/velocity_local"\nland = "/fmu/out/x"\n'
+    path = tmp_path / "m300_ros.toml"
+    path.write_text(text)
+    assert main(["replay", str(path), str(bag)]) == 0  # land is a PX4 role: ignored for mavros
+    capsys.readouterr()
+    # fit rewrites the airframe: the table survives a dump and reload.
+    again = parse_airframe(dump_airframe(parse_airframe(text, "<t>")), "<t2>")
+    assert dict(again.ros2_topics) == {"velocity": "/drone1/velocity_local", "land": "/fmu/out/x"}
+    path.write_text(M300.read_text() + '\n[ros2_topics]\nvelocity = "drone1/velocity_local"\n')
+    assert main(["replay", str(path), str(bag)]) == 2
+    err = capsys.readouterr().err
+    assert "ros2_topics.velocity" in err and err.count("\n") == 1
