@@ -7,8 +7,9 @@ Two setups, told apart by their topics (every name can be replaced: `replay --to
   velocity /fmu/out/vehicle_odometry (velocity_frame NED, or BODY_FRD rotated by its q),
   attitude /fmu/out/vehicle_attitude (q: FRD body to NED), imu /fmu/out/sensor_combined
   (accelerometer_m_s2, FRD), esc /fmu/out/esc_status, land /fmu/out/vehicle_land_detected,
-  wind /fmu/out/wind (comparison). PX4's default dds_topics.yaml publishes neither esc_status nor a
-  thrust setpoint: add `/fmu/out/esc_status` to it for an rpm airframe.
+  wind /fmu/out/wind (comparison); collective airframes: thrust /fmu/out/vehicle_thrust_setpoint
+  (xyz[2]) and hover /fmu/out/hover_thrust_estimate, as in the ULog path. PX4's default dds_topics.yaml
+  publishes neither esc_status nor a thrust setpoint: the error says which topic to add to it.
 - mavros (header stamps): velocity /mavros/local_position/velocity_local (ENU, converted to NED),
   imu /mavros/imu/data (orientation FLU body to ENU, acceleration FLU; both converted to FRD/NED),
   esc /mavros/esc_status/status, wind /mavros/wind_estimation (ENU).
@@ -29,6 +30,7 @@ from dobwind.resample import ROTOR_MAX_GAP_S, AutopilotFlight, blank, count_note
 
 PX4_TOPICS = {"velocity": "/fmu/out/vehicle_odometry", "attitude": "/fmu/out/vehicle_attitude",
               "imu": "/fmu/out/sensor_combined", "esc": "/fmu/out/esc_status",
+              "thrust": "/fmu/out/vehicle_thrust_setpoint", "hover": "/fmu/out/hover_thrust_estimate",
               "land": "/fmu/out/vehicle_land_detected", "wind": "/fmu/out/wind"}
 MAVROS_TOPICS = {"velocity": "/mavros/local_position/velocity_local", "imu": "/mavros/imu/data",
                  "esc": "/mavros/esc_status/status", "wind": "/mavros/wind_estimation"}
@@ -142,6 +144,9 @@ def _px4_streams(path: str, msgs: dict, rotors: int) -> dict:
     if rotors:
         s["esc"] = _series(msgs["esc"], True, lambda m: [m.esc_count, m.esc_online_flags]
                            + [m.esc[i].esc_rpm for i in range(rotors)])
+    else:
+        s["thrust"] = _series(msgs["thrust"], True, lambda m: [m.xyz[2]])
+        s["hover"] = _series(msgs["hover"], True, lambda m: [m.hover_thrust])
     return s
 
 
@@ -194,39 +199,45 @@ def _setup(path: str, overrides: dict[str, str], from_airframe: dict[str, str]) 
 def read_rosbag(path: str, af: Airframe, rate_hz: float | None = None,
                 overrides: dict[str, str] | None = None) -> AutopilotFlight:
     setup, wanted = _setup(path, overrides or {}, dict(af.ros2_topics))
-    if af.thrust.source == "collective":
-        raise InputError(path, "thrust.source", "\"collective\" is not read from ROS 2 bags yet (no thrust topic in "
-                         "either default set): use an rpm airframe with ESC telemetry, or the autopilot's own log")
+    collective = af.thrust.source == "collective"
+    if collective and setup != "px4":
+        raise InputError(path, "thrust.source", "\"collective\" needs a thrust topic, which mavros does not record: "
+                         "use an rpm airframe with ESC telemetry, or the autopilot's own log")
     msgs, topics = _collect(path, wanted)
-    rotors = af.thrust.rotors
+    rotors = 0 if collective else af.thrust.rotors
     try:
         s = (_px4_streams if setup == "px4" else _mavros_streams)(path, msgs, rotors)
     except (AttributeError, IndexError, TypeError) as exc:  # a topic of another message type than the role's
         raise InputError(path, "topics " + ", ".join(wanted[r] for r in wanted if msgs[r]),
                          f"not the message types of the {setup} setup ({type(exc).__name__}: {str(exc)[:80]})") from None
-    need = [("velocity", "ground velocity"), ("attitude", "attitude"), ("imu", "specific force"),
-            ("esc", f"rotor speeds of {rotors} motors")]
+    need = [("velocity", "ground velocity"), ("attitude", "attitude"), ("imu", "specific force")]
+    need += [("thrust", "collective thrust"), ("hover", "hover thrust, to scale it to newtons")] if collective else \
+        [("esc", f"rotor speeds of {rotors} motors")]
     for role, what in need:
         if s[role] is None:
-            hint = ("; PX4's default dds_topics.yaml does not publish esc_status: add /fmu/out/esc_status to it"
-                    if role == "esc" and setup == "px4" else "")
+            hint = (f"; PX4's default dds_topics.yaml does not publish {wanted[role].rsplit('/', 1)[-1]}: add "
+                    f"{wanted[role]} to it" if role in ("esc", "thrust", "hover") else "")
             raise InputError(path, f"topic {wanted['imu' if role == 'attitude' and setup == 'mavros' else role]}",
                              f"missing from the bag or fewer than two messages ({what}){hint}")
-    notes = [f"{setup} topics: " + ", ".join(f"{r} {wanted[r]} ({len(msgs[r])})" for r in wanted)]
+    notes = [f"{setup} topics: " + ", ".join(f"{r} {wanted[r]} ({len(msgs[r])})" for r in wanted if msgs[r])]
     return _assemble(path, af, s, rate_hz, notes, wanted["wind"])
 
 
 def _assemble(path: str, af: Airframe, s: dict, rate_hz: float | None, notes: list[str],
               wind_topic: str = "wind") -> AutopilotFlight:
-    used = {r: s[r] for r in ("velocity", "attitude", "imu", "esc")}
-    start, stop = max(x["t"][0] for x in used.values()), min(x["t"][-1] for x in used.values())
+    rpm = af.thrust.source == "rpm"
+    used = {r: s[r] for r in ("velocity", "attitude", "imu") + (("esc",) if rpm else ("thrust", "hover")) if s[r]}
+    start = max(x["t"][0] for x in used.values())
+    stop = min(x["t"][-1] for r, x in used.items() if r != "hover")  # the hover estimate is held past its last
     att_t = s["attitude"]["t"]
     clock = np.arange(start, stop, 1.0 / rate_hz) if rate_hz else att_t[(att_t >= start) & (att_t <= stop)]
     if not stop > start or len(clock) < 2:
         raise InputError(path, None, "the needed topics do not overlap in time")
     no_data = np.zeros(len(clock), dtype=bool)
     for role, x in used.items():
-        no_data |= gaps(x["t"], clock, ROTOR_MAX_GAP_S if role == "esc" else af.limits.max_dt_s)
+        # ESC reports are slow (ROTOR_MAX_GAP_S); the hover estimate, a slowly learned constant, is held.
+        if role != "hover":
+            no_data |= gaps(x["t"], clock, ROTOR_MAX_GAP_S if role == "esc" else af.limits.max_dt_s)
     gappy = no_data.copy()
     q = quaternions(att_t, s["attitude"]["v"], clock)
     sf = np.column_stack([np.interp(clock, s["imu"]["t"], s["imu"]["v"][:, i]) for i in range(3)])
@@ -240,19 +251,11 @@ def _assemble(path: str, af: Airframe, s: dict, rate_hz: float | None, notes: li
         cols.update(acc_n=acc[:, 0], acc_e=acc[:, 1], acc_d=acc[:, 2])
         notes.append("NED acceleration is the IMU's specific force rotated to NED, plus gravity")
     landed = _landed(s["land"], clock, notes)
-    esc = s["esc"]
-    k = esc["v"].shape[1] - af.thrust.rotors  # px4: esc_count and online flags come first
-    for i in range(af.thrust.rotors):
-        cols[f"rpm_{i + 1}"] = np.interp(clock, esc["t"], esc["v"][:, k + i])
-    from dobwind.ulog import esc_missing
-
-    report = {"t": esc["t"], **{f"esc[{i}].esc_rpm": np.nan_to_num(esc["v"][:, k + i]) for i in range(af.thrust.rotors)}}
-    if k == 2:
-        report.update(esc_count=esc["v"][:, 0], esc_online_flags=esc["v"][:, 1])
-    dead, note = esc_missing(report, af.thrust.rotors, clock, ~landed & ~no_data)
-    no_data |= dead | ~np.all(np.isfinite(np.column_stack([cols[f"rpm_{i + 1}"] for i in range(af.thrust.rotors)])), axis=1)
-    if note:
-        notes.append(note)
+    if rpm:
+        no_data |= _rotor_columns(af, s["esc"], clock, cols, ~landed & ~no_data, notes)
+    else:
+        cols["thrust"] = _collective(af, s["thrust"], s["hover"], clock)
+        notes.append("collective thrust from vehicle_thrust_setpoint.xyz[2] / hover_thrust_estimate.hover_thrust times m g")
     if gappy.any():
         notes.append(count_note(gappy, f"with a topic gap longer than max_dt ({af.limits.max_dt_s:g} s; esc: "
                                        f"{ROTOR_MAX_GAP_S:g} s)", "NO_DATA"))
@@ -260,6 +263,32 @@ def _assemble(path: str, af: Airframe, s: dict, rate_hz: float | None, notes: li
     ap_wind = None if wind is None else (f"ROS 2 {wind_topic}", wind["t"] - clock[0], wind["v"])
     return AutopilotFlight(FlightLog(path, blank(cols, no_data | landed)), no_data, landed, ap_wind, tuple(notes),
                            float(clock[0]))
+
+
+def _collective(af: Airframe, thrust: dict, hover: dict, clock: np.ndarray) -> np.ndarray:
+    """Newtons from PX4's normalized setpoint (body z down: upward thrust is negative), both held."""
+    def held(x: dict) -> np.ndarray:
+        return x["v"][np.clip(np.searchsorted(x["t"], clock, side="right") - 1, 0, len(x["t"]) - 1), 0]
+
+    return af.mass_kg * af.gravity_mps2 * -held(thrust) / held(hover)
+
+
+def _rotor_columns(af: Airframe, esc: dict, clock: np.ndarray, cols: dict, airborne: np.ndarray,
+                   notes: list[str]) -> np.ndarray:
+    """rpm_i columns; returns the rows without rotor speeds (dead ESCs airborne, short reports)."""
+    from dobwind.ulog import esc_missing
+
+    rotors = af.thrust.rotors
+    k = esc["v"].shape[1] - rotors  # px4: esc_count and online flags come first
+    for i in range(rotors):
+        cols[f"rpm_{i + 1}"] = np.interp(clock, esc["t"], esc["v"][:, k + i])
+    report = {"t": esc["t"], **{f"esc[{i}].esc_rpm": np.nan_to_num(esc["v"][:, k + i]) for i in range(rotors)}}
+    if k == 2:
+        report.update(esc_count=esc["v"][:, 0], esc_online_flags=esc["v"][:, 1])
+    dead, note = esc_missing(report, rotors, clock, airborne)
+    if note:
+        notes.append(note)
+    return dead | ~np.all(np.isfinite(np.column_stack([cols[f"rpm_{i + 1}"] for i in range(rotors)])), axis=1)
 
 
 def _landed(land: dict | None, clock: np.ndarray, notes: list[str]) -> np.ndarray:

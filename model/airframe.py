@@ -32,7 +32,7 @@ MAX_ROTORS = 16
 TOP_KEYS = ("name", "mass", "gravity", "thrust", "observer", "force_air", "filter", "limits", "envelope",
             "uncertainty", "ros2_topics")
 # Roles of the ROS 2 bag reader (dobwind/rosbag.py) whose topic names [ros2_topics] may replace.
-ROS2_TOPIC_ROLES = ("velocity", "attitude", "imu", "esc", "land", "wind")
+ROS2_TOPIC_ROLES = ("velocity", "attitude", "imu", "esc", "thrust", "hover", "land", "wind")
 THRUST_KEYS = ("source", "scale", "rotors", "max_rpm", "coefficients")
 OBSERVER_KEYS = ("sample_time", "gains", "discretization", "acceleration", "force_offset", "acceleration_bias_time")
 FORCE_AIR_KEYS = ("model", "horizontal", "vertical", "drag")

@@ -43,7 +43,7 @@ def _writer(path, storage):
     return Writer(path, version=9, storage_plugin=StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3)
 
 
-def _px4_bag(path, af, cols, storage, *, esc=True, landed_until=None):
+def _px4_bag(path, af, cols, storage, *, esc=True, landed_until=None, hover=None):
     store = _typestore(str(path), [])
     T = store.types
     sf = _specific_force(af, cols).astype(np.float32)
@@ -52,8 +52,10 @@ def _px4_bag(path, af, cols, storage, *, esc=True, landed_until=None):
         conns = {r: w.add_connection(f"/fmu/out/{r}", f"px4_msgs/msg/{m}", typestore=store) for r, m in (
             ("vehicle_odometry", "VehicleOdometry"), ("vehicle_attitude", "VehicleAttitude"),
             ("sensor_combined", "SensorCombined"), ("wind", "Wind"), ("esc_status", "EscStatus"),
-            ("vehicle_land_detected", "VehicleLandDetected"))
-            if (esc or r != "esc_status") and (landed_until is not None or r != "vehicle_land_detected")}
+            ("vehicle_land_detected", "VehicleLandDetected"), ("vehicle_thrust_setpoint", "VehicleThrustSetpoint"),
+            ("hover_thrust_estimate", "HoverThrustEstimate"))
+            if (esc or r != "esc_status") and (landed_until is not None or r != "vehicle_land_detected")
+            and (hover is not None or r not in ("vehicle_thrust_setpoint", "hover_thrust_estimate"))}
         for k, t in enumerate(cols["t"]):
             us = T0_US + int(round(t * 1e6))
             q = np.array([cols[f"q_{c}"][k] for c in "wxyz"], dtype=f)
@@ -70,6 +72,11 @@ def _px4_bag(path, af, cols, storage, *, esc=True, landed_until=None):
                 reports = [T["px4_msgs/msg/EscReport"](us, 0, int(round(cols[f"rpm_{i + 1}"][k])) if i < 4 else 0,
                                                        0, 0, 0, 0, 0, 0, 0, 101 + i, 0, 0) for i in range(8)]
                 msgs["esc_status"] = T["px4_msgs/msg/EscStatus"](us, k % 65536, 4, 0, 15, 15, reports)
+            if hover is not None:
+                xyz = np.array([0.0, 0.0, -cols["thrust"][k] / (af.mass_kg * af.gravity_mps2) * hover], dtype=f)
+                msgs["vehicle_thrust_setpoint"] = T["px4_msgs/msg/VehicleThrustSetpoint"](us, us, xyz)
+                if k % 10 == 0:
+                    msgs["hover_thrust_estimate"] = T["px4_msgs/msg/HoverThrustEstimate"](us, us, f(hover), 0, 0, 0, 0, 0, True)
             if landed_until is not None and k % 10 == 0:
                 on = t < landed_until
                 msgs["vehicle_land_detected"] = T["px4_msgs/msg/VehicleLandDetected"](us, on, on, on)
@@ -103,7 +110,7 @@ def _mavros_bag(path, af, cols, storage, velocity_topic="/mavros/local_position/
     return path
 
 
-def _equivalent_csv(path, af, cols, single):
+def _equivalent_csv(path, af, cols, single, hover=None):
     """The bag's values as a CSV: float32 for px4_msgs, whole rpm, normalised q, a = R sf + g e3."""
     cast = (lambda x: np.asarray(x, dtype=np.float32).astype(float)) if single else (lambda x: np.asarray(x, dtype=float))
     q = np.column_stack([cast(cols[f"q_{c}"]) for c in "wxyz"])
@@ -116,6 +123,9 @@ def _equivalent_csv(path, af, cols, single):
     out = {"t": (ticks - ticks[0]) * (1e-6 if single else 1e-9), "vel_n": cast(cols["vel_n"]), "vel_e": cast(cols["vel_e"]), "vel_d": cast(cols["vel_d"]),
            "acc_n": acc[:, 0], "acc_e": acc[:, 1], "acc_d": acc[:, 2], **{f"q_{c}": q[:, i] for i, c in enumerate("wxyz")},
            **{f"rpm_{i}": np.round(cols[f"rpm_{i}"]) for i in range(1, 5)}}
+    if hover is not None:  # newtons = m g (normalized setpoint) / (hover thrust), from the float32 fields
+        setpoint = cast(cols["thrust"] / (af.mass_kg * af.gravity_mps2) * hover)
+        out["thrust"] = af.mass_kg * af.gravity_mps2 * setpoint / cast(hover)
     names = list(out)
     write_csv(path, names, np.column_stack([out[n] for n in names]), ["%.17g"] * len(names))
     return path
@@ -177,3 +187,24 @@ def test_topic_names_from_the_airframe_file(tmp_path, capsys):
     assert main(["replay", str(path), str(bag)]) == 2
     err = capsys.readouterr().err
     assert "ros2_topics.velocity" in err and err.count("\n") == 1
+
+
+def test_px4_bag_collective_thrust_equals_the_equivalent_csv(tmp_path, capsys):
+    from dobwind.model.airframe import parse_airframe
+    from dobwind.model.airframe_toml import dumps
+    from tests.helpers import airframe_dict
+
+    af = parse_airframe(dumps(airframe_dict(thrust={"source": "collective"}, mass=8.0, name="coll")), "<c>")
+    _, cols = _flight()
+    bag = _px4_bag(tmp_path / "coll", af, cols, "mcap", esc=False, hover=0.45)
+    model, flight, traj = replay_autopilot(af, str(bag))
+    csv = _equivalent_csv(tmp_path / "coll.csv", af, cols, single=True, hover=0.45)
+    _, log, ref = replay(af, str(csv))
+    np.testing.assert_allclose(flight.log.columns["thrust"], log.columns["thrust"], rtol=1e-6)
+    assert np.all(accepted(traj.status)) and np.max(np.abs(traj.outputs - ref.outputs)) <= 1e-5
+    # Without the thrust topics (PX4's default DDS set): exit 2 naming the topic to add.
+    af_path = tmp_path / "coll.toml"
+    af_path.write_text(dumps(airframe_dict(thrust={"source": "collective"}, mass=8.0, name="coll")))
+    assert main(["replay", str(af_path), str(_px4_bag(tmp_path / "plain", af, cols, "mcap", esc=False))]) == 2
+    err = capsys.readouterr().err
+    assert "/fmu/out/vehicle_thrust_setpoint" in err and "dds_topics.yaml" in err
