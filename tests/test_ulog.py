@@ -344,7 +344,11 @@ def test_px4_wind_file_holds_the_estimate_and_its_variances(tmp_path, capsys):
     af, cols = _flight()
     path = _ulog(tmp_path / "f.ulg", cols)
     est, px4 = tmp_path / "est.csv", tmp_path / "px4wind.csv"
-    assert main(["replay", str(M300), str(path), "-o", str(est), "--px4-wind", str(px4)]) == 0
+    # An uncertainty table constant at 0.2 m/s: every variance is 0.04 m²/s².
+    airframe = tmp_path / "m300_unc.toml"
+    airframe.write_text(M300.read_text() + "\n[uncertainty]\nspeeds = [0.0, 20.0]\nsigma_h = [0.2, 0.2]\n"
+                                           "sigma_up = [0.1, 0.1]\n")
+    assert main(["replay", str(airframe), str(path), "-o", str(est), "--px4-wind", str(px4)]) == 0
     e = np.genfromtxt(est, delimiter=",", names=True)
     w = np.genfromtxt(px4, delimiter=",", names=True, skip_header=1)
     ok = (e["status"].astype(int) & 0x33F) == 0
@@ -353,10 +357,11 @@ def test_px4_wind_file_holds_the_estimate_and_its_variances(tmp_path, capsys):
     np.testing.assert_allclose(w["timestamp"], 1_000_000 + e["t"][ok] * 1e6, atol=1.0)
     np.testing.assert_allclose(w["windspeed_north"], e["wind_n"][ok], rtol=1e-5, atol=1e-6)
     np.testing.assert_allclose(w["windspeed_east"], e["wind_e"][ok], rtol=1e-5, atol=1e-6)
-    sigma = e["wind_sigma_h"][ok]
-    expect = np.where(sigma >= 0, sigma ** 2, np.nan)
-    np.testing.assert_allclose(w["variance_north"], expect, rtol=1e-4)
+    np.testing.assert_allclose(w["variance_north"], 0.04, rtol=1e-5)
     np.testing.assert_array_equal(w["variance_north"], w["variance_east"])
+    # Without the table the sigma is unknown: NaN variances, not a fake confidence.
+    assert main(["replay", str(M300), str(path), "--px4-wind", str(px4)]) == 0
+    assert np.all(np.isnan(np.genfromtxt(px4, delimiter=",", names=True, skip_header=1)["variance_north"]))
 
 
 def test_px4_wind_refused_for_csv_logs(tmp_path, capsys):
