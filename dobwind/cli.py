@@ -171,10 +171,15 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
     check_targets(_replay_targets(args), [args.airframe, args.log])
     af = load_airframe(args.airframe)
-    if str(args.log).lower().endswith(".ulg"):
+    from dobwind.autopilot import is_autopilot_log
+
+    if is_autopilot_log(args.log):
         return _replay_ulog(args, af)
-    if args.rate is not None:
-        raise InputError(args.log, "--rate", "only applies to ULog files (CSV logs keep their own clock)")
+    for option, value in (("--rate", args.rate), ("--topic", args.topic)):
+        if value:
+            raise InputError(args.log, option, "only applies to autopilot logs (CSV logs keep their own clock)")
+    if args.px4_wind is not None:
+        raise InputError(args.log, "--px4-wind", "only applies to autopilot logs (.ulg, .bin, ROS 2 bags)")
     result = _replay_csv(args, af)
     metrics = result.metrics
     if args.json:
@@ -215,7 +220,19 @@ def _no_file():
 
 
 def _replay_targets(args: argparse.Namespace) -> list[Target]:
-    return [Target(option, path) for option, path in (("-o", args.output), ("--plot", args.plot)) if path is not None]
+    return [Target(option, path) for option, path in (("-o", args.output), ("--plot", args.plot),
+                                                      ("--px4-wind", args.px4_wind)) if path is not None]
+
+
+def _topic_overrides(args: argparse.Namespace) -> dict[str, str]:
+    """--topic ROLE=NAME, repeated: the ROS 2 topic names that differ from the defaults."""
+    out = {}
+    for item in args.topic or []:
+        role, sep, name = item.partition("=")
+        if not sep or not role or not name:
+            raise InputError(args.log, "--topic", f"expects ROLE=/topic/name, got {item!r}")
+        out[role.strip()] = name.strip()
+    return out
 
 
 def _replay_ulog(args: argparse.Namespace, af) -> int:
@@ -223,12 +240,15 @@ def _replay_ulog(args: argparse.Namespace, af) -> int:
     from dobwind.replay import replay_ulog, write_output
     from dobwind.ulog import compare_with_px4
 
-    model, flight, traj = replay_ulog(af, args.log, args.backend, args.precision, args.rate)
+    model, flight, traj = replay_ulog(af, args.log, args.backend, args.precision, args.rate, _topic_overrides(args))
+    for warning in flight.warnings:
+        sys.stderr.write(f"dobwind replay: warning: {warning}\n")
     log = flight.log
     wind = traj.outputs[:, model.outputs.slice("wind_ned")]
     valid = accepted(traj.status)  # quality-flagged samples are estimates too; status_counts shows the flags
     summary = {"airframe": af.name, "log": str(args.log), "backend": args.backend, "rows": log.rows,
                "valid_rows": int(valid.sum()), "duration_s": float(log.time_s[-1]), "notes": list(flight.notes),
+               "warnings": list(flight.warnings),
                "status_counts": {describe(int(s)): int((traj.status == s).sum()) for s in np.unique(traj.status)},
                "mean_wind_speed_h_mps": float(np.mean(np.hypot(wind[valid, 0], wind[valid, 1]))) if valid.any() else None,
                "outputs_finite": bool(np.all(np.isfinite(traj.outputs)))}
@@ -237,6 +257,11 @@ def _replay_ulog(args: argparse.Namespace, af) -> int:
     with OutputFiles(_replay_targets(args)) as out:
         if args.output is not None:
             write_output(out.stage(args.output), log, traj)
+        if args.px4_wind is not None:
+            from dobwind.autopilot import px4_wind_rows, write_px4_wind
+
+            sigma = traj.outputs[:, model.outputs.slice("wind_sigma_h")][:, 0]
+            write_px4_wind(out.stage(args.px4_wind), px4_wind_rows(flight, wind, sigma, traj.status, valid))
         if args.plot is not None:
             from dobwind.plots import replay_plot
 
@@ -254,11 +279,12 @@ def _replay_ulog(args: argparse.Namespace, af) -> int:
     if summary["mean_wind_speed_h_mps"] is not None:
         print(f"mean horizontal wind {summary['mean_wind_speed_h_mps']:.2f} m/s")
     px4 = summary.get("px4")
+    label = px4["topic"] if px4 and " " in px4["topic"] else f"PX4 {px4['topic']}" if px4 else ""  # ArduPilot/ROS name themselves
     if px4 and px4.get("overlap_rows"):
-        print(f"PX4 {px4['topic']}: mean vector difference {px4['mean_vector_difference_mps']:.2f} m/s, mean speed "
+        print(f"{label}: mean vector difference {px4['mean_vector_difference_mps']:.2f} m/s, mean speed "
               f"difference (ours - PX4) {px4['mean_speed_difference_mps']:+.2f} m/s over {px4['overlap_rows']} instants")
     elif px4:
-        print(f"PX4 {px4['topic']}: no overlap with valid estimates")
+        print(f"{label}: no overlap with valid estimates")
     return 0
 
 
@@ -366,8 +392,13 @@ def build_parser() -> argparse.ArgumentParser:
                    help="run the CasADi reference (python) or the generated C, compiled on the fly (c)")
     p.add_argument("--precision", choices=("single", "double"), default="single", help="C backend precision")
     p.add_argument("--rate", type=opt.ULOG_RATE,
-                   help=f"ULog only: resample at this rate, Hz ({opt.ULOG_RATE.text()}) (default: none, the "
-                   "attitude topic's clock)")
+                   help=f"autopilot logs only: resample at this rate, Hz ({opt.ULOG_RATE.text()}) (default: none, "
+                   "the attitude's clock)")
+    p.add_argument("--px4-wind", help="autopilot logs: also write the estimate as PX4's wind message holds it "
+                   "(timestamp, north/east wind and their variances) to this CSV (default: none)")
+    p.add_argument("--topic", action="append", metavar="ROLE=NAME",
+                   help="ROS 2 bags: a topic name other than the default (roles: see docs; repeatable) "
+                   "(default: none)")
     p.add_argument("--plot", help="PNG of the estimated wind against the truth or the autopilot's wind "
                    "(default: none, not drawn)")
     p.add_argument("--json", action="store_true", help=JSON_HELP)

@@ -27,7 +27,7 @@ from scipy.spatial import cKDTree
 from dobwind.analysis.figures import settling_time_s
 from dobwind.analysis.linear import axis_system
 from dobwind.envelope import calibration_envelope, uncertainty_table
-from dobwind.errors import CheckFailed
+from dobwind.errors import CheckFailed, InputError
 from dobwind.logs import TRUTH_COLUMNS, FlightLog, read_log, required_columns, step_inputs, yaw_from_quaternion
 from dobwind.model import reference
 from dobwind.model.airframe import Airframe, FilterSchedule, ForceAirModel
@@ -123,12 +123,18 @@ def _moving_mean(x: np.ndarray, window: int) -> np.ndarray:
 def read_calibration_logs(af: Airframe, log_paths: list[str], still_air: bool = False) -> list[FlightLog]:
     """Logs with the true wind; ``still_air``: logs flown in still air, whose wind columns may be absent
     (taken as zero: the relative airflow is minus the ground velocity)."""
+    from dobwind.autopilot import is_autopilot_log, read_autopilot
+
     if not still_air:
         needed = required_columns(af) + [(c, "the true wind (fit needs it)") for c in TRUTH_COLUMNS]
+        for path in log_paths:
+            if is_autopilot_log(path):  # autopilot logs carry no true wind
+                raise InputError(path, "wind_n", "an autopilot log has no true wind: fit it with --still-air")
         return [read_log(path, needed) for path in log_paths]
     logs = []
     for path in log_paths:
-        log = read_log(path, required_columns(af))
+        # Autopilot logs: rows without data or on the ground are NaN, which the step rejects.
+        log = read_autopilot(path, af).log if is_autopilot_log(path) else read_log(path, required_columns(af))
         zero = np.zeros(log.rows)
         logs.append(FlightLog(log.path, {**log.columns, **{c: zero for c in TRUTH_COLUMNS}}))
     return logs

@@ -121,13 +121,14 @@ def replay_stream(af: Airframe, log_path: str, backend: str = "python", precisio
 
 
 def replay_ulog(af: Airframe, path: str, backend: str = "python", precision: str = "single",
-                rate_hz: float | None = None):
-    """A PX4 ULog through the estimator: (model, flight, trajectory); rows without data carry the
-    NO_DATA status bit on top of the step's own rejection."""
-    from dobwind.ulog import read_ulog
+                rate_hz: float | None = None, topics: dict[str, str] | None = None):
+    """An autopilot log (PX4 ULog, ArduPilot DataFlash, ROS 2 bag; by its name) through the estimator:
+    (model, flight, trajectory); rows without data carry the NO_DATA status bit, rows on the ground
+    LANDED, instead of the step's own rejection."""
+    from dobwind.autopilot import read_autopilot
 
     model = build_step(af)
-    flight = read_ulog(path, af, rate_hz)
+    flight = read_autopilot(path, af, rate_hz, topics)
     traj = run_backend(model, step_inputs(model, flight.log), backend, precision)
     # Rows that were not fed carry only replay's reasons, not the step's reaction to their NaN inputs.
     skipped = np.where(flight.no_data, STATUS_NO_DATA, 0) | np.where(flight.landed, STATUS_LANDED, 0)
@@ -163,3 +164,6 @@ def text_report(metrics: dict) -> str:
 
 def write_output(path: str, log: FlightLog, traj: Trajectory) -> None:
     write_estimates(path, log.time_s, traj.outputs, traj.status)
+
+
+replay_autopilot = replay_ulog  # every autopilot format goes through the same path

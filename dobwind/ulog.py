@@ -8,34 +8,32 @@ vehicle_attitude_setpoint (yaw_body) for the heading frame, else the vehicle's o
 
 Everything is resampled onto one clock (the attitude's, or a uniform --rate) inside the span all
 needed topics cover: continuous signals are interpolated (quaternions sign-aligned, then normalised),
-setpoints are held. Where a topic has a gap longer than the airframe's max_dt around an instant,
-that row has no data: its inputs are NaN and replay marks it with the NO_DATA status bit.
+setpoints are held. Where a topic has a gap longer than the airframe's max_dt around an instant
+(esc_status: ROTOR_MAX_GAP_S, its reports are often 4 Hz), that row has no data: its inputs are NaN and
+replay marks it with the NO_DATA status bit. So are airborne rows whose ESCs are offline or read 0 rpm.
+Rows that vehicle_land_detected marks landed, maybe landed or in ground contact get LANDED. A file that
+ends inside a message is replayed up to there, with a warning.
 """
 from __future__ import annotations
 
 import contextlib
 import io
 import os
-from dataclasses import dataclass
 
 import numpy as np
 
 from dobwind.errors import InputError
 from dobwind.logs import FlightLog
 from dobwind.model.airframe import Airframe
+from dobwind.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, gaps, hold,
+                              interp, quaternions)
 
 PX4_WIND_TOPICS = (("wind", "windspeed_north", "windspeed_east"),
                    ("wind_estimate", "windspeed_north", "windspeed_east"),
                    ("estimator_states", "states[22]", "states[23]"))
 
 
-@dataclass(frozen=True)
-class UlogFlight:
-    log: FlightLog
-    no_data: np.ndarray                     # rows without data from some topic
-    landed: np.ndarray                      # rows where vehicle_land_detected says landed
-    px4_wind: tuple[str, np.ndarray, np.ndarray] | None  # (topic, t, wind NED rows)
-    notes: tuple[str, ...]
+UlogFlight = AutopilotFlight  # the name this module's callers used first
 
 
 class _NoProgress(Exception):
@@ -87,49 +85,79 @@ def _open(path: str) -> tuple[object, str | None]:
     return ulog, (complaints[0][:120] if complaints else None)
 
 
-def _topic(ulog, name: str, fields: list[str]) -> dict[str, np.ndarray] | None:
+def _topic(ulog, name: str, fields: list[str], optional: tuple[str, ...] = ()) -> dict[str, np.ndarray] | None:
     for data in ulog.data_list:
         if data.name == name and data.multi_id == 0 and all(f in data.data for f in fields):
             if len(data.data["timestamp"]) < 2:
                 return None
-            out = {f: np.asarray(data.data[f], dtype=float) for f in fields}
+            out = {f: np.asarray(data.data[f], dtype=float) for f in fields + [o for o in optional if o in data.data]}
             out["t"] = np.asarray(data.data["timestamp"], dtype=float) * 1e-6
             return out
     return None
 
 
-def _gaps(t_src: np.ndarray, t_dst: np.ndarray, max_gap: float) -> np.ndarray:
-    """True where t_dst is outside the topic's span or between samples farther apart than max_gap."""
-    idx = np.searchsorted(t_src, t_dst, side="right")
-    outside = (idx == 0) | (t_dst > t_src[-1])
-    prev = t_src[np.clip(idx - 1, 0, len(t_src) - 1)]
-    nxt = t_src[np.clip(idx, 0, len(t_src) - 1)]
-    exact = t_dst == prev
-    return outside | (~exact & ((nxt - prev) > max_gap))
+def truncation(path: str) -> str | None:
+    """How the file ends, when its last message is cut off (pyulog reads such a file silently): walks
+    the message headers (u16 size, u8 type) from the end of the 16-byte file header."""
+    try:
+        blob = open(path, "rb").read()
+    except OSError:
+        return None
+    pos, size = 16, len(blob)
+    while pos + 3 <= size:
+        length = blob[pos] | (blob[pos + 1] << 8)
+        if pos + 3 + length > size:
+            break
+        pos += 3 + length
+    if pos == size:
+        return None
+    return f"truncated: the file ends inside a message at byte {size:,}; replaying the readable part only"
 
 
-def _interp(src: dict, fields: list[str], t: np.ndarray) -> np.ndarray:
-    return np.column_stack([np.interp(t, src["t"], src[f]) for f in fields])
+def esc_missing(esc: dict, rotors: int, clock: np.ndarray, airborne: np.ndarray) -> tuple[np.ndarray, str | None]:
+    """Rows whose rotor speeds are not measurements: an ESC that is offline (beyond esc_count, or its
+    esc_online_flags bit clear) or that reports exactly 0 rpm while the vehicle is airborne (a spinning
+    rotor never reads 0; a log from ESCs without telemetry reads 0 throughout)."""
+    offline = np.zeros((len(esc["t"]), rotors), dtype=bool)
+    if "esc_count" in esc:
+        offline |= np.arange(rotors)[None, :] >= esc["esc_count"][:, None]
+    if "esc_online_flags" in esc:
+        flags = esc["esc_online_flags"].astype(np.int64)
+        offline |= ((flags[:, None] >> np.arange(rotors)[None, :]) & 1) == 0
+    zero = np.column_stack([esc[f"esc[{i}].esc_rpm"] == 0 for i in range(rotors)])
+    per_row = [bracketing(esc["t"], offline[:, i] | zero[:, i], clock) & airborne for i in range(rotors)]
+    bad = np.any(per_row, axis=0)
+    if not bad.any():
+        return bad, None
+    reasons = []
+    for i in range(rotors):
+        if per_row[i].any():
+            off = (bracketing(esc["t"], offline[:, i], clock) & airborne).any()
+            reasons.append(f"ESC {i + 1} ({'offline' if off else '0 rpm'})")
+    return bad, count_note(bad, "airborne without rotor speeds from esc_status: " + ", ".join(reasons), "NO_DATA")
 
 
-def _hold(src: dict, fields: list[str], t: np.ndarray) -> np.ndarray:
-    idx = np.clip(np.searchsorted(src["t"], t, side="right") - 1, 0, len(src["t"]) - 1)
-    return np.column_stack([src[f][idx] for f in fields])
+def _ground(ulog, clock: np.ndarray, notes: list[str]) -> np.ndarray:
+    """Rows on the ground by vehicle_land_detected: landed, maybe_landed or ground_contact. With ground
+    contact the ground carries part of the weight, which the observer would read as an updraft."""
+    land = _topic(ulog, "vehicle_land_detected", ["landed"], ("maybe_landed", "ground_contact"))
+    if land is None:
+        notes.append("no vehicle_land_detected: every instant is treated as airborne")
+        return np.zeros(len(clock), dtype=bool)
+    flags = [f for f in ("landed", "maybe_landed", "ground_contact") if f in land]
+    per_flag = {f: (hold(land, [f], clock)[:, 0] > 0.5) & (clock >= land["t"][0]) for f in flags}
+    ground = np.any(list(per_flag.values()), axis=0)
+    if ground.any():
+        detail = ", ".join(f"{f} {int(m.sum())}" for f, m in per_flag.items())
+        notes.append(count_note(ground, f"on the ground (vehicle_land_detected: {detail})", "LANDED"))
+    return ground
 
 
-def _quaternions(src: dict, t: np.ndarray) -> np.ndarray:
-    q = np.column_stack([src[f"q[{i}]"] for i in range(4)])
-    flips = np.cumsum(np.r_[0, np.einsum("ij,ij->i", q[1:], q[:-1]) < 0]) % 2  # same hemisphere throughout
-    aligned = {"t": src["t"], **{f"q[{i}]": np.where(flips == 1, -q[:, i], q[:, i]) for i in range(4)}}
-    out = _interp(aligned, [f"q[{i}]" for i in range(4)], t)
-    return out / np.linalg.norm(out, axis=1)[:, None]
-
-
-def read_ulog(path: str, af: Airframe, rate_hz: float | None = None) -> UlogFlight:
-    ulog, complaint = _open(path)
+def _needs(af: Airframe) -> dict[str, tuple[list[str], str]]:
+    ned = af.observer.acceleration == "ned"
     need: dict[str, tuple[list[str], str]] = {
-        "vehicle_local_position": (["vx", "vy", "vz"] + (["ax", "ay", "az"] if af.observer.acceleration == "ned" else []),
-                                   "ground velocity" + (" and acceleration" if af.observer.acceleration == "ned" else "")),
+        "vehicle_local_position": (["vx", "vy", "vz"] + (["ax", "ay", "az"] if ned else []),
+                                   "ground velocity" + (" and acceleration" if ned else "")),
         "vehicle_attitude": ([f"q[{i}]" for i in range(4)], "attitude"),
     }
     if af.observer.acceleration == "specific_force":
@@ -137,7 +165,14 @@ def read_ulog(path: str, af: Airframe, rate_hz: float | None = None) -> UlogFlig
     if af.thrust.source == "rpm":
         need["esc_status"] = ([f"esc[{i}].esc_rpm" for i in range(af.thrust.rotors)],
                               f"rotor speeds of {af.thrust.rotors} motors (thrust.source = \"rpm\")")
-    topics = {name: _topic(ulog, name, fields) for name, (fields, _) in need.items()}
+    return need
+
+
+def read_ulog(path: str, af: Airframe, rate_hz: float | None = None) -> UlogFlight:
+    ulog, complaint = _open(path)
+    need = _needs(af)
+    topics = {name: _topic(ulog, name, fields, ("esc_count", "esc_online_flags") if name == "esc_status" else ())
+              for name, (fields, _) in need.items()}
     thrust_src = None
     if af.thrust.source == "collective":
         thrust_src = (("vehicle_thrust_setpoint", _topic(ulog, "vehicle_thrust_setpoint", ["xyz[2]"]), "xyz[2]")
@@ -149,6 +184,7 @@ def read_ulog(path: str, af: Airframe, rate_hz: float | None = None) -> UlogFlig
     if missing:
         raise InputError(path, "topic" + ("s " if len(missing) > 1 else " ") + ", ".join(missing), "missing from the log")
     notes = [] if complaint is None else [f"pyulog: {complaint} (the parse went on past it)"]
+    cut = truncation(path)
     hover_topic = _topic(ulog, "hover_thrust_estimate", ["hover_thrust"]) if thrust_src else None
     hover_param = ulog.initial_parameters.get("MPC_THR_HOVER")
     if thrust_src and hover_topic is None and hover_param is None:
@@ -160,9 +196,11 @@ def read_ulog(path: str, af: Airframe, rate_hz: float | None = None) -> UlogFlig
     if yaw_src is None:
         notes.append("no vehicle_attitude_setpoint: the heading frame follows the vehicle's own yaw")
 
-    used = [d for d in topics.values() if d is not None] + ([thrust_src[1]] if thrust_src else [])
-    start = max(d["t"][0] for d in used)
-    stop = min(d["t"][-1] for d in used)
+    used = {n: d for n, d in topics.items() if d is not None}
+    if thrust_src:
+        used[thrust_src[0]] = thrust_src[1]
+    start = max(d["t"][0] for d in used.values())
+    stop = min(d["t"][-1] for d in used.values())
     if not stop > start:
         raise InputError(path, None, "the needed topics do not overlap in time")
     att_t = topics["vehicle_attitude"]["t"]
@@ -171,58 +209,58 @@ def read_ulog(path: str, af: Airframe, rate_hz: float | None = None) -> UlogFlig
         raise InputError(path, None, "fewer than two instants to resample onto")
     max_gap = af.limits.max_dt_s
     no_data = np.zeros(len(clock), dtype=bool)
-    for d in used:
-        no_data |= _gaps(d["t"], clock, max_gap)
-
-    lp = topics["vehicle_local_position"]
-    cols: dict[str, np.ndarray] = {"t": clock - clock[0]}
-    vel = _interp(lp, ["vx", "vy", "vz"], clock)
-    cols.update(vel_n=vel[:, 0], vel_e=vel[:, 1], vel_d=vel[:, 2])
-    if af.observer.acceleration == "ned":
-        acc = _interp(lp, ["ax", "ay", "az"], clock)
-        cols.update(acc_n=acc[:, 0], acc_e=acc[:, 1], acc_d=acc[:, 2])
-    if af.observer.acceleration == "specific_force":
-        sf = _interp(topics["sensor_combined"], [f"accelerometer_m_s2[{i}]" for i in range(3)], clock)
-        cols.update(sf_x=sf[:, 0], sf_y=sf[:, 1], sf_z=sf[:, 2])
-    q = _quaternions(topics["vehicle_attitude"], clock)
-    cols.update(q_w=q[:, 0], q_x=q[:, 1], q_y=q[:, 2], q_z=q[:, 3])
+    for name, d in used.items():
+        no_data |= gaps(d["t"], clock, ROTOR_MAX_GAP_S if name == "esc_status" else max_gap)
+    cols = _columns(af, topics, thrust_src, hover_topic, hover_param, yaw_src, clock, notes)
+    landed = _ground(ulog, clock, notes)
+    gappy = no_data.copy()
     if af.thrust.source == "rpm":
-        rpm = _interp(topics["esc_status"], need["esc_status"][0], clock)
-        for i in range(af.thrust.rotors):
-            cols[f"rpm_{i + 1}"] = rpm[:, i]
-    else:
-        name, src, field = thrust_src
-        normalized = -_hold(src, [field], clock)[:, 0]  # body z points down: upward thrust is negative
-        hover = _hold(hover_topic, ["hover_thrust"], clock)[:, 0] if hover_topic else np.full(len(clock), hover_param)
-        cols["thrust"] = af.mass_kg * af.gravity_mps2 * normalized / hover
-        notes.append(f"collective thrust from {name}.{field}")
-    if yaw_src is not None:
-        cols["yaw_ref"] = _hold(yaw_src, ["yaw_body"], clock)[:, 0]
-    land = _topic(ulog, "vehicle_land_detected", ["landed"])
-    if land is None:
-        landed = np.zeros(len(clock), dtype=bool)
-        notes.append("no vehicle_land_detected: every instant is treated as airborne")
-    else:
-        landed = _hold(land, ["landed"], clock)[:, 0] > 0.5
-        landed &= clock >= land["t"][0]
-        if landed.any():
-            notes.append(f"{int(landed.sum())} of {len(clock)} instants on the ground (vehicle_land_detected): status LANDED")
-    # Rows the estimator must not see get NaN inputs: the step rejects them and keeps its state, so
-    # the observer starts at the first airborne sample instead of at the ground's reaction force.
-    for key in cols:
-        if key != "t":
-            cols[key] = np.where(no_data | landed, np.nan, cols[key])
-
+        dead, note = esc_missing(topics["esc_status"], af.thrust.rotors, clock, ~landed & ~no_data)
+        no_data |= dead
+        if note:
+            notes.append(note)
     px4 = None
     for name, north, east in PX4_WIND_TOPICS:
         src = _topic(ulog, name, [north, east])
         if src is not None:
             px4 = (name, src["t"] - clock[0], np.column_stack([src[north], src[east], np.zeros(len(src["t"]))]))
             break
-    if no_data.any():
-        notes.append(f"{int(no_data.sum())} of {len(clock)} instants have a topic gap longer than max_dt "
-                     f"({max_gap:g} s): status NO_DATA")
-    return UlogFlight(FlightLog(path, cols), no_data, landed, px4, tuple(notes))
+    if gappy.any():
+        notes.append(count_note(gappy, f"with a topic gap longer than max_dt ({max_gap:g} s; esc_status: "
+                                       f"{ROTOR_MAX_GAP_S:g} s)", "NO_DATA"))
+    warnings = (f"{path}: {cut} ({clock[-1] - clock[0]:.2f} s readable)",) if cut else ()
+    return UlogFlight(FlightLog(path, blank(cols, no_data | landed)), no_data, landed, px4, tuple(notes),
+                      float(clock[0]), warnings)
+
+
+def _columns(af: Airframe, topics: dict, thrust_src, hover_topic, hover_param, yaw_src, clock: np.ndarray,
+             notes: list[str]) -> dict[str, np.ndarray]:
+    lp = topics["vehicle_local_position"]
+    cols: dict[str, np.ndarray] = {"t": clock - clock[0]}
+    vel = interp(lp, ["vx", "vy", "vz"], clock)
+    cols.update(vel_n=vel[:, 0], vel_e=vel[:, 1], vel_d=vel[:, 2])
+    if af.observer.acceleration == "ned":
+        acc = interp(lp, ["ax", "ay", "az"], clock)
+        cols.update(acc_n=acc[:, 0], acc_e=acc[:, 1], acc_d=acc[:, 2])
+    if af.observer.acceleration == "specific_force":
+        sf = interp(topics["sensor_combined"], [f"accelerometer_m_s2[{i}]" for i in range(3)], clock)
+        cols.update(sf_x=sf[:, 0], sf_y=sf[:, 1], sf_z=sf[:, 2])
+    att = topics["vehicle_attitude"]
+    q = quaternions(att["t"], np.column_stack([att[f"q[{i}]"] for i in range(4)]), clock)
+    cols.update(q_w=q[:, 0], q_x=q[:, 1], q_y=q[:, 2], q_z=q[:, 3])
+    if af.thrust.source == "rpm":
+        rpm = interp(topics["esc_status"], [f"esc[{i}].esc_rpm" for i in range(af.thrust.rotors)], clock)
+        for i in range(af.thrust.rotors):
+            cols[f"rpm_{i + 1}"] = rpm[:, i]
+    else:
+        name, src, field = thrust_src
+        normalized = -hold(src, [field], clock)[:, 0]  # body z points down: upward thrust is negative
+        hover = hold(hover_topic, ["hover_thrust"], clock)[:, 0] if hover_topic else np.full(len(clock), hover_param)
+        cols["thrust"] = af.mass_kg * af.gravity_mps2 * normalized / hover
+        notes.append(f"collective thrust from {name}.{field}")
+    if yaw_src is not None:
+        cols["yaw_ref"] = hold(yaw_src, ["yaw_body"], clock)[:, 0]
+    return cols
 
 
 def compare_with_px4(t: np.ndarray, wind: np.ndarray, valid: np.ndarray, px4: tuple[str, np.ndarray, np.ndarray]) -> dict:

@@ -30,7 +30,9 @@ MAX_ROTORS = 16
 # Every key each table may hold. They are checked before any value is read, so that a misspelt key
 # ("masss") is reported as unknown rather than as the correct key missing. Add new keys here.
 TOP_KEYS = ("name", "mass", "gravity", "thrust", "observer", "force_air", "filter", "limits", "envelope",
-            "uncertainty")
+            "uncertainty", "ros2_topics")
+# Roles of the ROS 2 bag reader (dobwind/rosbag.py) whose topic names [ros2_topics] may replace.
+ROS2_TOPIC_ROLES = ("velocity", "attitude", "imu", "esc", "thrust", "hover", "land", "wind")
 THRUST_KEYS = ("source", "scale", "rotors", "max_rpm", "coefficients")
 OBSERVER_KEYS = ("sample_time", "gains", "discretization", "acceleration", "force_offset", "acceleration_bias_time")
 FORCE_AIR_KEYS = ("model", "horizontal", "vertical", "drag")
@@ -118,6 +120,7 @@ class Airframe:
     envelope: Envelope | None = None        # optional: absent => EXTRAPOLATED is never set
     uncertainty: Uncertainty | None = None  # optional: absent => the sigma outputs carry -1 (unknown)
     drag: DragLaw | None = None  # the ``drag`` force-air family; None: the polynomial family
+    ros2_topics: tuple[tuple[str, str], ...] = ()  # optional (role, topic) replacing the bag reader's defaults
 
     @property
     def force_air_model(self) -> str:
@@ -386,6 +389,13 @@ def parse_airframe(text: str, source: str) -> Airframe:
     unc = top.table_of("uncertainty", UNCERTAINTY_KEYS, required=False)
     envelope = _envelope(env) if env is not None else None
     uncertainty = _uncertainty(unc) if unc is not None else None
+    ros = top.table_of("ros2_topics", ROS2_TOPIC_ROLES, required=False)
+    ros2_topics = tuple((role, ros.string(role)) for role in ROS2_TOPIC_ROLES if ros.has(role)) if ros is not None else ()
+    for role, topic in ros2_topics:
+        if not topic.startswith("/"):
+            raise ros.fail(role, f"must be an absolute topic name starting with '/', got {topic!r}")  # type: ignore[union-attr]
+    if ros is not None:
+        ros.done()
     top.done()
 
     return Airframe(
@@ -402,6 +412,7 @@ def parse_airframe(text: str, source: str) -> Airframe:
         envelope=envelope,
         uncertainty=uncertainty,
         drag=drag,
+        ros2_topics=ros2_topics,
     )
 
 

@@ -69,6 +69,8 @@ def airframe_document(af: Airframe) -> dict[str, Any]:
         document["uncertainty"] = {"speeds": list(af.uncertainty.speeds_mps),
                                    "sigma_h": list(af.uncertainty.sigma_h_mps),
                                    "sigma_up": list(af.uncertainty.sigma_up_mps)}
+    if af.ros2_topics:  # fit rewrites the whole airframe: keep the user's topic names
+        document["ros2_topics"] = dict(af.ros2_topics)
     return document
 
 

@@ -43,7 +43,7 @@ def _rows(cols, keys, names, t0_us=1_000_000, keep=None):
 
 
 def _ulog(path, cols, *, esc=True, thrust=None, hover=None, param=None, gap=None, landed_until=None, wind=False,
-          attitude_setpoint=True):
+          attitude_setpoint=True, esc_count=4, esc_every=1, land_flags=None, esc_gap=None):
     keep = None if gap is None else ~((cols["t"] > gap[0]) & (cols["t"] < gap[1]))
     topics = [
         Topic("vehicle_local_position", [("uint64_t", "timestamp")] + [("float", f) for f in ("vx", "vy", "vz", "ax", "ay", "az")],
@@ -59,8 +59,12 @@ def _ulog(path, cols, *, esc=True, thrust=None, hover=None, param=None, gap=None
                 row["thrust_body[2]"] = -value / (8.0 * 9.80665) * (param or 0.5)
         topics.append(Topic("vehicle_attitude_setpoint", fields, rows))
     if esc:
+        esc_keep = None if esc_gap is None else ~((cols["t"] > esc_gap[0]) & (cols["t"] < esc_gap[1]))
+        rows = _rows(cols, [f"rpm_{i}" for i in range(1, 5)], [f"esc[{i}].esc_rpm" for i in range(4)], keep=esc_keep)[::esc_every]
+        for row in rows:
+            row["esc_count"] = esc_count
         topics.append(Topic("esc_status", [("uint64_t", "timestamp"), ("uint8_t", "esc_count"), ("esc_report[8]", "esc")],
-                            _rows(cols, [f"rpm_{i}" for i in range(1, 5)], [f"esc[{i}].esc_rpm" for i in range(4)])))
+                            rows))
     if thrust == "thrust_setpoint":
         rows = _rows(cols, ["thrust"], ["xyz[2]"])
         for row in rows:
@@ -69,10 +73,12 @@ def _ulog(path, cols, *, esc=True, thrust=None, hover=None, param=None, gap=None
         t = np.arange(0, cols["t"][-1], 0.5)
         topics.append(Topic("hover_thrust_estimate", [("uint64_t", "timestamp"), ("float", "hover_thrust")],
                             [{"timestamp": int(1_000_000 + s * 1e6), "hover_thrust": hover} for s in t]))
-    if landed_until is not None:
+    if landed_until is not None:  # land_flags: {flag: seconds it stays set}, e.g. {"ground_contact": 5.0}
         t = np.arange(0, cols["t"][-1], 0.2)
-        topics.append(Topic("vehicle_land_detected", [("uint64_t", "timestamp"), ("bool", "landed")],
-                            [{"timestamp": int(1_000_000 + s * 1e6), "landed": bool(s < landed_until)} for s in t]))
+        until = {"landed": landed_until, "maybe_landed": landed_until, "ground_contact": landed_until, **(land_flags or {})}
+        topics.append(Topic("vehicle_land_detected", [("uint64_t", "timestamp")] + [("bool", f) for f in until],
+                            [{"timestamp": int(1_000_000 + s * 1e6), **{f: bool(s < u) for f, u in until.items()}}
+                             for s in t]))
     if wind:
         topics.append(Topic("wind", [("uint64_t", "timestamp"), ("float", "windspeed_north"), ("float", "windspeed_east")],
                             _rows(cols, ["wind_n", "wind_e"], ["windspeed_north", "windspeed_east"])))
@@ -181,6 +187,27 @@ def test_real_sample_log(tmp_path, capsys):
     assert "esc_status" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("name", ["sample_log_small.ulg", "sample_px4_events.ulg"])
+def test_real_logs_give_no_valid_estimate_on_the_ground(tmp_path, name):
+    """Independently of the reader: every instant where the raw vehicle_land_detected says landed,
+    maybe_landed or ground_contact must not be an accepted estimate (optional: needs ../shared/data)."""
+    path = SAMPLE.parent / name
+    if not path.exists():
+        pytest.skip(f"{name} is not beside this checkout")
+    from pyulog import ULog
+
+    af = parse_airframe(dumps(airframe_dict(name="quad", mass=2.0, thrust={"source": "collective"},
+                                            **{"limits.max_dt": 0.2})), "<q>")
+    _, flight, traj = replay_ulog(af, str(path))
+    land = ULog(str(path), ["vehicle_land_detected"]).get_dataset("vehicle_land_detected").data
+    lt = land["timestamp"] * 1e-6 - flight.t0_s
+    ground = land["landed"] | land["maybe_landed"] | land["ground_contact"]
+    t = flight.log.time_s
+    idx = np.searchsorted(lt, t, side="right") - 1
+    on_ground = (idx >= 0) & ground[np.clip(idx, 0, None)].astype(bool)
+    assert on_ground.any() and not accepted(traj.status[on_ground]).any()
+
+
 # --- corrupt files: no hang, one line or a clean result, stdout stays one JSON object -------------
 
 def _corrupt_cases(tmp_path, good: bytes) -> list:
@@ -219,7 +246,9 @@ def test_corrupt_ulogs_end_quickly_with_one_line_or_one_json_object(tmp_path):
         assert time.monotonic() - start < 30, path
         assert "Traceback" not in done.stderr
         if done.returncode == 0:
-            assert isinstance(json.loads(done.stdout), dict) and done.stderr == ""
+            # A damaged length field can make the file end inside a message: a warning line, no more.
+            assert isinstance(json.loads(done.stdout), dict)
+            assert all(line.startswith("dobwind replay: warning:") for line in done.stderr.splitlines())
         else:
             assert done.returncode == 2 and done.stdout == "" and done.stderr.count("\n") == 1, done.stderr
             assert str(path) in done.stderr
@@ -250,3 +279,103 @@ def test_report_compares_with_px4_wind_when_the_log_has_no_truth(tmp_path, capsy
     text = page.read_text()
     assert "compared with the autopilot" in text and "mean_vector_difference_mps" in text
     assert text.count("data:image/png;base64,") >= 3
+
+
+# --- issue 14: what real PX4 logs showed -------------------------------------------------------------
+
+def test_escs_reporting_nothing_are_missing_data_named(tmp_path, capsys):
+    """esc_count 0 and every rpm 0 (a real FMU-v5 log): not rotor speeds. No valid estimate, and the
+    note names the ESCs and why."""
+    af, cols = _flight()
+    dead = {**cols, **{f"rpm_{i}": np.zeros_like(cols["t"]) for i in range(1, 5)}}
+    _, flight, traj = replay_ulog(af, str(_ulog(tmp_path / "dead.ulg", dead, esc_count=0)))
+    assert not accepted(traj.status).any() and np.all(traj.status == STATUS_NO_DATA)
+    note = next(n for n in flight.notes if "esc_status" in n)
+    assert all(f"ESC {i} (offline)" in note for i in range(1, 5)) and f"{flight.log.rows} of {flight.log.rows}" in note
+
+
+def test_one_esc_at_zero_rpm_in_flight_blanks_only_those_rows(tmp_path):
+    af, cols = _flight()
+    stalled = dict(cols)
+    stalled["rpm_2"] = np.where((cols["t"] > 6.0) & (cols["t"] < 7.0), 0.0, cols["rpm_2"])
+    _, flight, traj = replay_ulog(af, str(_ulog(tmp_path / "stall.ulg", stalled)))
+    t = flight.log.time_s
+    assert np.all(traj.status[(t > 6.02) & (t < 6.98)] == STATUS_NO_DATA)
+    assert np.all(accepted(traj.status[(t < 5.98) | (t > 7.02)]))
+    assert any("ESC 2 (0 rpm)" in n and "ESC 1" not in n for n in flight.notes)
+
+
+def test_ground_contact_and_maybe_landed_are_flagged_landed(tmp_path):
+    """landed clears at 1 s but ground contact lasts to 3 s and maybe_landed to 2 s: on the ground to 3 s."""
+    af, cols = _flight()
+    path = _ulog(tmp_path / "hop.ulg", cols, landed_until=1.0, land_flags={"maybe_landed": 2.0, "ground_contact": 3.0})
+    _, flight, traj = replay_ulog(af, str(path))
+    t = flight.log.time_s
+    assert np.all(traj.status[t < 2.95] == STATUS_LANDED) and np.all(accepted(traj.status[t > 3.25]))
+    assert any("ground_contact" in n and "maybe_landed" in n for n in flight.notes)
+
+
+def test_truncated_ulog_replays_the_readable_part_with_a_warning(tmp_path, capsys):
+    _, cols = _flight()
+    whole = _ulog(tmp_path / "whole.ulg", cols)
+    path = tmp_path / "cut.ulg"
+    path.write_bytes(whole.read_bytes()[: len(whole.read_bytes()) * 2 // 3 + 7])  # mid-message
+    assert main(["replay", str(M300), str(path), "--json"]) == 0
+    captured = capsys.readouterr()
+    import json
+    summary = json.loads(captured.out)
+    assert captured.err.count("\n") == 1 and "warning" in captured.err and "truncated" in captured.err
+    assert str(path) in captured.err and summary["warnings"]
+    assert 0.5 * cols["t"][-1] < summary["duration_s"] < 0.75 * cols["t"][-1]  # about two thirds of the flight
+    assert main(["replay", str(M300), str(whole)]) == 0 and capsys.readouterr().err == ""
+
+
+def test_esc_status_at_4_hz_is_interpolated_not_no_data(tmp_path):
+    """Rotor speeds reported every 0.25 s (PX4 SITL) against max_dt 0.1: interpolated, every row fed;
+    a longer silence than ROTOR_MAX_GAP_S is still NO_DATA."""
+    from dobwind.resample import ROTOR_MAX_GAP_S
+
+    af, cols = _flight()
+    model, flight, slow = replay_ulog(af, str(_ulog(tmp_path / "slow.ulg", cols, esc_every=25)))
+    _, _, fast = replay_ulog(af, str(_ulog(tmp_path / "fast.ulg", cols)))
+    t = flight.log.time_s
+    assert np.all(accepted(slow.status[t < t[-1] - 0.25]))
+    wind = model.outputs.slice("wind_ned")
+    # The tunnel's rpm steps between holds: the 0.25 s interpolation smears each step, the holds agree.
+    settled = (t % 4.0 > 3.0)  # the slow log ends at its last ESC report: the fast one's first rows match
+    np.testing.assert_allclose(slow.outputs[settled, wind], fast.outputs[:len(t)][settled, wind], atol=0.15)
+    _, flight2, gap = replay_ulog(af, str(_ulog(tmp_path / "silent.ulg", cols, esc_gap=(6.0, 6.0 + ROTOR_MAX_GAP_S + 0.1))))
+    t2 = flight2.log.time_s
+    assert np.all(gap.status[(t2 > 6.02) & (t2 < 6.0 + ROTOR_MAX_GAP_S + 0.08)] == STATUS_NO_DATA)
+    assert np.all(accepted(gap.status[(t2 > 1.0) & (t2 < 5.98)]))
+
+
+def test_px4_wind_file_holds_the_estimate_and_its_variances(tmp_path, capsys):
+    af, cols = _flight()
+    path = _ulog(tmp_path / "f.ulg", cols)
+    est, px4 = tmp_path / "est.csv", tmp_path / "px4wind.csv"
+    # An uncertainty table constant at 0.2 m/s: every variance is 0.04 m²/s².
+    airframe = tmp_path / "m300_unc.toml"
+    airframe.write_text(M300.read_text() + "\n[uncertainty]\nspeeds = [0.0, 20.0]\nsigma_h = [0.2, 0.2]\n"
+                                           "sigma_up = [0.1, 0.1]\n")
+    assert main(["replay", str(airframe), str(path), "-o", str(est), "--px4-wind", str(px4)]) == 0
+    e = np.genfromtxt(est, delimiter=",", names=True)
+    w = np.genfromtxt(px4, delimiter=",", names=True, skip_header=1)
+    ok = (e["status"].astype(int) & 0x33F) == 0
+    assert len(w) == ok.sum() > 100
+    # The ULog's clock starts at 1 s (1_000_000 us): the file keeps the log's own microseconds.
+    np.testing.assert_allclose(w["timestamp"], 1_000_000 + e["t"][ok] * 1e6, atol=1.0)
+    np.testing.assert_allclose(w["windspeed_north"], e["wind_n"][ok], rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(w["windspeed_east"], e["wind_e"][ok], rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(w["variance_north"], 0.04, rtol=1e-5)
+    np.testing.assert_array_equal(w["variance_north"], w["variance_east"])
+    # Without the table the sigma is unknown: NaN variances, not a fake confidence.
+    assert main(["replay", str(M300), str(path), "--px4-wind", str(px4)]) == 0
+    assert np.all(np.isnan(np.genfromtxt(px4, delimiter=",", names=True, skip_header=1)["variance_north"]))
+
+
+def test_px4_wind_refused_for_csv_logs(tmp_path, capsys):
+    _, cols = _flight()
+    assert main(["replay", str(M300), str(_csv(tmp_path / "a.csv", cols)), "--px4-wind", str(tmp_path / "w.csv")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--px4-wind" in err

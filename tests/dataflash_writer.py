@@ -1,0 +1,37 @@
+"""A minimal ArduPilot DataFlash writer for tests (the format is public and simple): every message is
+0xA3 0x95, a type byte and packed little-endian fields; FMT messages (type 128) declare the others."""
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+
+# DataFlash format characters used here -> struct codes (Q uint64 TimeUS, B uint8, f float, d double,
+# i int32, H uint16, h int16, I uint32, b int8).
+_CODES = {"Q": "Q", "B": "B", "f": "f", "d": "d", "i": "i", "I": "I", "H": "H", "h": "h", "b": "b"}
+_FMT_TYPE = 128
+
+
+def _fmt_message(msg_type: int, name: str, fmt: str, columns: list[str]) -> bytes:
+    length = 3 + struct.calcsize("<" + "".join(_CODES[c] for c in fmt))
+    body = struct.pack("<BB4s16s64s", msg_type, length, name.encode(), fmt.encode(), ",".join(columns).encode())
+    return bytes([0xA3, 0x95, _FMT_TYPE]) + body
+
+
+def write_dataflash(path: Path, messages: dict[str, tuple[str, list[str]]], rows: list[tuple[str, dict]]) -> Path:
+    """messages: name -> (format characters, column names; the first is TimeUS with format Q);
+    rows: (name, {column: value}) in log order."""
+    blob = b""
+    # FMT describing FMT itself, as ArduPilot writes it first (DFReader knows it anyway).
+    blob += bytes([0xA3, 0x95, _FMT_TYPE]) + struct.pack("<BB4s16s64s", _FMT_TYPE, 89, b"FMT", b"BBnNZ",
+                                                         b"Type,Length,Name,Format,Columns")
+    types = {}
+    for k, (name, (fmt, cols)) in enumerate(messages.items()):
+        types[name] = 130 + k
+        blob += _fmt_message(types[name], name, fmt, cols)
+    for name, values in rows:
+        fmt, cols = messages[name]
+        packed = b"".join(struct.pack("<" + _CODES[c], int(round(values.get(col, 0))) if c not in "fd"
+                                      else float(values.get(col, 0.0))) for c, col in zip(fmt, cols))
+        blob += bytes([0xA3, 0x95, types[name]]) + packed
+    path.write_bytes(blob)
+    return path

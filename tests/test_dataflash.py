@@ -1,0 +1,180 @@
+"""ArduPilot DataFlash replay, on DataFlash files written here (tests/dataflash_writer.py): the replay
+equals the replay of the equivalent CSV (the same float32 values on the same clock) within 1e-5."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from dobwind.cli import main
+from dobwind.logs import write_csv
+from dobwind.model.airframe import load_airframe, parse_airframe
+from dobwind.model.airframe_toml import dumps
+from dobwind.model.status import STATUS_LANDED, STATUS_NO_DATA, accepted
+from dobwind.replay import replay, replay_autopilot
+from dobwind.simulate import simulate
+from tests.dataflash_writer import write_dataflash
+from tests.helpers import M300, ROOT, airframe_dict
+
+pytest.importorskip("pymavlink")
+
+SHARED = ROOT.parent / "shared" / "data" / "ardupilot"
+MESSAGES = {
+    "XKF1": ("QBfffff", ["TimeUS", "C", "Yaw", "VN", "VE", "VD", "PD"]),
+    "XKQ": ("QBffff", ["TimeUS", "C", "Q1", "Q2", "Q3", "Q4"]),
+    "XKF2": ("QBff", ["TimeUS", "C", "VWN", "VWE"]),
+    "IMU": ("QBfff", ["TimeUS", "I", "AccX", "AccY", "AccZ"]),
+    "PSCN": ("Qf", ["TimeUS", "AN"]), "PSCE": ("Qf", ["TimeUS", "AE"]), "PSCD": ("Qf", ["TimeUS", "AD"]),
+    "ESC": ("QBf", ["TimeUS", "Instance", "RPM"]),
+    "CTUN": ("Qff", ["TimeUS", "ThO", "ThH"]),
+    "ATT": ("Qf", ["TimeUS", "DesYaw"]),
+    "EV": ("QB", ["TimeUS", "Id"]),
+}
+OLD_NAMES = {"XKF1": "NKF1", "XKQ": "NKQ1", "XKF2": "NKF2"}
+HOVER = 0.4
+
+
+def f32(x):
+    return np.asarray(x, dtype=np.float32).astype(float)
+
+
+def _flight(rate=50.0):
+    af = load_airframe(M300)
+    return af, simulate(af, "tunnel", seed=3, hold_s=4.0, rate_hz=rate)
+
+
+def _rows(af, cols, *, landed_until=None, drop=(), old=False, esc_zero=None):
+    """One of every message per sample, plus a second EKF core / IMU with nonsense the reader must skip."""
+    rows = [("EV", {"TimeUS": 1_000_000, "Id": 10})]
+    if landed_until is None:
+        rows.append(("EV", {"TimeUS": 1_000_000, "Id": 28}))
+    mg = af.mass_kg * af.gravity_mps2
+    for k, t in enumerate(cols["t"]):
+        us = 1_000_000 + int(round(t * 1e6))
+        if landed_until is not None and k > 0 and cols["t"][k - 1] < landed_until <= t:
+            rows.append(("EV", {"TimeUS": us, "Id": 28}))
+        for core, junk in ((0, 1.0), (1, 50.0)):
+            rows.append(("XKF1", {"TimeUS": us, "C": core, "Yaw": 0.0, "VN": cols["vel_n"][k] * junk,
+                                  "VE": cols["vel_e"][k], "VD": cols["vel_d"][k]}))
+            rows.append(("XKQ", {"TimeUS": us, "C": core, **{f"Q{i + 1}": cols[f"q_{c}"][k] for i, c in enumerate("wxyz")}}))
+            rows.append(("XKF2", {"TimeUS": us, "C": core, "VWN": cols["wind_n"][k] * junk, "VWE": cols["wind_e"][k]}))
+            rows.append(("IMU", {"TimeUS": us, "I": core, "AccX": junk, "AccY": 0.0, "AccZ": -9.8}))
+        for name, field, key in (("PSCN", "AN", "acc_n"), ("PSCE", "AE", "acc_e"), ("PSCD", "AD", "acc_d")):
+            rows.append((name, {"TimeUS": us, field: cols[key][k]}))
+        for i in range(4):
+            rpm = 0.0 if esc_zero is not None and i == 1 and esc_zero[0] < t < esc_zero[1] else cols[f"rpm_{i + 1}"][k]
+            rows.append(("ESC", {"TimeUS": us, "Instance": i, "RPM": rpm}))
+        rows.append(("CTUN", {"TimeUS": us, "ThO": cols["thrust"][k] / mg * HOVER, "ThH": HOVER}))
+        rows.append(("ATT", {"TimeUS": us, "DesYaw": np.degrees(cols["yaw_ref"][k])}))
+    rows = [r for r in rows if r[0] not in drop]
+    if old:  # EKF2 names have no core field: only core 0 is written under them
+        rows = [(OLD_NAMES.get(n, n), v) for n, v in rows if n not in OLD_NAMES or v["C"] == 0]
+    return rows
+
+
+def _bin(path, af, cols, **kw):
+    messages = dict(MESSAGES)
+    if kw.get("old"):
+        for new, oldname in OLD_NAMES.items():
+            fmt, columns = messages.pop(new)
+            messages[oldname] = (fmt.replace("B", "", 1), [c for c in columns if c != "C"])
+    return write_dataflash(path, messages, _rows(af, cols, **kw))
+
+
+def _equivalent_csv(path, af, cols):
+    """What the DataFlash file holds, as a CSV: float32 values, the microsecond clock, normalised q."""
+    us = 1_000_000 + np.round(cols["t"] * 1e6)
+    q = np.column_stack([f32(cols[f"q_{c}"]) for c in "wxyz"])
+    q /= np.linalg.norm(q, axis=1)[:, None]
+    out = {"t": us * 1e-6 - us[0] * 1e-6, "vel_n": f32(cols["vel_n"]), "vel_e": f32(cols["vel_e"]), "vel_d": f32(cols["vel_d"]),
+           "acc_n": f32(cols["acc_n"]), "acc_e": f32(cols["acc_e"]), "acc_d": f32(cols["acc_d"]),
+           **{f"q_{c}": q[:, i] for i, c in enumerate("wxyz")},
+           **{f"rpm_{i}": f32(cols[f"rpm_{i}"]) for i in range(1, 5)},
+           "yaw_ref": np.radians(f32(np.degrees(cols["yaw_ref"])))}
+    names = list(out)
+    write_csv(path, names, np.column_stack([out[n] for n in names]), ["%.17g"] * len(names))
+    return path
+
+
+@pytest.mark.parametrize("old", [False, True])
+def test_dataflash_replay_equals_the_equivalent_csv(tmp_path, old):
+    af, cols = _flight()
+    model, flight, traj = replay_autopilot(af, str(_bin(tmp_path / "f.bin", af, cols, old=old)))
+    _, log, ref = replay(af, str(_equivalent_csv(tmp_path / "f.csv", af, cols)))
+    assert flight.log.rows == log.rows and np.all(accepted(traj.status))
+    np.testing.assert_array_equal(traj.status, ref.status)
+    assert np.max(np.abs(traj.outputs - ref.outputs)) <= 1e-5
+    assert flight.autopilot_wind[0] == ("ArduPilot NKF2" if old else "ArduPilot XKF2")
+    # Core 0's wind, not core 1's (fifty times larger north wind).
+    np.testing.assert_allclose(flight.autopilot_wind[2][:, 0], f32(cols["wind_n"]), atol=1e-6)
+
+
+def test_collective_thrust_from_ctun_and_the_landing_events(tmp_path):
+    af = parse_airframe(dumps(airframe_dict(thrust={"source": "collective"}, mass=8.0, name="coll")), "<c>")
+    _, cols = _flight()
+    model, flight, traj = replay_autopilot(af, str(_bin(tmp_path / "c.bin", af, cols, landed_until=3.0)))
+    t = flight.log.time_s
+    live = t > 3.1
+    np.testing.assert_allclose(flight.log.columns["thrust"][live], cols["thrust"][live], rtol=1e-5)
+    assert np.all(traj.status[t < 2.95] == STATUS_LANDED) and np.all(accepted(traj.status[live]))
+
+
+def test_esc_at_zero_rpm_while_airborne_is_no_data_named(tmp_path):
+    af, cols = _flight()
+    _, flight, traj = replay_autopilot(af, str(_bin(tmp_path / "z.bin", af, cols, esc_zero=(8.0, 9.0))))
+    t = flight.log.time_s
+    assert np.all(traj.status[(t > 8.05) & (t < 8.95)] == STATUS_NO_DATA)
+    assert np.all(accepted(traj.status[(t < 7.95) | (t > 9.05)]))
+    assert any("ESC 2 (0 rpm)" in n for n in flight.notes)
+
+
+@pytest.mark.parametrize("drop, named", [(("XKF1",), "XKF1"), (("XKQ",), "XKQ"), (("ESC",), "ESC Instance 0")])
+def test_a_missing_message_exits_2_naming_it(tmp_path, capsys, drop, named):
+    af, cols = _flight(rate=20.0)
+    path = _bin(tmp_path / "m.bin", af, cols, drop=drop)
+    assert main(["replay", str(M300), str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and named in err and str(path) in err
+
+
+def test_garbage_exits_2_without_traceback(tmp_path, capsys):
+    path = tmp_path / "bad.bin"
+    path.write_bytes(bytes(range(256)) * 40)
+    assert main(["replay", str(M300), str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and str(path) in err and "Traceback" not in err
+
+
+def test_fit_on_dataflash_equals_fit_on_the_equivalent_csv(tmp_path, capsys):
+    af = load_airframe(M300)
+    cols = simulate(af, "still-air", seed=4, hold_s=2.0, rate_hz=25.0)
+    cols = {**cols, "wind_n": np.zeros_like(cols["t"]), "wind_e": np.zeros_like(cols["t"])}
+    fitted = []
+    for log in (_bin(tmp_path / "still.bin", af, cols), _equivalent_csv(tmp_path / "still.csv", af, cols)):
+        out = tmp_path / f"{log.suffix[1:]}.toml"
+        code = main(["fit", str(M300), str(log), "--still-air", "-o", str(out), "--model", "polynomial",
+                     "--terms", "airframe", "--dynamic", "--json", "--force"])  # equality, not quality
+        assert code == 0, capsys.readouterr().err
+        fitted.append(load_airframe(out))
+    capsys.readouterr()
+    a, b = fitted
+    np.testing.assert_allclose(a.horizontal.coefficients, b.horizontal.coefficients, rtol=1e-4, atol=1e-6)
+    np.testing.assert_allclose(a.thrust.scale, b.thrust.scale, rtol=1e-5)
+    assert main(["fit", str(M300), str(tmp_path / "still.bin"), "-o", str(tmp_path / "x.toml")]) == 2
+    assert "--still-air" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("name, present, absent", [
+    ("arducopter-4.6.2-prearm.bin", ("XKF1", "XKQ", "XKF2", "IMU", "CTUN", "ATT"), ("ESC", "NKF1")),
+    ("arduplane-ekf2-truncated.bin", ("NKF1", "NKQ1", "NKF2", "IMU", "ATT"), ("XKF1", "XKQ", "ESC"))])
+def test_real_logs_parse_and_name_their_messages(name, present, absent, capsys):
+    """Optional (needs ../shared/data): the real logs' message sets, and a clean refusal for rpm."""
+    path = SHARED / name
+    if not path.exists():
+        pytest.skip(f"{name} is not beside this checkout")
+    from dobwind.dataflash import messages_found
+
+    found = messages_found(str(path))
+    assert all(found[m] > 0 for m in present) and all(found[m] == 0 for m in absent)
+    assert main(["replay", str(M300), str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "ESC Instance 0" in err
