@@ -354,10 +354,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("airframe", help=AIRFRAME_HELP + "; its mass, thrust model and observer are kept")
     p.add_argument("logs", nargs="+", help="calibration flight-log CSVs with true wind columns (docs/formats.md)")
     p.add_argument("-o", "--output", required=True, help="the new airframe file (TOML, required)")
-    p.add_argument("--model", choices=("auto", "drag", "polynomial"), default="auto",
-                   help="force-air family: 'drag' (a drag law fitted forward and inverted in the step), "
-                   "'polynomial' (the paper's), or 'auto': both, scored by grouped cross-validation and "
-                   "extrapolation in airflow space (default: auto)")
+    p.add_argument("--model", choices=("auto", "drag", "drag-heading", "drag-body", "polynomial"), default="auto",
+                   help="force-air family: 'drag' (a drag law fitted forward and inverted in the step, in the "
+                   "level heading frame and in the body frame at the measured attitude; the better frame is "
+                   "kept), 'drag-heading' or 'drag-body' (one frame), 'polynomial' (the paper's), or 'auto': "
+                   "all of them, scored by grouped cross-validation and extrapolation in airflow space "
+                   "(default: auto)")
     p.add_argument("--terms", choices=("airframe", "auto"), default="auto",
                    help="polynomial family: fit the airframe's terms, or choose them from a library by "
                    "cross-validation (default: auto)")

@@ -27,12 +27,15 @@ from scipy.signal import lfilter, lfilter_zi
 
 from dobwind.model.airframe import Airframe
 from dobwind.model.discretization import first_order
-from dobwind.model.forceair import (FORCE_DIRECTION_EPS_N, HORIZONTAL_DRAG_KEYS, VERTICAL_DRAG_KEYS, DragLaw,
-                                    drag_airflow_numpy, horizontal_drag_basis, term_matrix)
+from dobwind.model.forceair import (FORCE_DIRECTION_EPS_N, HORIZONTAL_DRAG_KEYS, ROTOR_DRAG_KEY, VERTICAL_DRAG_KEYS,
+                                    DragLaw, body_drag_airflow_numpy, body_drag_basis, drag_airflow_numpy,
+                                    heading_to_ned, horizontal_drag_basis, term_matrix)
 from dobwind.model.terms import Term
 
 PARAMETERS = HORIZONTAL_DRAG_KEYS + ("ox", "oy") + VERTICAL_DRAG_KEYS + ("kappa",)
-NONNEGATIVE = ("l0", "q0", "lz", "qz")
+# The body-frame law adds rotor drag (linear in airflow, growing with rotor speed ~ sqrt(thrust)).
+BODY_PARAMETERS = HORIZONTAL_DRAG_KEYS + (ROTOR_DRAG_KEY, "ox", "oy") + VERTICAL_DRAG_KEYS + ("kappa",)
+NONNEGATIVE = ("l0", "q0", "lz", "qz", ROTOR_DRAG_KEY)
 DECIMATED_RATE_HZ = 10.0
 BLOCK_S = 20.0          # cross-validation groups: consecutive blocks of flight
 FOLDS = 5
@@ -42,7 +45,14 @@ HUBER_K = 2.0           # Huber threshold in robust standard deviations
 HORIZONTAL_SETS = (("l0",), ("q0",), ("l0", "q0"), ("l0", "q0", "l2c", "q2c", "l2s", "q2s"),
                    ("l0", "q0", "l2c", "q2c", "l2s", "q2s", "q1c"))
 VERTICAL_SETS = (("lz",), ("qz",), ("lz", "qz"), ("lz", "qz", "i1"), ("lz", "qz", "i1", "i2"))
+# The body frame: the same shapes, with rotor drag beside (or instead of) the constant linear drag.
+BODY_HORIZONTAL_SETS = (("l0",), ("q0",), ("l0", "q0"), ("lr", "q0"), ("l0", "q0", "l2c", "q2c", "l2s", "q2s"),
+                        ("lr", "q0", "l2c", "q2c", "l2s", "q2s"), ("l0", "lr", "q0", "l2c", "q2c", "l2s", "q2s", "q1c"))
 ALWAYS = ("ox", "oy", "kappa")
+
+
+def parameters_of(frame: str) -> tuple[str, ...]:
+    return BODY_PARAMETERS if frame == "body" else PARAMETERS
 
 
 @dataclass(frozen=True)
@@ -55,10 +65,19 @@ class DragSamples:
     airflow: np.ndarray      # (N, 3) H-filtered true relative airflow, heading frame, m/s
     group: np.ndarray        # (N,) calibration block
     log_index: np.ndarray    # (N,) which log
+    frame: str = "heading"   # the drag law's frame; "body" also needs the two fields below
+    rotation: np.ndarray | None = None  # (N, 3, 3) body -> NED at the sample (unfiltered, as the step sees it)
+    rotor: np.ndarray | None = None     # (N,) sqrt(u_f / (m g)) at the sample, nominal thrust
+
+    @property
+    def parameters(self) -> tuple[str, ...]:
+        return parameters_of(self.frame)
 
     def select(self, keep: np.ndarray) -> "DragSamples":
+        pick = lambda a: None if a is None else a[keep]
         return DragSamples(self.observed[keep], self.columns[keep], self.cos_yaw[keep], self.sin_yaw[keep],
-                           self.airflow[keep], self.group[keep], self.log_index[keep])
+                           self.airflow[keep], self.group[keep], self.log_index[keep], self.frame,
+                           pick(self.rotation), pick(self.rotor))
 
     def __len__(self) -> int:
         return len(self.observed)
@@ -93,26 +112,63 @@ def basis(airflow_c: np.ndarray) -> np.ndarray:
     return np.stack([np.column_stack(per[p]) for p in PARAMETERS], axis=2)
 
 
+def body_columns(airflow_ned: np.ndarray, rot: np.ndarray, rotor: np.ndarray, cos_yaw: np.ndarray,
+                 sin_yaw: np.ndarray, thrust: np.ndarray) -> np.ndarray:
+    """(N, 3, P) NED force per unit of each BODY_PARAMETERS entry: the drag terms act on the body-frame
+    airflow and are turned back to NED by the attitude; the offsets are heading-frame, kappa NED."""
+    air_b = np.einsum("nji,nj->ni", rot, airflow_ned)  # R^T v
+    per = body_drag_basis(air_b[:, 0], air_b[:, 1], air_b[:, 2], rotor, 1e-9)
+    zero = np.zeros(len(rot))
+    out = np.zeros((len(rot), 3, len(BODY_PARAMETERS)))
+    for k, key in enumerate(BODY_PARAMETERS):
+        if key in per:
+            out[:, :, k] = np.einsum("nij,nj->ni", rot, np.column_stack([per[key][0] + zero, per[key][1] + zero,
+                                                                         per[key][2] + zero]))
+    out[:, :, BODY_PARAMETERS.index("ox")] = np.column_stack([cos_yaw, sin_yaw, zero])
+    out[:, :, BODY_PARAMETERS.index("oy")] = np.column_stack([-sin_yaw, cos_yaw, zero])
+    out[:, :, BODY_PARAMETERS.index("kappa")] = thrust
+    return out
+
+
+def rotation_matrices(q: np.ndarray) -> np.ndarray:
+    """(N, 3, 3) body -> NED from (N, 4) quaternions w, x, y, z of any nonzero norm."""
+    w, x, y, z = (q[:, i] / np.linalg.norm(q, axis=1) for i in range(4))
+    return np.stack([np.column_stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)]),
+                     np.column_stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)]),
+                     np.column_stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)])], axis=1)
+
+
 def _forward_fill(x: np.ndarray, valid: np.ndarray) -> np.ndarray:
     index = np.maximum.accumulate(np.where(valid, np.arange(len(valid)), 0))
     return x[index]
 
 
 def log_samples(af: Airframe, cutoff_hz: float, t: np.ndarray, force_ned: np.ndarray, airflow_ned: np.ndarray,
-                thrust_ned: np.ndarray, yaw: np.ndarray, usable: np.ndarray) -> dict[str, np.ndarray]:
+                thrust_ned: np.ndarray, yaw: np.ndarray, usable: np.ndarray, frame: str = "heading",
+                q: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """One log's samples, filtered and decimated. ``thrust_ned`` is u_f z_b; ``usable`` marks samples the
-    step accepted and that are at least one settling time clear of a start or rejection."""
+    step accepted and that are at least one settling time clear of a start or rejection. The body frame
+    needs the attitude quaternions ``q``."""
     valid = np.isfinite(airflow_ned).all(axis=1) & np.isfinite(thrust_ned).all(axis=1) & np.isfinite(yaw)
+    if frame == "body":
+        valid &= np.isfinite(q).all(axis=1) & (np.linalg.norm(np.nan_to_num(q), axis=1) > 0)
     first = int(np.argmax(valid))
     valid[:first] = True  # filled from the first valid row; kept out of the fit by ``usable``
     airflow_ned, thrust_ned, yaw = (_forward_fill(v, valid) for v in (airflow_ned, thrust_ned, yaw))
     c, s = np.cos(yaw), np.sin(yaw)
     air_c = np.column_stack([c * airflow_ned[:, 0] + s * airflow_ned[:, 1], -s * airflow_ned[:, 0] + c * airflow_ned[:, 1],
                              airflow_ned[:, 2]])
-    unit = basis(air_c)
-    ned = np.stack([c[:, None] * unit[:, 0] - s[:, None] * unit[:, 1], s[:, None] * unit[:, 0] + c[:, None] * unit[:, 1],
-                    unit[:, 2]], axis=1)
-    ned[:, :, PARAMETERS.index("kappa")] = thrust_ned
+    extra: dict[str, np.ndarray] = {}
+    if frame == "body":
+        rot = rotation_matrices(_forward_fill(q, valid))
+        rotor = np.sqrt(np.linalg.norm(thrust_ned, axis=1) / (af.mass_kg * af.gravity_mps2))
+        ned = body_columns(airflow_ned, rot, rotor, c, s, thrust_ned)
+        extra = {"rotation": rot, "rotor": rotor}
+    else:
+        unit = basis(air_c)
+        ned = np.stack([c[:, None] * unit[:, 0] - s[:, None] * unit[:, 1], s[:, None] * unit[:, 0] + c[:, None] * unit[:, 1],
+                        unit[:, 2]], axis=1)
+        ned[:, :, PARAMETERS.index("kappa")] = thrust_ned
     dt = float(np.median(np.diff(t))) if len(t) > 1 else af.observer.sample_time_s
     columns = np.empty_like(ned)
     filtered_air = np.empty_like(air_c)
@@ -125,7 +181,7 @@ def log_samples(af: Airframe, cutoff_hz: float, t: np.ndarray, force_ned: np.nda
     keep[::step] = True
     keep &= usable & valid & np.isfinite(force_ned).all(axis=1)
     return {"observed": force_ned[keep], "columns": columns[keep], "cos_yaw": c[keep], "sin_yaw": s[keep],
-            "airflow": filtered_air[keep], "time": t[keep]}
+            "airflow": filtered_air[keep], "time": t[keep], **{k: v[keep] for k, v in extra.items()}}
 
 
 def thrust_ned(af: Airframe, rotor_rpm: np.ndarray | None, thrust: np.ndarray | None, q: np.ndarray) -> np.ndarray:
@@ -140,7 +196,7 @@ def thrust_ned(af: Airframe, rotor_rpm: np.ndarray | None, thrust: np.ndarray | 
     return u_f[:, None] * z_b
 
 
-def merge(parts: list[dict[str, np.ndarray]]) -> DragSamples:
+def merge(parts: list[dict[str, np.ndarray]], frame: str = "heading") -> DragSamples:
     groups, offset = [], 0
     for part in parts:
         block = np.floor((part["time"] - part["time"][0]) / BLOCK_S).astype(int) if len(part["time"]) else np.zeros(0, int)
@@ -148,8 +204,9 @@ def merge(parts: list[dict[str, np.ndarray]]) -> DragSamples:
         offset += int(block.max()) + 1 if len(block) else 0
     cat = {k: np.concatenate([p[k] for p in parts]) for k in ("observed", "columns", "cos_yaw", "sin_yaw", "airflow")}
     logs = np.concatenate([np.full(len(p["time"]), i) for i, p in enumerate(parts)])
+    body = {k: np.concatenate([p[k] for p in parts]) for k in ("rotation", "rotor")} if frame == "body" else {}
     return DragSamples(cat["observed"], cat["columns"], cat["cos_yaw"], cat["sin_yaw"], cat["airflow"],
-                       np.concatenate(groups), logs)
+                       np.concatenate(groups), logs, frame, body.get("rotation"), body.get("rotor"))
 
 
 def _solve(samples: DragSamples, active: tuple[str, ...], weights: np.ndarray | None = None) -> np.ndarray:
@@ -159,8 +216,9 @@ def _solve(samples: DragSamples, active: tuple[str, ...], weights: np.ndarray | 
     w = np.ones((rows, 3)) if weights is None else weights
     y = (samples.observed * w).reshape(-1)
     free = list(active)
+    parameters = samples.parameters
     while True:
-        cols = [PARAMETERS.index(p) for p in free]
+        cols = [parameters.index(p) for p in free]
         a = (samples.columns[:, :, cols] * w[:, :, None]).reshape(rows * 3, len(cols))
         scale = np.maximum(np.abs(a).max(axis=0), 1e-12)
         coef, *_ = np.linalg.lstsq(a / scale, y, rcond=1e-10)
@@ -169,8 +227,8 @@ def _solve(samples: DragSamples, active: tuple[str, ...], weights: np.ndarray | 
         if not negative:
             break
         free.remove(min(negative, key=lambda p: coef[free.index(p)]))
-    theta = np.zeros(len(PARAMETERS))
-    theta[[PARAMETERS.index(p) for p in free]] = coef
+    theta = np.zeros(len(parameters))
+    theta[[parameters.index(p) for p in free]] = coef
     return theta
 
 
@@ -187,16 +245,18 @@ def robust_fit(samples: DragSamples, active: tuple[str, ...], rounds: int = 4) -
     return theta
 
 
-def law_of(theta: np.ndarray) -> DragLaw:
-    values = dict(zip(PARAMETERS, (float(v) for v in theta)))
-    return DragLaw(**{k: values[k] for k in HORIZONTAL_DRAG_KEYS + VERTICAL_DRAG_KEYS})
+def law_of(theta: np.ndarray, frame: str = "heading") -> DragLaw:
+    """The law as the fit sees it (for the body frame, the rotor term on the NOMINAL thrust)."""
+    values = dict(zip(parameters_of(frame), (float(v) for v in theta)))
+    keys = HORIZONTAL_DRAG_KEYS + VERTICAL_DRAG_KEYS + ((ROTOR_DRAG_KEY,) if frame == "body" else ())
+    return DragLaw(**{k: values[k] for k in keys}, frame=frame)
 
 
 def heading_forces(samples: DragSamples, theta: np.ndarray) -> np.ndarray:
     """(N, 3) the heading-frame force the step will see with the fitted offset and thrust scale."""
-    values = dict(zip(PARAMETERS, theta))
+    values = dict(zip(samples.parameters, theta))
     # The fitted thrust scale removes kappa u_f z_b from the force the step will see.
-    f = samples.observed - values["kappa"] * samples.columns[:, :, PARAMETERS.index("kappa")]
+    f = samples.observed - values["kappa"] * samples.columns[:, :, samples.parameters.index("kappa")]
     m = samples.cos_yaw * f[:, 0] + samples.sin_yaw * f[:, 1] - values["ox"]
     n = -samples.sin_yaw * f[:, 0] + samples.cos_yaw * f[:, 1] - values["oy"]
     return np.column_stack([m, n, f[:, 2]])
@@ -205,7 +265,13 @@ def heading_forces(samples: DragSamples, theta: np.ndarray) -> np.ndarray:
 def predicted_airflow(samples: DragSamples, theta: np.ndarray) -> np.ndarray:
     """The step's inversion applied to the observed force: heading-frame airflow (N, 3)."""
     force = heading_forces(samples, theta)
-    return drag_airflow_numpy(law_of(theta), force[:, 0], force[:, 1], force[:, 2])
+    if samples.frame != "body":
+        return drag_airflow_numpy(law_of(theta), force[:, 0], force[:, 1], force[:, 2])
+    north, east = heading_to_ned(force[:, 0], force[:, 1], samples.cos_yaw, samples.sin_yaw)
+    ned = body_drag_airflow_numpy(law_of(theta, "body"), np.column_stack([north, east, force[:, 2]]),
+                                  samples.rotation, samples.rotor)
+    c, s = samples.cos_yaw, samples.sin_yaw
+    return np.column_stack([c * ned[:, 0] + s * ned[:, 1], -s * ned[:, 0] + c * ned[:, 1], ned[:, 2]])
 
 
 def airflow_errors(samples: DragSamples, theta: np.ndarray) -> tuple[float, float]:
@@ -274,7 +340,7 @@ def choose_drag_law(samples: DragSamples) -> DragChoice:
     within 2 % of the best score wins at each stage."""
     vertical_full = VERTICAL_SETS[-1]
     scored = []
-    for h in HORIZONTAL_SETS:
+    for h in (BODY_HORIZONTAL_SETS if samples.frame == "body" else HORIZONTAL_SETS):
         fit_predict = drag_fit_predict(h + vertical_full + ALWAYS)
         cv_h, _ = grouped_cv(samples, fit_predict)
         scored.append((combined(cv_h, extrapolation_error(samples, fit_predict)), h))

@@ -444,7 +444,7 @@ def drag_plot(af: Airframe, path: str) -> None:
     """The fitted drag law: force along body x, y and z against airflow speed along that axis."""
     import matplotlib.pyplot as plt
 
-    from dobwind.model.forceair import drag_force
+    from dobwind.model.forceair import body_drag_force, drag_force
     from dobwind.plots import save
 
     assert af.drag is not None
@@ -453,7 +453,9 @@ def drag_plot(af: Airframe, path: str) -> None:
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
     for label, (vx, vy, vz), pick in (("x (forward)", (speed, zero, zero), 0), ("y (right)", (zero, speed, zero), 1),
                                       ("z (down)", (zero, zero, speed), 2)):
-        ax.plot(speed, drag_force(af.drag, vx, vy, vz)[pick], label=f"air along body {label}")
+        # The body-frame law at hover thrust (rotor term 1); the heading-frame law of level flight.
+        force = body_drag_force(af.drag, vx, vy, vz, 1.0, 1e-9) if af.drag.frame == "body" else drag_force(af.drag, vx, vy, vz)
+        ax.plot(speed, force[pick] + zero, label=f"air along body {label}")
     ax.set_xlabel("relative airflow speed along the axis (m/s)")
     ax.set_ylabel("force (N)")
     ax.set_title(f"{af.name}: fitted drag law (force against airflow along each body axis)")

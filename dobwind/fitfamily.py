@@ -21,16 +21,22 @@ from dobwind.model.status import accepted
 from dobwind.model.step import build_step
 from dobwind.selfcheck import Thresholds, self_check
 
-MODELS = ("auto", "drag", "polynomial")
+MODELS = ("auto", "drag", "drag-heading", "drag-body", "polynomial")
+# --model -> the drag-law frames it fits (both drag frames are scored alike and the better one is kept).
+DRAG_FRAMES_OF = {"auto": ("heading", "body"), "drag": ("heading", "body"), "drag-heading": ("heading",),
+                  "drag-body": ("body",), "polynomial": ()}
+FAMILY_OF_FRAME = {"heading": "drag", "body": "drag-body"}
 
 
-def drag_samples(af: Airframe, logs: list[FlightLog]) -> tuple[dragfit.DragSamples, list[int]]:
-    """Decimated per-sample calibration data from every log, and how many samples each log gave."""
+def drag_samples(af: Airframe, logs: list[FlightLog],
+                 frames: tuple[str, ...] = ("heading",)) -> tuple[dict[str, dragfit.DragSamples], list[int]]:
+    """Decimated per-sample calibration data from every log for each drag-law frame (the same samples
+    and blocks in each), and how many samples each log gave."""
     cal = calibration_airframe(af)
     model = build_step(cal)
     settle = settling_time_s(axis_system(model, 0, with_filter=True))
     cutoff = cal.filter.cutoffs_hz[0]
-    parts = []
+    parts: dict[str, list] = {frame: [] for frame in frames}
     for log in logs:
         traj = reference.run(model, step_inputs(model, log))
         t = log.time_s
@@ -44,22 +50,28 @@ def drag_samples(af: Airframe, logs: list[FlightLog]) -> tuple[dragfit.DragSampl
         rpm = log.stack(*[f"rpm_{i + 1}" for i in range(af.thrust.rotors)]) if af.thrust.source == "rpm" else None
         thrust = dragfit.thrust_ned(cal, rpm, log.columns.get("thrust"), q)
         force = traj.outputs[:, model.outputs.slice("force_ned")]
-        parts.append(dragfit.log_samples(cal, cutoff, t, force, airflow, thrust, yaw, usable))
-    return dragfit.merge(parts), [len(p["time"]) for p in parts]
+        for frame in frames:
+            parts[frame].append(dragfit.log_samples(cal, cutoff, t, force, airflow, thrust, yaw, usable, frame, q))
+    counts = [len(p["time"]) for p in parts[frames[0]]]
+    return {frame: dragfit.merge(parts[frame], frame) for frame in frames}, counts
 
 
 def drag_airframe(af: Airframe, choice: dragfit.DragChoice, samples: dragfit.DragSamples) -> Airframe:
     """The airframe with the chosen law, its offset and thrust scale, the calibrated envelope (for the
     step's EXTRAPOLATED bit) and the residuals' size over speed (for its sigma outputs)."""
-    values = dict(zip(dragfit.PARAMETERS, (float(v) for v in choice.theta)))
+    values = dict(zip(samples.parameters, (float(v) for v in choice.theta)))
     thrust = dataclasses.replace(af.thrust, scale=af.thrust.scale * (1 - values["kappa"]))
     observer = dataclasses.replace(af.observer, force_offset_n=(values["ox"], values["oy"], 0.0))
+    law = dragfit.law_of(choice.theta, samples.frame)
+    if law.frame == "body":
+        # The fit's rotor term uses the nominal thrust; the step's, the scaled one (a factor 1 - kappa).
+        law = dataclasses.replace(law, lr=law.lr / math.sqrt(1 - values["kappa"]))
     predicted = dragfit.predicted_airflow(samples, choice.theta)
     force = dragfit.heading_forces(samples, choice.theta)
     speed_true = np.hypot(samples.airflow[:, 0], samples.airflow[:, 1])
     speed_predicted = np.hypot(predicted[:, 0], predicted[:, 1])
     return dataclasses.replace(
-        af, thrust=thrust, observer=observer, drag=dragfit.law_of(choice.theta),
+        af, thrust=thrust, observer=observer, drag=law,
         horizontal=ForceAirModel((), ()), vertical=ForceAirModel((), ()),
         envelope=calibration_envelope(np.hypot(force[:, 0], force[:, 1]), force[:, 2], speed_predicted),
         uncertainty=uncertainty_table(speed_true, speed_predicted, -samples.airflow[:, 2], -predicted[:, 2]))
@@ -99,16 +111,19 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynami
     families: dict[str, tuple[Airframe, FitReport, Points | None]] = {}
     scores: dict[str, dict[str, Any]] = {}
     failures: list[str] = []
-    samples, per_log = drag_samples(af, logs)
-    if model in ("drag", "auto"):
+    frames = DRAG_FRAMES_OF[model]
+    by_frame, per_log = drag_samples(af, logs, frames or ("heading",))
+    samples = by_frame.get("heading", next(iter(by_frame.values())))
+    for frame in frames:
+        family = FAMILY_OF_FRAME[frame]
         if len(samples) < 100:
-            failures.append(f"drag family: only {len(samples)} usable samples (need 100)")
-        else:
-            choice = dragfit.choose_drag_law(samples)
-            fitted = drag_airframe(af, choice, samples)
-            families["drag"] = (fitted, _drag_report(choice, len(samples), fitted.thrust.scale), None)
-            scores["drag"] = _family_scores((choice.cv_h_mps, choice.cv_v_mps), choice.extrapolation_h_mps,
-                                            holdcv.hold_cv(samples, dragfit.drag_fit_predict(choice.active)))
+            failures.append(f"{family} family: only {len(samples)} usable samples (need 100)")
+            continue
+        choice = dragfit.choose_drag_law(by_frame[frame])
+        fitted = drag_airframe(af, choice, by_frame[frame])
+        families[family] = (fitted, _drag_report(choice, by_frame[frame], fitted), None)
+        scores[family] = _family_scores((choice.cv_h_mps, choice.cv_v_mps), choice.extrapolation_h_mps,
+                                        holdcv.hold_cv(by_frame[frame], dragfit.drag_fit_predict(choice.active)))
     if model in ("polynomial", "auto"):
         try:
             fitted, report, points = fit_polynomial(af, logs, terms, dynamic)
@@ -141,10 +156,12 @@ def _speed_range(samples: dragfit.DragSamples, points: Points | None) -> float:
     return float(np.max(points.speed_h)) if points is not None and len(points) else 0.0
 
 
-def _drag_report(choice: dragfit.DragChoice, samples: int, thrust_scale: float) -> FitReport:
-    values = dict(zip(dragfit.PARAMETERS, (float(v) for v in choice.theta)))
-    report = FitReport(points=samples, thrust_scale=thrust_scale)
-    report.drag = {k: values[k] for k in dragfit.PARAMETERS}
+def _drag_report(choice: dragfit.DragChoice, samples: dragfit.DragSamples, fitted: Airframe) -> FitReport:
+    values = dict(zip(samples.parameters, (float(v) for v in choice.theta)))
+    report = FitReport(points=len(samples), thrust_scale=fitted.thrust.scale)
+    # As written to the airframe (the rotor term on the scaled thrust), with the offsets and kappa.
+    report.drag = {**{k: values[k] for k in samples.parameters}, **{
+        k: v for k, v in fitted.drag.as_dict().items() if k != "frame"}}  # type: ignore[union-attr]
     report.force_offset_n = (values["ox"], values["oy"], 0.0)
     report.horizontal_rmse_mps, report.horizontal_cv_rmse_mps = choice.rmse_h_mps, _none(choice.cv_h_mps)
     report.horizontal_extrapolation_rmse_mps = _none(choice.extrapolation_h_mps)

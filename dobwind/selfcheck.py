@@ -148,8 +148,7 @@ def coefficients(af: Airframe) -> dict[str, float]:
     values = {f"horizontal[{t}]": c for t, c in zip(af.horizontal.term_texts, af.horizontal.coefficients)}
     values.update({f"vertical[{t}]": c for t, c in zip(af.vertical.term_texts, af.vertical.coefficients)})
     if af.drag is not None:
-        values.update({f"drag.{k}": float(getattr(af.drag, k)) for k in dragfit.HORIZONTAL_DRAG_KEYS
-                       + dragfit.VERTICAL_DRAG_KEYS})
+        values.update({f"drag.{k}": float(getattr(af.drag, k)) for k in af.drag.keys()})
     values.update({f"force_offset[{i}]": v for i, v in enumerate(af.observer.force_offset_n)})
     values["thrust.scale"] = af.thrust.scale
     return values

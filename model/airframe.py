@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from dobwind.model.errors import InputError
-from dobwind.model.forceair import HORIZONTAL_DRAG_KEYS, VERTICAL_DRAG_KEYS, DragLaw
+from dobwind.model.forceair import DRAG_FRAMES, HORIZONTAL_DRAG_KEYS, ROTOR_DRAG_KEY, VERTICAL_DRAG_KEYS, DragLaw
 from dobwind.model.terms import Term, TermError, parse_term
 
 DISCRETIZATIONS = ("paper", "euler", "zoh", "tustin")
@@ -248,17 +248,25 @@ def _force_air(reader: _Reader) -> ForceAirModel:
     return ForceAirModel(tuple(terms), coefficients)
 
 
+DRAG_TABLE_KEYS = HORIZONTAL_DRAG_KEYS + (ROTOR_DRAG_KEY,) + VERTICAL_DRAG_KEYS + ("frame",)
+
+
 def _drag_law(reader: _Reader) -> DragLaw:
+    frame = reader.string("frame", DRAG_FRAMES, default="heading")
     values = {key: reader.number(key, default=0.0) for key in HORIZONTAL_DRAG_KEYS + VERTICAL_DRAG_KEYS}
-    for key in ("l0", "q0", "lz", "qz"):
+    if frame == "body":
+        values[ROTOR_DRAG_KEY] = reader.number(ROTOR_DRAG_KEY, default=0.0)
+    elif reader.has(ROTOR_DRAG_KEY):
+        raise reader.fail(ROTOR_DRAG_KEY, 'rotor drag is a term of the body-frame law only (frame = "body")')
+    for key in ("l0", "q0", "lz", "qz") + ((ROTOR_DRAG_KEY,) if frame == "body" else ()):
         if values[key] < 0:
             raise reader.fail(key, f"a drag coefficient must be >= 0, got {values[key]!r}")
-    if values["l0"] + values["q0"] <= 0:
-        raise reader.fail("q0", "l0 and q0 are both 0: the law cannot be inverted")
+    if values["l0"] + values["q0"] + values.get(ROTOR_DRAG_KEY, 0.0) <= 0:
+        raise reader.fail("q0", "l0, q0 (and lr) are all 0: the law cannot be inverted")
     if values["lz"] + values["qz"] <= 0 and (values["i1"] or values["i2"]):
         raise reader.fail("qz", "lz and qz are both 0 while inflow terms are set")
     reader.done()
-    return DragLaw(**values)
+    return DragLaw(**values, frame=frame)
 
 
 def _force_air_tables(fa: _Reader) -> tuple[ForceAirModel, ForceAirModel, DragLaw | None]:
@@ -267,7 +275,7 @@ def _force_air_tables(fa: _Reader) -> tuple[ForceAirModel, ForceAirModel, DragLa
         for key in ("horizontal", "vertical"):
             if fa.has(key):
                 raise fa.fail(key, 'only used with model = "polynomial"')
-        drag = _drag_law(fa.table_of("drag", HORIZONTAL_DRAG_KEYS + VERTICAL_DRAG_KEYS))  # type: ignore[arg-type]
+        drag = _drag_law(fa.table_of("drag", DRAG_TABLE_KEYS))  # type: ignore[arg-type]
         fa.done()
         return ForceAirModel((), ()), ForceAirModel((), ()), drag
     if fa.has("drag"):

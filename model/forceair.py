@@ -49,6 +49,11 @@ _DENOMINATOR_FLOOR = 1e-9
 
 HORIZONTAL_DRAG_KEYS = ("l0", "q0", "l2c", "q2c", "q1c", "l2s", "q2s")
 VERTICAL_DRAG_KEYS = ("lz", "qz", "i1", "i2")
+# The body-frame law's one extra coefficient: rotor (momentum) drag, which grows with rotor speed.
+ROTOR_DRAG_KEY = "lr"
+DRAG_FRAMES = ("heading", "body")
+# Newton steps of the body-frame inversion (3-D, coupled through |a| and the inflow terms).
+BODY_NEWTON_STEPS = 4
 
 
 @dataclass(frozen=True)
@@ -65,9 +70,19 @@ class DragLaw:
     qz: float = 0.0
     i1: float = 0.0
     i2: float = 0.0
+    lr: float = 0.0          # body frame only: N per m/s at hover thrust, times sqrt(u_f / (m g))
+    frame: str = "heading"   # "heading": the law of the level heading-frame airflow; "body": of the
+    #                          body-frame airflow at the real attitude (tilt included)
 
-    def as_dict(self) -> dict[str, float]:
-        return {k: getattr(self, k) for k in HORIZONTAL_DRAG_KEYS + VERTICAL_DRAG_KEYS}
+    def keys(self) -> tuple[str, ...]:
+        extra = (ROTOR_DRAG_KEY,) if self.frame == "body" else ()
+        return HORIZONTAL_DRAG_KEYS + extra + VERTICAL_DRAG_KEYS
+
+    def as_dict(self) -> dict[str, float | str]:
+        values: dict[str, float | str] = {k: getattr(self, k) for k in self.keys()}
+        if self.frame != "heading":
+            values["frame"] = self.frame
+        return values
 
 
 def heading_force(force_ned, cos_yaw, sin_yaw, offset: tuple[float, float, float]):
@@ -167,6 +182,88 @@ def drag_airflow_numpy(law: DragLaw, m: np.ndarray, n: np.ndarray, fz: np.ndarra
     if rows == 0:
         return np.zeros((0, 3))
     return np.asarray(f.map(rows)(np.asarray(m, float), np.asarray(n, float), np.asarray(fz, float))).T
+
+
+def body_drag_basis(ax, ay, az, rotor, eps: float = 0.0) -> dict[str, tuple]:
+    """Body-frame force (x, y, z; FRD, N) per unit of each coefficient of the body-frame law, for the
+    body-frame airflow a (m/s) and rotor = sqrt(u_f / (m g)). s = |a| (3-D: quadratic drag grows with
+    the whole airspeed), s_h = the in-plane speed, theta its angle from body x. ``eps`` smooths both
+    speeds (the inversion's Jacobian); 0 for data. SX or NumPy.
+
+        F_xy = [l0 + lr rotor + q0 s + (l2c + q2c s) cos 2theta] a_xy + q1c a_x a_xy
+               + (l2s + q2s s) sin 2theta (-a_y, a_x)
+        F_z  = lz a_z + qz s a_z + i1 s_h + i2 s_h^2
+    """
+    sh2 = ax * ax + ay * ay + eps * eps
+    s = (sh2 + az * az) ** 0.5
+    sh = sh2 ** 0.5
+    cos2 = (ax * ax - ay * ay) / sh2
+    sin2 = 2 * ax * ay / sh2
+    zero = 0 * ax
+    return {
+        "l0": (ax, ay, zero), "q0": (s * ax, s * ay, zero),
+        "l2c": (cos2 * ax, cos2 * ay, zero), "q2c": (s * cos2 * ax, s * cos2 * ay, zero),
+        "q1c": (ax * ax, ax * ay, zero),
+        "l2s": (-sin2 * ay, sin2 * ax, zero), "q2s": (-s * sin2 * ay, s * sin2 * ax, zero),
+        "lr": (rotor * ax, rotor * ay, zero),
+        "lz": (zero, zero, az), "qz": (zero, zero, s * az), "i1": (zero, zero, sh), "i2": (zero, zero, sh2),
+    }
+
+
+def body_drag_force(law: DragLaw, ax, ay, az, rotor, eps: float = 0.0):
+    """The body-frame law forward: body-frame force (N) of the body-frame airflow. SX or NumPy."""
+    basis = body_drag_basis(ax, ay, az, rotor, eps)
+    used = [k for k in law.keys() if getattr(law, k) != 0.0]
+    return tuple(sum(getattr(law, k) * basis[k][i] for k in used) for i in range(3))
+
+
+def _body_newton_step(law: DragLaw, a: ca.SX, rotor: ca.SX, force_b: ca.SX) -> ca.SX:
+    sa, sr = ca.SX.sym("a", 3), ca.SX.sym("rotor")
+    value = ca.vertcat(*body_drag_force(law, sa[0], sa[1], sa[2], sr, DRAG_SPEED_EPS_MPS))
+    law_and_slope = ca.Function("body_drag_law", [sa, sr], [value, ca.jacobian(value, sa)])
+    f, slope = law_and_slope(a, rotor)
+    # J^-1 r by the adjugate, with J and r divided by J's trace first: the same step, but products of
+    # three Jacobian entries stay within single precision at any airflow the validation lets through.
+    # The determinant is floored (a calibrated law is strictly increasing along every axis).
+    inv_trace = 1 / ca.fmax(slope[0, 0] + slope[1, 1] + slope[2, 2], _DENOMINATOR_FLOOR)
+    j, r = slope * inv_trace, (f - force_b) * inv_trace
+    adj = ca.vertcat(
+        ca.horzcat(j[1, 1] * j[2, 2] - j[1, 2] * j[2, 1], j[0, 2] * j[2, 1] - j[0, 1] * j[2, 2], j[0, 1] * j[1, 2] - j[0, 2] * j[1, 1]),
+        ca.horzcat(j[1, 2] * j[2, 0] - j[1, 0] * j[2, 2], j[0, 0] * j[2, 2] - j[0, 2] * j[2, 0], j[0, 2] * j[1, 0] - j[0, 0] * j[1, 2]),
+        ca.horzcat(j[1, 0] * j[2, 1] - j[1, 1] * j[2, 0], j[0, 1] * j[2, 0] - j[0, 0] * j[2, 1], j[0, 0] * j[1, 1] - j[0, 1] * j[1, 0]))
+    det = j[0, 0] * adj[0, 0] + j[0, 1] * adj[1, 0] + j[0, 2] * adj[2, 0]
+    return a - (adj @ r) / ca.fmax(det, _DENOMINATOR_FLOOR)
+
+
+def body_drag_airflow(law: DragLaw, force_ned: ca.SX, rot: ca.SX, rotor: ca.SX) -> ca.SX:
+    """The body-frame law inverted: relative airflow (NED, m/s) from the NED force (offset removed),
+    the attitude ``rot`` (body -> NED, 3x3) and rotor = sqrt(u_f / (m g))."""
+    f_b = rot.T @ force_ned
+    # Start: each axis's isotropic law solved alone (the in-plane pair along its force), as in the heading
+    # frame; Newton then couples the axes.
+    lin = law.l0 + law.lr * rotor
+    fh = ca.sqrt(f_b[0] * f_b[0] + f_b[1] * f_b[1])
+    scale = 2 / ca.fmax(lin + ca.sqrt(lin * lin + 4 * law.q0 * fh), _DENOMINATOR_FLOOR)
+    ax, ay = scale * f_b[0], scale * f_b[1]
+    sh = ca.sqrt(ax * ax + ay * ay)
+    rz = f_b[2] - law.i1 * sh - law.i2 * sh * sh
+    az = 2 * rz / ca.fmax(law.lz + ca.sqrt(law.lz * law.lz + 4 * law.qz * ca.fabs(rz)), _DENOMINATOR_FLOOR)
+    a = ca.vertcat(ax, ay, az)
+    for _ in range(BODY_NEWTON_STEPS):
+        a = _body_newton_step(law, a, rotor, f_b)
+    return rot @ a
+
+
+def body_drag_airflow_numpy(law: DragLaw, force_ned: np.ndarray, rot: np.ndarray, rotor: np.ndarray) -> np.ndarray:
+    """``body_drag_airflow`` over arrays: force (N, 3), rot (N, 3, 3), rotor (N,) -> (N, 3) NED airflow."""
+    sf, sr, sq = ca.SX.sym("f", 3), ca.SX.sym("rot", 9), ca.SX.sym("rotor")
+    f = ca.Function("body_drag_airflow", [sf, sr, sq], [body_drag_airflow(law, sf, ca.reshape(sr, 3, 3), sq)])
+    rows = len(force_ned)
+    if rows == 0:
+        return np.zeros((0, 3))
+    # ca.reshape is column-major: pass each matrix transposed, flattened row by row.
+    flat = np.transpose(rot, (0, 2, 1)).reshape(rows, 9)
+    return np.asarray(f.map(rows)(force_ned.T, flat.T, np.asarray(rotor, float)[None, :])).T
 
 
 def term_matrix(terms: list[Term], m: np.ndarray, n: np.ndarray, fz: np.ndarray) -> np.ndarray:

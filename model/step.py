@@ -219,10 +219,11 @@ def build_step(af: Airframe) -> StepModel:
                            [f"in.{f.name}" for f in lin.fields], validate)
 
     # --- front end: external force ----------------------------------------------------------------
+    body_drag = af.drag is not None and af.drag.frame == "body"  # its force-air stage needs the attitude
     def attitude(s: Signals) -> Signals:
         rot = quaternion_to_rotation_any_norm(s["in.q"])  # the validated q is near unit, not exactly
         out = {"z_b": rot[:, 2]}
-        if obs.acceleration == "specific_force":
+        if obs.acceleration == "specific_force" or body_drag:
             out["rot_body_to_ned"] = ca.reshape(rot, 9, 1)
         return out
 
@@ -342,7 +343,14 @@ def build_step(af: Airframe) -> StepModel:
     def force_air(s: Signals) -> Signals:
         c, sn = ca.cos(s["in.yaw_ref"]), ca.sin(s["in.yaw_ref"])
         mm, nn, fz = forceair.heading_force(s["f_filt_new"], c, sn, obs.force_offset_n)
-        if af.drag is not None:
+        if body_drag:
+            # The offset is calibrated in the heading frame; the law acts on the body-frame airflow.
+            fn, fe = forceair.heading_to_ned(mm, nn, c, sn)
+            rotor = ca.sqrt(ca.fmax(s["u_f"], 0) * (1 / (m * g0)))
+            air = forceair.body_drag_airflow(af.drag, ca.vertcat(fn, fe, fz), ca.reshape(s["rot_body_to_ned"], 3, 3), rotor)
+            north, east, rel_z = air[0], air[1], air[2]
+            speed_h = ca.sqrt(north * north + east * east)
+        elif af.drag is not None:
             rel_x, rel_y, rel_z = forceair.drag_airflow(af.drag, mm, nn, fz)
             speed_h = ca.sqrt(rel_x * rel_x + rel_y * rel_y)
             north, east = forceair.heading_to_ned(rel_x, rel_y, c, sn)
@@ -359,8 +367,9 @@ def build_step(af: Airframe) -> StepModel:
         return {"force_heading": ca.vertcat(mm, nn, fz), "airflow_speed_h": speed_h,
                 "air_rel_ned": ca.vertcat(north, east, rel_z)}
 
-    b.add("force_air", "heading-frame force -> relative airflow (air minus vehicle velocity), NED",
-          ["f_filt_new", "in.yaw_ref"], force_air)
+    b.add("force_air", "heading-frame force -> relative airflow (air minus vehicle velocity), NED"
+          + (" (body-frame drag law at the measured attitude)" if body_drag else ""),
+          ["f_filt_new", "in.yaw_ref"] + (["rot_body_to_ned", "u_f"] if body_drag else []), force_air)
 
     def wind(s: Signals) -> Signals:
         w = s["air_rel_ned"] + s["v_filt_new"]  # v_wind = v_rel + v_ground
