@@ -211,17 +211,24 @@ def merge(parts: list[dict[str, np.ndarray]], frame: str = "heading") -> DragSam
 
 def _solve(samples: DragSamples, active: tuple[str, ...], weights: np.ndarray | None = None) -> np.ndarray:
     """Weighted least squares on the active parameters (the rest zero), drag coefficients kept >= 0
-    by dropping a negative one and solving again (an active set: at most a few rounds)."""
-    rows = len(samples)
-    w = np.ones((rows, 3)) if weights is None else weights
-    y = (samples.observed * w).reshape(-1)
+    by dropping a negative one and solving again (an active set: at most a few rounds).
+
+    Solved through the normal equations of the column-scaled problem: the Gram matrix of every
+    parameter is formed once (N x 3 x P^2 products) and each active set takes its submatrix, instead of
+    an SVD of the whole (3N x P) system per set, which made the fit's cross-validation slow."""
+    w = np.ones(samples.observed.shape) if weights is None else weights
+    a = (samples.columns * w[:, :, None]).reshape(-1, samples.columns.shape[2])
+    gram = a.T @ a
+    rhs = a.T @ (samples.observed * w).reshape(-1)
     free = list(active)
     parameters = samples.parameters
     while True:
         cols = [parameters.index(p) for p in free]
-        a = (samples.columns[:, :, cols] * w[:, :, None]).reshape(rows * 3, len(cols))
-        scale = np.maximum(np.abs(a).max(axis=0), 1e-12)
-        coef, *_ = np.linalg.lstsq(a / scale, y, rcond=1e-10)
+        sub = gram[np.ix_(cols, cols)]
+        scale = np.sqrt(np.maximum(np.diag(sub), 1e-24))
+        # rcond 1e-14 on the Gram matrix drops directions the data cannot tell apart (1e-7 of the
+        # scaled system's largest singular value): the minimum-norm solution then splits them.
+        coef, *_ = np.linalg.lstsq(sub / np.outer(scale, scale), rhs[cols] / scale, rcond=1e-14)
         coef /= scale
         negative = [p for p, c in zip(free, coef) if p in NONNEGATIVE and c < 0]
         if not negative:

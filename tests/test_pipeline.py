@@ -143,7 +143,7 @@ def test_fit_report_json(logs, tmp_path, capsys):
     out = tmp_path / "f.toml"
     assert main(["fit", str(M300), logs["sweep"], logs["vertical"], "-o", str(out), "--json"]) == 0
     chosen = json.loads(capsys.readouterr().out)
-    assert set(chosen["families"]) == {"drag", "polynomial"} and chosen["model"] in chosen["families"]
+    assert set(chosen["families"]) == {"drag", "drag-body", "polynomial"} and chosen["model"] in chosen["families"]
     best = min(f["score_mps"] for f in chosen["families"].values())
     assert chosen["families"][chosen["model"]]["score_mps"] == best
     assert chosen["self_check"]["passed"] and chosen["written"]
