@@ -30,8 +30,8 @@ import numpy as np
 from dobwind.errors import InputError
 from dobwind.logs import FlightLog
 from dobwind.model.airframe import Airframe
-from dobwind.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, gaps, hold,
-                              interp, quaternions)
+from dobwind.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, hold,
+                              interp, quaternions, source_gaps)
 
 # (role, candidates as (message, instance field or None, instance value)), first found wins.
 VELOCITY = (("XKF1", "C", 0), ("NKF1", None, 0))
@@ -144,14 +144,11 @@ def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None) -> Aut
     clock = np.arange(start, stop, 1.0 / rate_hz) if rate_hz else att["t"][(att["t"] >= start) & (att["t"] <= stop)]
     if len(clock) < 2:
         raise InputError(path, None, "fewer than two instants to resample onto")
-    no_data = np.zeros(len(clock), dtype=bool)
-    for s in used.values():
-        no_data |= gaps(s["t"], clock, af.limits.max_dt_s)
-    for s in escs:
-        no_data |= gaps(s["t"], clock, ROTOR_MAX_GAP_S)
+    no_data, culprits = source_gaps({**{name: (s["t"], af.limits.max_dt_s) for name, s in used.items()},
+                                     **{f"ESC {k}": (s["t"], ROTOR_MAX_GAP_S) for k, s in enumerate(escs)}}, clock)
     if no_data.any():
         notes.append(count_note(no_data, f"with a message gap longer than max_dt ({af.limits.max_dt_s:g} s; "
-                                         f"ESC: {ROTOR_MAX_GAP_S:g} s)", "NO_DATA"))
+                                         f"ESC: {ROTOR_MAX_GAP_S:g} s; by message: {culprits})", "NO_DATA"))
     cols = _columns(af, vel, att, imu, psc, escs, ctun, msgs, clock, notes)
     landed = _ground(msgs, clock, notes)
     if escs:

@@ -26,7 +26,7 @@ import numpy as np
 from dobwind.errors import InputError
 from dobwind.logs import FlightLog
 from dobwind.model.airframe import Airframe
-from dobwind.resample import ROTOR_MAX_GAP_S, AutopilotFlight, blank, count_note, gaps, quaternions
+from dobwind.resample import ROTOR_MAX_GAP_S, AutopilotFlight, blank, count_note, quaternions, source_gaps
 
 PX4_TOPICS = {"velocity": "/fmu/out/vehicle_odometry", "attitude": "/fmu/out/vehicle_attitude",
               "imu": "/fmu/out/sensor_combined", "esc": "/fmu/out/esc_status",
@@ -233,11 +233,9 @@ def _assemble(path: str, af: Airframe, s: dict, rate_hz: float | None, notes: li
     clock = np.arange(start, stop, 1.0 / rate_hz) if rate_hz else att_t[(att_t >= start) & (att_t <= stop)]
     if not stop > start or len(clock) < 2:
         raise InputError(path, None, "the needed topics do not overlap in time")
-    no_data = np.zeros(len(clock), dtype=bool)
-    for role, x in used.items():
-        # ESC reports are slow (ROTOR_MAX_GAP_S); the hover estimate, a slowly learned constant, is held.
-        if role != "hover":
-            no_data |= gaps(x["t"], clock, ROTOR_MAX_GAP_S if role == "esc" else af.limits.max_dt_s)
+    # ESC reports are slow (ROTOR_MAX_GAP_S); the hover estimate, a slowly learned constant, is held.
+    no_data, culprits = source_gaps({role: (x["t"], ROTOR_MAX_GAP_S if role == "esc" else af.limits.max_dt_s)
+                                     for role, x in used.items() if role != "hover"}, clock)
     gappy = no_data.copy()
     q = quaternions(att_t, s["attitude"]["v"], clock)
     sf = np.column_stack([np.interp(clock, s["imu"]["t"], s["imu"]["v"][:, i]) for i in range(3)])
@@ -258,7 +256,7 @@ def _assemble(path: str, af: Airframe, s: dict, rate_hz: float | None, notes: li
         notes.append("collective thrust from vehicle_thrust_setpoint.xyz[2] / hover_thrust_estimate.hover_thrust times m g")
     if gappy.any():
         notes.append(count_note(gappy, f"with a topic gap longer than max_dt ({af.limits.max_dt_s:g} s; esc: "
-                                       f"{ROTOR_MAX_GAP_S:g} s)", "NO_DATA"))
+                                       f"{ROTOR_MAX_GAP_S:g} s; by role: {culprits})", "NO_DATA"))
     wind = s["wind"]
     ap_wind = None if wind is None else (f"ROS 2 {wind_topic}", wind["t"] - clock[0], wind["v"])
     return AutopilotFlight(FlightLog(path, blank(cols, no_data | landed)), no_data, landed, ap_wind, tuple(notes),

@@ -127,6 +127,20 @@ def test_esc_at_zero_rpm_while_airborne_is_no_data_named(tmp_path):
     assert any("ESC 2 (0 rpm)" in n for n in flight.notes)
 
 
+def test_a_message_gap_is_no_data_and_the_note_names_the_message(tmp_path):
+    """Core 0's XKQ silent for 0.5 s (core 1 still talking): those rows are NO_DATA, the rest are fed,
+    and the note says it was XKQ."""
+    af, cols = _flight()
+    rows = [(n, v) for n, v in _rows(af, cols)
+            if not (n == "XKQ" and v["C"] == 0 and 11_000_000 < v["TimeUS"] < 11_500_000)]
+    _, flight, traj = replay_autopilot(af, str(write_dataflash(tmp_path / "g.bin", MESSAGES, rows)), rate_hz=100.0)
+    t = flight.log.time_s
+    assert np.all(traj.status[(t > 10.02) & (t < 10.48)] == STATUS_NO_DATA)
+    assert np.all(accepted(traj.status[(t > 1.0) & (t < 9.98)])) and np.all(accepted(traj.status[t > 10.52]))
+    note = next(n for n in flight.notes if "message gap" in n)
+    assert note.endswith(f"by message: XKQ {int(np.sum(traj.status == STATUS_NO_DATA))}): status NO_DATA"), note
+
+
 @pytest.mark.parametrize("drop, named", [(("XKF1",), "XKF1"), (("XKQ",), "XKQ"), (("ESC",), "ESC Instance 0")])
 def test_a_missing_message_exits_2_naming_it(tmp_path, capsys, drop, named):
     af, cols = _flight(rate=20.0)
