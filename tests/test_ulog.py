@@ -374,6 +374,11 @@ def test_px4_wind_file_holds_the_estimate_and_its_variances(tmp_path, capsys):
     np.testing.assert_allclose(w["windspeed_east"], e["wind_e"][ok], rtol=1e-5, atol=1e-6)
     np.testing.assert_allclose(w["variance_north"], 0.04, rtol=1e-5)
     np.testing.assert_array_equal(w["variance_north"], w["variance_east"])
+    # With an observer noise of 0.15 m/s beside the table: 0.2² + 0.15² = 0.0625 m²/s² (a 0.25 m/s sigma).
+    airframe.write_text(airframe.read_text().replace("sigma_up = [0.1, 0.1]\n", "sigma_up = [0.1, 0.1]\nnoise_h = 0.15\n"))
+    assert main(["replay", str(airframe), str(path), "--px4-wind", str(px4)]) == 0
+    np.testing.assert_allclose(np.genfromtxt(px4, delimiter=",", names=True, skip_header=1)["variance_north"], 0.0625,
+                               rtol=1e-5)
     # Without the table the sigma is unknown: NaN variances, not a fake confidence.
     assert main(["replay", str(M300), str(path), "--px4-wind", str(px4)]) == 0
     assert np.all(np.isnan(np.genfromtxt(px4, delimiter=",", names=True, skip_header=1)["variance_north"]))
