@@ -43,13 +43,14 @@ def _writer(path, storage):
     return Writer(path, version=9, storage_plugin=StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3)
 
 
-def _px4_bag(path, af, cols, storage, *, esc=True, landed_until=None, hover=None):
+def _px4_bag(path, af, cols, storage, *, esc=True, landed_until=None, hover=None, v1=()):
     store = _typestore(str(path), [])
     T = store.types
     sf = _specific_force(af, cols).astype(np.float32)
     f = np.float32
     with _writer(path, storage) as w:
-        conns = {r: w.add_connection(f"/fmu/out/{r}", f"px4_msgs/msg/{m}", typestore=store) for r, m in (
+        conns = {r: w.add_connection(f"/fmu/out/{r}" + ("_v1" if r in v1 else ""), f"px4_msgs/msg/{m}", typestore=store)
+                 for r, m in (
             ("vehicle_odometry", "VehicleOdometry"), ("vehicle_attitude", "VehicleAttitude"),
             ("sensor_combined", "SensorCombined"), ("wind", "Wind"), ("esc_status", "EscStatus"),
             ("vehicle_land_detected", "VehicleLandDetected"), ("vehicle_thrust_setpoint", "VehicleThrustSetpoint"),
@@ -141,6 +142,17 @@ def test_bag_replay_equals_the_equivalent_csv(tmp_path, setup, storage):
     assert flight.log.rows == log.rows and np.all(accepted(traj.status))
     np.testing.assert_array_equal(traj.status, ref.status)
     assert np.max(np.abs(traj.outputs - ref.outputs)) <= 1e-5
+
+
+def test_px4_1_16_topic_names_with_v1_are_found(tmp_path):
+    """PX4 1.16 publishes some topics as <name>_v1: the same flight under those names replays alike."""
+    af, cols = _flight()
+    plain = replay_autopilot(af, str(_px4_bag(tmp_path / "plain", af, cols, "mcap")))[2]
+    renamed = ("vehicle_odometry", "vehicle_attitude", "esc_status")
+    _, flight, traj = replay_autopilot(af, str(_px4_bag(tmp_path / "v1", af, cols, "mcap", v1=renamed)))
+    assert np.all(accepted(traj.status))
+    np.testing.assert_array_equal(traj.outputs, plain.outputs)
+    assert any("/fmu/out/vehicle_odometry" in n for n in flight.notes)
 
 
 def test_px4_bag_without_esc_status_says_what_to_add(tmp_path, capsys):
