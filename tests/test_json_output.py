@@ -131,3 +131,14 @@ def test_fit_json_with_a_non_finite_figure(tmp_path, capsys, monkeypatch):
     code, report = _json_run(["fit", str(M300), "x.csv", "-o", str(out), "--json"], capsys)
     assert code == 0 and report["horizontal_rmse_mps"] is None  # FitReport's default is NaN
     assert "horizontal_rmse_mps" in report[NULL_PATHS_KEY]
+
+
+def test_the_real_data_check_prints_strict_json(monkeypatch, capsys):
+    """`make realdata --json` is not a subcommand, but its output is read by tools too."""
+    from dobwind import realdata
+
+    monkeypatch.setattr(realdata, "check", lambda *a, **k: {"split": {"run": {"speed_mps": math.nan}}})
+    assert realdata.main(["--json"]) == 0
+    text = capsys.readouterr().out
+    report = strict_loads(text)
+    assert report["split"]["run"]["speed_mps"] is None and text == json.dumps(report, indent=2) + "\n"
