@@ -2,8 +2,11 @@
 (optional dependency group `ardupilot`).
 
 Messages (EKF3 names; EKF2 logs use the older names in brackets):
-- ground velocity NED: XKF1.VN/VE/VD, core C = 0 [NKF1, core 0 by name];
-- attitude: XKQ.Q1..Q4 = (w, x, y, z), core 0 [NKQ1 or NKQ]. XKQ excludes AHRS_TRIM, unlike ATT and
+- ground velocity NED: XKF1.VN/VE/VD of the primary core [NKF1, core 0 by name]. EKF3 runs one core per
+  IMU and may switch which one the vehicle flies on: every core logs the primary's index in XKF4.PI,
+  and each XKF1/XKQ/XKF2 row is taken from the core that was primary at its time (core 0 when the log
+  has no XKF4.PI);
+- attitude: XKQ.Q1..Q4 = (w, x, y, z), primary core [NKQ1 or NKQ]. XKQ excludes AHRS_TRIM, unlike ATT and
   XKF1's angles (1.06 deg apart on a real ArduCopter 4.6.2 log): the force must be rotated by the
   attitude the EKF fused, not the trimmed one;
 - specific force (body FRD): IMU.AccX/Y/Z, instance I = 0 (older logs: the message IMU), with XKQ;
@@ -14,7 +17,7 @@ Messages (EKF3 names; EKF2 logs use the older names in brackets):
   k + 1. Reports are interpolated and may be up to ROTOR_MAX_GAP_S apart (as for PX4);
 - collective thrust: CTUN.ThO / CTUN.ThH (the learned hover throttle) times m g;
 - heading frame: ATT.DesYaw (deg), else the vehicle's own yaw;
-- ArduPilot's wind, for comparison: XKF2.VWN/VWE core 0 [NKF2].
+- ArduPilot's wind, for comparison: XKF2.VWN/VWE, primary core [NKF2].
 On the ground: EV events (LAND_COMPLETE 18, LAND_COMPLETE_MAYBE 17 and DISARMED 11 start it,
 NOT_LANDED 28 ends it; a log starts on the ground); without EV messages, rows where CTUN.ThO is 0
 (motors at idle or stopped). Rows are resampled onto XKQ's clock as the ULog reader does (gaps beyond
@@ -30,8 +33,8 @@ import numpy as np
 from dobwind.errors import InputError
 from dobwind.logs import FlightLog
 from dobwind.model.airframe import Airframe
-from dobwind.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, gaps, hold,
-                              interp, quaternions)
+from dobwind.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, hold,
+                              interp, quaternions, source_gaps)
 
 # (role, candidates as (message, instance field or None, instance value)), first found wins.
 VELOCITY = (("XKF1", "C", 0), ("NKF1", None, 0))
@@ -40,7 +43,8 @@ AP_WIND = (("XKF2", "C", 0), ("NKF2", None, 0))
 IMU = (("IMU", "I", 0), ("IMU", None, 0))
 EV_GROUND = {11: True, 17: True, 18: True, 28: False}  # DISARMED, LAND_COMPLETE_MAYBE/_COMPLETE, NOT_LANDED
 WANTED = ("XKF1", "NKF1", "XKQ", "NKQ1", "NKQ", "XKF2", "NKF2", "IMU", "ESC", "CTUN", "ATT", "EV",
-          "PSCN", "PSCE", "PSCD")
+          "PSCN", "PSCE", "PSCD", "XKF4")
+CORE_MESSAGES = ("XKF1", "XKQ", "XKF2")  # logged per EKF3 core (field C)
 
 
 def _load(path: str) -> dict[str, list[dict]]:
@@ -68,6 +72,30 @@ def _load(path: str) -> dict[str, list[dict]]:
 def messages_found(path: str) -> dict[str, int]:
     """How many of each message the estimator could use are in the log (0: missing)."""
     return {name: len(rows) for name, rows in _load(path).items()}
+
+
+def _follow_primary(msgs: dict[str, list[dict]], notes: list[str]) -> dict[str, list[dict]]:
+    """The per-core messages reduced to the primary core's rows, relabelled core 0 (what VELOCITY,
+    ATTITUDE and AP_WIND select). The primary at a row's time is the PI of the last XKF4 at or before
+    it (the first XKF4's before that). Without XKF4.PI the log is left as it is: core 0."""
+    marks = sorted((r["TimeUS"], int(r["PI"])) for r in msgs["XKF4"] if "PI" in r and "C" in r)
+    if not marks:
+        return msgs
+    t_mark = np.array([m[0] for m in marks], dtype=float)
+    core = np.array([m[1] for m in marks])
+    out = dict(msgs)
+    for name in CORE_MESSAGES:
+        rows = [r for r in msgs[name] if "C" in r]
+        if not rows:
+            continue
+        idx = np.clip(np.searchsorted(t_mark, [r["TimeUS"] for r in rows], side="right") - 1, 0, None)
+        out[name] = [dict(r, C=0) for r, want in zip(rows, core[idx]) if r["C"] == want]
+    used = np.unique(core)
+    switches = int(np.count_nonzero(np.diff(core)))
+    notes.append(f"EKF3 primary core from XKF4.PI: core {used[0]} throughout" if switches == 0 else
+                 f"EKF3 primary core from XKF4.PI: {switches} switch(es) among cores {', '.join(map(str, used))}; "
+                 f"{', '.join(CORE_MESSAGES)} follow it")
+    return out
 
 
 def _stream(msgs: dict[str, list[dict]], candidates, fields: list[str]) -> tuple[str, dict] | None:
@@ -119,6 +147,7 @@ def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None) -> Aut
     msgs = _load(path)
     notes = ["messages " + ", ".join(f"{n} {len(r)}" for n, r in msgs.items() if r) + "; not in the log: "
              + (", ".join(n for n, r in msgs.items() if not r) or "none")]
+    msgs = _follow_primary(msgs, notes)
     vel_name, vel = _require(path, _stream(msgs, VELOCITY, ["VN", "VE", "VD"]), "ground velocity", "XKF1 (or NKF1)")
     att_name, att = _require(path, _stream(msgs, ATTITUDE, ["Q1", "Q2", "Q3", "Q4"]), "attitude", "XKQ (or NKQ1, NKQ)")
     used = {vel_name: vel, att_name: att}
@@ -144,14 +173,11 @@ def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None) -> Aut
     clock = np.arange(start, stop, 1.0 / rate_hz) if rate_hz else att["t"][(att["t"] >= start) & (att["t"] <= stop)]
     if len(clock) < 2:
         raise InputError(path, None, "fewer than two instants to resample onto")
-    no_data = np.zeros(len(clock), dtype=bool)
-    for s in used.values():
-        no_data |= gaps(s["t"], clock, af.limits.max_dt_s)
-    for s in escs:
-        no_data |= gaps(s["t"], clock, ROTOR_MAX_GAP_S)
+    no_data, culprits = source_gaps({**{name: (s["t"], af.limits.max_dt_s) for name, s in used.items()},
+                                     **{f"ESC {k}": (s["t"], ROTOR_MAX_GAP_S) for k, s in enumerate(escs)}}, clock)
     if no_data.any():
         notes.append(count_note(no_data, f"with a message gap longer than max_dt ({af.limits.max_dt_s:g} s; "
-                                         f"ESC: {ROTOR_MAX_GAP_S:g} s)", "NO_DATA"))
+                                         f"ESC: {ROTOR_MAX_GAP_S:g} s; by message: {culprits})", "NO_DATA"))
     cols = _columns(af, vel, att, imu, psc, escs, ctun, msgs, clock, notes)
     landed = _ground(msgs, clock, notes)
     if escs:

@@ -1,10 +1,13 @@
 """What `fit` records about its own calibration, for the step's quality outputs: the envelope of the
 calibrated forces and airflow (beyond it the status bit EXTRAPOLATED is set) and the 1-sigma error of
-the fitted model as a function of airflow speed (the wind_sigma_* outputs).
+the fitted model as a function of airflow speed plus the observer noise (the wind_sigma_* outputs).
 
 Plain NumPy arrays in, airframe records out, so the fit procedure can change without touching this.
 """
 from __future__ import annotations
+
+import dataclasses
+import math
 
 import numpy as np
 
@@ -59,3 +62,28 @@ def uncertainty_table(true_speed: np.ndarray, predicted_speed: np.ndarray, true_
         sigma_h.append(float(np.sqrt(np.mean(h_residual[band] ** 2))))
         sigma_up.append(float(np.sqrt(np.mean(up_residual[band] ** 2))))
     return Uncertainty(tuple(speeds), tuple(sigma_h), tuple(sigma_up))
+
+
+def observer_noise(segment_errors: list[np.ndarray]) -> tuple[float, int]:
+    """The sample-to-sample scatter of an estimate and its degrees of freedom, from the per-sample
+    errors of steady segments (one array each): each segment's mean error is the model's error there
+    (what the residual table covers) and is removed; the pooled standard deviation of what remains is
+    the observer noise. Segments of fewer than two samples carry no scatter."""
+    deviations = [e - np.mean(e) for e in (np.asarray(a, dtype=float) for a in segment_errors) if e.size >= 2]
+    dof = sum(d.size - 1 for d in deviations)
+    if dof == 0:
+        return 0.0, 0
+    return float(math.sqrt(sum(float(np.sum(d * d)) for d in deviations) / dof)), dof
+
+
+def pooled_noise(noises: list[tuple[float, int]]) -> float:
+    """Several logs' (noise, degrees of freedom) as one figure: their variances weighted by dof."""
+    dof = sum(n for _, n in noises)
+    return float(math.sqrt(sum(s * s * n for s, n in noises) / dof)) if dof else 0.0
+
+
+def with_observer_noise(unc: Uncertainty | None, noise_h_mps: float, noise_up_mps: float) -> Uncertainty | None:
+    """The residual table with the observer noise recorded beside it (the step adds it in quadrature)."""
+    if unc is None:
+        return None
+    return dataclasses.replace(unc, noise_h_mps=float(noise_h_mps), noise_up_mps=float(noise_up_mps))

@@ -14,7 +14,6 @@ import math
 import ast
 import csv
 import gzip
-import json
 import os
 import sys
 import tempfile
@@ -24,6 +23,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from dobwind.fitfamily import fit_airframe
+from dobwind.jsonout import dumps
 from dobwind.logs import write_csv
 from dobwind.model.airframe import load_airframe
 from dobwind.model.status import accepted
@@ -122,7 +122,7 @@ def main(argv: list[str] | None = None) -> int:
         sys.stderr.write(f"realdata: {exc}\n")
         return 2
     if args.json:
-        print(json.dumps(results, indent=2))
+        print(dumps(results))  # strict JSON, the common style: a NaN figure becomes null, listed
         return 0
     head = "  run         nominal  mean |wind|  |mean wind|  from deg  up m/s   fitted terms (CV RMSE)"
     for title, key in (("leave-one-out (fit on the other four runs)", "leave_one_out"),

@@ -45,6 +45,19 @@ def gaps(t_src: np.ndarray, t_dst: np.ndarray, max_gap: float) -> np.ndarray:
     return outside | (~exact & ((nxt - prev) > max_gap))
 
 
+def source_gaps(streams: dict[str, tuple[np.ndarray, float]], t_dst: np.ndarray) -> tuple[np.ndarray, str]:
+    """Rows of t_dst inside a gap of any stream ({name: (its times, its maximum gap)}), and which streams
+    caused them ("vehicle_local_position 155, esc_status 3"): a user must know which topic to log faster."""
+    mask = np.zeros(len(t_dst), dtype=bool)
+    counts = []
+    for name, (t_src, max_gap) in streams.items():
+        own = gaps(t_src, t_dst, max_gap)
+        mask |= own
+        if own.any():
+            counts.append(f"{name} {int(own.sum())}")
+    return mask, ", ".join(counts)
+
+
 def bracketing(t_src: np.ndarray, flag: np.ndarray, t_dst: np.ndarray) -> np.ndarray:
     """True where either source sample around t_dst (the one at or before, the one after) is flagged:
     an interpolated value is only as good as both ends."""

@@ -4,7 +4,8 @@ Python, no ROS install; optional dependency group `rosbag`).
 Two setups, told apart by their topics (every name can be replaced: `replay --topic ROLE=NAME`):
 - PX4 over micro XRCE-DDS (px4_msgs, microsecond `timestamp` fields; PX4 1.16 adds `_v1` to some
   names, tried too):
-  velocity /fmu/out/vehicle_odometry (velocity_frame NED, or BODY_FRD rotated by its q),
+  velocity /fmu/out/vehicle_odometry (velocity_frame NED, or BODY_FRD rotated by its q), else
+  /fmu/out/vehicle_local_position (vx, vy, vz: NED; read with the bag's own message definition),
   attitude /fmu/out/vehicle_attitude (q: FRD body to NED), imu /fmu/out/sensor_combined
   (accelerometer_m_s2, FRD), esc /fmu/out/esc_status, land /fmu/out/vehicle_land_detected,
   wind /fmu/out/wind (comparison); collective airframes: thrust /fmu/out/vehicle_thrust_setpoint
@@ -26,7 +27,7 @@ import numpy as np
 from dobwind.errors import InputError
 from dobwind.logs import FlightLog
 from dobwind.model.airframe import Airframe
-from dobwind.resample import ROTOR_MAX_GAP_S, AutopilotFlight, blank, count_note, gaps, quaternions
+from dobwind.resample import ROTOR_MAX_GAP_S, AutopilotFlight, blank, count_note, quaternions, source_gaps
 
 PX4_TOPICS = {"velocity": "/fmu/out/vehicle_odometry", "attitude": "/fmu/out/vehicle_attitude",
               "imu": "/fmu/out/sensor_combined", "esc": "/fmu/out/esc_status",
@@ -34,6 +35,8 @@ PX4_TOPICS = {"velocity": "/fmu/out/vehicle_odometry", "attitude": "/fmu/out/veh
               "land": "/fmu/out/vehicle_land_detected", "wind": "/fmu/out/wind"}
 MAVROS_TOPICS = {"velocity": "/mavros/local_position/velocity_local", "imu": "/mavros/imu/data",
                  "esc": "/mavros/esc_status/status", "wind": "/mavros/wind_estimation"}
+# A default topic the bag lacks is looked for under these names too (each also with PX4 1.16's _v1).
+ALTERNATIVES = {"/fmu/out/vehicle_odometry": ("/fmu/out/vehicle_local_position",)}
 MSG_DIR = Path(__file__).parent / "msgs"
 # Frame changes as quaternions (w, x, y, z): ENU->NED is a half turn about (1, 1, 0)/sqrt 2, FRD->FLU a
 # half turn about x. q_ned_frd = Q_NED_ENU * q_enu_flu * Q_FLU_FRD.
@@ -82,8 +85,18 @@ def _typestore(path: str, connections) -> object:
     return store
 
 
+def _present(topic: str, topics: set[str]) -> str | None:
+    """The name under which the bag holds a wanted topic: itself, its _v1, or an alternative's."""
+    for name in (topic, *ALTERNATIVES.get(topic, ())):
+        for candidate in (name, f"{name}_v1"):
+            if candidate in topics:
+                return candidate
+    return None
+
+
 def _collect(path: str, wanted: dict[str, str]) -> tuple[dict[str, list], set[str]]:
-    """The deserialized messages of each wanted role (by topic) and every topic in the bag."""
+    """The deserialized messages of each wanted role and every topic in the bag; ``wanted`` is updated
+    to the names actually read (a _v1 or an alternative topic), so that notes and errors name them."""
     try:
         from rosbags.rosbag2 import Reader
     except ImportError:  # pragma: no cover - the rosbag extra is part of `make setup`
@@ -94,9 +107,10 @@ def _collect(path: str, wanted: dict[str, str]) -> tuple[dict[str, list], set[st
             topics = {c.topic for c in reader.connections}
             by_topic = {}
             for role, topic in wanted.items():
-                name = topic if topic in topics else (f"{topic}_v1" if f"{topic}_v1" in topics else None)
+                name = _present(topic, topics)
                 if name is not None:
                     by_topic[name] = role
+                    wanted[role] = name
             conns = [c for c in reader.connections if c.topic in by_topic]
             store = _typestore(path, conns)
             for conn, stamp, raw in reader.messages(connections=conns):
@@ -128,6 +142,8 @@ def _series(items: list, px4: bool, values) -> dict | None:
 
 def _px4_streams(path: str, msgs: dict, rotors: int) -> dict:
     def velocity(m):
+        if not hasattr(m, "velocity_frame") and hasattr(m, "vz"):  # vehicle_local_position: NED
+            return [m.vx, m.vy, m.vz]
         v = np.asarray(m.velocity, dtype=float)
         if m.velocity_frame == BODY_FRD:
             return rotate(np.asarray(m.q, dtype=float)[None], v[None])[0]
@@ -233,11 +249,9 @@ def _assemble(path: str, af: Airframe, s: dict, rate_hz: float | None, notes: li
     clock = np.arange(start, stop, 1.0 / rate_hz) if rate_hz else att_t[(att_t >= start) & (att_t <= stop)]
     if not stop > start or len(clock) < 2:
         raise InputError(path, None, "the needed topics do not overlap in time")
-    no_data = np.zeros(len(clock), dtype=bool)
-    for role, x in used.items():
-        # ESC reports are slow (ROTOR_MAX_GAP_S); the hover estimate, a slowly learned constant, is held.
-        if role != "hover":
-            no_data |= gaps(x["t"], clock, ROTOR_MAX_GAP_S if role == "esc" else af.limits.max_dt_s)
+    # ESC reports are slow (ROTOR_MAX_GAP_S); the hover estimate, a slowly learned constant, is held.
+    no_data, culprits = source_gaps({role: (x["t"], ROTOR_MAX_GAP_S if role == "esc" else af.limits.max_dt_s)
+                                     for role, x in used.items() if role != "hover"}, clock)
     gappy = no_data.copy()
     q = quaternions(att_t, s["attitude"]["v"], clock)
     sf = np.column_stack([np.interp(clock, s["imu"]["t"], s["imu"]["v"][:, i]) for i in range(3)])
@@ -258,7 +272,7 @@ def _assemble(path: str, af: Airframe, s: dict, rate_hz: float | None, notes: li
         notes.append("collective thrust from vehicle_thrust_setpoint.xyz[2] / hover_thrust_estimate.hover_thrust times m g")
     if gappy.any():
         notes.append(count_note(gappy, f"with a topic gap longer than max_dt ({af.limits.max_dt_s:g} s; esc: "
-                                       f"{ROTOR_MAX_GAP_S:g} s)", "NO_DATA"))
+                                       f"{ROTOR_MAX_GAP_S:g} s; by role: {culprits})", "NO_DATA"))
     wind = s["wind"]
     ap_wind = None if wind is None else (f"ROS 2 {wind_topic}", wind["t"] - clock[0], wind["v"])
     return AutopilotFlight(FlightLog(path, blank(cols, no_data | landed)), no_data, landed, ap_wind, tuple(notes),

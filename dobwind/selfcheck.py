@@ -21,6 +21,7 @@ import numpy as np
 from dobwind import dragfit
 from dobwind.analysis.figures import settling_time_s
 from dobwind.analysis.linear import axis_system
+from dobwind.envelope import observer_noise, pooled_noise
 from dobwind.logs import FlightLog, step_inputs
 from dobwind.model import reference
 from dobwind.model.airframe import Airframe
@@ -60,6 +61,10 @@ class LogCheck:
     speed_max_mps: float | None = None
     direction_mean_deg: float | None = None
     direction_max_deg: float | None = None
+    # The scored samples' scatter about their segment means (envelope.observer_noise) and its dof.
+    noise_h_mps: float = 0.0
+    noise_up_mps: float = 0.0
+    noise_dof: int = 0
 
 
 @dataclass
@@ -72,6 +77,8 @@ class SelfCheck:
     replay_limit_mps: float
     direction_limit_deg: float
     logs: list[LogCheck]
+    noise_h_mps: float = 0.0   # the observer noise over every log (horizontal speed, vertical wind)
+    noise_up_mps: float = 0.0
 
 
 def matched_truth(af: Airframe, log: FlightLog, wind_est: np.ndarray) -> np.ndarray:
@@ -126,13 +133,16 @@ def check_log(af: Airframe, log: FlightLog, fit_samples: int, settle_s: float | 
     labels = _segment_labels(log)
     order = np.argsort(labels, kind="stable")
     values, first = np.unique(labels[order], return_index=True)
-    rows = []
+    rows, errors_h, errors_up = [], [], []
     for label, lo, hi in zip(values, first, np.r_[first[1:], len(order)]):
         members = order[lo:hi]
         use = members[usable[members] & (t[members] >= t[members[0]] + settle)]
         if use.size >= MIN_SEGMENT_POINTS:
             rows.append(_segment_row(int(label), wind[use], truth[use]))
+            errors_h.append(np.hypot(wind[use, 0], wind[use, 1]) - np.hypot(truth[use, 0], truth[use, 1]))
+            errors_up.append(truth[use, 2] - wind[use, 2])  # NED down: up is its negative
     check = LogCheck(log.path, log.rows, fit_samples, int(sum(r["points"] for r in rows)), rows)
+    (check.noise_h_mps, check.noise_dof), (check.noise_up_mps, _) = observer_noise(errors_h), observer_noise(errors_up)
     if rows:
         speed = np.array([r["speed_error_mps"] for r in rows])
         check.speed_rms_mps = float(np.sqrt(np.mean(speed ** 2)))
@@ -182,7 +192,10 @@ def verdict(af: Airframe, logs: list[LogCheck], cv_mps: float | None, speed_rang
         if check.direction_mean_deg is not None and check.direction_mean_deg > limits.direction_deg:
             reasons.append(f"{check.log}: training replay direction error mean {check.direction_mean_deg:.2f} deg "
                            f"> {limits.direction_deg:g} deg")
-    return SelfCheck(not reasons, reasons, cv_mps, speed_range_mps, cv_limit, replay_limit, limits.direction_deg, logs)
+    noise_h = pooled_noise([(c.noise_h_mps, c.noise_dof) for c in logs])
+    noise_up = pooled_noise([(c.noise_up_mps, c.noise_dof) for c in logs])
+    return SelfCheck(not reasons, reasons, cv_mps, speed_range_mps, cv_limit, replay_limit, limits.direction_deg, logs,
+                     noise_h, noise_up)
 
 
 def self_check(af: Airframe, logs: list[FlightLog], fit_samples: list[int], cv_mps: float | None,
@@ -221,5 +234,7 @@ def text_table(check: dict) -> str:
         lines.append(f"  {c['log']}: {c['fit_samples']} fit samples, {c['points_kept']} of {c['rows']} points kept "
                      f"in {len(c['segments'])} segments; speed error RMS / max {speed}; direction mean / max {direction}")
         lines += _segment_lines(c["segments"])
+    lines.append(f"  observer noise (sample scatter about each segment's mean error): {check['noise_h_mps']:.3f} m/s "
+                 f"horizontal speed, {check['noise_up_mps']:.3f} m/s vertical; the sigma outputs include it")
     lines.append("self-check: " + ("PASS" if check["passed"] else "FAIL: " + "; ".join(check["reasons"])))
     return "\n".join(lines)

@@ -25,8 +25,8 @@ import numpy as np
 from dobwind.errors import InputError
 from dobwind.logs import FlightLog
 from dobwind.model.airframe import Airframe
-from dobwind.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, gaps, hold,
-                              interp, quaternions)
+from dobwind.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, hold,
+                              interp, quaternions, source_gaps)
 
 PX4_WIND_TOPICS = (("wind", "windspeed_north", "windspeed_east"),
                    ("wind_estimate", "windspeed_north", "windspeed_east"),
@@ -208,9 +208,8 @@ def read_ulog(path: str, af: Airframe, rate_hz: float | None = None) -> UlogFlig
     if len(clock) < 2:
         raise InputError(path, None, "fewer than two instants to resample onto")
     max_gap = af.limits.max_dt_s
-    no_data = np.zeros(len(clock), dtype=bool)
-    for name, d in used.items():
-        no_data |= gaps(d["t"], clock, ROTOR_MAX_GAP_S if name == "esc_status" else max_gap)
+    no_data, culprits = source_gaps({name: (d["t"], ROTOR_MAX_GAP_S if name == "esc_status" else max_gap)
+                                     for name, d in used.items()}, clock)
     cols = _columns(af, topics, thrust_src, hover_topic, hover_param, yaw_src, clock, notes)
     landed = _ground(ulog, clock, notes)
     gappy = no_data.copy()
@@ -227,7 +226,7 @@ def read_ulog(path: str, af: Airframe, rate_hz: float | None = None) -> UlogFlig
             break
     if gappy.any():
         notes.append(count_note(gappy, f"with a topic gap longer than max_dt ({max_gap:g} s; esc_status: "
-                                       f"{ROTOR_MAX_GAP_S:g} s)", "NO_DATA"))
+                                       f"{ROTOR_MAX_GAP_S:g} s; by topic: {culprits})", "NO_DATA"))
     warnings = (f"{path}: {cut} ({clock[-1] - clock[0]:.2f} s readable)",) if cut else ()
     return UlogFlight(FlightLog(path, blank(cols, no_data | landed)), no_data, landed, px4, tuple(notes),
                       float(clock[0]), warnings)

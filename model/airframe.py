@@ -40,7 +40,7 @@ POLYNOMIAL_KEYS = ("terms", "coefficients")
 FILTER_KEYS = ("speeds", "cutoffs")
 LIMITS_KEYS = ("max_dt", "max_tilt_deg")
 ENVELOPE_KEYS = ("force_h_max", "force_z", "airflow_h_max")
-UNCERTAINTY_KEYS = ("speeds", "sigma_h", "sigma_up")
+UNCERTAINTY_KEYS = ("speeds", "sigma_h", "sigma_up", "noise_h", "noise_up")
 
 
 @dataclass(frozen=True)
@@ -99,10 +99,14 @@ class Envelope:
 
 @dataclass(frozen=True)
 class Uncertainty:
-    """1-sigma errors of the calibrated model over airflow speed, piecewise linear, clamped outside."""
+    """1-sigma errors of one estimate: the calibrated model's over airflow speed (piecewise linear,
+    clamped outside), and the observer noise, the sample-to-sample scatter of the estimate about its
+    mean in steady flight, independent of the model's error and so added in quadrature."""
     speeds_mps: tuple[float, ...]
     sigma_h_mps: tuple[float, ...]
     sigma_up_mps: tuple[float, ...]
+    noise_h_mps: float = 0.0   # horizontal wind speed
+    noise_up_mps: float = 0.0  # vertical wind
 
 
 @dataclass(frozen=True)
@@ -326,8 +330,14 @@ def _uncertainty(reader: _Reader) -> Uncertainty:
         if any(v < 0 for v in values):
             raise reader.fail(key, f"every value must be >= 0, got {list(values)!r}")
         columns.append(values)
+    noise = []
+    for key in ("noise_h", "noise_up"):
+        value = reader.number(key, default=0.0)
+        if value < 0:
+            raise reader.fail(key, f"must be >= 0, got {value!r}")
+        noise.append(value)
     reader.done()
-    return Uncertainty(speeds, columns[0], columns[1])
+    return Uncertainty(speeds, columns[0], columns[1], noise[0], noise[1])
 
 
 def parse_airframe(text: str, source: str) -> Airframe:

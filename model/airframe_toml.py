@@ -69,6 +69,9 @@ def airframe_document(af: Airframe) -> dict[str, Any]:
         document["uncertainty"] = {"speeds": list(af.uncertainty.speeds_mps),
                                    "sigma_h": list(af.uncertainty.sigma_h_mps),
                                    "sigma_up": list(af.uncertainty.sigma_up_mps)}
+        for key, value in (("noise_h", af.uncertainty.noise_h_mps), ("noise_up", af.uncertainty.noise_up_mps)):
+            if value > 0:  # absent means 0: files written before the noise terms read back the same
+                document["uncertainty"][key] = value
     if af.ros2_topics:  # fit rewrites the whole airframe: keep the user's topic names
         document["ros2_topics"] = dict(af.ros2_topics)
     return document

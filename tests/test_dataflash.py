@@ -108,6 +108,37 @@ def test_dataflash_replay_equals_the_equivalent_csv(tmp_path, old):
     np.testing.assert_allclose(flight.autopilot_wind[2][:, 0], f32(cols["wind_n"]), atol=1e-6)
 
 
+def _switch_primary(rows, at_us: int, with_xkf4: bool):
+    """From at_us on, core 1 carries the good data and core 0 the nonsense (the cores' labels swap),
+    and XKF4.PI on both cores says which is primary, as EKF3 logs a lane switch."""
+    out = []
+    for name, v in rows:
+        if name in ("XKF1", "XKQ", "XKF2") and v["TimeUS"] >= at_us:
+            v = dict(v, C=1 - v["C"])
+        out.append((name, v))
+        if with_xkf4 and name == "XKF1" and v["C"] == 0:
+            for core in (0, 1):
+                out.append(("XKF4", {"TimeUS": v["TimeUS"], "C": core, "PI": int(v["TimeUS"] >= at_us)}))
+    return out
+
+
+def test_the_primary_core_is_followed_across_a_lane_switch(tmp_path):
+    af, cols = _flight()
+    messages = dict(MESSAGES, XKF4=("QBB", ["TimeUS", "C", "PI"]))
+    rows = _switch_primary(_rows(af, cols), 9_000_000, with_xkf4=True)
+    model, flight, traj = replay_autopilot(af, str(write_dataflash(tmp_path / "s.bin", messages, rows)))
+    _, log, ref = replay(af, str(_equivalent_csv(tmp_path / "s.csv", af, cols)))
+    assert flight.log.rows == log.rows and np.all(accepted(traj.status))
+    assert np.max(np.abs(traj.outputs - ref.outputs)) <= 1e-5
+    np.testing.assert_allclose(flight.autopilot_wind[2][:, 0], f32(cols["wind_n"]), atol=1e-6)
+    assert any("1 switch(es) among cores 0, 1" in n for n in flight.notes)
+    # The same log without XKF4 reads core 0 throughout: after the switch that is the nonsense core.
+    blind = _switch_primary(_rows(af, cols), 9_000_000, with_xkf4=False)
+    _, flight0, _ = replay_autopilot(af, str(write_dataflash(tmp_path / "b.bin", MESSAGES, blind)))
+    late = flight0.log.time_s > 8.5
+    assert np.max(np.abs(flight0.log.columns["vel_n"][late] - f32(cols["vel_n"])[late])) > 1.0
+
+
 def test_collective_thrust_from_ctun_and_the_landing_events(tmp_path):
     af = parse_airframe(dumps(airframe_dict(thrust={"source": "collective"}, mass=8.0, name="coll")), "<c>")
     _, cols = _flight()
@@ -125,6 +156,20 @@ def test_esc_at_zero_rpm_while_airborne_is_no_data_named(tmp_path):
     assert np.all(traj.status[(t > 8.05) & (t < 8.95)] == STATUS_NO_DATA)
     assert np.all(accepted(traj.status[(t < 7.95) | (t > 9.05)]))
     assert any("ESC 2 (0 rpm)" in n for n in flight.notes)
+
+
+def test_a_message_gap_is_no_data_and_the_note_names_the_message(tmp_path):
+    """Core 0's XKQ silent for 0.5 s (core 1 still talking): those rows are NO_DATA, the rest are fed,
+    and the note says it was XKQ."""
+    af, cols = _flight()
+    rows = [(n, v) for n, v in _rows(af, cols)
+            if not (n == "XKQ" and v["C"] == 0 and 11_000_000 < v["TimeUS"] < 11_500_000)]
+    _, flight, traj = replay_autopilot(af, str(write_dataflash(tmp_path / "g.bin", MESSAGES, rows)), rate_hz=100.0)
+    t = flight.log.time_s
+    assert np.all(traj.status[(t > 10.02) & (t < 10.48)] == STATUS_NO_DATA)
+    assert np.all(accepted(traj.status[(t > 1.0) & (t < 9.98)])) and np.all(accepted(traj.status[t > 10.52]))
+    note = next(n for n in flight.notes if "message gap" in n)
+    assert note.endswith(f"by message: XKQ {int(np.sum(traj.status == STATUS_NO_DATA))}): status NO_DATA"), note
 
 
 @pytest.mark.parametrize("drop, named", [(("XKF1",), "XKF1"), (("XKQ",), "XKQ"), (("ESC",), "ESC Instance 0")])

@@ -57,7 +57,8 @@ def _fresh_venv(tmp: Path, wheel: Path) -> Path:
 def test_wheel_installs_and_runs_outside_the_checkout(tmp_path):
     wheel = _wheel(tmp_path)
     names = set(zipfile.ZipFile(wheel).namelist())
-    for data in ("dobwind/airframes/m300.toml", "dobwind/airframes/nf_quad.toml", "dobwind/report.html.j2"):
+    for data in ("dobwind/airframes/m300.toml", "dobwind/airframes/nf_quad.toml", "dobwind/report.html.j2",
+                 "dobwind/msgs/px4_msgs/EscReport.msg", "dobwind/msgs/mavros_msgs/ESCStatus.msg"):  # ROS 2 bags
         assert data in names, f"the wheel lacks {data}"
     venv = _fresh_venv(tmp_path, wheel)
     work = tmp_path / "elsewhere"

@@ -21,9 +21,28 @@ def strict_loads(text: str):
     return json.loads(text, parse_constant=_refuse)
 
 
+# The subcommands with --json that the tests below run; the walk over the parser below keeps it complete.
+JSON_COMMANDS = {"analyze", "check", "fit", "replay", "verify"}
+
+
 def _json_run(argv: list[str], capsys) -> tuple[int, dict]:
+    """Run a command with --json: stdout must be one strict JSON object in the common style (indent 2)."""
+    capsys.readouterr()
     code = main(argv)
-    return code, strict_loads(capsys.readouterr().out)
+    text = capsys.readouterr().out
+    report = strict_loads(text)
+    assert isinstance(report, dict) and text == json.dumps(report, indent=2) + "\n", f"{argv[0]}: not the common style"
+    return code, report
+
+
+def test_every_command_with_json_is_tested_here():
+    import argparse
+
+    from dobwind.cli import build_parser
+
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    with_json = {name for name, p in sub.choices.items() if any("--json" in a.option_strings for a in p._actions)}
+    assert with_json == JSON_COMMANDS
 
 
 def test_the_helper_nulls_every_non_finite_value_and_says_where():
@@ -112,3 +131,14 @@ def test_fit_json_with_a_non_finite_figure(tmp_path, capsys, monkeypatch):
     code, report = _json_run(["fit", str(M300), "x.csv", "-o", str(out), "--json"], capsys)
     assert code == 0 and report["horizontal_rmse_mps"] is None  # FitReport's default is NaN
     assert "horizontal_rmse_mps" in report[NULL_PATHS_KEY]
+
+
+def test_the_real_data_check_prints_strict_json(monkeypatch, capsys):
+    """`make realdata --json` is not a subcommand, but its output is read by tools too."""
+    from dobwind import realdata
+
+    monkeypatch.setattr(realdata, "check", lambda *a, **k: {"split": {"run": {"speed_mps": math.nan}}})
+    assert realdata.main(["--json"]) == 0
+    text = capsys.readouterr().out
+    report = strict_loads(text)
+    assert report["split"]["run"]["speed_mps"] is None and text == json.dumps(report, indent=2) + "\n"

@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 
 from dobwind.codegen.generate import generate_code
-from dobwind.harness.mutant_table import CMutant, ModelMutant, c_mutants
+from dobwind.harness.mutant_table import CMutant, ModelMutant, c_mutants, model_mutants
 from dobwind.harness.mutants import AnchorError, Outcome, apply_c_mutant, check_c, run_model_mutant, table
 from dobwind.model.airframe import load_airframe
 from dobwind.model.step import build_step
@@ -22,8 +22,16 @@ def _mutant(model, name: str) -> CMutant:
     return next(m for m in c_mutants(model.airframe) if m.name == name)
 
 
-@pytest.mark.parametrize("name, precision", [("rpm check on rotor 2 dropped", "single"),
-                                             ("NaN wind_from_deg output", "double")])
+# One mutant of each kind issue #10 names for the generated C, in both precisions (`make mutants` runs
+# the whole table): a constant, an operator, a NaN output, an early return before the state commit and
+# dropped validation tests. Each must be caught by the generated self-test AND by verify's cases, so
+# neither check can quietly lose its teeth.
+C_KINDS = ["m*g x1.001", "dt upper bound <= becomes <", "NaN wind_from_deg output",
+           "early return before the state commit", "vel_ned[1] magnitude test dropped", "rpm check on rotor 2 dropped"]
+
+
+@pytest.mark.parametrize("precision", ["single", "double"])
+@pytest.mark.parametrize("name", C_KINDS)
 def test_a_c_mutant_is_caught_by_verify_and_the_self_test(model, tmp_path, name, precision):
     files = generate_code(model.airframe, precision, model).files
     source = "m300_wind.c"
@@ -31,6 +39,25 @@ def test_a_c_mutant_is_caught_by_verify_and_the_self_test(model, tmp_path, name,
     assert mutated != files[source]
     found = check_c(model, dict(files, **{source: mutated}), precision, 300, tmp_path, "mutant")
     assert "self-test" in found and "verify cases" in found, found
+
+
+def test_the_unmutated_c_passes_the_same_checks(model, tmp_path):
+    """The other half of the tests above: the checks do not simply fail on everything."""
+    for precision in ("single", "double"):
+        files = generate_code(model.airframe, precision, model).files
+        assert check_c(model, files, precision, 300, tmp_path, f"clean-{precision}") == ()
+
+
+# The model mutants issue #10 names: verify cannot see them (the C and the reference change together),
+# so the suite's independent transcription of the step must.
+MODEL_KINDS = ["gravity sign", "observer factor 2 (paper)", "quaternion order (x, y, z, w)", "heading-frame sign"]
+
+
+@pytest.mark.parametrize("name", MODEL_KINDS)
+def test_the_named_model_mutants_are_caught_by_the_suite(tmp_path, name):
+    mutant = next(m for m in model_mutants() if m.name == name)
+    outcome = run_model_mutant(mutant, tmp_path, ("tests/test_model.py::test_step_matches_independent_transcription",))
+    assert outcome.caught_by == ("test test_step_matches_independent_transcription",), outcome
 
 
 def test_an_anchor_that_does_not_match_stops_the_run(model):

@@ -11,7 +11,7 @@ import pytest
 from dobwind.analysis.figures import settling_time_s as analysis_settling_time
 from dobwind.analysis.linear import axis_system
 from dobwind.cli import main
-from dobwind.envelope import calibration_envelope, uncertainty_table
+from dobwind.envelope import calibration_envelope, observer_noise, pooled_noise, uncertainty_table, with_observer_noise
 from dobwind.errors import InputError
 from dobwind.logs import read_log, required_columns, step_inputs
 from dobwind.model import reference
@@ -174,6 +174,55 @@ def test_extrapolated_bit_and_sigma_on_the_first_sample(force, extrapolated):
     assert float(out["wind_sigma_up"][0]) == pytest.approx(np.interp(airflow, [0, 4, 8], [0.2, 0.2, 0.6]), rel=1e-9)
 
 
+def _noisy_quality_airframe(noise_h: float, noise_up: float):
+    af = _quality_airframe()
+    return dataclasses.replace(af, uncertainty=with_observer_noise(af.uncertainty, noise_h, noise_up))
+
+
+def test_sigma_adds_the_observer_noise_in_quadrature():
+    """Model error and observer noise are independent: sigma^2 = table^2 + noise^2. At fh 1.5 N the
+    airflow is 3 m/s and the table gives 0.1 + 0.2 * 3/4 = 0.25 (h) and 0.2 (up); with noise 0.6 and
+    0.15 the sigmas are the 3-4-5 and 4-3-5 triangles' 0.65 and 0.25."""
+    model = build_step(_noisy_quality_airframe(0.6, 0.15))
+    _, y, _ = model.step(model.initial_state(), _first_sample(model, [1.5, 0.0, 0.0]))
+    out = model.outputs.unpack(np.asarray(y).ravel())
+    assert float(out["wind_sigma_h"][0]) == pytest.approx(0.65, rel=1e-12)
+    assert float(out["wind_sigma_up"][0]) == pytest.approx(0.25, rel=1e-12)
+    # No noise term: the table's value itself (0.25 h), not a rounded sqrt(x*x).
+    plain = build_step(_quality_airframe())
+    _, y, _ = plain.step(plain.initial_state(), _first_sample(plain, [1.5, 0.0, 0.0]))
+    assert float(plain.outputs.unpack(np.asarray(y).ravel())["wind_sigma_h"][0]) == pytest.approx(0.25, rel=1e-12)
+
+
+@pytest.mark.parametrize("precision", ["double", "single"])
+def test_sigma_with_observer_noise_agrees_in_c(precision):
+    model = build_step(_noisy_quality_airframe(0.3, 0.1))
+    u = flight_inputs(model, 1500, seed=12, bad_every=0)
+    if precision == "single":
+        u = u.astype(np.float32).astype(np.float64)
+    py = reference.run(model, u)
+    c = run_backend(model, u, "c", precision)
+    for name in ("wind_sigma_h", "wind_sigma_up"):
+        cols = model.outputs.slice(name)
+        assert np.all(py.outputs[:, cols] >= (0.3 if name == "wind_sigma_h" else 0.1))
+        np.testing.assert_allclose(c.outputs[:, cols], py.outputs[:, cols], rtol=1e-5 if precision == "single" else 0)
+
+
+def test_observer_noise_is_the_scatter_about_each_segment_mean():
+    """Segments with different biases (the model's error) and white noise of 0.12 m/s: the pooled
+    scatter is 0.12 to sampling error, whatever the biases; one-sample segments add nothing."""
+    rng = np.random.default_rng(5)
+    segments = [bias + rng.normal(0, 0.12, 4000) for bias in (-0.5, 0.0, 0.3, 2.0)] + [np.array([9.0])]
+    noise, dof = observer_noise(segments)
+    assert dof == 4 * 3999 and noise == pytest.approx(0.12, rel=0.02)
+    bias_only = observer_noise([np.full(50, 0.7)])  # a pure bias is no noise
+    assert bias_only[1] == 49 and bias_only[0] < 1e-12
+    assert observer_noise([]) == (0.0, 0)
+    # Pooled over logs by degrees of freedom: variances 0.01 (dof 100) and 0.04 (dof 300) -> 0.0325.
+    assert pooled_noise([(0.1, 100), (0.2, 300)]) == pytest.approx(math.sqrt(0.0325), rel=1e-12)
+    assert pooled_noise([(0.5, 0)]) == 0.0
+
+
 def test_no_envelope_never_extrapolates_and_sigma_is_unknown():
     model = build_step(make_airframe())
     _, y, status = model.step(model.initial_state(), _first_sample(model, [40.0, 0.0, 30.0]))
@@ -300,6 +349,9 @@ def test_envelope_and_uncertainty_tables_round_trip_through_toml():
     af = _quality_airframe()
     again = parse_airframe(dump_airframe(af), "<again>")
     assert again.envelope == af.envelope and again.uncertainty == af.uncertainty
+    noisy = _noisy_quality_airframe(0.2, 0.05)
+    assert parse_airframe(dump_airframe(noisy), "<noisy>").uncertainty == noisy.uncertainty
+    assert "noise_h" not in dump_airframe(af)  # 0 is the default: older files read back unchanged
     assert parse_airframe(dump_airframe(make_airframe()), "<plain>").envelope is None  # optional
 
 
@@ -310,6 +362,9 @@ def test_envelope_and_uncertainty_tables_round_trip_through_toml():
     ("uncertainty", "sigma_h", [0.1, 0.2], "uncertainty.sigma_h"),    # 2 values for 3 speeds
     ("uncertainty", "sigma_up", [0.1, -0.2, 0.3], "uncertainty.sigma_up"),
     ("uncertainty", "speeds", [0.0, 4.0, 4.0], "uncertainty.speeds"),
+    ("uncertainty", "noise_h", -0.1, "uncertainty.noise_h"),
+    ("uncertainty", "noise_up", "0.1", "uncertainty.noise_up"),
+    ("uncertainty", "noise", 0.1, "uncertainty.noise"),                # unknown key
 ])
 def test_bad_tables_name_the_key(table, key, value, where, tmp_path, capsys):
     doc = airframe_dict()

@@ -43,14 +43,25 @@ def _writer(path, storage):
     return Writer(path, version=9, storage_plugin=StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3)
 
 
-def _px4_bag(path, af, cols, storage, *, esc=True, landed_until=None, hover=None):
+# A reduced vehicle_local_position for the writer: the reader must use the definition the bag stores
+# (MCAP and rosbag2 v9 keep one per connection), since the message's layout changes between PX4 versions.
+LOCAL_POSITION = "uint64 timestamp\nuint64 timestamp_sample\nbool v_xy_valid\nfloat32 vx\nfloat32 vy\nfloat32 vz\n"
+
+
+def _px4_bag(path, af, cols, storage, *, esc=True, landed_until=None, hover=None, v1=(), local_position=False):
     store = _typestore(str(path), [])
+    if local_position:
+        from rosbags.typesys import get_types_from_msg
+
+        store.register(get_types_from_msg(LOCAL_POSITION, "px4_msgs/msg/VehicleLocalPosition"))
     T = store.types
     sf = _specific_force(af, cols).astype(np.float32)
     f = np.float32
     with _writer(path, storage) as w:
-        conns = {r: w.add_connection(f"/fmu/out/{r}", f"px4_msgs/msg/{m}", typestore=store) for r, m in (
-            ("vehicle_odometry", "VehicleOdometry"), ("vehicle_attitude", "VehicleAttitude"),
+        conns = {r: w.add_connection(f"/fmu/out/{r}" + ("_v1" if r in v1 else ""), f"px4_msgs/msg/{m}", typestore=store)
+                 for r, m in (
+            ("vehicle_local_position", "VehicleLocalPosition") if local_position else ("vehicle_odometry", "VehicleOdometry"),
+            ("vehicle_attitude", "VehicleAttitude"),
             ("sensor_combined", "SensorCombined"), ("wind", "Wind"), ("esc_status", "EscStatus"),
             ("vehicle_land_detected", "VehicleLandDetected"), ("vehicle_thrust_setpoint", "VehicleThrustSetpoint"),
             ("hover_thrust_estimate", "HoverThrustEstimate"))
@@ -65,6 +76,8 @@ def _px4_bag(path, af, cols, storage, *, esc=True, landed_until=None, hover=None
                     us, us, 1, z3, q, 1, np.array([cols["vel_n"][k], cols["vel_e"][k], cols["vel_d"][k]], dtype=f),
                     z3, z3, z3, z3, 0, 0),
                 "vehicle_attitude": T["px4_msgs/msg/VehicleAttitude"](us, us, q, np.zeros(4, dtype=f), 0),
+                "vehicle_local_position": T["px4_msgs/msg/VehicleLocalPosition"](
+                    us, us, True, f(cols["vel_n"][k]), f(cols["vel_e"][k]), f(cols["vel_d"][k])) if local_position else None,
                 "sensor_combined": T["px4_msgs/msg/SensorCombined"](us, z3, 0, 0, sf[k], 0, 0, 0, 0, 0),
                 "wind": T["px4_msgs/msg/Wind"](us, us, f(cols["wind_n"][k]), f(cols["wind_e"][k]), 0, 0, 0, 0, 0, 0, 0),
             }
@@ -81,7 +94,8 @@ def _px4_bag(path, af, cols, storage, *, esc=True, landed_until=None, hover=None
                 on = t < landed_until
                 msgs["vehicle_land_detected"] = T["px4_msgs/msg/VehicleLandDetected"](us, on, on, on)
             for role, msg in msgs.items():
-                w.write(conns[role], us * 1000, store.serialize_cdr(msg, msg.__msgtype__))
+                if role in conns:
+                    w.write(conns[role], us * 1000, store.serialize_cdr(msg, msg.__msgtype__))
     return path
 
 
@@ -141,6 +155,30 @@ def test_bag_replay_equals_the_equivalent_csv(tmp_path, setup, storage):
     assert flight.log.rows == log.rows and np.all(accepted(traj.status))
     np.testing.assert_array_equal(traj.status, ref.status)
     assert np.max(np.abs(traj.outputs - ref.outputs)) <= 1e-5
+
+
+def test_px4_1_16_topic_names_with_v1_are_found(tmp_path):
+    """PX4 1.16 publishes some topics as <name>_v1: the same flight under those names replays alike."""
+    af, cols = _flight()
+    plain = replay_autopilot(af, str(_px4_bag(tmp_path / "plain", af, cols, "mcap")))[2]
+    renamed = ("vehicle_odometry", "vehicle_attitude", "esc_status")
+    _, flight, traj = replay_autopilot(af, str(_px4_bag(tmp_path / "v1", af, cols, "mcap", v1=renamed)))
+    assert np.all(accepted(traj.status))
+    np.testing.assert_array_equal(traj.outputs, plain.outputs)
+    assert any("/fmu/out/vehicle_odometry" in n for n in flight.notes)
+
+
+@pytest.mark.parametrize("storage", ["mcap", "db3"])
+def test_px4_bag_with_vehicle_local_position_instead_of_odometry(tmp_path, storage):
+    """No vehicle_odometry: the velocity comes from vehicle_local_position (vx, vy, vz, NED), read with
+    the bag's own definition, and replays exactly like the odometry bag of the same flight."""
+    af, cols = _flight()
+    plain = replay_autopilot(af, str(_px4_bag(tmp_path / "odom", af, cols, storage)))[2]
+    _, flight, traj = replay_autopilot(af, str(_px4_bag(tmp_path / "lpos", af, cols, storage, local_position=True,
+                                                        v1=("vehicle_local_position",))))
+    assert np.all(accepted(traj.status))
+    np.testing.assert_array_equal(traj.outputs, plain.outputs)
+    assert any("velocity /fmu/out/vehicle_local_position_v1" in n for n in flight.notes)
 
 
 def test_px4_bag_without_esc_status_says_what_to_add(tmp_path, capsys):

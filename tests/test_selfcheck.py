@@ -149,6 +149,30 @@ def test_a_good_fit_passes_and_its_replay_matches_replay(tiny, tmp_path, capsys)
     assert max(abs(by_segment[s] - mine[s]) for s in by_segment) < 0.01
 
 
+def test_fit_records_the_observer_noise_of_its_own_replay(tiny, tmp_path, capsys):
+    """Issue #10: sigma = the residual table at the speed plus the observer noise. The self-check's
+    replay measures the noise (scatter about each segment's mean error) on each log; the same vehicle
+    and estimator give the same noise on both logs, and the written airframe carries their pooled value,
+    which every accepted sample's sigma then includes."""
+    out = tmp_path / "noisy.toml"
+    capsys.readouterr()
+    assert main(["fit", tiny["airframe"], tiny["sweep"], tiny["vertical"], "-o", str(out), "--json"]) == 0
+    check = json.loads(capsys.readouterr().out)["self_check"]
+    per_log = [c["noise_h_mps"] for c in check["logs"]]
+    assert all(n > 0.005 for n in per_log) and max(per_log) < 1.25 * min(per_log), per_log
+    assert min(per_log) <= check["noise_h_mps"] <= max(per_log) and check["noise_up_mps"] > 0
+    fitted = load_airframe(out)
+    assert fitted.uncertainty.noise_h_mps == pytest.approx(check["noise_h_mps"], rel=1e-12)
+    assert fitted.uncertainty.noise_up_mps == pytest.approx(check["noise_up_mps"], rel=1e-12)
+    from dobwind.model.status import accepted
+    from dobwind.replay import replay
+
+    model, _, traj = replay(fitted, tiny["vertical"])
+    sigma = traj.outputs[accepted(traj.status), model.outputs.slice("wind_sigma_h")][:, 0]
+    lowest_table = min(fitted.uncertainty.sigma_h_mps)
+    assert np.all(sigma >= np.hypot(lowest_table, fitted.uncertainty.noise_h_mps) * (1 - 1e-12))
+
+
 def test_a_log_that_contributes_nothing_fails_and_nothing_is_written(tiny, tmp_path, capsys):
     """A 0.8 s tunnel log ends before the observer settles: it gives the fit nothing."""
     out = tmp_path / "bad.toml"

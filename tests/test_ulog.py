@@ -136,6 +136,9 @@ def test_gap_marks_rows_and_the_estimate_recovers(tmp_path):
     t = flight.log.time_s
     inside = (t > 10.02) & (t < 10.47)
     assert np.all(traj.status[inside] == STATUS_NO_DATA)
+    # The note says which topic to log faster: the attitude alone went silent.
+    note = next(n for n in flight.notes if "topic gap" in n)
+    assert note.split("by topic: ")[1].startswith(f"vehicle_attitude {int(np.sum(traj.status == STATUS_NO_DATA))})")
     assert np.all(accepted(traj.status[t > 10.6])) and np.all(accepted(traj.status[(t > 1) & (t < 9.9)]))
     # Accepted but not trusted for one settling time after the start and after the gap, then trusted.
     settle = model.settling_time_s
@@ -347,6 +350,8 @@ def test_esc_status_at_4_hz_is_interpolated_not_no_data(tmp_path):
     _, flight2, gap = replay_ulog(af, str(_ulog(tmp_path / "silent.ulg", cols, esc_gap=(6.0, 6.0 + ROTOR_MAX_GAP_S + 0.1))))
     t2 = flight2.log.time_s
     assert np.all(gap.status[(t2 > 6.02) & (t2 < 6.0 + ROTOR_MAX_GAP_S + 0.08)] == STATUS_NO_DATA)
+    assert any(n.endswith(f"by topic: esc_status {int(np.sum(gap.status == STATUS_NO_DATA))}): status NO_DATA")
+               for n in flight2.notes)
     assert np.all(accepted(gap.status[(t2 > 1.0) & (t2 < 5.98)]))
 
 
@@ -369,6 +374,11 @@ def test_px4_wind_file_holds_the_estimate_and_its_variances(tmp_path, capsys):
     np.testing.assert_allclose(w["windspeed_east"], e["wind_e"][ok], rtol=1e-5, atol=1e-6)
     np.testing.assert_allclose(w["variance_north"], 0.04, rtol=1e-5)
     np.testing.assert_array_equal(w["variance_north"], w["variance_east"])
+    # With an observer noise of 0.15 m/s beside the table: 0.2² + 0.15² = 0.0625 m²/s² (a 0.25 m/s sigma).
+    airframe.write_text(airframe.read_text().replace("sigma_up = [0.1, 0.1]\n", "sigma_up = [0.1, 0.1]\nnoise_h = 0.15\n"))
+    assert main(["replay", str(airframe), str(path), "--px4-wind", str(px4)]) == 0
+    np.testing.assert_allclose(np.genfromtxt(px4, delimiter=",", names=True, skip_header=1)["variance_north"], 0.0625,
+                               rtol=1e-5)
     # Without the table the sigma is unknown: NaN variances, not a fake confidence.
     assert main(["replay", str(M300), str(path), "--px4-wind", str(px4)]) == 0
     assert np.all(np.isnan(np.genfromtxt(px4, delimiter=",", names=True, skip_header=1)["variance_north"]))

@@ -59,7 +59,7 @@ typedef struct {
     float wind_speed_h; /* m/s: horizontal wind speed */
     float wind_speed_up; /* m/s: vertical wind, positive up */
     float wind_from_deg; /* deg: direction the wind blows FROM, clockwise from north, [0, 360) */
-    float wind_sigma_h; /* m/s: 1-sigma error of the horizontal wind speed from the calibration residuals (-1: the airframe records no uncertainty) */
+    float wind_sigma_h; /* m/s: 1-sigma error of the horizontal wind speed: the calibration residuals at this speed and the observer noise (-1: the airframe records no uncertainty) */
     float wind_sigma_up; /* m/s: 1-sigma error of the vertical wind (-1: unknown) */
 } m300_wind_output_t;
 
