@@ -320,6 +320,28 @@ def fit_polynomial(af: Airframe, logs: list[FlightLog], terms: str = "auto",
                    dynamic: bool = False) -> tuple[Airframe, FitReport, Points]:
     """The paper's family from steady chunks (or manoeuvres with ``dynamic``)."""
     report = FitReport()
+    af, points = _calibrated_points(af, logs, dynamic, report)
+    h_terms = _horizontal_terms(af, points, terms, report)
+    (report.horizontal_coefficients, report.horizontal_rmse_mps, report.horizontal_cv_rmse_mps,
+     report.horizontal_extrapolation_rmse_mps) = _least_squares(h_terms, points, points.speed_h)
+    vertical = _vertical_model(af, points, terms, report)
+    horizontal = ForceAirModel(tuple(parse_term(t) for t in h_terms), tuple(report.horizontal_coefficients))
+    if not all(math.isfinite(c) for c in report.horizontal_coefficients + report.vertical_coefficients):
+        raise CheckFailed("the least-squares fit gave non-finite coefficients")
+    new = dataclasses.replace(af, horizontal=horizontal, vertical=vertical,
+                              observer=dataclasses.replace(af.observer, force_offset_n=tuple(report.force_offset_n)))
+    # The calibrated range and the residuals' size, for the step's EXTRAPOLATED bit and sigma outputs.
+    pred_h = np.maximum(_term_matrix(h_terms, points.m, points.n, points.fz) @ np.asarray(horizontal.coefficients), 0)
+    pred_z = _term_matrix(list(vertical.term_texts), points.m, points.n, points.fz) @ np.asarray(vertical.coefficients)
+    new = dataclasses.replace(new, envelope=calibration_envelope(np.hypot(points.m, points.n), points.fz, pred_h),
+                              uncertainty=uncertainty_table(points.speed_h, pred_h, -points.air_z, -pred_z))
+    return new, report, points
+
+
+def _calibrated_points(af: Airframe, logs: list[FlightLog], dynamic: bool,
+                       report: FitReport) -> tuple[Airframe, Points]:
+    """The thrust scale and the force offset from zero-airflow data, then the cleaned calibration points
+    with the offset removed. Returns the airframe with the new thrust scale."""
     raw, _ = calibration_points(af, logs, dynamic)
     zero = _zero_airflow(raw)
     report.zero_airflow_points = int(zero.sum())
@@ -358,7 +380,11 @@ def fit_polynomial(af: Airframe, logs: list[FlightLog], terms: str = "auto",
     report.directions = int(sum(np.sum(bins == b) >= 3 for b in range(12)))
     levels = np.round(points.speed_h / 0.5)
     report.speeds = int(sum(np.sum(levels == v) >= 3 for v in np.unique(levels)))
+    return af, points
 
+
+def _horizontal_terms(af: Airframe, points: Points, terms: str, report: FitReport) -> list[str]:
+    """The horizontal model's terms: chosen or the airframe's, narrowed when the data cannot support them."""
     if terms == "auto":
         candidates = HORIZONTAL_CANDIDATES if report.directions >= 4 else DIRECTION_FREE
         h_terms, _ = select_terms(candidates, points, points.speed_h)
@@ -373,9 +399,11 @@ def fit_polynomial(af: Airframe, logs: list[FlightLog], terms: str = "auto",
                                "speed = c * fh^0.5 (quadratic drag)")
         h_terms = ["fh^0.5"]
     report.horizontal_terms = h_terms
-    (report.horizontal_coefficients, report.horizontal_rmse_mps, report.horizontal_cv_rmse_mps,
-     report.horizontal_extrapolation_rmse_mps) = _least_squares(h_terms, points, points.speed_h)
+    return h_terms
 
+
+def _vertical_model(af: Airframe, points: Points, terms: str, report: FitReport) -> ForceAirModel:
+    """The vertical model fitted, or kept from the airframe when the data hardly move vertically."""
     vertical = af.vertical
     vertical_span = float(np.ptp(points.air_z))
     if vertical_span < 1.0:
@@ -389,17 +417,7 @@ def fit_polynomial(af: Airframe, logs: list[FlightLog], terms: str = "auto",
         (report.vertical_coefficients, report.vertical_rmse_mps, report.vertical_cv_rmse_mps,
          report.vertical_extrapolation_rmse_mps) = _least_squares(v_terms, points, points.air_z)
         vertical = ForceAirModel(tuple(parse_term(t) for t in v_terms), tuple(report.vertical_coefficients))
-    horizontal = ForceAirModel(tuple(parse_term(t) for t in h_terms), tuple(report.horizontal_coefficients))
-    if not all(math.isfinite(c) for c in report.horizontal_coefficients + report.vertical_coefficients):
-        raise CheckFailed("the least-squares fit gave non-finite coefficients")
-    new = dataclasses.replace(af, horizontal=horizontal, vertical=vertical,
-                              observer=dataclasses.replace(af.observer, force_offset_n=tuple(offset)))
-    # The calibrated range and the residuals' size, for the step's EXTRAPOLATED bit and sigma outputs.
-    pred_h = np.maximum(_term_matrix(h_terms, points.m, points.n, points.fz) @ np.asarray(horizontal.coefficients), 0)
-    pred_z = _term_matrix(list(vertical.term_texts), points.m, points.n, points.fz) @ np.asarray(vertical.coefficients)
-    new = dataclasses.replace(new, envelope=calibration_envelope(np.hypot(points.m, points.n), points.fz, pred_h),
-                              uncertainty=uncertainty_table(points.speed_h, pred_h, -points.air_z, -pred_z))
-    return new, report, points
+    return vertical
 
 
 def _errors(cv: float | None, extrapolated: float | None) -> str:
