@@ -69,7 +69,7 @@ def cmd_verify(args: argparse.Namespace) -> int:
 
 
 def cmd_analyze(args: argparse.Namespace) -> int:
-    from dobwind.analysis.report import analyze_command
+    from dobwind.analyze_command import analyze_command
 
     return analyze_command(args)
 
@@ -236,9 +236,8 @@ def _topic_overrides(args: argparse.Namespace) -> dict[str, str]:
 
 
 def _replay_ulog(args: argparse.Namespace, af) -> int:
-    from dobwind.model.status import accepted, describe
-    from dobwind.replay import replay_ulog, write_output
-    from dobwind.ulog import compare_with_px4
+    from dobwind.model.status import accepted
+    from dobwind.replay import autopilot_summary, replay_ulog, write_output
 
     model, flight, traj = replay_ulog(af, args.log, args.backend, args.precision, args.rate, _topic_overrides(args))
     for warning in flight.warnings:
@@ -246,14 +245,7 @@ def _replay_ulog(args: argparse.Namespace, af) -> int:
     log = flight.log
     wind = traj.outputs[:, model.outputs.slice("wind_ned")]
     valid = accepted(traj.status)  # quality-flagged samples are estimates too; status_counts shows the flags
-    summary = {"airframe": af.name, "log": str(args.log), "backend": args.backend, "rows": log.rows,
-               "valid_rows": int(valid.sum()), "duration_s": float(log.time_s[-1]), "notes": list(flight.notes),
-               "warnings": list(flight.warnings),
-               "status_counts": {describe(int(s)): int((traj.status == s).sum()) for s in np.unique(traj.status)},
-               "mean_wind_speed_h_mps": float(np.mean(np.hypot(wind[valid, 0], wind[valid, 1]))) if valid.any() else None,
-               "outputs_finite": bool(np.all(np.isfinite(traj.outputs)))}
-    if flight.px4_wind is not None:
-        summary["px4"] = compare_with_px4(log.time_s, wind, valid, flight.px4_wind)
+    summary = autopilot_summary(af.name, str(args.log), args.backend, model, flight, traj)
     with OutputFiles(_replay_targets(args)) as out:
         if args.output is not None:
             write_output(out.stage(args.output), log, traj)

@@ -27,8 +27,9 @@ from scipy.signal import lfilter, lfilter_zi
 
 from dobwind.model.airframe import Airframe
 from dobwind.model.discretization import first_order
-from dobwind.model.forceair import (FORCE_DIRECTION_EPS_N, HORIZONTAL_DRAG_KEYS, VERTICAL_DRAG_KEYS, DragLaw,
-                                    drag_airflow_numpy, horizontal_drag_basis, term_matrix)
+from dobwind.model.forceair import (HORIZONTAL_DRAG_KEYS, VERTICAL_DRAG_KEYS, DragLaw, along_force_scale,
+                                    drag_airflow_numpy, heading_force, heading_to_ned, horizontal_drag_basis,
+                                    term_matrix)
 from dobwind.model.terms import Term
 
 PARAMETERS = HORIZONTAL_DRAG_KEYS + ("ox", "oy") + VERTICAL_DRAG_KEYS + ("kappa",)
@@ -107,11 +108,9 @@ def log_samples(af: Airframe, cutoff_hz: float, t: np.ndarray, force_ned: np.nda
     valid[:first] = True  # filled from the first valid row; kept out of the fit by ``usable``
     airflow_ned, thrust_ned, yaw = (_forward_fill(v, valid) for v in (airflow_ned, thrust_ned, yaw))
     c, s = np.cos(yaw), np.sin(yaw)
-    air_c = np.column_stack([c * airflow_ned[:, 0] + s * airflow_ned[:, 1], -s * airflow_ned[:, 0] + c * airflow_ned[:, 1],
-                             airflow_ned[:, 2]])
+    air_c = np.column_stack(heading_force(airflow_ned.T, c, s, (0.0, 0.0, 0.0)))
     unit = basis(air_c)
-    ned = np.stack([c[:, None] * unit[:, 0] - s[:, None] * unit[:, 1], s[:, None] * unit[:, 0] + c[:, None] * unit[:, 1],
-                    unit[:, 2]], axis=1)
+    ned = np.stack([*heading_to_ned(unit[:, 0], unit[:, 1], c[:, None], s[:, None]), unit[:, 2]], axis=1)
     ned[:, :, PARAMETERS.index("kappa")] = thrust_ned
     dt = float(np.median(np.diff(t))) if len(t) > 1 else af.observer.sample_time_s
     columns = np.empty_like(ned)
@@ -309,7 +308,7 @@ def polynomial_fit_predict(horizontal: list[Term], vertical: list[Term],
         c_v, *_ = np.linalg.lstsq(term_matrix(vertical, m, n, fz), train.airflow[:, 2], rcond=None)
         m, n, fz = heading(test)
         predicted = np.maximum(term_matrix(horizontal, m, n, fz) @ c_h, 0)
-        scale = predicted / np.sqrt(m * m + n * n + FORCE_DIRECTION_EPS_N ** 2)
+        scale = along_force_scale(predicted, m * m + n * n)
         return np.column_stack([scale * m, scale * n, term_matrix(vertical, m, n, fz) @ c_v])
 
     return fit_predict

@@ -136,6 +136,26 @@ def replay_ulog(af: Airframe, path: str, backend: str = "python", precision: str
     return model, flight, Trajectory(traj.states, traj.outputs, status)
 
 
+def autopilot_summary(name: str, log_path: str, backend: str, model: StepModel, flight, traj: Trajectory) -> dict:
+    """What `replay` reports for an autopilot log (no true wind): rows, status counts, the mean estimated
+    horizontal wind, and the comparison with the autopilot's own wind when the log has one."""
+    from dobwind.model.status import describe
+    from dobwind.ulog import compare_with_px4
+
+    log = flight.log
+    wind = traj.outputs[:, model.outputs.slice("wind_ned")]
+    valid = accepted(traj.status)  # quality-flagged samples are estimates too; status_counts shows the flags
+    summary = {"airframe": name, "log": log_path, "backend": backend, "rows": log.rows,
+               "valid_rows": int(valid.sum()), "duration_s": float(log.time_s[-1]), "notes": list(flight.notes),
+               "warnings": list(flight.warnings),
+               "status_counts": {describe(int(s)): int((traj.status == s).sum()) for s in np.unique(traj.status)},
+               "mean_wind_speed_h_mps": float(np.mean(np.hypot(wind[valid, 0], wind[valid, 1]))) if valid.any() else None,
+               "outputs_finite": bool(np.all(np.isfinite(traj.outputs)))}
+    if flight.px4_wind is not None:
+        summary["px4"] = compare_with_px4(log.time_s, wind, valid, flight.px4_wind)
+    return summary
+
+
 def text_report(metrics: dict) -> str:
     lines = [f"rows {metrics['rows']}, scored {metrics['scored_rows']}, rejected {metrics['rejected_rows']}"]
     if "per_sample" in metrics:

@@ -169,7 +169,7 @@ def model_mutants() -> list[ModelMutant]:
         ModelMutant("quaternion order (x, y, z, w)", "dobwind.model.dynamics", "w, x, y, z = q[0], q[1], q[2], q[3]",
                     "x, y, z, w = q[0], q[1], q[2], q[3]"),
         ModelMutant("heading-frame sign", "dobwind.model.forceair", "n = -sin_yaw * force_ned[0]", "n = sin_yaw * force_ned[0]"),
-        ModelMutant("yaw_from_quaternion with w*z - x*y", "dobwind.logs", "np.arctan2(2 * (w * z + x * y)",
+        ModelMutant("yaw_from_quaternion with w*z - x*y", "dobwind.model.attitude", "np.arctan2(2 * (w * z + x * y)",
                     "np.arctan2(2 * (w * z - x * y)"),
         ModelMutant("MIN_DT_S 1e-5 -> 1e-4", "dobwind.model.status", "MIN_DT_S = 1e-5", "MIN_DT_S = 1e-4"),
         ModelMutant("DT_TOLERANCE 1e-4 -> 1e-3", "dobwind.model.status", "DT_TOLERANCE = 1e-4", "DT_TOLERANCE = 1e-3"),

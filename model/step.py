@@ -11,7 +11,8 @@ them. A rejected sample (a rejection bit in the status) leaves the estimate unch
 repeats the last accepted one, which the state carries in its ``last.*`` fields. Only the gap
 bookkeeping ``run_s`` advances on rejection (it drops to 0), so that the next accepted sample knows it
 follows a gap: it must not difference the velocity across the gap, and it starts a SETTLING period.
-Quality bits (SETTLING, EXTRAPOLATED) flag accepted samples; see status.py.
+Quality bits (SETTLING, EXTRAPOLATED) flag accepted samples; see status.py. The frames, signs and
+equations of every stage, and the paper's slips the stages correct, are in docs/model.md.
 """
 from __future__ import annotations
 
@@ -469,7 +470,7 @@ def _add_quality_stages(b: _Builder, af: Airframe, settle_s: float) -> None:
         status = ca.if_else(run_s < settle_s, bits["SETTLING"], 0)
         if env is not None:
             f = s["force_heading"]
-            fh = ca.sqrt(f[0] * f[0] + f[1] * f[1])
+            fh = forceair.horizontal_force(f[0], f[1])
             inside = _all([fh <= env.force_h_max_n, f[2] >= env.force_z_n[0], f[2] <= env.force_z_n[1],
                            s["airflow_speed_h"] <= env.airflow_h_max_mps])
             status = status + ca.if_else(inside, 0, bits["EXTRAPOLATED"])
