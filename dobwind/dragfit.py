@@ -196,9 +196,7 @@ def heading_forces(samples: DragSamples, theta: np.ndarray) -> np.ndarray:
     values = dict(zip(PARAMETERS, theta))
     # The fitted thrust scale removes kappa u_f z_b from the force the step will see.
     f = samples.observed - values["kappa"] * samples.columns[:, :, PARAMETERS.index("kappa")]
-    m = samples.cos_yaw * f[:, 0] + samples.sin_yaw * f[:, 1] - values["ox"]
-    n = -samples.sin_yaw * f[:, 0] + samples.cos_yaw * f[:, 1] - values["oy"]
-    return np.column_stack([m, n, f[:, 2]])
+    return np.column_stack(heading_force(f.T, samples.cos_yaw, samples.sin_yaw, (values["ox"], values["oy"], 0.0)))
 
 
 def predicted_airflow(samples: DragSamples, theta: np.ndarray) -> np.ndarray:
@@ -296,10 +294,7 @@ def polynomial_fit_predict(horizontal: list[Term], vertical: list[Term],
     """The paper's family on the same samples (speed regressed on force terms, air along the force), so
     that both families are scored alike."""
     def heading(samples: DragSamples) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        f = samples.observed
-        m = samples.cos_yaw * f[:, 0] + samples.sin_yaw * f[:, 1] - offset[0]
-        n = -samples.sin_yaw * f[:, 0] + samples.cos_yaw * f[:, 1] - offset[1]
-        return m, n, f[:, 2] - offset[2]
+        return heading_force(samples.observed.T, samples.cos_yaw, samples.sin_yaw, offset)
 
     def fit_predict(train: DragSamples, test: DragSamples) -> np.ndarray:
         m, n, fz = heading(train)

@@ -89,8 +89,8 @@ ONE_HOME = {
     # "wind from": atan2 of the negated wind components
     "wind from": (r"\b(arctan2|atan2)\(\s*-", "model/forceair.py"),
     # the heading-frame rotation, the -sin * x + cos * y row
-    "heading frame": (r"-\s*(s|sn|sin_yaw|np\.sin\(\w+\))\s*\*\s*[\w.]+(\[[^\]]*\])?\s*\+\s*"
-                      r"(c|cos_yaw|np\.cos\(\w+\))\s*\*", "model/forceair.py"),
+    "heading frame": (r"-\s*(\w+\.)?(s|sn|sin_yaw|np\.sin\(\w+\))\s*\*\s*[\w.]+(\[[^\]]*\])?\s*\+\s*"
+                      r"(\w+\.)?(c|cos_yaw|np\.cos\(\w+\))\s*\*", "model/forceair.py"),
     # the term variables: a table that defines "fh"
     "term variables": (r"[\"']fh[\"']\s*:", "model/forceair.py"),
     # force -> airflow direction: the guard against dividing by a vanishing horizontal force
@@ -130,6 +130,7 @@ def test_the_one_home_check_sees_a_copy(tmp_path):
     (tmp_path / "dobwind" / "copies.py").write_text(
         "raw = np.degrees(np.arctan2(-wind[:, 1], -wind[:, 0]))\n"
         "rel_c = [c * f[:, 0] + s * f[:, 1], -s * f[:, 0] + c * f[:, 1]]\n"
+        "n = -samples.sin_yaw * f[:, 0] + samples.cos_yaw * f[:, 1] - offset[1]\n"
         'env = {"m": m, "n": n, "fh": ca.sqrt(m * m + n * n), "fz": fz}\n'
         "fh = np.maximum(np.hypot(m, n), 1e-6)\n"
         "yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))\n"
