@@ -129,57 +129,77 @@ class CPrinter:
         def num(i: int) -> str:  # an argument in arithmetic context
             return f"(({self.real}){args[i]})" if bools[i] else args[i]
 
-        def truth(i: int) -> str:  # an argument in logical context, as an int 0 or 1
-            return args[i] if bools[i] else f"({args[i]} != {self.zero()})"
+        if op == ca.OP_ASSIGN:
+            return args[0], bools[0]
+        if op == ca.OP_IF_ELSE_ZERO and not bools[1]:
+            return f"({self._truth(args, bools, 0)} ? {args[1]} : {self.zero()})", False
+        arithmetic = self._arithmetic(op, num, constant_arg)
+        if arithmetic is not None:
+            return arithmetic, False
+        logical = self._logical(op, args, bools, constant_arg)
+        if logical is not None:
+            return logical, True
+        raise NotImplementedError(f"CasADi operation {op} has no C printing")
 
+    def _truth(self, args: list[str], bools: list[bool], i: int) -> str:
+        """Argument i in logical context, as an int 0 or 1."""
+        return args[i] if bools[i] else f"({args[i]} != {self.zero()})"
+
+    def _arithmetic(self, op: int, num: Callable[[int], str],
+                    constant_arg: Callable[[int], float | None]) -> str | None:
+        """A floating-point valued operation (None: not one)."""
         if op in _INFIX:
-            return f"{num(0)} {_INFIX[op]} {num(1)}", False
+            return f"{num(0)} {_INFIX[op]} {num(1)}"
         if op == ca.OP_EXPM1 and self.inline_kernels:
-            return f"{self.kernel_prefix}expm1({num(0)})", False
+            return f"{self.kernel_prefix}expm1({num(0)})"
         if op == ca.OP_ATAN2 and self.inline_kernels:
-            return f"{self.kernel_prefix}atan2({num(0)}, {num(1)})", False
+            return f"{self.kernel_prefix}atan2({num(0)}, {num(1)})"
         if op in _UNARY_CALLS:
-            return self.call(_UNARY_CALLS[op], num(0)), False
+            return self.call(_UNARY_CALLS[op], num(0))
         if op in (ca.OP_FMIN, ca.OP_FMAX):
             # Inline: no NaN reaches here (inputs are validated first, results checked after), and a
             # ternary is one instruction where fmin/fmax are library calls on many targets.
             a, b = num(0), num(1)
-            return (f"({a} < {b} ? {a} : {b})" if op == ca.OP_FMIN else f"({a} > {b} ? {a} : {b})"), False
+            return f"({a} < {b} ? {a} : {b})" if op == ca.OP_FMIN else f"({a} > {b} ? {a} : {b})"
         if op in _BINARY_CALLS:
-            return self.call(_BINARY_CALLS[op], num(0), num(1)), False
+            return self.call(_BINARY_CALLS[op], num(0), num(1))
         if op == ca.OP_NEG:
-            return f"-{num(0)}", False
-        if op == ca.OP_ASSIGN:
-            return args[0], bools[0]
+            return f"-{num(0)}"
         if op == ca.OP_SQ:
-            return f"{num(0)} * {num(0)}", False
+            return f"{num(0)} * {num(0)}"
         if op == ca.OP_TWICE:
-            return f"{self.literal(2.0)} * {num(0)}", False
+            return f"{self.literal(2.0)} * {num(0)}"
         if op == ca.OP_INV:
-            return f"{self.one()} / {num(0)}", False
+            return f"{self.one()} / {num(0)}"
         if op == ca.OP_CONSTPOW:
             exponent = constant_arg(1)
             if exponent is not None and exponent.is_integer() and 1 <= exponent <= 4:
-                return " * ".join([num(0)] * int(exponent)), False
+                return " * ".join([num(0)] * int(exponent))
             if exponent == 0.5:
-                return self.call("sqrt", num(0)), False
-            return self.call("pow", num(0), num(1)), False
+                return self.call("sqrt", num(0))
+            return self.call("pow", num(0), num(1))
+        if op == ca.OP_SIGN:
+            a = num(0)
+            return f"({a} > {self.zero()} ? {self.one()} : ({a} < {self.zero()} ? {self.literal(-1.0)} : {a}))"
+        return None
+
+    def _logical(self, op: int, args: list[str], bools: list[bool],
+                 constant_arg: Callable[[int], float | None]) -> str | None:
+        """A truth-valued operation, printed as an int 0 or 1 (None: not one)."""
+        def truth(i: int) -> str:
+            return self._truth(args, bools, i)
+
         if op in _COMPARE:
             return (f"{self._compared(args, bools, 0, op, constant_arg)} {_COMPARE[op]} "
-                    f"{self._compared(args, bools, 1, op, constant_arg)}"), True
+                    f"{self._compared(args, bools, 1, op, constant_arg)}")
         if op == ca.OP_NOT:
-            return (f"!{args[0]}" if bools[0] else f"{args[0]} == {self.zero()}"), True
+            return f"!{args[0]}" if bools[0] else f"{args[0]} == {self.zero()}"
         # Both sides are already computed and free of side effects, so bitwise & and | on 0/1 give
         # the same truth value as && and || without a branch each.
         if op == ca.OP_AND:
-            return f"{truth(0)} & {truth(1)}", True
+            return f"{truth(0)} & {truth(1)}"
         if op == ca.OP_OR:
-            return f"{truth(0)} | {truth(1)}", True
-        if op == ca.OP_IF_ELSE_ZERO:
-            if bools[1]:
-                return f"{truth(0)} & {args[1]}", True
-            return f"({truth(0)} ? {args[1]} : {self.zero()})", False
-        if op == ca.OP_SIGN:
-            a = num(0)
-            return f"({a} > {self.zero()} ? {self.one()} : ({a} < {self.zero()} ? {self.literal(-1.0)} : {a}))", False
-        raise NotImplementedError(f"CasADi operation {op} has no C printing")
+            return f"{truth(0)} | {truth(1)}"
+        if op == ca.OP_IF_ELSE_ZERO and bools[1]:
+            return f"{truth(0)} & {args[1]}"
+        return None

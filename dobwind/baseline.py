@@ -14,7 +14,7 @@ import numpy as np
 from scipy.signal import lfilter
 
 from dobwind.logs import FlightLog
-from dobwind.model.exercise import rotation_matrices
+from dobwind.model.attitude import rotation_matrices
 
 SMOOTH_S = 1.0
 SKIP_S = 10.0

@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from typing import Any, NoReturn, Sequence
+from typing import Any, Callable, NoReturn, Sequence
 
 from dobwind import options as opt
 from dobwind.helpfmt import DefaultsFormatter
@@ -70,7 +70,7 @@ def cmd_verify(args: argparse.Namespace) -> int:
 
 
 def cmd_analyze(args: argparse.Namespace) -> int:
-    from dobwind.analysis.report import analyze_command
+    from dobwind.analyze_command import analyze_command
 
     return analyze_command(args)
 
@@ -242,9 +242,8 @@ def _topic_overrides(args: argparse.Namespace) -> dict[str, str]:
 
 
 def _replay_ulog(args: argparse.Namespace, af) -> int:
-    from dobwind.model.status import accepted, describe
-    from dobwind.replay import replay_ulog, write_output
-    from dobwind.ulog import compare_with_px4
+    from dobwind.model.status import accepted
+    from dobwind.replay import autopilot_summary, replay_ulog, write_output
 
     model, flight, traj = replay_ulog(af, args.log, args.backend, args.precision, args.rate, _topic_overrides(args))
     for warning in flight.warnings:
@@ -252,14 +251,7 @@ def _replay_ulog(args: argparse.Namespace, af) -> int:
     log = flight.log
     wind = traj.outputs[:, model.outputs.slice("wind_ned")]
     valid = accepted(traj.status)  # quality-flagged samples are estimates too; status_counts shows the flags
-    summary = {"airframe": af.name, "log": str(args.log), "backend": args.backend, "rows": log.rows,
-               "valid_rows": int(valid.sum()), "duration_s": float(log.time_s[-1]), "notes": list(flight.notes),
-               "warnings": list(flight.warnings),
-               "status_counts": {describe(int(s)): int((traj.status == s).sum()) for s in np.unique(traj.status)},
-               "mean_wind_speed_h_mps": float(np.mean(np.hypot(wind[valid, 0], wind[valid, 1]))) if valid.any() else None,
-               "outputs_finite": bool(np.all(np.isfinite(traj.outputs)))}
-    if flight.px4_wind is not None:
-        summary["px4"] = compare_with_px4(log.time_s, wind, valid, flight.px4_wind)
+    summary = autopilot_summary(af.name, str(args.log), args.backend, model, flight, traj)
     with OutputFiles(_replay_targets(args)) as out:
         if args.output is not None:
             write_output(out.stage(args.output), log, traj)
@@ -307,6 +299,8 @@ def _version() -> str:
 
 AIRFRAME_HELP = "airframe TOML file (see docs/formats.md for its keys and units)"
 JSON_HELP = "print the results as JSON (indent 2, units in the key names) instead of text"
+# adds one subcommand: (name, one-line description) -> its parser
+_Command = Callable[[str, str], argparse.ArgumentParser]
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -318,11 +312,26 @@ def build_parser() -> argparse.ArgumentParser:
     def command(name: str, text: str) -> argparse.ArgumentParser:
         return sub.add_parser(name, help=text, description=text, formatter_class=DefaultsFormatter)
 
+    _add_check(command)
+    _add_generate(command)
+    _add_verify(command)
+    _add_analyze(command)
+    _add_fit(command)
+    _add_replay(command)
+    _add_simulate(command)
+    _add_report(command)
+    _add_demo(command)
+    return parser
+
+
+def _add_check(command: _Command) -> None:
     p = command("check", "validate an airframe file and summarise its estimator")
     p.add_argument("airframe", help=AIRFRAME_HELP)
     p.add_argument("--json", action="store_true", help=JSON_HELP)
     p.set_defaults(func=cmd_check)
 
+
+def _add_generate(command: _Command) -> None:
     p = command("generate", "emit C for an airframe")
     p.add_argument("airframe", help=AIRFRAME_HELP)
     p.add_argument("-o", "--output", help="output folder (default: generated_c/<name>/ in the working directory)")
@@ -330,6 +339,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="floating-point type of the generated C: float (single) or double")
     p.set_defaults(func=cmd_generate)
 
+
+def _add_verify(command: _Command) -> None:
     p = command("verify", "generate, compile strictly, compare with the Python reference")
     p.add_argument("airframe", help=AIRFRAME_HELP)
     p.add_argument("--precision", choices=("single", "double", "both"), default="both",
@@ -343,6 +354,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help=JSON_HELP)
     p.set_defaults(func=cmd_verify)
 
+
+def _add_analyze(command: _Command) -> None:
     p = command("analyze", "observer and filter poles, bandwidth, Bode plots; --bandwidth designs gains")
     p.add_argument("airframe", help=AIRFRAME_HELP)
     p.add_argument("-o", "--output", help="folder for the PNG plots (none are drawn without it); with --bandwidth: "
@@ -356,6 +369,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "the airframe with those gains (default: none, analyse the gains in the file)")
     p.set_defaults(func=cmd_analyze)
 
+
+def _add_fit(command: _Command) -> None:
     p = command("fit", "fit the force-air model from logs with true wind")
     p.add_argument("airframe", help=AIRFRAME_HELP + "; its mass, thrust model and observer are kept")
     p.add_argument("logs", nargs="+", help="calibration flight-log CSVs with true wind columns (docs/formats.md)")
@@ -392,6 +407,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help=JSON_HELP)
     p.set_defaults(func=cmd_fit)
 
+
+def _add_replay(command: _Command) -> None:
     p = command("replay", "run the estimator over a flight log")
     p.add_argument("airframe", help=AIRFRAME_HELP)
     p.add_argument("log", help="flight log: CSV (docs/formats.md) or PX4 ULog (.ulg)")
@@ -412,6 +429,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help=JSON_HELP)
     p.set_defaults(func=cmd_replay)
 
+
+def _add_simulate(command: _Command) -> None:
     p = command("simulate", "synthesize a flight log with known wind")
     p.add_argument("scenario", help="sweep (the paper's calibration) | vertical (climbs and descents) | tunnel "
                    "(60 deg, 3-10 m/s) | still-air (manoeuvres) | outdoor (turbulent)")
@@ -427,6 +446,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "airframe's size with built-in drag)")
     p.set_defaults(func=cmd_simulate)
 
+
+def _add_report(command: _Command) -> None:
     p = command("report", "one self-contained HTML page: airframe, estimate vs truth or the autopilot, errors, "
                 "status counts, analysis figures")
     p.add_argument("airframe", help=AIRFRAME_HELP)
@@ -437,10 +458,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--precision", choices=("single", "double"), default="single", help="C backend precision")
     p.set_defaults(func=cmd_report)
 
+
+def _add_demo(command: _Command) -> None:
     p = command("demo", "the whole pipeline on the reference airframe")
     p.add_argument("-o", "--output", default="out/demo", help="folder for logs, fitted airframe, plots and C")
     p.set_defaults(func=cmd_demo)
-    return parser
 
 
 def cmd_report(args: argparse.Namespace) -> int:

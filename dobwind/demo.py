@@ -20,7 +20,7 @@ from dobwind.fitfamily import fit_airframe
 from dobwind.harness.verify import verify_airframe
 from dobwind.logs import read_log, required_columns, write_atomically
 from dobwind.model import reference
-from dobwind.model.airframe import load_airframe
+from dobwind.model.airframe import Airframe, load_airframe
 from dobwind.model.airframe_toml import dump_airframe
 from dobwind.model.exercise import flight_inputs
 from dobwind.model.step import build_step
@@ -58,7 +58,22 @@ def _pipeline(out: Path, shown: Path) -> int:
     """Writes into ``out``; names ``shown`` (where the folder will be) in what it prints."""
     start = time.perf_counter()
     af = load_airframe(REFERENCE_AIRFRAME)
+    logs = _simulate(af, out, shown)
+    fitted = _fit(af, logs, out)
+    report, systems = analyze(fitted, [0.1, 0.5, 1.0])
+    write_plots(report, systems, out / "analysis")
+    obs, ramp = report["observer"][0], report["ramp"]
+    print(f"== analyze: observer bandwidth {obs['bandwidth_hz']:.3f} Hz (paper 0.5 Hz); schedule "
+          f"{'stable' if report['schedule']['stable'] else 'UNSTABLE'}; ramp lag {ramp['lag_reduction_s']:.2f} s less than "
+          f"a fixed {ramp['fixed_cutoff_hz']:g} Hz filter (paper 2.2 s); plots in {shown / 'analysis'}")
+    passed = _generate_and_verify(fitted, out, shown)
+    _print_results(_replay_scenarios(af, fitted, logs, out), shown)
+    _time_reference(fitted, start)
+    return 0 if passed and report["stable"] else 1
 
+
+def _simulate(af: Airframe, out: Path, shown: Path) -> dict[str, str]:
+    """The demo's scenario logs: name -> CSV path."""
     logs = {}
     for name, seed in SCENARIO_SEEDS.items():
         path = out / "logs" / f"{name}.csv"
@@ -66,7 +81,11 @@ def _pipeline(out: Path, shown: Path) -> int:
         logs[name] = str(path)
     print(f"== simulate: {', '.join(f'{n} ({Path(p).stat().st_size // 1_000_000} MB)' for n, p in logs.items())} "
           f"in {shown / 'logs'}")
+    return logs
 
+
+def _fit(af: Airframe, logs: dict[str, str], out: Path) -> Airframe:
+    """Calibrate on the sweep and vertical logs; writes the fitted airframe and its plot."""
     fitted, fit_report, points = fit_airframe(af, [logs["sweep"], logs["vertical"]], "auto")
     fitted_path = out / f"{af.name}_fitted.toml"
     text = dump_airframe(fitted)
@@ -75,21 +94,21 @@ def _pipeline(out: Path, shown: Path) -> int:
     print("== fit (sweep + vertical, --terms auto): " + text_report(fit_report).replace("\n", "\n   "))
     for warning in fit_report.warnings:
         print(f"   warning: {warning}")
+    return fitted
 
-    report, systems = analyze(fitted, [0.1, 0.5, 1.0])
-    write_plots(report, systems, out / "analysis")
-    obs, ramp = report["observer"][0], report["ramp"]
-    print(f"== analyze: observer bandwidth {obs['bandwidth_hz']:.3f} Hz (paper 0.5 Hz); schedule "
-          f"{'stable' if report['schedule']['stable'] else 'UNSTABLE'}; ramp lag {ramp['lag_reduction_s']:.2f} s less than "
-          f"a fixed {ramp['fixed_cutoff_hz']:g} Hz filter (paper 2.2 s); plots in {shown / 'analysis'}")
 
+def _generate_and_verify(fitted: Airframe, out: Path, shown: Path) -> bool:
     written = generate_to_dir(fitted, out / "c" / fitted.name, "single")
     print(f"== generate: {', '.join(p.name for p in written)} in {shown / 'c' / fitted.name}")
     verification = verify_airframe(fitted, "both", steps=20000)
     worst = {p.precision: p.flight.worst_ratio for p in verification.precisions if p.flight}
     print(f"== verify: {'PASS' if verification.passed else 'FAIL'} (worst error / tolerance: double {worst['double']:.3g}, "
           f"single {worst['single']:.3g}; {verification.builds_text()}, self-test)")
+    return verification.passed
 
+
+def _replay_scenarios(af: Airframe, fitted: Airframe, logs: dict[str, str], out: Path) -> dict[str, tuple[dict, dict]]:
+    """Scenario -> (our scores through the single-precision C, the tilt method's); draws each replay."""
     tilt = baseline.calibrate([read_log(logs["sweep"], required_columns(af) + [("wind_n", "truth")])])
     results = {}
     for name in ("tunnel", "still-air", "outdoor"):
@@ -102,7 +121,11 @@ def _pipeline(out: Path, shown: Path) -> int:
                     f"{fitted.name}, '{name}' scenario: estimated and true wind (C, single precision)",
                     str(out / f"replay_{name}.png"), others=[("tilt method", log.time_s, no_vertical)])
         results[name] = (ours, theirs)
+    return results
 
+
+def _print_results(results: dict[str, tuple[dict, dict]], shown: Path) -> None:
+    """The table beside the paper's figures."""
     tun, still, outdoor = results["tunnel"], results["still-air"], results["outdoor"]
     rows = [
         ("tunnel 60 deg, 3-10 m/s: speed error mean / max, m/s (per hold)", PAPER["tunnel_speed"],
@@ -130,6 +153,8 @@ def _pipeline(out: Path, shown: Path) -> int:
     for label, paper, ours, theirs in rows:
         print(f"   {label:{width}s}  {paper:>12s}  {ours:>15s}  {theirs:>15s}")
 
+
+def _time_reference(fitted: Airframe, start: float) -> None:
     model = build_step(fitted)
     rows_in = flight_inputs(model, 100_000, seed=3)
     rolled = reference.rolled_step(model)
@@ -137,4 +162,3 @@ def _pipeline(out: Path, shown: Path) -> int:
     reference.run(model, rows_in, rolled=rolled)
     print(f"== Python reference: 100,000 samples in {time.perf_counter() - t0:.2f} s; demo took "
           f"{time.perf_counter() - start:.0f} s")
-    return 0 if verification.passed and report["stable"] else 1

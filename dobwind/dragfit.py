@@ -26,10 +26,11 @@ import numpy as np
 from scipy.signal import lfilter, lfilter_zi
 
 from dobwind.model.airframe import Airframe
+from dobwind.model.attitude import rotation_matrices
 from dobwind.model.discretization import first_order
-from dobwind.model.forceair import (FORCE_DIRECTION_EPS_N, HORIZONTAL_DRAG_KEYS, ROTOR_DRAG_KEY, VERTICAL_DRAG_KEYS,
-                                    DragLaw, body_drag_airflow_numpy, body_drag_basis, drag_airflow_numpy,
-                                    heading_to_ned, horizontal_drag_basis, term_matrix)
+from dobwind.model.forceair import (HORIZONTAL_DRAG_KEYS, ROTOR_DRAG_KEY, VERTICAL_DRAG_KEYS, DragLaw,
+                                    along_force_scale, body_drag_airflow_numpy, body_drag_basis, drag_airflow_numpy,
+                                    heading_force, heading_to_ned, horizontal_drag_basis, term_matrix)
 from dobwind.model.terms import Term
 
 PARAMETERS = HORIZONTAL_DRAG_KEYS + ("ox", "oy") + VERTICAL_DRAG_KEYS + ("kappa",)
@@ -130,14 +131,6 @@ def body_columns(airflow_ned: np.ndarray, rot: np.ndarray, rotor: np.ndarray, co
     return out
 
 
-def rotation_matrices(q: np.ndarray) -> np.ndarray:
-    """(N, 3, 3) body -> NED from (N, 4) quaternions w, x, y, z of any nonzero norm."""
-    w, x, y, z = (q[:, i] / np.linalg.norm(q, axis=1) for i in range(4))
-    return np.stack([np.column_stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)]),
-                     np.column_stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)]),
-                     np.column_stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)])], axis=1)
-
-
 def _forward_fill(x: np.ndarray, valid: np.ndarray) -> np.ndarray:
     index = np.maximum.accumulate(np.where(valid, np.arange(len(valid)), 0))
     return x[index]
@@ -156,18 +149,17 @@ def log_samples(af: Airframe, cutoff_hz: float, t: np.ndarray, force_ned: np.nda
     valid[:first] = True  # filled from the first valid row; kept out of the fit by ``usable``
     airflow_ned, thrust_ned, yaw = (_forward_fill(v, valid) for v in (airflow_ned, thrust_ned, yaw))
     c, s = np.cos(yaw), np.sin(yaw)
-    air_c = np.column_stack([c * airflow_ned[:, 0] + s * airflow_ned[:, 1], -s * airflow_ned[:, 0] + c * airflow_ned[:, 1],
-                             airflow_ned[:, 2]])
+    air_c = np.column_stack(heading_force(airflow_ned.T, c, s, (0.0, 0.0, 0.0)))
     extra: dict[str, np.ndarray] = {}
     if frame == "body":
-        rot = rotation_matrices(_forward_fill(q, valid))
+        q = _forward_fill(q, valid)
+        rot = rotation_matrices(q / np.linalg.norm(q, axis=1)[:, None])
         rotor = np.sqrt(np.linalg.norm(thrust_ned, axis=1) / (af.mass_kg * af.gravity_mps2))
         ned = body_columns(airflow_ned, rot, rotor, c, s, thrust_ned)
         extra = {"rotation": rot, "rotor": rotor}
     else:
         unit = basis(air_c)
-        ned = np.stack([c[:, None] * unit[:, 0] - s[:, None] * unit[:, 1], s[:, None] * unit[:, 0] + c[:, None] * unit[:, 1],
-                        unit[:, 2]], axis=1)
+        ned = np.stack([*heading_to_ned(unit[:, 0], unit[:, 1], c[:, None], s[:, None]), unit[:, 2]], axis=1)
         ned[:, :, PARAMETERS.index("kappa")] = thrust_ned
     dt = float(np.median(np.diff(t))) if len(t) > 1 else af.observer.sample_time_s
     columns = np.empty_like(ned)
@@ -264,9 +256,7 @@ def heading_forces(samples: DragSamples, theta: np.ndarray) -> np.ndarray:
     values = dict(zip(samples.parameters, theta))
     # The fitted thrust scale removes kappa u_f z_b from the force the step will see.
     f = samples.observed - values["kappa"] * samples.columns[:, :, samples.parameters.index("kappa")]
-    m = samples.cos_yaw * f[:, 0] + samples.sin_yaw * f[:, 1] - values["ox"]
-    n = -samples.sin_yaw * f[:, 0] + samples.cos_yaw * f[:, 1] - values["oy"]
-    return np.column_stack([m, n, f[:, 2]])
+    return np.column_stack(heading_force(f.T, samples.cos_yaw, samples.sin_yaw, (values["ox"], values["oy"], 0.0)))
 
 
 def predicted_airflow(samples: DragSamples, theta: np.ndarray) -> np.ndarray:
@@ -277,8 +267,7 @@ def predicted_airflow(samples: DragSamples, theta: np.ndarray) -> np.ndarray:
     north, east = heading_to_ned(force[:, 0], force[:, 1], samples.cos_yaw, samples.sin_yaw)
     ned = body_drag_airflow_numpy(law_of(theta, "body"), np.column_stack([north, east, force[:, 2]]),
                                   samples.rotation, samples.rotor)
-    c, s = samples.cos_yaw, samples.sin_yaw
-    return np.column_stack([c * ned[:, 0] + s * ned[:, 1], -s * ned[:, 0] + c * ned[:, 1], ned[:, 2]])
+    return np.column_stack(heading_force(ned.T, samples.cos_yaw, samples.sin_yaw, (0.0, 0.0, 0.0)))
 
 
 def airflow_errors(samples: DragSamples, theta: np.ndarray) -> tuple[float, float]:
@@ -370,10 +359,7 @@ def polynomial_fit_predict(horizontal: list[Term], vertical: list[Term],
     """The paper's family on the same samples (speed regressed on force terms, air along the force), so
     that both families are scored alike."""
     def heading(samples: DragSamples) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        f = samples.observed
-        m = samples.cos_yaw * f[:, 0] + samples.sin_yaw * f[:, 1] - offset[0]
-        n = -samples.sin_yaw * f[:, 0] + samples.cos_yaw * f[:, 1] - offset[1]
-        return m, n, f[:, 2] - offset[2]
+        return heading_force(samples.observed.T, samples.cos_yaw, samples.sin_yaw, offset)
 
     def fit_predict(train: DragSamples, test: DragSamples) -> np.ndarray:
         m, n, fz = heading(train)
@@ -382,7 +368,7 @@ def polynomial_fit_predict(horizontal: list[Term], vertical: list[Term],
         c_v, *_ = np.linalg.lstsq(term_matrix(vertical, m, n, fz), train.airflow[:, 2], rcond=None)
         m, n, fz = heading(test)
         predicted = np.maximum(term_matrix(horizontal, m, n, fz) @ c_h, 0)
-        scale = predicted / np.sqrt(m * m + n * n + FORCE_DIRECTION_EPS_N ** 2)
+        scale = along_force_scale(predicted, m * m + n * n)
         return np.column_stack([scale * m, scale * n, term_matrix(vertical, m, n, fz) @ c_v])
 
     return fit_predict

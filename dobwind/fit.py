@@ -20,7 +20,6 @@ import itertools
 import math
 from dataclasses import dataclass, field
 
-import casadi as ca
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -28,11 +27,11 @@ from dobwind.analysis.figures import settling_time_s
 from dobwind.analysis.linear import axis_system
 from dobwind.envelope import calibration_envelope, uncertainty_table
 from dobwind.errors import CheckFailed, InputError
-from dobwind.logs import TRUTH_COLUMNS, FlightLog, read_log, required_columns, step_inputs, yaw_from_quaternion
-from dobwind.model import reference
+from dobwind.logs import TRUTH_COLUMNS, FlightLog, heading_yaw, read_log, required_columns, step_inputs
+from dobwind.model import forceair, reference
 from dobwind.model.airframe import Airframe, FilterSchedule, ForceAirModel
 from dobwind.model.status import accepted
-from dobwind.model.terms import Term, parse_term, term_expr
+from dobwind.model.terms import parse_term
 
 CHUNK_S = 2.0
 ZERO_AIRFLOW_MPS = 0.3
@@ -106,11 +105,7 @@ class FitReport:
 
 def _term_matrix(terms: list[str], m: np.ndarray, n: np.ndarray, fz: np.ndarray) -> np.ndarray:
     """Term values through the same CasADi grammar the step uses."""
-    sm, sn, sz = ca.SX.sym("m"), ca.SX.sym("n"), ca.SX.sym("fz")
-    env = {"m": sm, "n": sn, "fh": ca.sqrt(sm * sm + sn * sn), "fz": sz}
-    parsed: list[Term] = [parse_term(t) for t in terms]
-    f = ca.Function("terms", [sm, sn, sz], [ca.vertcat(*[term_expr(t, env) for t in parsed])])
-    return np.asarray(f.map(len(m))(m, n, fz)).T.reshape(len(m), len(terms))
+    return forceair.term_matrix([parse_term(t) for t in terms], m, n, fz)
 
 
 def _moving_mean(x: np.ndarray, window: int) -> np.ndarray:
@@ -160,13 +155,13 @@ def calibration_points(af: Airframe, logs: list[FlightLog], dynamic: bool = Fals
         t = log.time_s
         force = traj.outputs[:, model.outputs.slice("force_ned")]
         q = log.stack("q_w", "q_x", "q_y", "q_z")
-        yaw = log.columns["yaw_ref"] if log.has("yaw_ref") else yaw_from_quaternion(q)
+        yaw = heading_yaw(log, q)
         c, s = np.cos(yaw), np.sin(yaw)
-        f_c = np.column_stack([c * force[:, 0] + s * force[:, 1], -s * force[:, 0] + c * force[:, 1], force[:, 2]])
+        f_c = np.column_stack(forceair.heading_force(force.T, c, s, (0.0, 0.0, 0.0)))
         # The estimator adds the ground velocity after the observer and low-pass (delay matching), so
         # the truth it should reproduce is the true wind minus that same delayed velocity.
         rel = log.true_wind - traj.states[:, model.state.slice("v_filt")]
-        rel_c = np.column_stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1], rel[:, 2]])
+        rel_c = np.column_stack(forceair.heading_force(rel.T, c, s, (0.0, 0.0, 0.0)))
         dt = float(np.median(np.diff(t))) if len(t) > 1 else af.observer.sample_time_s
         # Smoothed over the settling time: turbulence must not count as a change, a wind step must.
         smooth = _moving_mean(rel_c, int(round(max(settle, 3.0) / dt)))
@@ -290,8 +285,8 @@ def _offset_from_directions(points: Points) -> tuple[float, float]:
         m, n = points.m - offset[0], points.n - offset[1]
         a = _term_matrix(list(DIRECTION_FREE), m, n, points.fz)
         speed = np.maximum(a @ _lstsq(a, points.speed_h), 0.0)
-        fh = np.maximum(np.hypot(m, n), 1e-6)
-        predicted = np.column_stack([speed * m / fh, speed * n / fh])
+        along = forceair.along_force_scale(speed, m * m + n * n)  # the step's own direction guard
+        predicted = np.column_stack([along * m, along * n])
         return float(np.sum((predicted - target) ** 2))
 
     result = minimize(residual, np.zeros(2), method="Nelder-Mead", options={"xatol": 1e-4, "fatol": 1e-9})
@@ -320,6 +315,28 @@ def fit_polynomial(af: Airframe, logs: list[FlightLog], terms: str = "auto",
                    dynamic: bool = False) -> tuple[Airframe, FitReport, Points]:
     """The paper's family from steady chunks (or manoeuvres with ``dynamic``)."""
     report = FitReport()
+    af, points = _calibrated_points(af, logs, dynamic, report)
+    h_terms = _horizontal_terms(af, points, terms, report)
+    (report.horizontal_coefficients, report.horizontal_rmse_mps, report.horizontal_cv_rmse_mps,
+     report.horizontal_extrapolation_rmse_mps) = _least_squares(h_terms, points, points.speed_h)
+    vertical = _vertical_model(af, points, terms, report)
+    horizontal = ForceAirModel(tuple(parse_term(t) for t in h_terms), tuple(report.horizontal_coefficients))
+    if not all(math.isfinite(c) for c in report.horizontal_coefficients + report.vertical_coefficients):
+        raise CheckFailed("the least-squares fit gave non-finite coefficients")
+    new = dataclasses.replace(af, horizontal=horizontal, vertical=vertical,
+                              observer=dataclasses.replace(af.observer, force_offset_n=tuple(report.force_offset_n)))
+    # The calibrated range and the residuals' size, for the step's EXTRAPOLATED bit and sigma outputs.
+    pred_h = np.maximum(_term_matrix(h_terms, points.m, points.n, points.fz) @ np.asarray(horizontal.coefficients), 0)
+    pred_z = _term_matrix(list(vertical.term_texts), points.m, points.n, points.fz) @ np.asarray(vertical.coefficients)
+    new = dataclasses.replace(new, envelope=calibration_envelope(np.hypot(points.m, points.n), points.fz, pred_h),
+                              uncertainty=uncertainty_table(points.speed_h, pred_h, -points.air_z, -pred_z))
+    return new, report, points
+
+
+def _calibrated_points(af: Airframe, logs: list[FlightLog], dynamic: bool,
+                       report: FitReport) -> tuple[Airframe, Points]:
+    """The thrust scale and the force offset from zero-airflow data, then the cleaned calibration points
+    with the offset removed. Returns the airframe with the new thrust scale."""
     raw, _ = calibration_points(af, logs, dynamic)
     zero = _zero_airflow(raw)
     report.zero_airflow_points = int(zero.sum())
@@ -358,7 +375,11 @@ def fit_polynomial(af: Airframe, logs: list[FlightLog], terms: str = "auto",
     report.directions = int(sum(np.sum(bins == b) >= 3 for b in range(12)))
     levels = np.round(points.speed_h / 0.5)
     report.speeds = int(sum(np.sum(levels == v) >= 3 for v in np.unique(levels)))
+    return af, points
 
+
+def _horizontal_terms(af: Airframe, points: Points, terms: str, report: FitReport) -> list[str]:
+    """The horizontal model's terms: chosen or the airframe's, narrowed when the data cannot support them."""
     if terms == "auto":
         candidates = HORIZONTAL_CANDIDATES if report.directions >= 4 else DIRECTION_FREE
         h_terms, _ = select_terms(candidates, points, points.speed_h)
@@ -373,9 +394,11 @@ def fit_polynomial(af: Airframe, logs: list[FlightLog], terms: str = "auto",
                                "speed = c * fh^0.5 (quadratic drag)")
         h_terms = ["fh^0.5"]
     report.horizontal_terms = h_terms
-    (report.horizontal_coefficients, report.horizontal_rmse_mps, report.horizontal_cv_rmse_mps,
-     report.horizontal_extrapolation_rmse_mps) = _least_squares(h_terms, points, points.speed_h)
+    return h_terms
 
+
+def _vertical_model(af: Airframe, points: Points, terms: str, report: FitReport) -> ForceAirModel:
+    """The vertical model fitted, or kept from the airframe when the data hardly move vertically."""
     vertical = af.vertical
     vertical_span = float(np.ptp(points.air_z))
     if vertical_span < 1.0:
@@ -389,17 +412,7 @@ def fit_polynomial(af: Airframe, logs: list[FlightLog], terms: str = "auto",
         (report.vertical_coefficients, report.vertical_rmse_mps, report.vertical_cv_rmse_mps,
          report.vertical_extrapolation_rmse_mps) = _least_squares(v_terms, points, points.air_z)
         vertical = ForceAirModel(tuple(parse_term(t) for t in v_terms), tuple(report.vertical_coefficients))
-    horizontal = ForceAirModel(tuple(parse_term(t) for t in h_terms), tuple(report.horizontal_coefficients))
-    if not all(math.isfinite(c) for c in report.horizontal_coefficients + report.vertical_coefficients):
-        raise CheckFailed("the least-squares fit gave non-finite coefficients")
-    new = dataclasses.replace(af, horizontal=horizontal, vertical=vertical,
-                              observer=dataclasses.replace(af.observer, force_offset_n=tuple(offset)))
-    # The calibrated range and the residuals' size, for the step's EXTRAPOLATED bit and sigma outputs.
-    pred_h = np.maximum(_term_matrix(h_terms, points.m, points.n, points.fz) @ np.asarray(horizontal.coefficients), 0)
-    pred_z = _term_matrix(list(vertical.term_texts), points.m, points.n, points.fz) @ np.asarray(vertical.coefficients)
-    new = dataclasses.replace(new, envelope=calibration_envelope(np.hypot(points.m, points.n), points.fz, pred_h),
-                              uncertainty=uncertainty_table(points.speed_h, pred_h, -points.air_z, -pred_z))
-    return new, report, points
+    return vertical
 
 
 def _errors(cv: float | None, extrapolated: float | None) -> str:

@@ -14,7 +14,7 @@ from dobwind.analysis.linear import axis_system
 from dobwind.envelope import calibration_envelope, uncertainty_table
 from dobwind.errors import CheckFailed
 from dobwind.fit import FitReport, Points, calibration_airframe, fit_polynomial, read_calibration_logs
-from dobwind.logs import FlightLog, step_inputs, yaw_from_quaternion
+from dobwind.logs import FlightLog, heading_yaw, step_inputs
 from dobwind.model import reference
 from dobwind.model.airframe import Airframe, ForceAirModel
 from dobwind.model.status import accepted
@@ -41,7 +41,7 @@ def drag_samples(af: Airframe, logs: list[FlightLog],
         traj = reference.run(model, step_inputs(model, log))
         t = log.time_s
         q = log.stack("q_w", "q_x", "q_y", "q_z")
-        yaw = log.columns["yaw_ref"] if log.has("yaw_ref") else yaw_from_quaternion(q)
+        yaw = heading_yaw(log, q)
         rejected = ~accepted(traj.status)
         rejected[0] = True
         last_reject = np.maximum.accumulate(np.where(rejected, t, -np.inf))

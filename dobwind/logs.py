@@ -1,5 +1,8 @@
 """Flight logs (CSV, docs/formats.md) in, estimates (the same page) out.
 
+Packing a log into the step's inputs is ``dobwind.inputs`` (re-exported here for the older import path);
+the quaternion maths is ``dobwind.model.attitude``.
+
 Logs are read in bounded chunks (``iter_log``, see csvchunks.py) so that replay's memory does not grow
 with the log; ``read_log`` joins them for the commands that need the whole log. Empty cells and the
 words nan/inf are values (the estimator rejects those rows with a status); text that is not a number is
@@ -18,7 +21,6 @@ from dobwind.atomic import write_text_atomically as write_atomically
 from dobwind.csvchunks import BLOCK_BYTES, read_blocks, read_header
 from dobwind.errors import InputError
 from dobwind.model.airframe import Airframe
-from dobwind.model.step import StepModel
 
 TRUTH_COLUMNS = ("wind_n", "wind_e", "wind_d")
 # The step's outputs in their order, with status inserted where the original format had it last: new
@@ -138,33 +140,6 @@ def _check_labels(columns: dict[str, np.ndarray], name: str, path: str, lines: n
         raise InputError(path, f"line {lines[row]}, column {name}", "must be a whole number on every row")
 
 
-def yaw_from_quaternion(q: np.ndarray) -> np.ndarray:
-    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
-    return np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-
-
-def step_inputs(model: StepModel, log: FlightLog, previous_t: float | None = None) -> np.ndarray:
-    """The step's input rows from a log; the first row's dt is the nominal sample time, or the time since
-    ``previous_t`` (the previous chunk's last row) when the log is read in chunks."""
-    af = model.airframe
-    t = log.time_s
-    dt = np.empty_like(t)
-    dt[0] = af.observer.sample_time_s if previous_t is None else t[0] - previous_t
-    dt[1:] = np.diff(t)
-    q = log.stack("q_w", "q_x", "q_y", "q_z")
-    values = {"dt": dt, "vel_ned": log.stack("vel_n", "vel_e", "vel_d"), "q": q,
-              "yaw_ref": log.columns["yaw_ref"] if log.has("yaw_ref") else yaw_from_quaternion(q)}
-    if "acc_ned" in model.inputs:
-        values["acc_ned"] = log.stack("acc_n", "acc_e", "acc_d")
-    if "specific_force" in model.inputs:
-        values["specific_force"] = log.stack("sf_x", "sf_y", "sf_z")
-    if "rotor_rpm" in model.inputs:
-        values["rotor_rpm"] = log.stack(*[f"rpm_{i + 1}" for i in range(af.thrust.rotors)])
-    if "thrust" in model.inputs:
-        values["thrust"] = log.columns["thrust"]
-    return model.inputs.pack(values, rows=log.rows)
-
-
 WRITE_ROWS = 4096  # rows per formatting call: bounded memory, and few enough calls to cost nothing
 
 
@@ -222,3 +197,8 @@ def estimate_writer(handle: TextIO) -> CsvWriter:
 def write_estimates(path: str | Path, t: np.ndarray, outputs: np.ndarray, status: np.ndarray) -> None:
     rows = estimate_rows(t, outputs, status)
     write_atomically(path, lambda handle: estimate_writer(handle).write(rows))
+
+
+# The older import path of the input packing (dobwind.inputs imports nothing from this module at run time).
+from dobwind.inputs import heading_yaw, step_inputs  # noqa: E402,F401
+from dobwind.model.attitude import yaw_from_quaternion  # noqa: E402,F401

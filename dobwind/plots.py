@@ -20,6 +20,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.ticker import FuncFormatter, MultipleLocator  # noqa: E402
 
+from dobwind.model.forceair import wind_from_deg  # noqa: E402
+
 MIN_DIRECTION_SPEED_MPS = 0.5  # below this a wind direction is noise (and still air has none)
 SPEED_HEADROOM = 1.15
 # (colour, line style): truth first, dobwind second, then other methods; colour-blind-safe hues.
@@ -53,7 +55,7 @@ def wind_from_unwrapped_deg(wind: np.ndarray, min_speed_mps: float = MIN_DIRECTI
     the truth's speed decides whether there is a direction to show). The result is shifted by whole
     turns so that its median lies in [0, 360)."""
     speed = np.hypot(wind[:, 0], wind[:, 1])
-    raw = np.degrees(np.arctan2(-wind[:, 1], -wind[:, 0]))
+    raw = wind_from_deg(wind[:, 0], wind[:, 1])
     out = np.full(len(raw), np.nan)
     keep = np.isfinite(raw) & (speed >= min_speed_mps if windy is None else windy)
     if not keep.any():

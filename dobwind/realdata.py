@@ -26,6 +26,7 @@ from dobwind.fitfamily import fit_airframe
 from dobwind.jsonout import dumps
 from dobwind.logs import write_csv
 from dobwind.model.airframe import load_airframe
+from dobwind.model.forceair import wind_from_deg
 from dobwind.model.status import accepted
 from dobwind.replay import WARMUP_S, replay
 from dobwind.resources import shipped_airframe
@@ -81,7 +82,7 @@ def _score(fitted, log_path: Path, nominal: float, report) -> dict:
         "nominal_mps": nominal,
         "mean_speed_mps": float(np.mean(np.hypot(wind[:, 0], wind[:, 1]))),
         "speed_of_mean_mps": float(np.hypot(mean[0], mean[1])),
-        "mean_from_deg": float(np.degrees(np.arctan2(-mean[1], -mean[0])) % 360),
+        "mean_from_deg": float(wind_from_deg(mean[0], mean[1])),
         "mean_up_mps": float(-mean[2]),
         "fit_terms": report.horizontal_terms, "fit_cv_rmse_mps": report.horizontal_cv_rmse_mps,
         "thrust_scale": report.thrust_scale, "warnings": report.warnings,

@@ -1,4 +1,7 @@
-"""`dobwind replay`: the estimator over a whole log, with error metrics when the log has true wind."""
+"""`dobwind replay`: the estimator over a whole log, with error metrics when the log has true wind.
+
+The backends are ``dobwind.backends``, the error metrics ``dobwind.scoring``; this module runs a log
+through them and reports."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -6,47 +9,16 @@ from typing import Callable, TextIO
 
 import numpy as np
 
+from dobwind.backends import Runner, run_backend
 from dobwind.csvchunks import BLOCK_BYTES
 from dobwind.logs import (FlightLog, estimate_rows, estimate_writer, iter_log, read_log, required_columns,
                           step_inputs, write_estimates)
-from dobwind.model import reference
 from dobwind.model.airframe import Airframe
 from dobwind.model.reference import Trajectory
 from dobwind.model.status import STATUS_LANDED, STATUS_NO_DATA, accepted
 from dobwind.model.step import StepModel, build_step
 from dobwind.scoring import (MIN_SPEED_FOR_DIRECTION, SEGMENT_SETTLE_S, UNIT_KEYS, WARMUP_S,  # noqa: F401 (re-exported)
                              WindScore, with_unit_keys)
-
-
-def run_backend(model: StepModel, inputs: np.ndarray, backend: str, precision: str = "single") -> Trajectory:
-    return Runner(model, backend, precision).run(inputs)
-
-
-class Runner:
-    """The chosen backend over consecutive chunks of one log, the estimator state carried from each chunk
-    to the next: the results are those of one pass over the whole log, bit for bit."""
-
-    def __init__(self, model: StepModel, backend: str, precision: str = "single") -> None:
-        self._model, self._backend, self._precision = model, backend, precision
-        if backend == "python":
-            self._rolled = reference.rolled_step(model)
-            self._state: np.ndarray | None = None
-        else:
-            from dobwind.harness.cstep import compile_step
-
-            self._cstep = compile_step(model, precision)
-            self._state = self._cstep.initial_state()
-
-    def run(self, inputs: np.ndarray) -> Trajectory:
-        if self._backend == "python":
-            traj = reference.run(self._model, inputs, self._state, self._rolled)
-            self._state = traj.states[-1].copy()
-            return traj
-        if self._precision == "single":
-            inputs = inputs.astype(np.float32).astype(np.float64)
-        traj = self._cstep.run(inputs, self._state, keep_states=False)
-        self._state = traj.states[-1].copy()
-        return traj
 
 
 def score(log: FlightLog, traj: Trajectory, model: StepModel) -> dict:
@@ -134,6 +106,26 @@ def replay_ulog(af: Airframe, path: str, backend: str = "python", precision: str
     skipped = np.where(flight.no_data, STATUS_NO_DATA, 0) | np.where(flight.landed, STATUS_LANDED, 0)
     status = np.where(skipped != 0, skipped, traj.status)
     return model, flight, Trajectory(traj.states, traj.outputs, status)
+
+
+def autopilot_summary(name: str, log_path: str, backend: str, model: StepModel, flight, traj: Trajectory) -> dict:
+    """What `replay` reports for an autopilot log (no true wind): rows, status counts, the mean estimated
+    horizontal wind, and the comparison with the autopilot's own wind when the log has one."""
+    from dobwind.model.status import describe
+    from dobwind.ulog import compare_with_px4
+
+    log = flight.log
+    wind = traj.outputs[:, model.outputs.slice("wind_ned")]
+    valid = accepted(traj.status)  # quality-flagged samples are estimates too; status_counts shows the flags
+    summary = {"airframe": name, "log": log_path, "backend": backend, "rows": log.rows,
+               "valid_rows": int(valid.sum()), "duration_s": float(log.time_s[-1]), "notes": list(flight.notes),
+               "warnings": list(flight.warnings),
+               "status_counts": {describe(int(s)): int((traj.status == s).sum()) for s in np.unique(traj.status)},
+               "mean_wind_speed_h_mps": float(np.mean(np.hypot(wind[valid, 0], wind[valid, 1]))) if valid.any() else None,
+               "outputs_finite": bool(np.all(np.isfinite(traj.outputs)))}
+    if flight.px4_wind is not None:
+        summary["px4"] = compare_with_px4(log.time_s, wind, valid, flight.px4_wind)
+    return summary
 
 
 def text_report(metrics: dict) -> str:

@@ -1,7 +1,7 @@
 """Autopilot logs (PX4 ULog, ArduPilot DataFlash, ROS 2 bags) onto one clock for the estimator.
 
-Every reader returns an ``AutopilotFlight``: the same ``FlightLog`` columns a CSV log has (INTERFACES.md
-section 2), plus the rows replay must not feed (no data, on the ground), the autopilot's own wind for
+Every reader returns an ``AutopilotFlight``: the same ``FlightLog`` columns a CSV log has (docs/formats.md,
+flight log), plus the rows replay must not feed (no data, on the ground), the autopilot's own wind for
 comparison and notes for the user. The helpers here resample one message stream onto the clock.
 """
 from __future__ import annotations

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from dobwind.model.forceair import wind_from_deg
 from dobwind.model.status import accepted, trusted
 
 WARMUP_S = 5.0           # the observer and filter start up: not scored
@@ -23,7 +24,8 @@ def wrap_deg(a: np.ndarray) -> np.ndarray:
 
 
 def from_deg(wind: np.ndarray) -> np.ndarray:
-    return np.degrees(np.arctan2(-wind[:, 1], -wind[:, 0])) % 360.0
+    """Where the wind (rows, NED) blows from, deg clockwise from north, [0, 360)."""
+    return wind_from_deg(wind[:, 0], wind[:, 1])
 
 
 @dataclass

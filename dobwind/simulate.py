@@ -22,7 +22,7 @@ from scipy.spatial.transform import Rotation
 
 from dobwind.errors import InputError
 from dobwind.model.airframe import Airframe
-from dobwind.model.exercise import rpm_for_rotor_thrust
+from dobwind.model.numeric import rpm_for_rotor_thrust
 from dobwind.vehicle import Sensors, VehicleSpec, body_force, thrust_factor
 
 SCENARIOS = ("sweep", "vertical", "tunnel", "still-air", "outdoor")

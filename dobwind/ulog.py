@@ -199,14 +199,7 @@ def read_ulog(path: str, af: Airframe, rate_hz: float | None = None) -> UlogFlig
     used = {n: d for n, d in topics.items() if d is not None}
     if thrust_src:
         used[thrust_src[0]] = thrust_src[1]
-    start = max(d["t"][0] for d in used.values())
-    stop = min(d["t"][-1] for d in used.values())
-    if not stop > start:
-        raise InputError(path, None, "the needed topics do not overlap in time")
-    att_t = topics["vehicle_attitude"]["t"]
-    clock = (np.arange(start, stop, 1.0 / rate_hz) if rate_hz else att_t[(att_t >= start) & (att_t <= stop)])
-    if len(clock) < 2:
-        raise InputError(path, None, "fewer than two instants to resample onto")
+    clock = _clock(path, used, topics["vehicle_attitude"]["t"], rate_hz)
     max_gap = af.limits.max_dt_s
     no_data, culprits = source_gaps({name: (d["t"], ROTOR_MAX_GAP_S if name == "esc_status" else max_gap)
                                      for name, d in used.items()}, clock)
@@ -218,18 +211,36 @@ def read_ulog(path: str, af: Airframe, rate_hz: float | None = None) -> UlogFlig
         no_data |= dead
         if note:
             notes.append(note)
-    px4 = None
-    for name, north, east in PX4_WIND_TOPICS:
-        src = _topic(ulog, name, [north, east])
-        if src is not None:
-            px4 = (name, src["t"] - clock[0], np.column_stack([src[north], src[east], np.zeros(len(src["t"]))]))
-            break
+    px4 = _px4_wind(ulog, clock)
     if gappy.any():
         notes.append(count_note(gappy, f"with a topic gap longer than max_dt ({max_gap:g} s; esc_status: "
                                        f"{ROTOR_MAX_GAP_S:g} s; by topic: {culprits})", "NO_DATA"))
     warnings = (f"{path}: {cut} ({clock[-1] - clock[0]:.2f} s readable)",) if cut else ()
     return UlogFlight(FlightLog(path, blank(cols, no_data | landed)), no_data, landed, px4, tuple(notes),
                       float(clock[0]), warnings)
+
+
+def _clock(path: str, used: dict, attitude_t: np.ndarray, rate_hz: float | None) -> np.ndarray:
+    """The instants every topic is resampled onto: the attitude's own clock, or ``rate_hz``, over the
+    span all needed topics cover."""
+    start = max(d["t"][0] for d in used.values())
+    stop = min(d["t"][-1] for d in used.values())
+    if not stop > start:
+        raise InputError(path, None, "the needed topics do not overlap in time")
+    clock = (np.arange(start, stop, 1.0 / rate_hz) if rate_hz
+             else attitude_t[(attitude_t >= start) & (attitude_t <= stop)])
+    if len(clock) < 2:
+        raise InputError(path, None, "fewer than two instants to resample onto")
+    return clock
+
+
+def _px4_wind(ulog, clock: np.ndarray):
+    """PX4's own wind estimate, (topic, time from the clock's start, NED wind with zero down), or None."""
+    for name, north, east in PX4_WIND_TOPICS:
+        src = _topic(ulog, name, [north, east])
+        if src is not None:
+            return name, src["t"] - clock[0], np.column_stack([src[north], src[east], np.zeros(len(src["t"]))])
+    return None
 
 
 def _columns(af: Airframe, topics: dict, thrust_src, hover_topic, hover_param, yaw_src, clock: np.ndarray,

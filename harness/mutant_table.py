@@ -48,15 +48,19 @@ MODEL_TESTS = ("tests/test_model.py", "tests/test_limits_pinned.py")
 
 
 def c_mutants(af: Airframe) -> list[CMutant]:
-    mg = af.mass_kg * af.gravity_mps2
-    rate_half = af.observer.gains[0] / af.mass_kg / 2
+    """Every C mutant for ``af``, in the order the table is reported."""
+    return (_validation_mutants(af) + _estimate_mutants(af) + _commit_mutants() + _kernel_mutants()
+            + _bias_mutants(af))
+
+
+def _validation_mutants(af: Airframe) -> list[CMutant]:
+    """Limits, operators, dropped tests and status bits of the validation."""
     cos_tilt = math.cos(math.radians(af.limits.max_tilt_deg))
     q_lo, q_hi = (1 - QUATERNION_NORM_TOLERANCE) ** 2, (1 + QUATERNION_NORM_TOLERANCE) ** 2
     top_dt = af.limits.max_dt_s * (1 + DT_TOLERANCE)
     big = INPUT_MAGNITUDE_LIMIT
     finite_test = r"(fabsf?\(in->{0}\);\n\s*const int \w+ = )(\w+) <= [^;]+;"
-    out = [
-        # --- validation: limits, operators, dropped tests, status bits -------------------------
+    return [
         CMutant("dt upper bound <= becomes <", "validate", r"in->dt <= ", "in->dt < "),
         CMutant("dt upper bound x1.001", "validate", near=top_dt, scale=1.001),
         CMutant("dt lower bound x10 (1e-5 -> 1e-4)", "validate", r"(\S+) <= in->dt", r"(\1 * ({real})10) <= in->dt"),
@@ -81,7 +85,14 @@ def c_mutants(af: Airframe) -> list[CMutant]:
         CMutant("rejection resets no run_s", "validate", r"state->run_s = 0\.0f?;(\s*\*out = state->last;\s*return \(int\)status;)",
                 r"\1"),
         CMutant("rejection returns 0", "validate", r"return \(int\)status;", "(void)status; return 0;"),
-        # --- the estimate ------------------------------------------------------------------------
+    ]
+
+
+def _estimate_mutants(af: Airframe) -> list[CMutant]:
+    """The estimate's physics, filter, force-air model, wind triangle and result check."""
+    mg = af.mass_kg * af.gravity_mps2
+    rate_half = af.observer.gains[0] / af.mass_kg / 2
+    return [
         CMutant("m*g x1.001", "external_force", near=mg, scale=1.001),
         CMutant("m*g x1.0001 (single precision's m*g)", "external_force", near=mg, scale=1.0001),
         CMutant("gravity sign", "external_force", near=mg, scale=-1.0),
@@ -97,7 +108,12 @@ def c_mutants(af: Airframe) -> list[CMutant]:
         CMutant("quaternion order in z_b (w*y -> x*y)", "attitude", r"in->q\[0\] \* in->q\[2\]", "in->q[1] * in->q[2]"),
         CMutant("result limit 1e30 x10", "check_result", r"<= ([\d.e+-]+f?);", r"<= (\1 * ({real})10);"),
         CMutant("result limit <= becomes <", "check_result", r"<= ([\d.e+-]+f?);", r"< \1;", precisions=("double",)),
-        # --- the commit and the outputs ------------------------------------------------------------
+    ]
+
+
+def _commit_mutants() -> list[CMutant]:
+    """The state commit and the outputs."""
+    return [
         CMutant("NaN wind_from_deg output", "commit", r"state->last\.wind_from_deg = wind_from_deg;",
                 "state->last.wind_from_deg = wind_from_deg + ({real})NAN;"),
         CMutant("NaN wind_sigma_h output", "commit", r"state->last\.wind_sigma_h = wind_sigma_h;",
@@ -109,7 +125,12 @@ def c_mutants(af: Airframe) -> list[CMutant]:
                 "state->vel_prev[1] = in->vel_ned[0];"),
         CMutant("v_filt[2] commits the observer value", "commit", r"state->v_filt\[2\] = v_filt_new\[2\];",
                 "state->v_filt[2] = v_obs_new[2];"),
-        # --- the single-precision kernels (codegen/kernels.py) ----------------------------------------
+    ]
+
+
+def _kernel_mutants() -> list[CMutant]:
+    """The single-precision kernels (codegen/kernels.py)."""
+    return [
         CMutant("sincos: sine cubic coefficient x1.01", "kernel:sincos", near=-1.66666546e-1, scale=1.01,
                 precisions=("single",)),
         CMutant("sincos: cosine quartic coefficient x1.01", "kernel:sincos", near=4.16666456e-2, scale=1.01,
@@ -124,16 +145,20 @@ def c_mutants(af: Airframe) -> list[CMutant]:
         CMutant("atan2: pi/2 1.57079637 -> 1.5703", "kernel:atan2", near=1.57079637, value=1.5703,
                 precisions=("single",)),
     ]
-    if af.observer.estimates_acceleration_bias:
-        out += [
-            # Single precision multiplies by the reciprocal of a constant divisor (codegen/sections.py).
-            CMutant("bias time constant / 2", "acceleration", near=af.observer.acceleration_bias_time_s, scale=0.5,
-                    precisions=("double",)),
-            CMutant("bias time constant / 2 (its reciprocal x2)", "acceleration",
-                    near=1.0 / af.observer.acceleration_bias_time_s, scale=2.0, precisions=("single",)),
-            CMutant("bias gate 0 < run_s becomes <=", "acceleration", r"0\.0f? < state->run_s", "({real})0 <= state->run_s"),
-        ]
-    return out
+
+
+def _bias_mutants(af: Airframe) -> list[CMutant]:
+    """The velocity-aided acceleration bias estimate, when the airframe has one."""
+    if not af.observer.estimates_acceleration_bias:
+        return []
+    return [
+        # Single precision multiplies by the reciprocal of a constant divisor (codegen/sections.py).
+        CMutant("bias time constant / 2", "acceleration", near=af.observer.acceleration_bias_time_s, scale=0.5,
+                precisions=("double",)),
+        CMutant("bias time constant / 2 (its reciprocal x2)", "acceleration",
+                near=1.0 / af.observer.acceleration_bias_time_s, scale=2.0, precisions=("single",)),
+        CMutant("bias gate 0 < run_s becomes <=", "acceleration", r"0\.0f? < state->run_s", "({real})0 <= state->run_s"),
+    ]
 
 
 def model_mutants() -> list[ModelMutant]:
@@ -144,7 +169,7 @@ def model_mutants() -> list[ModelMutant]:
         ModelMutant("quaternion order (x, y, z, w)", "dobwind.model.dynamics", "w, x, y, z = q[0], q[1], q[2], q[3]",
                     "x, y, z, w = q[0], q[1], q[2], q[3]"),
         ModelMutant("heading-frame sign", "dobwind.model.forceair", "n = -sin_yaw * force_ned[0]", "n = sin_yaw * force_ned[0]"),
-        ModelMutant("yaw_from_quaternion with w*z - x*y", "dobwind.logs", "np.arctan2(2 * (w * z + x * y)",
+        ModelMutant("yaw_from_quaternion with w*z - x*y", "dobwind.model.attitude", "np.arctan2(2 * (w * z + x * y)",
                     "np.arctan2(2 * (w * z - x * y)"),
         ModelMutant("MIN_DT_S 1e-5 -> 1e-4", "dobwind.model.status", "MIN_DT_S = 1e-5", "MIN_DT_S = 1e-4"),
         ModelMutant("DT_TOLERANCE 1e-4 -> 1e-3", "dobwind.model.status", "DT_TOLERANCE = 1e-4", "DT_TOLERANCE = 1e-3"),

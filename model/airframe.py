@@ -340,6 +340,63 @@ def _uncertainty(reader: _Reader) -> Uncertainty:
     return Uncertainty(speeds, columns[0], columns[1], noise[0], noise[1])
 
 
+def _observer(obs: _Reader) -> Observer:
+    sample_time = obs.number("sample_time", positive=True)
+    gains = obs.numbers("gains", length=3, positive=True)
+    discretization = obs.string("discretization", DISCRETIZATIONS)
+    acceleration = obs.string("acceleration", ACCELERATION_MODES)
+    offset = obs.numbers("force_offset", length=3, default=(0.0, 0.0, 0.0))
+    bias_time = obs.number("acceleration_bias_time", default=0.0)
+    if bias_time < 0:
+        raise obs.fail("acceleration_bias_time", f"must be >= 0 s (0: no bias estimate), got {bias_time!r}")
+    if bias_time > 0 and acceleration == "velocity":
+        raise obs.fail("acceleration_bias_time", 'needs an acceleration input; with acceleration = "velocity" '
+                       "there is no acceleration bias to estimate (set it to 0 or remove it)")
+    obs.done()
+    return Observer(sample_time, gains, discretization, acceleration, offset, bias_time)  # type: ignore[arg-type]
+
+
+def _filter(flt: _Reader, sample_time: float) -> FilterSchedule:
+    speeds = flt.numbers("speeds")
+    if speeds[0] < 0:
+        raise flt.fail("speeds", "must be >= 0")
+    if any(b <= a for a, b in zip(speeds, speeds[1:])):
+        raise flt.fail("speeds", f"must be strictly increasing, got {list(speeds)!r}")
+    cutoffs = flt.numbers("cutoffs", positive=True)
+    if len(cutoffs) != len(speeds):
+        raise flt.fail("cutoffs", f"has {len(cutoffs)} values for {len(speeds)} speeds")
+    flt.done()
+    nyquist = 0.5 / sample_time
+    if max(cutoffs) >= nyquist:
+        raise flt.fail("cutoffs", f"must stay below the Nyquist frequency {nyquist:g} Hz")
+    return FilterSchedule(speeds, cutoffs)
+
+
+def _limits(lim: _Reader | None, source: str, sample_time: float) -> Limits:
+    limits = Limits()
+    if lim is not None:
+        max_dt = lim.number("max_dt", default=DEFAULT_MAX_DT_S, positive=True)
+        max_tilt = lim.number("max_tilt_deg", default=DEFAULT_MAX_TILT_DEG, positive=True)
+        if max_tilt >= 90.0:
+            raise lim.fail("max_tilt_deg", f"must be below 90, got {max_tilt!r}")
+        lim.done()
+        limits = Limits(max_dt, max_tilt)
+    if limits.max_dt_s < sample_time:
+        raise InputError(source, "limits.max_dt", f"must be at least observer.sample_time ({sample_time:g} s)")
+    return limits
+
+
+def _ros2_topics(ros: _Reader | None) -> tuple[tuple[str, str], ...]:
+    if ros is None:
+        return ()
+    topics = tuple((role, ros.string(role)) for role in ROS2_TOPIC_ROLES if ros.has(role))
+    for role, topic in topics:
+        if not topic.startswith("/"):
+            raise ros.fail(role, f"must be an absolute topic name starting with '/', got {topic!r}")
+    ros.done()
+    return topics
+
+
 def parse_airframe(text: str, source: str) -> Airframe:
     """Validate airframe TOML text; ``source`` names the file in error messages."""
     try:
@@ -357,63 +414,17 @@ def parse_airframe(text: str, source: str) -> Airframe:
 
     thrust = _thrust(top.table_of("thrust", THRUST_KEYS))  # type: ignore[arg-type]
 
-    obs = top.table_of("observer", OBSERVER_KEYS)
-    assert obs is not None
-    sample_time = obs.number("sample_time", positive=True)
-    gains = obs.numbers("gains", length=3, positive=True)
-    discretization = obs.string("discretization", DISCRETIZATIONS)
-    acceleration = obs.string("acceleration", ACCELERATION_MODES)
-    offset = obs.numbers("force_offset", length=3, default=(0.0, 0.0, 0.0))
-    bias_time = obs.number("acceleration_bias_time", default=0.0)
-    if bias_time < 0:
-        raise obs.fail("acceleration_bias_time", f"must be >= 0 s (0: no bias estimate), got {bias_time!r}")
-    if bias_time > 0 and acceleration == "velocity":
-        raise obs.fail("acceleration_bias_time", 'needs an acceleration input; with acceleration = "velocity" '
-                       "there is no acceleration bias to estimate (set it to 0 or remove it)")
-    obs.done()
-    observer = Observer(sample_time, gains, discretization, acceleration, offset, bias_time)  # type: ignore[arg-type]
-
+    observer = _observer(top.table_of("observer", OBSERVER_KEYS))  # type: ignore[arg-type]
     fa = top.table_of("force_air", FORCE_AIR_KEYS)
     assert fa is not None
     horizontal, vertical, drag = _force_air_tables(fa)
-
-    flt = top.table_of("filter", FILTER_KEYS)
-    assert flt is not None
-    speeds = flt.numbers("speeds")
-    if speeds[0] < 0:
-        raise flt.fail("speeds", "must be >= 0")
-    if any(b <= a for a, b in zip(speeds, speeds[1:])):
-        raise flt.fail("speeds", f"must be strictly increasing, got {list(speeds)!r}")
-    cutoffs = flt.numbers("cutoffs", positive=True)
-    if len(cutoffs) != len(speeds):
-        raise flt.fail("cutoffs", f"has {len(cutoffs)} values for {len(speeds)} speeds")
-    flt.done()
-    nyquist = 0.5 / sample_time
-    if max(cutoffs) >= nyquist:
-        raise InputError(source, "filter.cutoffs", f"must stay below the Nyquist frequency {nyquist:g} Hz")
-
-    lim = top.table_of("limits", LIMITS_KEYS, required=False)
-    limits = Limits()
-    if lim is not None:
-        max_dt = lim.number("max_dt", default=DEFAULT_MAX_DT_S, positive=True)
-        max_tilt = lim.number("max_tilt_deg", default=DEFAULT_MAX_TILT_DEG, positive=True)
-        if max_tilt >= 90.0:
-            raise lim.fail("max_tilt_deg", f"must be below 90, got {max_tilt!r}")
-        lim.done()
-        limits = Limits(max_dt, max_tilt)
-    if limits.max_dt_s < sample_time:
-        raise InputError(source, "limits.max_dt", f"must be at least observer.sample_time ({sample_time:g} s)")
+    schedule = _filter(top.table_of("filter", FILTER_KEYS), observer.sample_time_s)  # type: ignore[arg-type]
+    limits = _limits(top.table_of("limits", LIMITS_KEYS, required=False), source, observer.sample_time_s)
     env = top.table_of("envelope", ENVELOPE_KEYS, required=False)
     unc = top.table_of("uncertainty", UNCERTAINTY_KEYS, required=False)
     envelope = _envelope(env) if env is not None else None
     uncertainty = _uncertainty(unc) if unc is not None else None
-    ros = top.table_of("ros2_topics", ROS2_TOPIC_ROLES, required=False)
-    ros2_topics = tuple((role, ros.string(role)) for role in ROS2_TOPIC_ROLES if ros.has(role)) if ros is not None else ()
-    for role, topic in ros2_topics:
-        if not topic.startswith("/"):
-            raise ros.fail(role, f"must be an absolute topic name starting with '/', got {topic!r}")  # type: ignore[union-attr]
-    if ros is not None:
-        ros.done()
+    ros2_topics = _ros2_topics(top.table_of("ros2_topics", ROS2_TOPIC_ROLES, required=False))
     top.done()
 
     return Airframe(
@@ -424,7 +435,7 @@ def parse_airframe(text: str, source: str) -> Airframe:
         observer=observer,
         horizontal=horizontal,
         vertical=vertical,
-        filter=FilterSchedule(speeds, cutoffs),
+        filter=schedule,
         limits=limits,
         content_sha256=hashlib.sha256(text.encode()).hexdigest(),
         envelope=envelope,

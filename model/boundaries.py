@@ -21,6 +21,7 @@ from typing import Callable
 
 import numpy as np
 
+from dobwind.model.numeric import rpm_for_rotor_thrust
 from dobwind.model.status import INPUT_MAGNITUDE_LIMIT, MIN_DT_S, DT_TOLERANCE, QUATERNION_NORM_TOLERANCE, \
     RESULT_MAGNITUDE_LIMIT
 from dobwind.model.step import StepModel
@@ -56,7 +57,6 @@ def _from_bits(bits: int, precision: str) -> float:
 
 def neutral_row(model: StepModel) -> Row:
     """A running estimator (initialized, settled) and a level, hovering, unaccelerated sample."""
-    from dobwind.model.exercise import rpm_for_rotor_thrust  # exercise imports this module
 
     af, lin, lst = model.airframe, model.inputs, model.state
     state = np.zeros(lst.size)

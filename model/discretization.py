@@ -23,7 +23,7 @@ def first_order(method: str, rate_per_s: Any, dt: Any) -> FirstOrder:
     """Coefficients for rate w (1/s) and step dt; works on CasADi SX and on NumPy/float values."""
     lib = ca if isinstance(dt, (ca.SX, ca.MX)) or isinstance(rate_per_s, (ca.SX, ca.MX)) else np
     if method == "paper":
-        # As printed in the paper: dt*lambda/(2m). It halves the continuous gain (README, Conventions).
+        # As printed in the paper: dt*lambda/(2m). It halves the continuous gain (docs/model.md, the factor 2).
         a = dt * (rate_per_s / 2)
         return FirstOrder(1 - a, a, 0 * a)
     if method == "euler":

@@ -8,50 +8,13 @@ import math
 
 import numpy as np
 
+from dobwind.model.attitude import euler_to_quaternion, rotation_matrices
+from dobwind.model.numeric import rpm_for_rotor_thrust
 from dobwind.model.step import StepModel
 
 # The largest heading the random cases use: within it the generated single-precision trig helper stays
 # within a few 1e-7 of the exact value (codegen/templates/source.c.j2).
 TRIG_CHECK_RAD = 1e4
-
-
-def euler_to_quaternion(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.ndarray:
-    """ZYX Euler angles -> (w, x, y, z), body FRD to NED. Rows are samples."""
-    cr, sr = np.cos(roll / 2), np.sin(roll / 2)
-    cp, sp = np.cos(pitch / 2), np.sin(pitch / 2)
-    cy, sy = np.cos(yaw / 2), np.sin(yaw / 2)
-    return np.stack([
-        cr * cp * cy + sr * sp * sy,
-        sr * cp * cy - cr * sp * sy,
-        cr * sp * cy + sr * cp * sy,
-        cr * cp * sy - sr * sp * cy,
-    ], axis=-1)
-
-
-def rotation_matrices(q: np.ndarray) -> np.ndarray:
-    w, x, y, z = (q[..., i] for i in range(4))
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
-    ], -2)
-
-
-def bisect_increasing(fun, target: np.ndarray, lo: float, hi: float, iterations: int = 80) -> np.ndarray:
-    """Vectorized bisection for fun(x) = target, fun increasing on [lo, hi] (elementwise)."""
-    a, b = np.full_like(target, lo, dtype=float), np.full_like(target, hi, dtype=float)
-    for _ in range(iterations):
-        mid = 0.5 * (a + b)
-        below = fun(mid) < target
-        a, b = np.where(below, mid, a), np.where(below, b, mid)
-    return 0.5 * (a + b)
-
-
-def rpm_for_rotor_thrust(coefficients: tuple[float, ...], max_rpm: float, thrust_n: np.ndarray) -> np.ndarray:
-    """Invert a per-rotor thrust polynomial (increasing on [0, 2]) by bisection, vectorized."""
-    omega = bisect_increasing(lambda x: np.polynomial.polynomial.polyval(x, coefficients),
-                              np.asarray(thrust_n, dtype=float), 0.0, 2.0, iterations=60)
-    return omega * max_rpm
 
 
 def _bad_row(model: StepModel, row: np.ndarray, kind: int, rng: np.random.Generator) -> np.ndarray:

@@ -24,7 +24,7 @@ Two families map the observed external force (heading frame c, offset removed) t
   are branch-free.
 
 Everything symbolic is CasADi SX; the NumPy helpers map the same symbolic expressions, so calibration,
-analysis and flight share one definition.
+analysis and flight share one definition. Frames and signs: docs/model.md.
 """
 from __future__ import annotations
 
@@ -98,9 +98,26 @@ def heading_to_ned(x, y, cos_yaw, sin_yaw):
     return cos_yaw * x - sin_yaw * y, sin_yaw * x + cos_yaw * y
 
 
+def _sqrt(x):
+    """Square root of SX or of NumPy values alike."""
+    return ca.sqrt(x) if isinstance(x, (ca.SX, ca.MX)) else np.sqrt(x)
+
+
+def horizontal_force(m, n):
+    """fh, the magnitude of the heading-frame horizontal force (a term variable). SX or NumPy."""
+    return _sqrt(m * m + n * n)
+
+
 def term_variables(m: ca.SX, n: ca.SX, fz: ca.SX) -> dict[str, ca.SX]:
     """The variables force-air terms are written in (docs/formats.md, force_air)."""
-    return {"m": m, "n": n, "fh": ca.sqrt(m * m + n * n), "fz": fz}
+    return {"m": m, "n": n, "fh": horizontal_force(m, n), "fz": fz}
+
+
+def along_force_scale(speed_h, fh_squared):
+    """k such that the horizontal airflow (x, y) = k (m, n): speed ``speed_h`` along the horizontal force,
+    of squared magnitude ``fh_squared``. The guard makes (m, n)/fh -> 0 instead of 0/0 below about
+    FORCE_DIRECTION_EPS_N. SX or NumPy: the step, the fit and the drag calibration use this one form."""
+    return speed_h / _sqrt(fh_squared + FORCE_DIRECTION_EPS_N ** 2)
 
 
 def polynomial_airflow(horizontal: tuple[tuple[Term, ...], tuple[float, ...]],
@@ -110,8 +127,8 @@ def polynomial_airflow(horizontal: tuple[tuple[Term, ...], tuple[float, ...]],
     variables = term_variables(m, n, fz)
     fh = variables["fh"]
     speed_h = ca.fmax(polynomial_expr(*horizontal, variables), 0)
-    # The air moves along the horizontal force; the guard makes (m, n)/fh -> 0 instead of 0/0.
-    scale = speed_h / ca.sqrt(fh * fh + FORCE_DIRECTION_EPS_N ** 2)
+    # The air moves along the horizontal force.
+    scale = along_force_scale(speed_h, fh * fh)
     return scale * m, scale * n, polynomial_expr(*vertical, variables), speed_h, scale
 
 
@@ -160,7 +177,7 @@ def _newton_step(law: DragLaw, vx: ca.SX, vy: ca.SX, m: ca.SX, n: ca.SX) -> tupl
 def drag_airflow(law: DragLaw, m: ca.SX, n: ca.SX, fz: ca.SX):
     """The drag law inverted: airflow (x, y, z), heading frame, from the heading-frame force."""
     lin, quad = law.l0, law.q0
-    fh = ca.sqrt(m * m + n * n)
+    fh = horizontal_force(m, n)
     # Isotropic law (lin + quad s) s = fh, solved in the cancellation-free form of the quadratic's root,
     # s = 2 fh / (lin + sqrt(lin^2 + 4 quad fh)), along the force: (m, n) s / fh without dividing by fh.
     scale = 2 / ca.fmax(lin + ca.sqrt(lin * lin + 4 * quad * fh), _DENOMINATOR_FLOOR)

@@ -11,12 +11,14 @@ them. A rejected sample (a rejection bit in the status) leaves the estimate unch
 repeats the last accepted one, which the state carries in its ``last.*`` fields. Only the gap
 bookkeeping ``run_s`` advances on rejection (it drops to 0), so that the next accepted sample knows it
 follows a gap: it must not difference the velocity across the gap, and it starts a SETTLING period.
-Quality bits (SETTLING, EXTRAPOLATED) flag accepted samples; see status.py.
+Quality bits (SETTLING, EXTRAPOLATED) flag accepted samples; see status.py. The frames, signs and
+equations of every stage, and the paper's slips the stages correct, are in docs/model.md.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import partial
 from typing import Callable
 
 import casadi as ca
@@ -89,8 +91,8 @@ OUTPUT_FIELDS = (
     Field("wind_speed_h", 1, "m/s", "horizontal wind speed"),
     Field("wind_speed_up", 1, "m/s", "vertical wind, positive up"),
     Field("wind_from_deg", 1, "deg", "direction the wind blows FROM, clockwise from north, [0, 360)"),
-    Field("wind_sigma_h", 1, "m/s", "1-sigma error of the horizontal wind speed: the calibration "
-          "residuals at this speed and the observer noise (-1: the airframe records no uncertainty)"),
+    Field("wind_sigma_h", 1, "m/s", "1-sigma error of the horizontal wind speed from the calibration "
+          "residuals (-1: the airframe records no uncertainty)"),
     Field("wind_sigma_up", 1, "m/s", "1-sigma error of the vertical wind (-1: unknown)"),
 )
 
@@ -171,243 +173,290 @@ def _schedule_cutoff(speeds: tuple[float, ...], cutoffs: tuple[float, ...], spee
 
 
 def build_step(af: Airframe) -> StepModel:
+    """The step of ``af``, assembled from the stage functions below in the order the C prints them."""
     lin, lstate, lout = input_layout(af), state_layout(af), output_layout()
     x = ca.SX.sym("state", lstate.size)
     u = ca.SX.sym("input", lin.size)
-    signals: Signals = {}
-    for f in lin.fields:
-        signals[f"in.{f.name}"] = u[lin.slice(f.name)]
-    for f in lstate.fields:
-        signals[f"state.{f.name}"] = x[lstate.slice(f.name)]
+    signals: Signals = {f"in.{f.name}": u[lin.slice(f.name)] for f in lin.fields}
+    signals.update({f"state.{f.name}": x[lstate.slice(f.name)] for f in lstate.fields})
     b = _Builder(signals)
-    m, g0 = af.mass_kg, af.gravity_mps2
-    obs = af.observer
+    validate_stage = b.add("validate", "reject NaN/inf, bad dt, non-unit quaternion, excessive tilt, negative "
+                           "thrust", [f"in.{f.name}" for f in lin.fields], partial(_validate, af, lin))
+    _add_front_end(b, af)
+    _add_observer_and_low_pass(b, af)
+    _add_back_end(b, af)
+    settle = settling_time_s(af)
+    _add_quality_stages(b, af, settle)
+    next_state = _next_state(lstate, signals)
+    _add_result_check(b, af)
+    step = _compose(af, signals, next_state, x, u, lstate, lout)
+    return StepModel(af, lin, lstate, lout, validate_stage, tuple(b.stages[1:-1]), b.stages[-1], next_state, step,
+                     settle)
 
-    # --- validation -----------------------------------------------------------------------------
-    def validate(s: Signals) -> Signals:
-        bits = {bit.name: bit.value for bit in STATUS_BITS}
-        every = ca.vertcat(*[s[f"in.{f.name}"] for f in lin.fields])
-        # NaN fails every comparison, so each test is false for NaN and for +-inf alike.
-        finite = _all([ca.fabs(every[i]) <= INPUT_MAGNITUDE_LIMIT for i in range(every.numel())])
-        dt = s["in.dt"]
-        dt_ok = ca.logic_and(dt >= MIN_DT_S, dt <= af.limits.max_dt_s * (1 + DT_TOLERANCE))
-        q = s["in.q"]
-        norm2 = ca.sumsqr(q)
-        q_ok = ca.logic_and(norm2 >= (1 - QUATERNION_NORM_TOLERANCE) ** 2, norm2 <= (1 + QUATERNION_NORM_TOLERANCE) ** 2)
-        # R33 = cos(tilt) = (w^2 - x^2 - y^2 + z^2) / |q|^2, compared without dividing.
-        r33_scaled = q[0] * q[0] - q[1] * q[1] - q[2] * q[2] + q[3] * q[3]
-        tilt_ok = r33_scaled >= math.cos(math.radians(af.limits.max_tilt_deg)) * norm2
-        if af.thrust.source == "rpm":
-            rpm = s["in.rotor_rpm"]
-            thrust_ok = _all([rpm[i] >= 0 for i in range(rpm.numel())])
-        else:
-            thrust_ok = s["in.thrust"] >= 0
-        status = (
-            ca.if_else(finite, 0, bits["NONFINITE"])
-            + ca.if_else(dt_ok, 0, bits["BAD_DT"])
-            + ca.if_else(q_ok, 0, bits["BAD_QUATERNION"])
-            + ca.if_else(tilt_ok, 0, bits["TILT"])
-            + ca.if_else(thrust_ok, 0, bits["BAD_THRUST"])
-        )
-        # The same tests as one truth value: the C checks this alone and assembles the status bits only
-        # for a rejected sample (validation then costs a few instructions per input).
-        accepted = _all([finite, dt_ok, q_ok, tilt_ok, thrust_ok])
-        return {"status": status, "accepted": accepted}
 
-    thrust_input = "in.rotor_rpm" if af.thrust.source == "rpm" else "in.thrust"
-    validate_stage = b.add("validate", "reject NaN/inf, bad dt, non-unit quaternion, excessive tilt, negative thrust",
-                           [f"in.{f.name}" for f in lin.fields], validate)
+# --- validation ---------------------------------------------------------------------------------------
 
-    # --- front end: external force ----------------------------------------------------------------
-    body_drag = af.drag is not None and af.drag.frame == "body"  # its force-air stage needs the attitude
-    def attitude(s: Signals) -> Signals:
-        rot = quaternion_to_rotation_any_norm(s["in.q"])  # the validated q is near unit, not exactly
-        out = {"z_b": rot[:, 2]}
-        if obs.acceleration == "specific_force" or body_drag:
-            out["rot_body_to_ned"] = ca.reshape(rot, 9, 1)
-        return out
-
-    b.add("attitude", "unit quaternion -> body down axis z_b (and rotation) in NED", ["in.q"], attitude)
-
-    def thrust(s: Signals) -> Signals:
-        scale = af.thrust.scale  # calibrated true/nominal thrust; folded into the coefficients
-        if af.thrust.source == "collective":
-            return {"u_f": s["in.thrust"] * scale if scale != 1.0 else s["in.thrust"]}
-        # sum_i P(rpm_i / max) = sum_k c_k (sum_i rpm_i^k) / max^k: one power sum per degree, fewer
-        # operations than a polynomial per rotor.
+def _validate(af: Airframe, lin: Layout, s: Signals) -> Signals:
+    bits = {bit.name: bit.value for bit in STATUS_BITS}
+    every = ca.vertcat(*[s[f"in.{f.name}"] for f in lin.fields])
+    # NaN fails every comparison, so each test is false for NaN and for +-inf alike.
+    finite = _all([ca.fabs(every[i]) <= INPUT_MAGNITUDE_LIMIT for i in range(every.numel())])
+    dt = s["in.dt"]
+    dt_ok = ca.logic_and(dt >= MIN_DT_S, dt <= af.limits.max_dt_s * (1 + DT_TOLERANCE))
+    q = s["in.q"]
+    norm2 = ca.sumsqr(q)
+    q_ok = ca.logic_and(norm2 >= (1 - QUATERNION_NORM_TOLERANCE) ** 2, norm2 <= (1 + QUATERNION_NORM_TOLERANCE) ** 2)
+    # R33 = cos(tilt) = (w^2 - x^2 - y^2 + z^2) / |q|^2, compared without dividing.
+    r33_scaled = q[0] * q[0] - q[1] * q[1] - q[2] * q[2] + q[3] * q[3]
+    tilt_ok = r33_scaled >= math.cos(math.radians(af.limits.max_tilt_deg)) * norm2
+    if af.thrust.source == "rpm":
         rpm = s["in.rotor_rpm"]
-        total: ca.SX = ca.SX(af.thrust.rotors * af.thrust.coefficients[0] * scale)
-        powers = [ca.SX(1.0)] * af.thrust.rotors
-        for k, c in enumerate(af.thrust.coefficients[1:], start=1):
-            powers = [powers[i] * rpm[i] for i in range(af.thrust.rotors)]
-            if c != 0.0:
-                power_sum = powers[0]
-                for p in powers[1:]:
-                    power_sum = power_sum + p
-                total = total + (c * scale / af.thrust.max_rpm ** k) * power_sum
-        return {"u_f": total}
+        thrust_ok = _all([rpm[i] >= 0 for i in range(rpm.numel())])
+    else:
+        thrust_ok = s["in.thrust"] >= 0
+    status = (
+        ca.if_else(finite, 0, bits["NONFINITE"])
+        + ca.if_else(dt_ok, 0, bits["BAD_DT"])
+        + ca.if_else(q_ok, 0, bits["BAD_QUATERNION"])
+        + ca.if_else(tilt_ok, 0, bits["TILT"])
+        + ca.if_else(thrust_ok, 0, bits["BAD_THRUST"])
+    )
+    # The same tests as one truth value: the C checks this alone and assembles the status bits only
+    # for a rejected sample (validation then costs a few instructions per input).
+    accepted = _all([finite, dt_ok, q_ok, tilt_ok, thrust_ok])
+    return {"status": status, "accepted": accepted}
 
-    b.add("thrust", "collective thrust u_f (N) along -z_b", [thrust_input], thrust)
 
+# --- front end: external force --------------------------------------------------------------------
+
+def _add_front_end(b: _Builder, af: Airframe) -> None:
+    """attitude, thrust, acceleration and external force: the raw f_e of every accepted sample."""
+    obs = af.observer
+    b.add("attitude", "unit quaternion -> body down axis z_b (and rotation) in NED", ["in.q"],
+          partial(_attitude, af))
+    thrust_input = "in.rotor_rpm" if af.thrust.source == "rpm" else "in.thrust"
+    b.add("thrust", "collective thrust u_f (N) along -z_b", [thrust_input], partial(_thrust, af))
     accel_inputs = {
         "ned": ["in.acc_ned"],
         "specific_force": ["in.specific_force", "rot_body_to_ned"],
         "velocity": ["in.vel_ned", "state.vel_prev", "in.dt", "state.run_s"],
     }[obs.acceleration]
-    bias_time = obs.acceleration_bias_time_s
     if obs.estimates_acceleration_bias:
         accel_inputs = accel_inputs + ["state.acc_bias", "in.vel_ned", "state.vel_prev", "in.dt", "state.run_s"]
-
-    def acceleration(s: Signals) -> Signals:
-        # vel_prev is the velocity of the previous sample only if that sample was accepted (run_s > 0);
-        # after the start or a gap, differencing would divide the whole gap's velocity change by one dt.
-        if obs.acceleration == "velocity":
-            follows = ca.if_else(s["state.run_s"] > 0, 1, 0)
-            # Backward difference; a sample with no accepted predecessor counts as unaccelerated.
-            diff = (s["in.vel_ned"] - s["state.vel_prev"]) / s["in.dt"]
-            return {"p_ddot": follows * diff}  # follows is exactly 0 or 1
-        if obs.acceleration == "ned":
-            measured = s["in.acc_ned"]
-        else:
-            rot = ca.reshape(s["rot_body_to_ned"], 3, 3)
-            measured = rot @ s["in.specific_force"] + ca.vertcat(0, 0, g0)
-        if not obs.estimates_acceleration_bias:
-            return {"p_ddot": measured}
-        follows = ca.if_else(s["state.run_s"] > 0, 1, 0)
-        # Velocity-aided bias: a real force moves the measured acceleration and the velocity's
-        # derivative alike, a sensor or attitude bias only the former. Averaged over bias_time, their
-        # difference is the bias; the differentiated velocity's noise is averaged away with it.
-        difference = measured - (s["in.vel_ned"] - s["state.vel_prev"]) / s["in.dt"]
-        weight = follows * -ca.expm1(-s["in.dt"] / bias_time)  # no bias update across a gap
-        bias = s["state.acc_bias"]
-        return {"p_ddot": measured - bias, "acc_bias_new": bias + weight * (difference - bias)}
-
     b.add("acceleration", "kinematic acceleration p'' (m/s^2, NED)"
-          + (f", minus its velocity-aided bias (time constant {bias_time:g} s)" if obs.estimates_acceleration_bias else ""),
-          accel_inputs, acceleration)
-
+          + (f", minus its velocity-aided bias (time constant {obs.acceleration_bias_time_s:g} s)"
+             if obs.estimates_acceleration_bias else ""),
+          accel_inputs, partial(_acceleration, af))
+    m, g0 = af.mass_kg, af.gravity_mps2
     b.add("external_force", "f_e solved from m p'' = -u_f z_b + m g e3 + f_e (N, NED)",
           ["p_ddot", "u_f", "z_b"],
           lambda s: {"f_e": solve_external_force(m, g0, s["p_ddot"], s["u_f"], s["z_b"])})
 
-    # --- observer, applied alike to the force and to the ground velocity -----------------------
+
+def _body_drag(af: Airframe) -> bool:
+    """The body-frame drag law: its force-air stage needs the attitude and the thrust."""
+    return af.drag is not None and af.drag.frame == "body"
+
+
+def _attitude(af: Airframe, s: Signals) -> Signals:
+    rot = quaternion_to_rotation_any_norm(s["in.q"])  # the validated q is near unit, not exactly
+    out = {"z_b": rot[:, 2]}
+    if af.observer.acceleration == "specific_force" or _body_drag(af):
+        out["rot_body_to_ned"] = ca.reshape(rot, 9, 1)
+    return out
+
+
+def _thrust(af: Airframe, s: Signals) -> Signals:
+    scale = af.thrust.scale  # calibrated true/nominal thrust; folded into the coefficients
+    if af.thrust.source == "collective":
+        return {"u_f": s["in.thrust"] * scale if scale != 1.0 else s["in.thrust"]}
+    # sum_i P(rpm_i / max) = sum_k c_k (sum_i rpm_i^k) / max^k: one power sum per degree, fewer
+    # operations than a polynomial per rotor.
+    rpm = s["in.rotor_rpm"]
+    total: ca.SX = ca.SX(af.thrust.rotors * af.thrust.coefficients[0] * scale)
+    powers = [ca.SX(1.0)] * af.thrust.rotors
+    for k, c in enumerate(af.thrust.coefficients[1:], start=1):
+        powers = [powers[i] * rpm[i] for i in range(af.thrust.rotors)]
+        if c != 0.0:
+            power_sum = powers[0]
+            for p in powers[1:]:
+                power_sum = power_sum + p
+            total = total + (c * scale / af.thrust.max_rpm ** k) * power_sum
+    return {"u_f": total}
+
+
+def _acceleration(af: Airframe, s: Signals) -> Signals:
+    obs = af.observer
+    # vel_prev is the velocity of the previous sample only if that sample was accepted (run_s > 0);
+    # after the start or a gap, differencing would divide the whole gap's velocity change by one dt.
+    if obs.acceleration == "velocity":
+        follows = ca.if_else(s["state.run_s"] > 0, 1, 0)
+        # Backward difference; a sample with no accepted predecessor counts as unaccelerated.
+        diff = (s["in.vel_ned"] - s["state.vel_prev"]) / s["in.dt"]
+        return {"p_ddot": follows * diff}  # follows is exactly 0 or 1
+    if obs.acceleration == "ned":
+        measured = s["in.acc_ned"]
+    else:
+        rot = ca.reshape(s["rot_body_to_ned"], 3, 3)
+        measured = rot @ s["in.specific_force"] + ca.vertcat(0, 0, af.gravity_mps2)
+    if not obs.estimates_acceleration_bias:
+        return {"p_ddot": measured}
+    follows = ca.if_else(s["state.run_s"] > 0, 1, 0)
+    # Velocity-aided bias: a real force moves the measured acceleration and the velocity's
+    # derivative alike, a sensor or attitude bias only the former. Averaged over bias_time, their
+    # difference is the bias; the differentiated velocity's noise is averaged away with it.
+    difference = measured - (s["in.vel_ned"] - s["state.vel_prev"]) / s["in.dt"]
+    weight = follows * -ca.expm1(-s["in.dt"] / obs.acceleration_bias_time_s)  # no bias update across a gap
+    bias = s["state.acc_bias"]
+    return {"p_ddot": measured - bias, "acc_bias_new": bias + weight * (difference - bias)}
+
+
+# --- observer and low-pass, applied alike to the force and to the ground velocity -------------------
+
+def _add_observer_and_low_pass(b: _Builder, af: Airframe) -> None:
+    obs = af.observer
     observer_inputs = ["state.f_obs", "state.v_obs", "f_e", "in.vel_ned", "in.dt", "state.initialized"]
     if obs.discretization == "tustin":
         observer_inputs += ["state.fe_prev", "state.vel_prev", "state.run_s"]
-
-    def observer(s: Signals) -> Signals:
-        rates = ca.DM(obs.gains) / m  # lambda_i / m, 1/s
-        started = s["state.initialized"]  # exactly 0 or 1, so the products below are exact
-        if obs.discretization == "tustin":
-            # After a gap the previous inputs are stale: the trapezoid then uses the current input twice.
-            follows = ca.if_else(s["state.run_s"] > 0, 1, 0)
-            fe_prev = follows * s["state.fe_prev"] + (1 - follows) * s["f_e"]
-            vel_prev = follows * s["state.vel_prev"] + (1 - follows) * s["in.vel_ned"]
-        f_new, v_new = [], []
-        for i in range(3):
-            c = first_order(obs.discretization, float(rates[i]), s["in.dt"])
-            # Before the first accepted sample the coefficients become (0, 1, 0): the estimate starts at
-            # the measurement instead of at zero, with no per-element branch.
-            pole, b0 = started * c.pole, started * c.b0 + (1 - started)
-            f_next = pole * s["state.f_obs"][i] + b0 * s["f_e"][i]
-            # The ground velocity takes the same path so that the wind triangle adds equal delays.
-            v_next = pole * s["state.v_obs"][i] + b0 * s["in.vel_ned"][i]
-            if obs.discretization == "tustin":
-                b1 = started * c.b1
-                f_next += b1 * fe_prev[i]
-                v_next += b1 * vel_prev[i]
-            f_new.append(f_next)
-            v_new.append(v_next)
-        return {"f_obs_new": ca.vertcat(*f_new), "v_obs_new": ca.vertcat(*v_new)}
-
     b.add("observer", f"disturbance observer ({obs.discretization}), gains {list(obs.gains)} kg/s",
-          observer_inputs, observer)
-
-    def low_pass(s: Signals) -> Signals:
-        cutoff = _schedule_cutoff(af.filter.speeds_mps, af.filter.cutoffs_hz, s["state.last.wind_speed_h"])
-        # ZOH-exact first order; alpha = 1 before the first accepted sample (start at the input).
-        started = s["state.initialized"]
-        alpha = started * -ca.expm1((-2 * math.pi) * cutoff * s["in.dt"]) + (1 - started)
-        keep = 1 - alpha
-        return {
-            "cutoff_hz": cutoff,
-            "f_filt_new": keep * s["state.f_filt"] + alpha * s["f_obs_new"],
-            "v_filt_new": keep * s["state.v_filt"] + alpha * s["v_obs_new"],
-        }
-
+          observer_inputs, partial(_observer, af))
     b.add("low_pass", "first-order low-pass, cutoff scheduled on the last horizontal wind speed",
           ["state.f_filt", "state.v_filt", "f_obs_new", "v_obs_new", "state.last.wind_speed_h", "in.dt",
-           "state.initialized"], low_pass)
+           "state.initialized"], partial(_low_pass, af))
 
-    # --- back end: force-air model and wind triangle ---------------------------------------------
-    def force_air(s: Signals) -> Signals:
-        c, sn = ca.cos(s["in.yaw_ref"]), ca.sin(s["in.yaw_ref"])
-        mm, nn, fz = forceair.heading_force(s["f_filt_new"], c, sn, obs.force_offset_n)
-        if body_drag:
-            # The offset is calibrated in the heading frame; the law acts on the body-frame airflow.
-            fn, fe = forceair.heading_to_ned(mm, nn, c, sn)
-            rotor = ca.sqrt(ca.fmax(s["u_f"], 0) * (1 / (m * g0)))
-            air = forceair.body_drag_airflow(af.drag, ca.vertcat(fn, fe, fz), ca.reshape(s["rot_body_to_ned"], 3, 3), rotor)
-            north, east, rel_z = air[0], air[1], air[2]
-            speed_h = ca.sqrt(north * north + east * east)
-        elif af.drag is not None:
-            rel_x, rel_y, rel_z = forceair.drag_airflow(af.drag, mm, nn, fz)
-            speed_h = ca.sqrt(rel_x * rel_x + rel_y * rel_y)
-            north, east = forceair.heading_to_ned(rel_x, rel_y, c, sn)
-        else:
-            rel_x, rel_y, rel_z, speed_h, along = forceair.polynomial_airflow(
-                (af.horizontal.terms, af.horizontal.coefficients), (af.vertical.terms, af.vertical.coefficients),
-                mm, nn, fz)
-            if obs.force_offset_n[0] == 0.0 and obs.force_offset_n[1] == 0.0:
-                # (x, y) = k (m, n) and (m, n) is the NED force turned by -yaw: turned back, k times the NED
-                # force itself (four products and two sums fewer than the rotation).
-                north, east = along * s["f_filt_new"][0], along * s["f_filt_new"][1]
-            else:
-                north, east = forceair.heading_to_ned(rel_x, rel_y, c, sn)
-        return {"force_heading": ca.vertcat(mm, nn, fz), "airflow_speed_h": speed_h,
-                "air_rel_ned": ca.vertcat(north, east, rel_z)}
 
-    b.add("force_air", "heading-frame force -> relative airflow (air minus vehicle velocity), NED"
-          + (" (body-frame drag law at the measured attitude)" if body_drag else ""),
-          ["f_filt_new", "in.yaw_ref"] + (["rot_body_to_ned", "u_f"] if body_drag else []), force_air)
+def _observer(af: Airframe, s: Signals) -> Signals:
+    obs = af.observer
+    rates = ca.DM(obs.gains) / af.mass_kg  # lambda_i / m, 1/s
+    started = s["state.initialized"]  # exactly 0 or 1, so the products below are exact
+    if obs.discretization == "tustin":
+        # After a gap the previous inputs are stale: the trapezoid then uses the current input twice.
+        follows = ca.if_else(s["state.run_s"] > 0, 1, 0)
+        fe_prev = follows * s["state.fe_prev"] + (1 - follows) * s["f_e"]
+        vel_prev = follows * s["state.vel_prev"] + (1 - follows) * s["in.vel_ned"]
+    f_new, v_new = [], []
+    for i in range(3):
+        c = first_order(obs.discretization, float(rates[i]), s["in.dt"])
+        # Before the first accepted sample the coefficients become (0, 1, 0): the estimate starts at
+        # the measurement instead of at zero, with no per-element branch.
+        pole, b0 = started * c.pole, started * c.b0 + (1 - started)
+        f_next = pole * s["state.f_obs"][i] + b0 * s["f_e"][i]
+        # The ground velocity takes the same path so that the wind triangle adds equal delays.
+        v_next = pole * s["state.v_obs"][i] + b0 * s["in.vel_ned"][i]
+        if obs.discretization == "tustin":
+            b1 = started * c.b1
+            f_next += b1 * fe_prev[i]
+            v_next += b1 * vel_prev[i]
+        f_new.append(f_next)
+        v_new.append(v_next)
+    return {"f_obs_new": ca.vertcat(*f_new), "v_obs_new": ca.vertcat(*v_new)}
 
-    def wind(s: Signals) -> Signals:
-        w = s["air_rel_ned"] + s["v_filt_new"]  # v_wind = v_rel + v_ground
-        speed_h = ca.sqrt(w[0] * w[0] + w[1] * w[1])
-        return {"wind_ned": w, "wind_speed_h": speed_h, "wind_speed_up": -w[2],
-                "wind_from_deg": forceair.wind_from_deg_sx(w[0], w[1])}
 
-    b.add("wind", "wind triangle and the reported quantities", ["air_rel_ned", "v_filt_new"], wind)
-    settle = settling_time_s(af)
-    _add_quality_stages(b, af, settle)
-
-    # --- the next state ---------------------------------------------------------------------------
-    signals["const.one"] = ca.SX(1)
-    mapping = {
-        "f_obs": "f_obs_new", "v_obs": "v_obs_new", "f_filt": "f_filt_new", "v_filt": "v_filt_new",
-        "fe_prev": "f_e", "vel_prev": "in.vel_ned", "initialized": "const.one",
-        "last.force_ned": "f_filt_new", "last.wind_ned": "wind_ned", "last.wind_speed_h": "wind_speed_h",
-        "last.wind_speed_up": "wind_speed_up", "last.wind_from_deg": "wind_from_deg",
-        "acc_bias": "acc_bias_new", "run_s": "run_s_new",
-        "last.wind_sigma_h": "wind_sigma_h", "last.wind_sigma_up": "wind_sigma_up",
+def _low_pass(af: Airframe, s: Signals) -> Signals:
+    cutoff = _schedule_cutoff(af.filter.speeds_mps, af.filter.cutoffs_hz, s["state.last.wind_speed_h"])
+    # ZOH-exact first order; alpha = 1 before the first accepted sample (start at the input).
+    started = s["state.initialized"]
+    alpha = started * -ca.expm1((-2 * math.pi) * cutoff * s["in.dt"]) + (1 - started)
+    keep = 1 - alpha
+    return {
+        "cutoff_hz": cutoff,
+        "f_filt_new": keep * s["state.f_filt"] + alpha * s["f_obs_new"],
+        "v_filt_new": keep * s["state.v_filt"] + alpha * s["v_obs_new"],
     }
-    next_state = tuple((f.name, mapping[f.name]) for f in lstate.fields)
+
+
+# --- back end: force-air model and wind triangle -------------------------------------------------
+
+def _add_back_end(b: _Builder, af: Airframe) -> None:
+    body = _body_drag(af)
+    b.add("force_air", "heading-frame force -> relative airflow (air minus vehicle velocity), NED"
+          + (" (body-frame drag law at the measured attitude)" if body else ""),
+          ["f_filt_new", "in.yaw_ref"] + (["rot_body_to_ned", "u_f"] if body else []), partial(_force_air, af))
+    b.add("wind", "wind triangle and the reported quantities", ["air_rel_ned", "v_filt_new"], _wind)
+
+
+def _force_air(af: Airframe, s: Signals) -> Signals:
+    offset = af.observer.force_offset_n
+    c, sn = ca.cos(s["in.yaw_ref"]), ca.sin(s["in.yaw_ref"])
+    mm, nn, fz = forceair.heading_force(s["f_filt_new"], c, sn, offset)
+    if _body_drag(af):
+        # The offset is calibrated in the heading frame; the law acts on the body-frame airflow.
+        fn, fe = forceair.heading_to_ned(mm, nn, c, sn)
+        rotor = ca.sqrt(ca.fmax(s["u_f"], 0) * (1 / (af.mass_kg * af.gravity_mps2)))
+        air = forceair.body_drag_airflow(af.drag, ca.vertcat(fn, fe, fz), ca.reshape(s["rot_body_to_ned"], 3, 3), rotor)
+        north, east, rel_z = air[0], air[1], air[2]
+        speed_h = ca.sqrt(north * north + east * east)
+    elif af.drag is not None:
+        rel_x, rel_y, rel_z = forceair.drag_airflow(af.drag, mm, nn, fz)
+        speed_h = ca.sqrt(rel_x * rel_x + rel_y * rel_y)
+        north, east = forceair.heading_to_ned(rel_x, rel_y, c, sn)
+    else:
+        rel_x, rel_y, rel_z, speed_h, along = forceair.polynomial_airflow(
+            (af.horizontal.terms, af.horizontal.coefficients), (af.vertical.terms, af.vertical.coefficients),
+            mm, nn, fz)
+        if offset[0] == 0.0 and offset[1] == 0.0:
+            # (x, y) = k (m, n) and (m, n) is the NED force turned by -yaw: turned back, k times the NED
+            # force itself (four products and two sums fewer than the rotation).
+            north, east = along * s["f_filt_new"][0], along * s["f_filt_new"][1]
+        else:
+            north, east = forceair.heading_to_ned(rel_x, rel_y, c, sn)
+    return {"force_heading": ca.vertcat(mm, nn, fz), "airflow_speed_h": speed_h,
+            "air_rel_ned": ca.vertcat(north, east, rel_z)}
+
+
+def _wind(s: Signals) -> Signals:
+    w = s["air_rel_ned"] + s["v_filt_new"]  # v_wind = v_rel + v_ground
+    speed_h = ca.sqrt(w[0] * w[0] + w[1] * w[1])
+    return {"wind_ned": w, "wind_speed_h": speed_h, "wind_speed_up": -w[2],
+            "wind_from_deg": forceair.wind_from_deg_sx(w[0], w[1])}
+
+
+# --- the next state and the result check -----------------------------------------------------------
+
+# state field -> the signal that becomes it on an accepted sample
+_NEXT_STATE_SIGNAL = {
+    "f_obs": "f_obs_new", "v_obs": "v_obs_new", "f_filt": "f_filt_new", "v_filt": "v_filt_new",
+    "fe_prev": "f_e", "vel_prev": "in.vel_ned", "initialized": "const.one",
+    "last.force_ned": "f_filt_new", "last.wind_ned": "wind_ned", "last.wind_speed_h": "wind_speed_h",
+    "last.wind_speed_up": "wind_speed_up", "last.wind_from_deg": "wind_from_deg",
+    "acc_bias": "acc_bias_new", "run_s": "run_s_new",
+    "last.wind_sigma_h": "wind_sigma_h", "last.wind_sigma_up": "wind_sigma_up",
+}
+
+
+def _next_state(lstate: Layout, signals: Signals) -> tuple[tuple[str, str], ...]:
+    """(state field, signal) for every field; adds the constant that ``initialized`` becomes."""
+    signals["const.one"] = ca.SX(1)
+    return tuple((f.name, _NEXT_STATE_SIGNAL[f.name]) for f in lstate.fields)
+
+
+def _committed(af: Airframe) -> list[str]:
     # Every other committed value reaches the outputs (f_e and the observer through the low-pass, the
     # velocity paths through the wind triangle), so a non-finite state cannot hide from this check.
     committed = ["f_filt_new", "wind_ned", "wind_speed_h"]
-    if obs.estimates_acceleration_bias:
+    if af.observer.estimates_acceleration_bias:
         committed.append("acc_bias_new")  # reaches the outputs only from the next sample on
+    return committed
 
-    def check_result(s: Signals) -> Signals:
-        # One sum: NaN and infinity propagate into it, and so does any overflow. The wind speed is a square
-        # root, never negative, so it needs no fabs.
-        values = [ca.fabs(s[name]) if name != "wind_speed_h" else s[name] for name in committed]
-        ok = ca.sum1(ca.vertcat(*values)) <= RESULT_MAGNITUDE_LIMIT
-        bit = next(b.value for b in STATUS_BITS if b.name == "NUMERIC")
-        return {"result_status": ca.if_else(ok, 0, bit)}
 
+def _add_result_check(b: _Builder, af: Airframe) -> None:
+    committed = _committed(af)
     b.add("check_result", "an accepted sample must give a finite result, else it is rejected too", committed,
-          check_result)
+          partial(_check_result, committed))
+
+
+def _check_result(committed: list[str], s: Signals) -> Signals:
+    # One sum: NaN and infinity propagate into it, and so does any overflow. The wind speed is a square
+    # root, never negative, so it needs no fabs.
+    values = [ca.fabs(s[name]) if name != "wind_speed_h" else s[name] for name in committed]
+    ok = ca.sum1(ca.vertcat(*values)) <= RESULT_MAGNITUDE_LIMIT
+    bit = next(b.value for b in STATUS_BITS if b.name == "NUMERIC")
+    return {"result_status": ca.if_else(ok, 0, bit)}
+
+
+def _compose(af: Airframe, signals: Signals, next_state: tuple[tuple[str, str], ...], x: ca.SX, u: ca.SX,
+             lstate: Layout, lout: Layout) -> ca.Function:
+    """The whole step: commit the proposed state on acceptance, else hold it (but for the gap bookkeeping)."""
     proposed = ca.vertcat(*[signals[sig] for _, sig in next_state])
     rejected = ca.if_else(signals["status"] == 0, signals["result_status"], signals["status"])
     reset = dict(StepModel.reset_on_reject)
@@ -415,21 +464,13 @@ def build_step(af: Airframe) -> StepModel:
     x_next = ca.densify(ca.if_else(rejected == 0, proposed, held))
     status = ca.if_else(rejected == 0, signals["quality_status"], rejected)
     y = ca.vertcat(*[x_next[lstate.slice(f"last.{f.name}")] for f in lout.fields])
-    step = ca.Function(f"{af.name}_step", [x, u], [x_next, y, status], ["state", "input"],
+    return ca.Function(f"{af.name}_step", [x, u], [x_next, y, status], ["state", "input"],
                        ["state_next", "output", "status"], {"cse": True})
-    return StepModel(af, lin, lstate, lout, validate_stage, tuple(b.stages[1:-1]), b.stages[-1], next_state, step,
-                     settle)
 
 
 def _interp(speeds: tuple[float, ...], values: tuple[float, ...], speed: ca.SX) -> ca.SX:
     """Piecewise linear over speed, clamped outside (the same form as the cutoff schedule)."""
     return _schedule_cutoff(speeds, values, speed)
-
-
-def _quadrature(model_sigma: ca.SX, noise: float) -> ca.SX:
-    """The model's error and the observer noise are independent: their variances add. Without a noise
-    term the model's sigma passes unchanged (no sqrt(x*x) in the generated code)."""
-    return ca.sqrt(model_sigma * model_sigma + noise * noise) if noise > 0 else model_sigma
 
 
 def _add_quality_stages(b: _Builder, af: Airframe, settle_s: float) -> None:
@@ -443,7 +484,7 @@ def _add_quality_stages(b: _Builder, af: Airframe, settle_s: float) -> None:
         status = ca.if_else(run_s < settle_s, bits["SETTLING"], 0)
         if env is not None:
             f = s["force_heading"]
-            fh = ca.sqrt(f[0] * f[0] + f[1] * f[1])
+            fh = forceair.horizontal_force(f[0], f[1])
             inside = _all([fh <= env.force_h_max_n, f[2] >= env.force_z_n[0], f[2] <= env.force_z_n[1],
                            s["airflow_speed_h"] <= env.airflow_h_max_mps])
             status = status + ca.if_else(inside, 0, bits["EXTRAPOLATED"])
@@ -458,10 +499,9 @@ def _add_quality_stages(b: _Builder, af: Airframe, settle_s: float) -> None:
         if unc is None:
             return {"wind_sigma_h": ca.SX(UNKNOWN_SIGMA), "wind_sigma_up": ca.SX(UNKNOWN_SIGMA)}
         speed = s["airflow_speed_h"]
-        return {"wind_sigma_h": _quadrature(_interp(unc.speeds_mps, unc.sigma_h_mps, speed), unc.noise_h_mps),
-                "wind_sigma_up": _quadrature(_interp(unc.speeds_mps, unc.sigma_up_mps, speed), unc.noise_up_mps)}
+        return {"wind_sigma_h": _interp(unc.speeds_mps, unc.sigma_h_mps, speed),
+                "wind_sigma_up": _interp(unc.speeds_mps, unc.sigma_up_mps, speed)}
 
     b.add("uncertainty", "1-sigma wind errors from the calibration residuals at the model's airflow speed"
-          f" and the observer noise ({unc.noise_h_mps:g} m/s horizontal, {unc.noise_up_mps:g} m/s vertical)"
           if unc is not None else "no [uncertainty] table: sigma outputs are -1 (unknown)",
           ["airflow_speed_h"] if unc is not None else [], uncertainty)

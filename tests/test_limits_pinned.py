@@ -10,13 +10,13 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from dobwind.codegen.printer import directed_float
-from dobwind.logs import yaw_from_quaternion
+from dobwind.model.attitude import yaw_from_quaternion
 from dobwind.model.airframe import load_airframe
 from dobwind.model.boundaries import neutral_row
 from dobwind.model.step import build_step
 from tests.helpers import M300
 
-REJECTED = 0x3F  # NONFINITE .. NUMERIC (INTERFACES.md section 5)
+REJECTED = 0x3F  # NONFINITE .. NUMERIC (docs/c-api.md, the status)
 
 
 @pytest.fixture(scope="module")

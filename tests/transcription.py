@@ -1,4 +1,5 @@
-"""An independent NumPy transcription of the estimator, written from MODEL.md, not from the CasADi code.
+"""An independent NumPy transcription of the estimator, written from the equations in
+docs/model.md (and the paper), not from the CasADi code.
 
 It shares only bookkeeping with the model (the Layout that says which column is which); every equation
 is written again here, in a different way where possible (rotation by quaternion products, the

@@ -18,7 +18,7 @@ import casadi as ca
 import control as ct
 import numpy as np
 
-from dobwind.model.exercise import rpm_for_rotor_thrust
+from dobwind.model.numeric import rpm_for_rotor_thrust
 from dobwind.model.step import StepModel
 
 

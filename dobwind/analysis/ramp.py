@@ -10,11 +10,11 @@ from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
-from scipy.spatial.transform import Rotation
 
-from dobwind.model import reference
+from dobwind.model import forceair, reference
 from dobwind.model.airframe import Airframe, FilterSchedule
-from dobwind.model.exercise import bisect_increasing, rpm_for_rotor_thrust
+from dobwind.model.attitude import attitude_with_body_down, quaternion_wxyz
+from dobwind.model.numeric import bisect_increasing, rpm_for_rotor_thrust
 from dobwind.model.step import StepModel, build_step
 from dobwind.model.terms import polynomial_expr
 
@@ -24,7 +24,7 @@ LAG_LEVELS_MPS = np.arange(2.0, 9.01, 0.5)
 
 def _model_functions(af: Airframe) -> tuple[ca.Function, ca.Function]:
     m, n, fz = ca.SX.sym("m"), ca.SX.sym("n"), ca.SX.sym("fz")
-    env = {"m": m, "n": n, "fh": ca.sqrt(m * m + n * n), "fz": fz}
+    env = forceair.term_variables(m, n, fz)
     horizontal = ca.Function("h", [m, n, fz], [polynomial_expr(af.horizontal.terms, af.horizontal.coefficients, env)])
     vertical = ca.Function("v", [m, n, fz], [polynomial_expr(af.vertical.terms, af.vertical.coefficients, env)])
     return horizontal, vertical
@@ -54,7 +54,7 @@ def force_for_airflow(af: Airframe, air_rel_ned: np.ndarray, yaw: np.ndarray, ma
     horizontal, vertical = _model_functions(af)
     h_map = horizontal.map(len(yaw))
     c, s = np.cos(yaw), np.sin(yaw)
-    rel_c = np.stack([c * air_rel_ned[:, 0] + s * air_rel_ned[:, 1], -s * air_rel_ned[:, 0] + c * air_rel_ned[:, 1]], 1)
+    rel_c = np.stack(forceair.heading_force(air_rel_ned.T, c, s, (0.0, 0.0, 0.0))[:2], 1)
     speed = np.hypot(rel_c[:, 0], rel_c[:, 1])
     direction = np.where(speed[:, None] > 0, rel_c / np.maximum(speed, 1e-12)[:, None], [1.0, 0.0])
     h_of = lambda fh: np.asarray(h_map(fh * direction[:, 0], fh * direction[:, 1], np.zeros_like(fh))).ravel()
@@ -67,7 +67,7 @@ def force_for_airflow(af: Airframe, air_rel_ned: np.ndarray, yaw: np.ndarray, ma
         fz = _monotone_inverse(v_grid, grid, len(grid) // 2, air_rel_ned[:, 2])
     off = np.asarray(af.observer.force_offset_n)
     m_c, n_c = fh * direction[:, 0] + off[0], fh * direction[:, 1] + off[1]
-    return np.stack([c * m_c - s * n_c, s * m_c + c * n_c, fz + off[2]], 1)
+    return np.stack([*forceair.heading_to_ned(m_c, n_c, c, s), fz + off[2]], 1)
 
 
 def hover_inputs(model: StepModel, force_ned: np.ndarray, yaw: np.ndarray, dt: float) -> np.ndarray:
@@ -78,15 +78,9 @@ def hover_inputs(model: StepModel, force_ned: np.ndarray, yaw: np.ndarray, dt: f
     need = af.mass_kg * af.gravity_mps2 * np.array([0, 0, 1.0]) + force_ned
     true_thrust = np.linalg.norm(need, axis=1)
     thrust = true_thrust / af.thrust.scale  # what the sensors report, through the calibrated scale
-    z = need / true_thrust[:, None]
-    heading = np.stack([np.cos(yaw), np.sin(yaw), np.zeros(n)], 1)
-    y = np.cross(z, heading)
-    y /= np.linalg.norm(y, axis=1)[:, None]
-    x = np.cross(y, z)
-    rot = Rotation.from_matrix(np.stack([x, y, z], axis=2))
-    xyzw = rot.as_quat()
+    rot = attitude_with_body_down(need / true_thrust[:, None], yaw)
     values = {"dt": np.full(n, dt), "vel_ned": np.zeros((n, 3)), "acc_ned": np.zeros((n, 3)),
-              "q": np.column_stack([xyzw[:, 3], xyzw[:, :3]]), "yaw_ref": yaw, "thrust": thrust,
+              "q": quaternion_wxyz(rot), "yaw_ref": yaw, "thrust": thrust,
               "specific_force": rot.inv().apply(np.tile([0, 0, -af.gravity_mps2], (n, 1)))}
     if "rotor_rpm" in model.inputs:
         values["rotor_rpm"] = rpm_for_rotor_thrust(af.thrust.coefficients, af.thrust.max_rpm,

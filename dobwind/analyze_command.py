@@ -1,0 +1,88 @@
+"""`dobwind analyze` as a command: the arguments in, the report and plots out, the exit code back.
+
+The analysis itself (``dobwind.analysis.report``) knows nothing of argparse or exit codes; this module
+checks the arguments, designs the gains for ``--bandwidth``, writes the outputs and says whether the
+airframe passed.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+from dobwind.analysis.design import design_gain, with_gains
+from dobwind.analysis.report import analyze, text, write_plots
+from dobwind.errors import EXIT_CHECK_FAILED, InputError
+from dobwind.jsonout import print_json
+from dobwind.logs import write_atomically
+from dobwind.model.airframe import Airframe, load_airframe
+from dobwind.model.airframe_toml import dump_airframe
+from dobwind.options import MAX_FREQUENCIES
+from dobwind.outputs import OutputFiles, Target, check_targets
+
+
+def _check_frequencies(af: Airframe, source: str, freqs_hz: list[float]) -> None:
+    """A discrete system has no response above Nyquist to report: refuse instead of aliasing."""
+    nyquist = 0.5 / af.observer.sample_time_s
+    if len(freqs_hz) > MAX_FREQUENCIES:
+        raise InputError(source, "--freq", f"at most {MAX_FREQUENCIES} frequencies, got {len(freqs_hz)}")
+    for f in freqs_hz:
+        if not f < nyquist:
+            raise InputError(source, "--freq", f"{f:g} Hz is not below the Nyquist frequency {nyquist:g} Hz "
+                             f"(1 / (2 * observer.sample_time))")
+
+
+def analyze_command(args: argparse.Namespace) -> int:
+    """Analyse the airframe; with --bandwidth, first replace its gains by the designed ones, write that
+    airframe to -o (a TOML file in this mode, not a plot folder) and analyse it."""
+    designing = args.bandwidth is not None
+    target = None if args.output is None else Target("-o", args.output, "file" if designing else "dir")
+    if target is not None:
+        check_targets([target], [args.airframe])
+    af = load_airframe(args.airframe)
+    _check_frequencies(af, args.airframe, list(args.freq))
+    design = _designed(af, args) if designing else None
+    if design is not None:
+        af = design[0]
+    report, systems = analyze(af, list(args.freq))
+    if design is not None:
+        report["design"] = design[1]
+        report["gains"] = design[1]["gains"]  # the key `analyze --bandwidth --json` printed before the design block
+    if target is not None:
+        with OutputFiles([target]) as out:
+            if designing:
+                text_toml = dump_airframe(af)
+                write_atomically(out.stage(args.output), lambda handle: handle.write(text_toml))
+            else:
+                report["plots"] = [str(p) for p in write_plots(report, systems, Path(args.output), out.stage)]
+    if args.json:
+        print_json(report)
+    else:
+        if design is not None:
+            print(_design_text(design[1]))
+        print(text(report, list(args.freq)))
+    if not report["stable"]:
+        sys.stderr.write(f"dobwind analyze: {af.name}: unstable: {report['unstable_reason'] or 'a pole is outside the unit circle'}\n")
+        return EXIT_CHECK_FAILED
+    return 0
+
+
+def _designed(af: Airframe, args: argparse.Namespace) -> tuple[Airframe, dict[str, Any]]:
+    """The airframe with the gains that give --bandwidth, and what to report about the design."""
+    try:
+        gain = design_gain(af, args.bandwidth)
+    except InputError as exc:  # name the file the user gave, not the airframe inside it
+        raise InputError(args.airframe, exc.where, exc.message) from None
+    new = with_gains(af, (gain, gain, gain))
+    return new, {"bandwidth_hz": args.bandwidth, "gains": [gain, gain, gain], "gains_kg_per_s": [gain, gain, gain],
+                 "previous_gains_kg_per_s": list(af.observer.gains), "sample_time_s": af.observer.sample_time_s,
+                 "discretization": af.observer.discretization, "airframe_file": args.output}
+
+
+def _design_text(design: dict[str, Any]) -> str:
+    g = design["gains_kg_per_s"][0]
+    where = f"; written to {design['airframe_file']}" if design["airframe_file"] else " (not written: no -o)"
+    return (f"designed observer gains for a {design['bandwidth_hz']:g} Hz bandwidth at dt {design['sample_time_s']:g} s "
+            f"({design['discretization']}):\ngains = [{g:.6g}, {g:.6g}, {g:.6g}]{where}\n")
+
