@@ -91,8 +91,8 @@ OUTPUT_FIELDS = (
     Field("wind_speed_h", 1, "m/s", "horizontal wind speed"),
     Field("wind_speed_up", 1, "m/s", "vertical wind, positive up"),
     Field("wind_from_deg", 1, "deg", "direction the wind blows FROM, clockwise from north, [0, 360)"),
-    Field("wind_sigma_h", 1, "m/s", "1-sigma error of the horizontal wind speed from the calibration "
-          "residuals (-1: the airframe records no uncertainty)"),
+    Field("wind_sigma_h", 1, "m/s", "1-sigma error of the horizontal wind speed: the calibration "
+          "residuals at this speed and the observer noise (-1: the airframe records no uncertainty)"),
     Field("wind_sigma_up", 1, "m/s", "1-sigma error of the vertical wind (-1: unknown)"),
 )
 
@@ -473,6 +473,12 @@ def _interp(speeds: tuple[float, ...], values: tuple[float, ...], speed: ca.SX) 
     return _schedule_cutoff(speeds, values, speed)
 
 
+def _quadrature(model_sigma: ca.SX, noise: float) -> ca.SX:
+    """The model's error and the observer noise are independent: their variances add. Without a noise
+    term the model's sigma passes unchanged (no sqrt(x*x) in the generated code)."""
+    return ca.sqrt(model_sigma * model_sigma + noise * noise) if noise > 0 else model_sigma
+
+
 def _add_quality_stages(b: _Builder, af: Airframe, settle_s: float) -> None:
     """SETTLING and EXTRAPOLATED (quality bits of an accepted sample) and the sigma outputs."""
     bits = {bit.name: bit.value for bit in STATUS_BITS}
@@ -499,9 +505,10 @@ def _add_quality_stages(b: _Builder, af: Airframe, settle_s: float) -> None:
         if unc is None:
             return {"wind_sigma_h": ca.SX(UNKNOWN_SIGMA), "wind_sigma_up": ca.SX(UNKNOWN_SIGMA)}
         speed = s["airflow_speed_h"]
-        return {"wind_sigma_h": _interp(unc.speeds_mps, unc.sigma_h_mps, speed),
-                "wind_sigma_up": _interp(unc.speeds_mps, unc.sigma_up_mps, speed)}
+        return {"wind_sigma_h": _quadrature(_interp(unc.speeds_mps, unc.sigma_h_mps, speed), unc.noise_h_mps),
+                "wind_sigma_up": _quadrature(_interp(unc.speeds_mps, unc.sigma_up_mps, speed), unc.noise_up_mps)}
 
     b.add("uncertainty", "1-sigma wind errors from the calibration residuals at the model's airflow speed"
+          f" and the observer noise ({unc.noise_h_mps:g} m/s horizontal, {unc.noise_up_mps:g} m/s vertical)"
           if unc is not None else "no [uncertainty] table: sigma outputs are -1 (unknown)",
           ["airflow_speed_h"] if unc is not None else [], uncertainty)
