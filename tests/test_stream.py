@@ -90,6 +90,17 @@ def test_time_must_increase_across_chunks_and_short_rows_are_named(tmp_path, blo
         list(iter_log(str(path), block_bytes=block))
 
 
+@pytest.mark.parametrize("block", [997, 1 << 23])
+def test_a_long_row_balanced_by_short_ones_is_named_not_shifted(tmp_path, block):
+    """The block's comma total is right (4 extra on line 2, one missing on each of the last 4 lines):
+    pandas alone would take the long row's first columns as an index and shift every value."""
+    rows = ["1,2,3,4,5,6,7"] + [f"{k},{k},{k}" for k in range(2, 40)] + [f"{k},{k}" for k in range(40, 44)]
+    path = tmp_path / "long.csv"
+    path.write_text("t,x,y\n" + "\n".join(rows) + "\n")
+    with pytest.raises(InputError, match=r"line 2: has 7 fields, the header has 3"):
+        list(iter_log(str(path), block_bytes=block))
+
+
 def test_byte_order_mark_is_not_part_of_the_first_column(tmp_path):
     path = tmp_path / "bom.csv"
     path.write_bytes(b"\xef\xbb\xbf# exported\r\nt,x\r\n0.1,1\r\n0.2,nan\r\n0.3,\r\n")
