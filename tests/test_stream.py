@@ -1,6 +1,7 @@
 """Streaming replay: chunked reading, writing, stepping and scoring agree with one pass over the log."""
 from __future__ import annotations
 
+import dataclasses
 import io
 import threading
 from pathlib import Path
@@ -187,15 +188,23 @@ def test_library_cache_reuses_one_build_and_survives_concurrent_misses(tmp_path,
     for thread in threads:
         thread.join()
     assert not errors
-    assert [p.suffix for p in (tmp_path / "cache").iterdir()] == [".so"]  # one library, no temporaries
+    entries = sorted((tmp_path / "cache").iterdir())
+    # One library under its two names (the recipe's and the source's), no temporaries.
+    assert [p.suffix for p in entries] == [".so", ".so"] and not any(p.name.startswith(".") for p in entries)
+    assert entries[0].read_bytes() == entries[1].read_bytes()
 
     def no_compiler(*args, **kwargs):
-        raise AssertionError("a cache hit must not compile")
+        raise AssertionError("a cache hit must not compile, nor generate")
 
     monkeypatch.setattr(cstep, "build_shared_library", no_compiler)
+    monkeypatch.setattr(cstep, "generate_code", no_compiler)
     again = cstep.compile_step(model, "double")
     rows = flight_inputs(model, 300, seed=2)
     assert np.array_equal(again.run(rows).outputs, built[0].run(rows).outputs)
+    # Another airframe is another recipe: it must generate (and here fails to).
+    other = build_step(dataclasses.replace(model.airframe, mass_kg=model.airframe.mass_kg * 1.01))
+    with pytest.raises(AssertionError, match="must not compile, nor generate"):
+        cstep.compile_step(other, "double")
 
 
 def test_unusable_cache_folder_only_costs_the_build(tmp_path, monkeypatch):
