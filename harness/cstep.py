@@ -5,10 +5,13 @@ import ctypes
 import hashlib
 import os
 import shutil
+import sys
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
+import casadi
+import jinja2
 import numpy as np
 
 from dobwind.codegen.generate import generate_code, write_files
@@ -107,11 +110,6 @@ def _recipe_key(model: StepModel, precision: str, extra_flags: tuple[str, ...]) 
     airframe (plain values: its repr is exact), the precision, the generator's own files, the versions
     it computes the self-test vectors with, the compiler and flags. It assumes the model is
     build_step(model.airframe), as every caller's is; the step's own code is among the files hashed."""
-    import sys
-
-    import casadi
-    import jinja2
-
     digest = hashlib.sha256(repr((model.airframe, precision)).encode())
     for path in _generator_files():
         digest.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
