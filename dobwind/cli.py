@@ -391,7 +391,7 @@ def _add_fit(command: _Command) -> None:
                    help="calibrate on manoeuvring flight too (constant wind), not only on steady holds")
     p.add_argument("--force", action="store_true",
                    help="write the airframe even when the self-check fails (exit 0, with a warning)")
-    from dobwind.selfcheck import Thresholds  # the defaults live with the check
+    from dobwind.thresholds import Thresholds  # not dobwind.selfcheck: that imports scipy for every command
 
     limits = Thresholds()
     p.add_argument("--max-error-share", type=opt.ERROR_SHARE, default=limits.replay_share, metavar="SHARE",

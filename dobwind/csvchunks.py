@@ -1,7 +1,7 @@
 """Numeric CSV in bounded chunks, every row with its true line number in the file.
 
-The file is read as bytes in blocks cut at line ends. A block with no comment or blank lines and the
-right number of commas goes to pandas' C parser (about twice as fast as ``np.loadtxt`` here, measured
+The file is read as bytes in blocks cut at line ends. A block whose every line has the header's number
+of fields goes to pandas' C parser (about twice as fast as ``np.loadtxt`` here, measured
 in benchmarks/bench_replay.py); any other block (comment or blank lines inside the data, a bad cell, a
 short row) is parsed line by line, which skips those lines but keeps counting them, so that an error
 names the line an editor shows. Empty cells and the words nan/inf are values; other text is an error.
@@ -81,21 +81,32 @@ def _line_count(piece: bytes) -> int:
     return piece.count(b"\n") + (0 if piece.endswith(b"\n") else 1)
 
 
-def _clean(piece: bytes) -> bool:
-    """No blank or comment line anywhere in the block (the fast parser would skip them silently)."""
-    return (b"#" not in piece and b"\n\n" not in piece and b"\n\r\n" not in piece
-            and not piece.startswith((b"\n", b"\r\n")))
+def _rows_if_regular(piece: bytes, ncols: int) -> int | None:
+    """The number of lines when every line of the block has exactly ``ncols - 1`` commas, else None.
+
+    Checked line by line (commas before each line end, by array search): a block-wide comma count let a
+    long first row and a short later one through, which pandas then read with an implicit index column,
+    silently shifted. A blank line (no commas) or a comment line without the row's commas fails here; a
+    comment line that has them fails in the parser (its '#' is not a number)."""
+    raw = np.frombuffer(piece, dtype=np.uint8)
+    ends = np.flatnonzero(raw == ord("\n"))
+    if not piece.endswith(b"\n"):
+        ends = np.append(ends, len(piece))
+    commas_before = np.searchsorted(np.flatnonzero(raw == ord(",")), ends)
+    per_line = np.diff(commas_before, prepend=0)
+    return len(ends) if bool(np.all(per_line == ncols - 1)) else None
 
 
 def _parse_fast(piece: bytes, ncols: int) -> np.ndarray | None:
     import pandas as pd
 
-    rows = _line_count(piece)
-    if piece.count(b",") != rows * (ncols - 1):
-        return None  # a short or long row somewhere: the careful pass names it
+    rows = _rows_if_regular(piece, ncols)
+    if rows is None:
+        return None  # a blank, comment, short or long line somewhere: the careful pass skips or names it
     try:
         frame = pd.read_csv(io.BytesIO(piece), header=None, names=range(ncols), dtype=np.float64, engine="c",
-                            keep_default_na=False, na_values=["", "nan", "NaN"], skip_blank_lines=False)
+                            keep_default_na=False, na_values=["", "nan", "NaN"], skip_blank_lines=False,
+                            index_col=False)
     except (ValueError, pd.errors.ParserError):
         return None
     data = frame.to_numpy(dtype=np.float64)
@@ -139,7 +150,7 @@ def read_blocks(handle: BinaryIO, header: Header, path: str, block_bytes: int = 
     ncols = len(header.names)
     for piece in _pieces(handle, block_bytes):
         count = _line_count(piece)
-        data = _parse_fast(piece, ncols) if _clean(piece) else None
+        data = _parse_fast(piece, ncols)
         if data is not None:
             block = Block(data, np.arange(next_line, next_line + count, dtype=np.int64))
         else:

@@ -39,7 +39,7 @@ class Bound:
 SEED = Bound(0, 2**32 - 1, integer=True)
 SIMULATE_RATE = Bound(1.0, 500.0, "Hz")
 SIMULATE_HOLD = Bound(0.1, 600.0, "s")  # short holds are for quick tests; calibration wants several seconds
-SIMULATE_MAX_ROWS = 2_000_000  # about 2 GB while simulating; a 500 Hz calibration sweep with 7 s holds is 1.1 M
+SIMULATE_MAX_ROWS = 2_000_000  # fit needs about 2 KB per row of such a log; a 500 Hz calibration sweep with 7 s holds is 1.1 M
 VERIFY_STEPS = Bound(100, 2_000_000, "steps", integer=True)
 ULOG_RATE = Bound(1.0, 1000.0, "Hz")
 FREQUENCY = Bound(1e-4, 1e4, "Hz")        # then also below the airframe's Nyquist frequency

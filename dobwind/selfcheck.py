@@ -27,6 +27,7 @@ from dobwind.model import reference
 from dobwind.model.airframe import Airframe
 from dobwind.model.status import accepted
 from dobwind.model.step import StepModel, build_step
+from dobwind.thresholds import Thresholds  # noqa: F401 (re-exported: the check's parameters)
 
 WARMUP_S = 5.0            # the observer and filter start up: not scored (as `replay`)
 SEGMENT_SETTLE_S = 5.0    # a segment's first seconds are a transition: not scored (as `replay`), or the
@@ -34,20 +35,6 @@ SEGMENT_SETTLE_S = 5.0    # a segment's first seconds are a transition: not scor
 WINDOW_S = 10.0           # segments of a log without a `segment` column
 MIN_SEGMENT_POINTS = 10
 MIN_SPEED_FOR_DIRECTION_MPS = 1.0
-
-
-@dataclass(frozen=True)
-class Thresholds:
-    """When a fitted model is not to be trusted. Speed limits: share * calibrated speed range, at least
-    the floor. Chosen so that a good fit on every benchmark vehicle passes with a wide margin (README)."""
-    cv_share: float = 0.06           # the honest (hold-level) CV
-    replay_share: float = 0.06       # each log's training replay: RMS of its per-segment speed errors
-    floor_mps: float = 0.15
-    direction_deg: float = 10.0      # each log's mean per-segment direction error
-    max_coefficient: float = 1e6     # any model coefficient, in its SI units
-
-    def speed_limit_mps(self, share: float, speed_range_mps: float) -> float:
-        return max(self.floor_mps, share * speed_range_mps)
 
 
 @dataclass

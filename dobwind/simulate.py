@@ -10,11 +10,17 @@ Motion is by inverse dynamics: a smooth ground trajectory and heading are chosen
 force follows from the true model, and attitude and thrust are whatever balances
 m p'' = -u_f z_b + m g e3 + f_aero exactly (an ideal position controller). So every log is consistent
 physics, and an hour of 50 Hz flight takes seconds.
+
+The log is made a block of rows at a time (``simulate_blocks``; ``write_log`` streams it, so its memory
+does not grow with the log): each random channel draws from its own generator, started where one pass
+over the whole log would draw that channel's first value, so a seed gives the same log, byte for byte,
+whatever the block size, and the same as before the blocks (issue #13).
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Iterator
 
 import numpy as np
 from scipy.signal import lfilter
@@ -145,14 +151,6 @@ def _profile(t: np.ndarray, starts: np.ndarray, ramps: np.ndarray, values: np.nd
     return value, rate
 
 
-def _turbulence(n: int, dt: float, sigma: np.ndarray, tau: float, rng: np.random.Generator) -> np.ndarray:
-    """First-order Gauss-Markov per column, unit variance scaled by sigma (per sample)."""
-    a = math.exp(-dt / tau)
-    white = rng.standard_normal((n, 3)) * math.sqrt(1 - a * a)
-    unit = lfilter([1.0], [1.0, -a], white, axis=0)
-    return unit * sigma
-
-
 def aerodynamic_force(vehicle: TrueVehicle, air_rel_ned: np.ndarray, yaw: np.ndarray) -> np.ndarray:
     """The true aerodynamic force (NED) for the air's velocity relative to the vehicle."""
     c, s = np.cos(yaw), np.sin(yaw)
@@ -170,7 +168,8 @@ def aerodynamic_force(vehicle: TrueVehicle, air_rel_ned: np.ndarray, yaw: np.nda
 
 
 def _refuse_too_many_rows(name: str, total_s: float, rate_hz: float, rows: int) -> None:
-    """Checked before any array is allocated: about 1 KB per row is held while simulating."""
+    """Checked before any array is allocated: `simulate` (not `write_log`, which streams) holds the
+    whole log, and `fit` on such a log needs about 2 KB per row."""
     from dobwind.options import SIMULATE_MAX_ROWS
 
     if rows > SIMULATE_MAX_ROWS:
@@ -231,59 +230,143 @@ def _body_frame_dynamics(spec: VehicleSpec, air_rel: np.ndarray, acc: np.ndarray
     return _Dynamics(u_f, rot, factor, u_f / factor, spec.rotor_imbalance)
 
 
-def simulate(af: Airframe, name: str, seed: int = 0, hold_s: float | None = None,
-             rate_hz: float | None = None, vehicle: VehicleSpec | None = None) -> dict[str, np.ndarray]:
-    """Log columns (docs/formats.md, flight log) plus `segment`, for the scenario; the true vehicle is
-    `vehicle` (a vehicle file), or by default one of the airframe's size (`true_vehicle`)."""
-    rng = np.random.default_rng(seed)
+BLOCK_ROWS = 1 << 15  # rows simulated at a time: about 1 KB each while they are worked on
+
+# The random channels in the order a single pass over the whole log draws them (it draws each channel
+# for every row before the next): (name, columns per row; None: the rotor count).
+_CHANNELS = (("jitter", 1), ("turbulence", 3), ("attitude", 3), ("velocity", 3), ("acceleration", 3),
+             ("specific_force", 3), ("thrust", 1), ("rpm", None))
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """What every block of rows needs: the scenario's schedule, the vehicle and its sensors."""
+    scen: Scenario
+    rows: int
+    period: float
+    starts: np.ndarray
+    ramps: np.ndarray
+    sensors: TrueVehicle | Sensors
+    builtin: TrueVehicle | None
+    vehicle: VehicleSpec | None
+
+
+def _channel_scales(plan: _Plan) -> dict[str, float]:
+    s = plan.sensors
+    return {"jitter": s.jitter * plan.period, "turbulence": 1.0, "attitude": math.radians(s.attitude_noise_deg),
+            "velocity": s.vel_noise, "acceleration": s.acc_noise, "specific_force": s.acc_noise,
+            "thrust": s.thrust_noise, "rpm": s.rpm_noise}
+
+
+def _channel_generators(rng: np.random.Generator, plan: _Plan, af: Airframe) -> dict[str, np.random.Generator]:
+    """One generator per channel, each at the point of the seeded stream where a single pass draws that
+    channel's first value: the stream is run through once (in blocks, values discarded) to find them.
+    Normal draws do not depend on how they are split into calls, so a block's values are the single
+    pass's, and every log is the same whatever the block size."""
+    scales = _channel_scales(plan)
+    out: dict[str, np.random.Generator] = {}
+    for name, width in _CHANNELS:
+        if name == "rpm" and af.thrust.source != "rpm":
+            continue
+        cols = af.thrust.rotors if width is None else width
+        out[name] = np.random.Generator(type(rng.bit_generator)())
+        out[name].bit_generator.state = rng.bit_generator.state
+        for start in range(0, plan.rows, BLOCK_ROWS):
+            _draw(rng, name, scales[name], min(BLOCK_ROWS, plan.rows - start), cols)
+    return out
+
+
+def _draw(rng: np.random.Generator, name: str, scale: float, rows: int, cols: int) -> np.ndarray:
+    """A channel's draws for ``rows`` rows, shaped as the single pass draws them."""
+    if name == "turbulence":
+        return rng.standard_normal((rows, 3))
+    return rng.normal(0, scale, rows if cols == 1 else (rows, cols))
+
+
+def _plan(af: Airframe, name: str, rng: np.random.Generator, hold_s: float | None, rate_hz: float | None,
+          vehicle: VehicleSpec | None) -> _Plan:
     scen = scenario(name, hold_s, rng)
     builtin = true_vehicle(af) if vehicle is None else None
     sensors: TrueVehicle | Sensors = builtin if builtin is not None else vehicle.sensors  # type: ignore[union-attr]
     rate = rate_hz or (scen.rate_hz if vehicle is None else vehicle.rate_hz)
-    period = 1.0 / rate
     durations = np.array([s.duration_s for s in scen.segments])
-    starts = np.concatenate([[0.0], np.cumsum(durations)[:-1]])
     total = float(durations.sum())
     n = int(total * rate)
     _refuse_too_many_rows(name, total, rate, n)
-    t = np.arange(n) * period + np.clip(rng.normal(0, sensors.jitter * period, n), -0.3 * period, 0.3 * period)
-    t[0] = 0.0
     ramps = np.array([max(s.ramp_s, 1e-3) for s in scen.segments])
+    return _Plan(scen, n, 1.0 / rate, np.concatenate([[0.0], np.cumsum(durations)[:-1]]), ramps, sensors,
+                 builtin, vehicle)
+
+
+def simulate_blocks(af: Airframe, name: str, seed: int = 0, hold_s: float | None = None,
+                    rate_hz: float | None = None, vehicle: VehicleSpec | None = None,
+                    block_rows: int = BLOCK_ROWS) -> Iterator[dict[str, np.ndarray]]:
+    """simulate() a block of rows at a time, in bounded memory; the blocks joined are simulate()'s log
+    whatever ``block_rows`` is (the turbulence filter's state is carried from block to block)."""
+    rng = np.random.default_rng(seed)
+    plan = _plan(af, name, rng, hold_s, rate_hz, vehicle)
+    gens = _channel_generators(rng, plan, af)
+    scales = _channel_scales(plan)
+    a = math.exp(-plan.period / plan.scen.turbulence_time_s)
+    state = np.zeros((1, 3))
+    for start in range(0, plan.rows, block_rows):
+        rows = min(block_rows, plan.rows - start)
+        cols, state = _block(af, plan, gens, scales, start, rows, a, state)
+        yield cols
+
+
+def _block(af: Airframe, plan: _Plan, gens: dict[str, np.random.Generator], scales: dict[str, float],
+           start: int, rows: int, a: float, state: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Rows start .. start + rows of the log, and the turbulence filter's state after them."""
+    scen, period = plan.scen, plan.period
+    jitter = gens["jitter"].normal(0, scales["jitter"], rows)
+    t = np.arange(start, start + rows) * period + np.clip(jitter, -0.3 * period, 0.3 * period)
+    if start == 0:
+        t[0] = 0.0
+    starts, ramps = plan.starts, plan.ramps
     vel, acc = _profile(t, starts, ramps, np.array([s.velocity_ned for s in scen.segments], dtype=float))
     yaw_targets = np.unwrap(np.radians([s.yaw_deg for s in scen.segments]))
-    yaw, _ = _profile(t, starts, ramps, yaw_targets[:, None])
-    yaw = yaw[:, 0]
+    yaw = _profile(t, starts, ramps, yaw_targets[:, None])[0][:, 0]
     wind_mean, _ = _profile(t, starts, ramps, np.array([s.wind_ned for s in scen.segments], dtype=float))
     mean_speed = np.hypot(wind_mean[:, 0], wind_mean[:, 1])
-    sigma = np.column_stack([scen.turbulence_h + scen.turbulence_frac * mean_speed] * 2 + [np.full(n, scen.turbulence_v)])
-    wind = wind_mean + _turbulence(n, period, sigma, scen.turbulence_time_s, rng)
-
-    if builtin is not None:
-        dyn, g = _heading_frame_dynamics(builtin, wind - vel, acc, yaw), builtin.gravity_mps2
+    sigma = np.column_stack([scen.turbulence_h + scen.turbulence_frac * mean_speed] * 2
+                            + [np.full(rows, scen.turbulence_v)])
+    white = gens["turbulence"].standard_normal((rows, 3)) * math.sqrt(1 - a * a)
+    unit, state = lfilter([1.0], [1.0, -a], white, axis=0, zi=state)  # first-order Gauss-Markov per axis
+    wind = wind_mean + unit * sigma
+    if plan.builtin is not None:
+        dyn, g = _heading_frame_dynamics(plan.builtin, wind - vel, acc, yaw), plan.builtin.gravity_mps2
     else:
-        dyn, g = _body_frame_dynamics(vehicle, wind - vel, acc, yaw), vehicle.gravity_mps2  # type: ignore[arg-type,union-attr]
+        dyn, g = _body_frame_dynamics(plan.vehicle, wind - vel, acc, yaw), plan.vehicle.gravity_mps2  # type: ignore[arg-type,union-attr]
     cols: dict[str, np.ndarray] = {"t": t, "segment": np.searchsorted(starts, t, side="right") - 1}
-    cols.update(_sensor_columns(af, sensors, dyn, vel, acc, g, rng))
+    cols.update(_sensor_columns(af, plan.sensors, dyn, vel, acc, g, gens, scales))
     cols["yaw_ref"] = np.angle(np.exp(1j * yaw))
     for i, axis in enumerate("ned"):
         cols[f"wind_{axis}"] = wind[:, i]
-    return cols
+    return cols, state
+
+
+def simulate(af: Airframe, name: str, seed: int = 0, hold_s: float | None = None,
+             rate_hz: float | None = None, vehicle: VehicleSpec | None = None) -> dict[str, np.ndarray]:
+    """Log columns (docs/formats.md, flight log) plus `segment`, for the scenario; the true vehicle is
+    `vehicle` (a vehicle file), or by default one of the airframe's size (`true_vehicle`)."""
+    blocks = list(simulate_blocks(af, name, seed, hold_s, rate_hz, vehicle))
+    return {k: np.concatenate([b[k] for b in blocks]) for k in blocks[0]}
 
 
 def _sensor_columns(af: Airframe, sensors: TrueVehicle | Sensors, dyn: _Dynamics, vel: np.ndarray, acc: np.ndarray,
-                    g: float, rng: np.random.Generator) -> dict[str, np.ndarray]:
-    """What the autopilot logs: every channel with its noise and bias (the order of the random draws
-    is part of the seeded output)."""
+                    g: float, gens: dict[str, np.random.Generator], scales: dict[str, float]) -> dict[str, np.ndarray]:
+    """What the autopilot logs: every channel with its noise and bias (each from its own generator)."""
     n = len(vel)
     rot = dyn.rot
-    noisy_rot = Rotation.from_rotvec(rng.normal(0, math.radians(sensors.attitude_noise_deg), (n, 3))) * rot
+    noisy_rot = Rotation.from_rotvec(gens["attitude"].normal(0, scales["attitude"], (n, 3))) * rot
     xyzw = noisy_rot.as_quat()
     xyzw *= np.sign(xyzw[:, 3:4] + 1e-12)  # scalar part non-negative, a common logging convention
     cols: dict[str, np.ndarray] = {}
-    v_meas = vel + rng.normal(0, sensors.vel_noise, (n, 3))
-    a_meas = acc + np.asarray(sensors.acc_bias_ned) + rng.normal(0, sensors.acc_noise, (n, 3))
+    v_meas = vel + gens["velocity"].normal(0, scales["velocity"], (n, 3))
+    a_meas = acc + np.asarray(sensors.acc_bias_ned) + gens["acceleration"].normal(0, scales["acceleration"], (n, 3))
     sf = (rot.inv().apply(acc - g * np.array([0, 0, 1.0])) + np.asarray(sensors.sf_bias_body)
-          + rng.normal(0, sensors.acc_noise, (n, 3)))
+          + gens["specific_force"].normal(0, scales["specific_force"], (n, 3)))
     for i, axis in enumerate("ned"):
         cols[f"vel_{axis}"] = v_meas[:, i]
         cols[f"acc_{axis}"] = a_meas[:, i]
@@ -291,13 +374,13 @@ def _sensor_columns(af: Airframe, sensors: TrueVehicle | Sensors, dyn: _Dynamics
         cols[f"sf_{axis}"] = sf[:, i]
     for i, part in enumerate(("q_w", "q_x", "q_y", "q_z")):
         cols[part] = xyzw[:, (3, 0, 1, 2)[i]]
-    cols["thrust"] = dyn.logged_thrust * (1 + sensors.thrust_bias) * (1 + rng.normal(0, sensors.thrust_noise, n))
+    cols["thrust"] = dyn.logged_thrust * (1 + sensors.thrust_bias) * (1 + gens["thrust"].normal(0, scales["thrust"], n))
     if af.thrust.source == "rpm":
         rotors = af.thrust.rotors
         imbalance = 1 + dyn.rotor_imbalance * np.where(np.arange(rotors) % 2 == 0, 1.0, -1.0)
         per_rotor = (dyn.u_f / rotors)[:, None] / (dyn.factor[:, None] * imbalance[None, :])
         rpm = rpm_for_rotor_thrust(af.thrust.coefficients, af.thrust.max_rpm, per_rotor)
-        rpm += rng.normal(0, sensors.rpm_noise, rpm.shape)
+        rpm += gens["rpm"].normal(0, scales["rpm"], rpm.shape)
         for i in range(rotors):
             cols[f"rpm_{i + 1}"] = rpm[:, i]
     return cols
@@ -312,16 +395,26 @@ def log_comments(af: Airframe, name: str, seed: int, vehicle_source: str | None 
 
 def write_log(path, af: Airframe, name: str, seed: int = 0, hold_s: float | None = None,
               rate_hz: float | None = None, vehicle: VehicleSpec | None = None,
-              vehicle_source: str | None = None) -> int:
-    """Simulate a scenario and write it as a flight-log CSV (atomically); returns the row count."""
-    from dobwind.logs import write_columns
+              vehicle_source: str | None = None, block_rows: int = BLOCK_ROWS) -> int:
+    """Simulate a scenario and write it as a flight-log CSV (atomically), a block of rows at a time so
+    that memory does not grow with the log; returns the row count."""
+    from dobwind.logs import CsvWriter, write_atomically
 
-    cols = simulate(af, name, seed, hold_s=hold_s, rate_hz=rate_hz, vehicle=vehicle)
-    names = column_order(cols)
-    # Stacked a block of rows at a time: a whole-log table would be one more copy of the log in memory.
-    write_columns(path, names, cols, ["%.6f"] + ["%.7g"] * (len(names) - 2) + ["%d"],
-                  log_comments(af, name, seed, vehicle_source))
-    return len(cols["t"])
+    rows = 0
+
+    def write(handle) -> None:
+        nonlocal rows
+        writer = None
+        for cols in simulate_blocks(af, name, seed, hold_s, rate_hz, vehicle, block_rows):
+            names = column_order(cols)
+            if writer is None:
+                writer = CsvWriter(handle, names, ["%.6f"] + ["%.7g"] * (len(names) - 2) + ["%d"],
+                                   log_comments(af, name, seed, vehicle_source))
+            writer.write(np.column_stack([cols[n] for n in names]))
+            rows += len(cols["t"])
+
+    write_atomically(path, write)
+    return rows
 
 
 def column_order(cols: dict[str, np.ndarray]) -> list[str]:

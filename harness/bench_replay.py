@@ -4,7 +4,10 @@ Makes a 1 h and a 4 h sweep at 100 Hz with ``dobwind simulate`` (kept in the wor
 then runs each case as its own process, interleaved over the rounds so that the machine's load falls on
 all cases alike, and reports median wall times and each case's peak resident memory (``wait4``).
 
-    .venv/bin/python -m dobwind.harness.bench_replay [--rounds 3] [--work out/bench-replay]
+    .venv/bin/python -m dobwind.harness.bench_replay [--rounds 3] [--work out/bench-replay] [--simulate]
+
+``--simulate`` also reports the peak memory of ``dobwind simulate`` writing the 1 h and the 4 h log (one
+run each: memory, not time, is its goal).
 """
 from __future__ import annotations
 
@@ -83,6 +86,23 @@ def run(rounds: int, work: Path, with_4h: bool) -> dict[str, tuple[float, float]
     return {label: (statistics.median(times[label]), peaks[label]) for label in times}
 
 
+def simulate_peaks(work: Path) -> dict[str, float]:
+    """Peak resident MB of `dobwind simulate` writing the 1 h and the 4 h sweep (into the work folder)."""
+    peaks = {}
+    for hours in (1, 4):
+        hold = f"{hours * 3600 / SWEEP_HOLDS:.6f}"
+        out = work / f"simulated_{hours}h.csv"
+        _, peaks[f"{hours} h"] = _measure(_dobwind("simulate", "sweep", "--rate", "100", "--hold", hold, "-o", str(out)))
+        out.unlink()
+    return peaks
+
+
+def simulate_report(peaks: dict[str, float]) -> str:
+    ratio = peaks["4 h"] / peaks["1 h"]
+    return (f"simulate peak MB: 1 h {peaks['1 h']:.0f}, 4 h {peaks['4 h']:.0f}; 4 h / 1 h {ratio:.2f} "
+            f"(goal <= {GOAL_4H_PEAK_RATIO})")
+
+
 def report(results: dict[str, tuple[float, float]]) -> str:
     lines = ["| case | median s | vs csv.reader | peak MB |", "|---|---:|---:|---:|"]
     for label, (wall, peak) in results.items():
@@ -101,8 +121,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--work", type=Path, default=Path("out/bench-replay"))
     parser.add_argument("--no-4h", action="store_true", help="skip the 4 h log (its simulation takes minutes)")
+    parser.add_argument("--simulate", action="store_true", help="also the peak memory of simulate (1 h and 4 h)")
     args = parser.parse_args(argv)
     print(report(run(args.rounds, args.work, not args.no_4h)))
+    if args.simulate:
+        print(simulate_report(simulate_peaks(args.work)))
     return 0
 
 

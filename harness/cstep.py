@@ -5,10 +5,13 @@ import ctypes
 import hashlib
 import os
 import shutil
+import sys
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
+import casadi
+import jinja2
 import numpy as np
 
 from dobwind.codegen.generate import generate_code, write_files
@@ -94,31 +97,71 @@ def _source_key(folder: Path, extra_flags: tuple[str, ...]) -> str:
     return digest.hexdigest()[:32]
 
 
-def cached_step(model: StepModel, precision: str, extra_flags: tuple[str, ...] = ()) -> CStep:
-    """The compiled step from the cache, keyed on the generated source; built and added on a miss.
+def _generator_files() -> list[Path]:
+    """The files generation and the shim read: the model, the printer and templates, the harness."""
+    from dobwind import codegen, model
 
-    The library is compiled in a private folder and renamed into place, so concurrent runs never see a
-    partial file (two that miss together both build, and the second rename replaces an identical file).
-    An unusable cache folder only costs the compilation: the private copy is loaded instead."""
+    roots = [Path(model.__file__).parent, Path(codegen.__file__).parent, Path(__file__).parent]
+    return sorted(p for root in roots for p in root.rglob("*") if p.is_file() and "__pycache__" not in p.parts)
+
+
+def _recipe_key(model: StepModel, precision: str, extra_flags: tuple[str, ...]) -> str:
+    """The hash of what the generated sources are made from, known without generating them: the
+    airframe (plain values: its repr is exact), the precision, the generator's own files, the versions
+    it computes the self-test vectors with, the compiler and flags. It assumes the model is
+    build_step(model.airframe), as every caller's is; the step's own code is among the files hashed."""
+    digest = hashlib.sha256(repr((model.airframe, precision)).encode())
+    for path in _generator_files():
+        digest.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
+    versions = (sys.version, np.__version__, casadi.__version__, jinja2.__version__)
+    digest.update("\0".join((*versions, system_compiler(), *STRICT_FLAGS, *extra_flags)).encode())
+    return digest.hexdigest()[:32]
+
+
+def _publish(built: Path, target: Path) -> bool:
+    """Puts a library into the cache under ``target`` (a hard link, else a copy renamed into place, so
+    that no reader sees a partial file); False when the folder is not usable."""
+    staged = None
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        handle, name = tempfile.mkstemp(prefix=f".{target.name}.", dir=target.parent)
+        os.close(handle)
+        staged = Path(name)
+        try:
+            staged.unlink()
+            os.link(built, staged)
+        except OSError:
+            shutil.copyfile(built, staged)
+        os.replace(staged, target)
+        return True
+    except OSError:
+        if staged is not None:
+            staged.unlink(missing_ok=True)
+        return False
+
+
+def cached_step(model: StepModel, precision: str, extra_flags: tuple[str, ...] = ()) -> CStep:
+    """The compiled step from the cache, built and added on a miss.
+
+    Two names lead to a library: the recipe key (``_recipe_key``), found without generating the source
+    (generation took 0.4 s of a replay), and the key of the generated source itself, which a changed
+    generator that prints the same C still hits. The library is compiled in a private folder and renamed
+    into place, so concurrent runs never see a partial file (two that miss together both build, and the
+    second rename replaces an identical file). An unusable cache folder only costs the compilation: the
+    private copy is loaded instead."""
+    stem = f"lib{model.airframe.name}_{precision}"
+    recipe = cache_dir() / f"{stem}_r{_recipe_key(model, precision, extra_flags)}.so"
+    if recipe.is_file():
+        return CStep(model, recipe)
     with tempfile.TemporaryDirectory(prefix="dobwind-") as tmp:
         work = Path(tmp)
         code = generate_code(model.airframe, precision, model)
         write_files(code.files, work)
         write_shim(model, precision, work)
-        cached = cache_dir() / f"lib{model.airframe.name}_{precision}_{_source_key(work, extra_flags)}.so"
-        if cached.is_file():
-            return CStep(model, cached)
-        built = build_shared_library(model, precision, work, work, extra_flags)
-        staged = None
-        try:
-            cached.parent.mkdir(parents=True, exist_ok=True)
-            handle, name = tempfile.mkstemp(prefix=f".{cached.name}.", dir=cached.parent)
-            os.close(handle)
-            staged = Path(name)
-            shutil.copyfile(built, staged)
-            os.replace(staged, cached)
-            return CStep(model, cached)
-        except OSError:
-            if staged is not None:
-                staged.unlink(missing_ok=True)
-            return CStep(model, built)  # loaded before the folder goes: the loader keeps its mapping
+        cached = cache_dir() / f"{stem}_{_source_key(work, extra_flags)}.so"
+        if not cached.is_file():
+            built = build_shared_library(model, precision, work, work, extra_flags)
+            if not _publish(built, cached):
+                return CStep(model, built)  # loaded before the folder goes: the loader keeps its mapping
+        _publish(cached, recipe)
+        return CStep(model, cached)

@@ -40,18 +40,50 @@ def run(model: StepModel, inputs: np.ndarray, state0: np.ndarray | None = None,
     states = np.empty((n, model.state.size))
     outputs = np.empty((n, model.outputs.size))
     status = np.empty(n, dtype=np.int64)
+    rolled_chunk = _BoundChunk(rolled, model.inputs.size)
     dt_col = model.inputs.offset("dt")
     for start in range(0, n, chunk):
-        block = inputs[start:start + chunk]
-        rows = block.shape[0]
-        if rows < chunk:
-            pad = np.zeros((chunk - rows, model.inputs.size))
-            pad[:, dt_col] = -1.0  # rejected; only rows before the padding are kept
-            block = np.vstack([block, pad])
-        xs, ys, st = rolled(state, block.T)
-        xs, ys, st = np.asarray(xs), np.asarray(ys), np.asarray(st)
-        states[start:start + rows] = xs[:, :rows].T
-        outputs[start:start + rows] = ys[:, :rows].T
-        status[start:start + rows] = st.reshape(-1)[:rows].astype(np.int64)
-        state = xs[:, rows - 1]
+        rows = min(chunk, n - start)
+        xs, ys, st = rolled_chunk(state, inputs[start:start + rows], dt_col)
+        states[start:start + rows] = xs[:rows]
+        outputs[start:start + rows] = ys[:rows]
+        status[start:start + rows] = st[:rows].astype(np.int64)
+        state = xs[rows - 1].copy()
     return Trajectory(states, outputs, status)
+
+
+class _BoundChunk:
+    """The rolled step evaluated in place on numpy arrays (CasADi's FunctionBuffer): converting each
+    chunk's results from DM to numpy cost more than evaluating them (issue #13). The same Function and
+    evaluation, so the same numbers as calling it. A row-major (rows, k) array holds the nonzeros of a
+    dense k x rows matrix in CasADi's column-major order, so the buffers are the transposes."""
+
+    def __init__(self, rolled: ca.Function, n_inputs: int) -> None:
+        self._rolled, rows = rolled, rolled.size2_in(1)
+        dense = all(rolled.sparsity_in(i).is_dense() for i in range(2)) and all(
+            rolled.sparsity_out(i).is_dense() for i in range(3))
+        self._state = np.zeros(rolled.size1_in(0))
+        self._block = np.zeros((rows, n_inputs))
+        self._out = [np.zeros((rolled.size2_out(i), rolled.size1_out(i))) for i in range(3)]
+        self._evaluate = None
+        if dense:  # always, for the step's functions; a sparse one is called the ordinary way
+            buffer, self._evaluate = rolled.buffer()
+            buffer.set_arg(0, memoryview(self._state))
+            buffer.set_arg(1, memoryview(self._block))
+            for i, out in enumerate(self._out):
+                buffer.set_res(i, memoryview(out))
+            self._buffer = buffer  # the evaluation needs it alive
+
+    def __call__(self, state: np.ndarray, block: np.ndarray, dt_col: int) -> list[np.ndarray]:
+        rows = block.shape[0]
+        self._state[:] = state
+        self._block[:rows] = block
+        if rows < len(self._block):
+            self._block[rows:] = 0.0
+            self._block[rows:, dt_col] = -1.0  # rejected; only rows before the padding are kept
+        if self._evaluate is None:
+            results = [np.asarray(r).T for r in self._rolled(self._state, self._block.T)]
+        else:
+            self._evaluate()
+            results = self._out
+        return [r if r.shape[1] > 1 else r[:, 0] for r in results]

@@ -11,9 +11,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-import scipy.signal
-
 from dobwind.model.airframe import Airframe
 from dobwind.model.discretization import first_order
 
@@ -34,15 +31,18 @@ def settling_time_s(af: Airframe, band: float = SETTLING_BAND) -> float:
     slowest = max(dt / max(1 - abs(pole), 1e-12), dt / alpha)
     # Capped: a design this slow (hours at 100 Hz) is not flown; the figure is then a lower bound.
     n = min(int(math.ceil(20 * slowest / dt)) + 2, MAX_SAMPLES)
-    step = np.ones(n)
-    # The step's observer: y(k) = pole y(k-1) + b0 x(k) + b1 x(k-1); the low-pass takes the new value.
-    observed = scipy.signal.lfilter([b0, b1], [1.0, -pole], step)
-    filtered = scipy.signal.lfilter([alpha], [1.0, -(1 - alpha)], observed)
-    outside = np.flatnonzero(np.abs(filtered - 1.0) > band)
+    # The step's observer, y(k) = pole y(k-1) + b0 x(k) + b1 x(k-1), then the low-pass, which takes the
+    # new value, on a unit step; the recursions in the order scipy.signal.lfilter evaluates them, written
+    # out because importing scipy.signal for them cost more than a whole replay's parsing (issue #13).
+    last, observed, filtered = -1, 0.0, 0.0
+    for k in range(n):  # a few thousand samples for a flown design
+        observed = b0 + (b1 + pole * observed) if k else b0
+        filtered = alpha * observed + (1 - alpha) * filtered
+        if abs(filtered - 1.0) > band:
+            last = k
     # Sample k (from 0) is the (k+1)-th accepted sample, reached after (k+1) dt of accepted time: the
     # last one outside the band is at (last + 1) dt, the first inside for good at (last + 2) dt. The
     # threshold is put between them, off the half: a log at the nominal rate, or at 2, 4, 5 or 10 times
     # it or a fraction like that, then never lands a sample on it, where a float and a double sum of
     # the same dt's would disagree on the SETTLING bit.
-    last = int(outside[-1]) if outside.size else -1
     return float((last + 1 + THRESHOLD_PHASE) * dt)

@@ -18,6 +18,7 @@ from dobwind.model import reference
 from dobwind.model.airframe import Envelope, ForceAirModel, Uncertainty, load_airframe, parse_airframe
 from dobwind.model.airframe_toml import dump_airframe, dumps
 from dobwind.model.exercise import flight_inputs
+from dobwind.model.discretization import first_order
 from dobwind.model.settling import settling_time_s
 from dobwind.model.status import DT_TOLERANCE, REJECTED_MASK, STATUS_BITS
 from dobwind.model.step import build_step
@@ -133,6 +134,43 @@ def test_settling_time_limit_of_an_instant_observer():
                           "limits.max_dt": 0.01})
     expected = math.log(50) / (2 * math.pi * 0.25)
     assert settling_time_s(af) == pytest.approx(expected, abs=2e-3)
+
+
+def _settling_by_lfilter(af) -> float:
+    """The cascade's step response through scipy.signal.lfilter (what model/settling.py used before it
+    wrote the recursions out to keep scipy out of every command's imports)."""
+    import scipy.signal
+
+    from dobwind.model.settling import MAX_SAMPLES, THRESHOLD_PHASE
+
+    dt = af.observer.sample_time_s
+    c = first_order(af.observer.discretization, min(af.observer.gains) / af.mass_kg, dt)
+    alpha = -math.expm1(-2 * math.pi * min(af.filter.cutoffs_hz) * dt)
+    slowest = max(dt / (1 - abs(float(c.pole))), dt / alpha)
+    n = min(int(math.ceil(20 * slowest / dt)) + 2, MAX_SAMPLES)
+    observed = scipy.signal.lfilter([float(c.b0), float(c.b1)], [1.0, -float(c.pole)], np.ones(n))
+    filtered = scipy.signal.lfilter([alpha], [1.0, -(1 - alpha)], observed)
+    outside = np.flatnonzero(np.abs(filtered - 1.0) > 0.02)
+    return float(((outside[-1] if outside.size else -1) + 1 + THRESHOLD_PHASE) * dt)
+
+
+@pytest.mark.parametrize("disc", ["paper", "euler", "zoh", "tustin"])
+def test_settling_time_equals_the_lfilter_cascade(disc):
+    """Gains from a sluggish observer to one that overshoots (a negative pole under euler), cutoffs
+    from slow to fast: the same sample index, so the same constant in the generated step."""
+    # gain * dt / mass (2.5 kg): 0.16, 0.008, 1.6 (a pole near -0.6 under euler), 0.24, 4 (zoh, tustin only).
+    cases = [(20.0, 0.3, 0.02), (2.0, 0.05, 0.01), (200.0, 2.0, 0.02), (150.0, 5.0, 0.004), (1e4, 1.0, 0.001)]
+    compared = 0
+    for gains, cutoff, dt in cases:
+        af = make_airframe(**{"observer.discretization": disc, "observer.gains": [gains, gains * 1.5, gains * 2],
+                              "observer.sample_time": dt, "limits.max_dt": 5 * dt, "filter.speeds": [0.0],
+                              "filter.cutoffs": [cutoff]})
+        if abs(float(first_order(disc, gains / af.mass_kg, dt).pole)) >= 1:
+            assert settling_time_s(af) == math.inf  # unstable: never settles
+            continue
+        assert settling_time_s(af) == _settling_by_lfilter(af), (disc, gains, cutoff, dt)
+        compared += 1
+    assert compared >= 3
 
 
 def _first_sample(model, force_ned, yaw=0.3):

@@ -46,3 +46,22 @@ def test_state_carries_across_calls():
     first = reference.run(model, u[:77])
     second = reference.run(model, u[77:], state0=first.states[-1])
     np.testing.assert_array_equal(np.vstack([first.outputs, second.outputs]), whole.outputs)
+
+
+def test_in_place_evaluation_equals_calling_the_function_dense_or_sparse():
+    """The rolled step is evaluated in numpy buffers when its inputs and outputs are dense; a function
+    with a structural zero is called the ordinary way. Both give what calling the Function gives."""
+    import casadi as ca
+
+    x, u = ca.SX.sym("x", 2), ca.SX.sym("u", 3, 5)
+    dense = ca.Function("dense", [x, u], [ca.repmat(x, 1, 5) + u[:2, :], ca.sin(u), u[2, :] * 2])
+    sparse = ca.Function("sparse", [x, u], [ca.vertcat(u[0, :] + x[0], ca.SX(1, 5)), ca.sin(u), u[2, :] * 2])
+    assert not sparse.sparsity_out(0).is_dense()
+    rng = np.random.default_rng(4)
+    state, block = rng.normal(size=2), rng.normal(size=(4, 3))  # 4 rows: the fifth is padding
+    for f in (dense, sparse):
+        got = reference._BoundChunk(f, 3)(state, block, dt_col=1)
+        padded = np.vstack([block, [0.0, -1.0, 0.0]])
+        want = [np.asarray(r).T for r in f(state, padded.T)]
+        assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
+        assert np.array_equal(got[2], want[2][:, 0]), f.name()

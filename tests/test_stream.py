@@ -1,6 +1,7 @@
 """Streaming replay: chunked reading, writing, stepping and scoring agree with one pass over the log."""
 from __future__ import annotations
 
+import dataclasses
 import io
 import threading
 from pathlib import Path
@@ -90,6 +91,17 @@ def test_time_must_increase_across_chunks_and_short_rows_are_named(tmp_path, blo
         list(iter_log(str(path), block_bytes=block))
 
 
+@pytest.mark.parametrize("block", [997, 1 << 23])
+def test_a_long_row_balanced_by_short_ones_is_named_not_shifted(tmp_path, block):
+    """The block's comma total is right (4 extra on line 2, one missing on each of the last 4 lines):
+    pandas alone would take the long row's first columns as an index and shift every value."""
+    rows = ["1,2,3,4,5,6,7"] + [f"{k},{k},{k}" for k in range(2, 40)] + [f"{k},{k}" for k in range(40, 44)]
+    path = tmp_path / "long.csv"
+    path.write_text("t,x,y\n" + "\n".join(rows) + "\n")
+    with pytest.raises(InputError, match=r"line 2: has 7 fields, the header has 3"):
+        list(iter_log(str(path), block_bytes=block))
+
+
 def test_byte_order_mark_is_not_part_of_the_first_column(tmp_path):
     path = tmp_path / "bom.csv"
     path.write_bytes(b"\xef\xbb\xbf# exported\r\nt,x\r\n0.1,1\r\n0.2,nan\r\n0.3,\r\n")
@@ -176,15 +188,23 @@ def test_library_cache_reuses_one_build_and_survives_concurrent_misses(tmp_path,
     for thread in threads:
         thread.join()
     assert not errors
-    assert [p.suffix for p in (tmp_path / "cache").iterdir()] == [".so"]  # one library, no temporaries
+    entries = sorted((tmp_path / "cache").iterdir())
+    # One library under its two names (the recipe's and the source's), no temporaries.
+    assert [p.suffix for p in entries] == [".so", ".so"] and not any(p.name.startswith(".") for p in entries)
+    assert entries[0].read_bytes() == entries[1].read_bytes()
 
     def no_compiler(*args, **kwargs):
-        raise AssertionError("a cache hit must not compile")
+        raise AssertionError("a cache hit must not compile, nor generate")
 
     monkeypatch.setattr(cstep, "build_shared_library", no_compiler)
+    monkeypatch.setattr(cstep, "generate_code", no_compiler)
     again = cstep.compile_step(model, "double")
     rows = flight_inputs(model, 300, seed=2)
     assert np.array_equal(again.run(rows).outputs, built[0].run(rows).outputs)
+    # Another airframe is another recipe: it must generate (and here fails to).
+    other = build_step(dataclasses.replace(model.airframe, mass_kg=model.airframe.mass_kg * 1.01))
+    with pytest.raises(AssertionError, match="must not compile, nor generate"):
+        cstep.compile_step(other, "double")
 
 
 def test_unusable_cache_folder_only_costs_the_build(tmp_path, monkeypatch):
