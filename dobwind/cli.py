@@ -126,7 +126,6 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
 
 def cmd_fit(args: argparse.Namespace) -> int:
-    from dobwind.envelope import with_observer_noise
     from dobwind.fit import fit_plot, text_report
     from dobwind.fitfamily import fit_airframe
     from dobwind.logs import write_atomically
@@ -142,10 +141,6 @@ def cmd_fit(args: argparse.Namespace) -> int:
                         floor_mps=args.error_floor, direction_deg=args.max_direction_error)
     new, report, points = fit_airframe(af, list(args.logs), args.terms, args.dynamic, args.model, args.still_air,
                                        limits)
-    # The self-check's replay of the calibration logs measured the observer noise; the sigma outputs add
-    # it to the residual table (issue #10). Kept out of fit_airframe while the calibration is reworked.
-    new = dataclasses.replace(new, uncertainty=with_observer_noise(new.uncertainty, report.self_check["noise_h_mps"],
-                                                                    report.self_check["noise_up_mps"]))
     passed = bool(report.self_check["passed"])
     written = passed or args.force  # a model that failed its self-check is written only when forced
     if written:

@@ -11,7 +11,7 @@ import numpy as np
 from dobwind import dragfit, holdcv
 from dobwind.analysis.figures import settling_time_s
 from dobwind.analysis.linear import axis_system
-from dobwind.envelope import calibration_envelope, uncertainty_table
+from dobwind.envelope import calibration_envelope, uncertainty_table, with_observer_noise
 from dobwind.errors import CheckFailed
 from dobwind.fit import FitReport, Points, calibration_airframe, fit_polynomial, read_calibration_logs
 from dobwind.logs import FlightLog, heading_yaw, step_inputs
@@ -146,6 +146,8 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynami
     cv = report.hold_cv_speed_mps if report.hold_cv_speed_mps is not None else report.horizontal_cv_rmse_mps
     check = self_check(new, logs, per_log, cv, speed_range, limits)
     report.self_check = dataclasses.asdict(check)
+    # The self-check's replay measured the observer noise; the sigma outputs add it to the residuals (#10).
+    new = dataclasses.replace(new, uncertainty=with_observer_noise(new.uncertainty, check.noise_h_mps, check.noise_up_mps))
     return new, report, points
 
 
