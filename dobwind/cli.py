@@ -5,7 +5,6 @@ Every user mistake ends as one stderr line and exit status 2; a failed check as 
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import contextlib
 import os
 import sys
