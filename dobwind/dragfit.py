@@ -69,6 +69,8 @@ class DragSamples:
     frame: str = "heading"   # the drag law's frame; "body" also needs the two fields below
     rotation: np.ndarray | None = None  # (N, 3, 3) body -> NED at the sample (unfiltered, as the step sees it)
     rotor: np.ndarray | None = None     # (N,) sqrt(u_f / (m g)) at the sample, nominal thrust
+    hold: np.ndarray | None = None      # (N,) the log's segment (a run of one `segment` label), when it has one
+    hold_age_s: np.ndarray | None = None  # (N,) time since that segment started
 
     @property
     def parameters(self) -> tuple[str, ...]:
@@ -78,7 +80,7 @@ class DragSamples:
         pick = lambda a: None if a is None else a[keep]
         return DragSamples(self.observed[keep], self.columns[keep], self.cos_yaw[keep], self.sin_yaw[keep],
                            self.airflow[keep], self.group[keep], self.log_index[keep], self.frame,
-                           pick(self.rotation), pick(self.rotor))
+                           pick(self.rotation), pick(self.rotor), pick(self.hold), pick(self.hold_age_s))
 
     def __len__(self) -> int:
         return len(self.observed)
@@ -138,10 +140,12 @@ def _forward_fill(x: np.ndarray, valid: np.ndarray) -> np.ndarray:
 
 def log_samples(af: Airframe, cutoff_hz: float, t: np.ndarray, force_ned: np.ndarray, airflow_ned: np.ndarray,
                 thrust_ned: np.ndarray, yaw: np.ndarray, usable: np.ndarray, frame: str = "heading",
-                q: np.ndarray | None = None) -> dict[str, np.ndarray]:
+                q: np.ndarray | None = None, segment: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """One log's samples, filtered and decimated. ``thrust_ned`` is u_f z_b; ``usable`` marks samples the
     step accepted and that are at least one settling time clear of a start or rejection. The body frame
-    needs the attitude quaternions ``q``."""
+    needs the attitude quaternions ``q``. With the log's ``segment`` labels, each sample also records
+    which segment (run of one label) it is in and how long after its start (holdcv scores segments as
+    replay does)."""
     valid = np.isfinite(airflow_ned).all(axis=1) & np.isfinite(thrust_ned).all(axis=1) & np.isfinite(yaw)
     if frame == "body":
         valid &= np.isfinite(q).all(axis=1) & (np.linalg.norm(np.nan_to_num(q), axis=1) > 0)
@@ -172,6 +176,8 @@ def log_samples(af: Airframe, cutoff_hz: float, t: np.ndarray, force_ned: np.nda
     keep = np.zeros(len(t), dtype=bool)
     keep[::step] = True
     keep &= usable & valid & np.isfinite(force_ned).all(axis=1)
+    if segment is not None:
+        extra.update(zip(("hold", "hold_age_s"), segment_runs(t, segment)))
     return {"observed": force_ned[keep], "columns": columns[keep], "cos_yaw": c[keep], "sin_yaw": s[keep],
             "airflow": filtered_air[keep], "time": t[keep], **{k: v[keep] for k, v in extra.items()}}
 
@@ -188,6 +194,13 @@ def thrust_ned(af: Airframe, rotor_rpm: np.ndarray | None, thrust: np.ndarray | 
     return u_f[:, None] * z_b
 
 
+def segment_runs(t: np.ndarray, segment: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per row: the index of its run of one segment label, and the time since that run began (s)."""
+    start = np.r_[True, segment[1:] != segment[:-1]]
+    first = np.maximum.accumulate(np.where(start, np.arange(len(t)), 0))
+    return np.cumsum(start) - 1, t - t[first]
+
+
 def merge(parts: list[dict[str, np.ndarray]], frame: str = "heading") -> DragSamples:
     groups, offset = [], 0
     for part in parts:
@@ -197,8 +210,12 @@ def merge(parts: list[dict[str, np.ndarray]], frame: str = "heading") -> DragSam
     cat = {k: np.concatenate([p[k] for p in parts]) for k in ("observed", "columns", "cos_yaw", "sin_yaw", "airflow")}
     logs = np.concatenate([np.full(len(p["time"]), i) for i, p in enumerate(parts)])
     body = {k: np.concatenate([p[k] for p in parts]) for k in ("rotation", "rotor")} if frame == "body" else {}
+    # Segment runs only when every log has them (holdcv falls back to fixed windows otherwise).
+    holds = {k: np.concatenate([p[k] for p in parts]) for k in ("hold", "hold_age_s")} \
+        if parts and all("hold" in p for p in parts) else {}
     return DragSamples(cat["observed"], cat["columns"], cat["cos_yaw"], cat["sin_yaw"], cat["airflow"],
-                       np.concatenate(groups), logs, frame, body.get("rotation"), body.get("rotor"))
+                       np.concatenate(groups), logs, frame, body.get("rotation"), body.get("rotor"),
+                       holds.get("hold"), holds.get("hold_age_s"))
 
 
 def _solve(samples: DragSamples, active: tuple[str, ...], weights: np.ndarray | None = None) -> np.ndarray:

@@ -51,7 +51,8 @@ def drag_samples(af: Airframe, logs: list[FlightLog],
         thrust = dragfit.thrust_ned(cal, rpm, log.columns.get("thrust"), q)
         force = traj.outputs[:, model.outputs.slice("force_ned")]
         for frame in frames:
-            parts[frame].append(dragfit.log_samples(cal, cutoff, t, force, airflow, thrust, yaw, usable, frame, q))
+            parts[frame].append(dragfit.log_samples(cal, cutoff, t, force, airflow, thrust, yaw, usable, frame, q,
+                                                    log.columns.get("segment")))
     counts = [len(p["time"]) for p in parts[frames[0]]]
     return {frame: dragfit.merge(parts[frame], frame) for frame in frames}, counts
 

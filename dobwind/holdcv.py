@@ -18,7 +18,8 @@ import numpy as np
 
 from dobwind import dragfit
 
-HOLD_WINDOW_S = 10.0   # about a steady hold's scored part (replay scores a segment after 5 s)
+HOLD_WINDOW_S = 10.0   # about a steady hold's scored part, for logs without a `segment` column
+HOLD_SETTLE_S = 5.0    # with segments: scored from this long after each segment's start, as replay does
 MIN_WINDOWS_PER_BAND = 20
 MAX_BANDS = 5
 
@@ -31,6 +32,16 @@ def _window_ids(group: np.ndarray, samples_per_window: int) -> np.ndarray:
     position = np.arange(len(group)) - first
     block = np.cumsum(start) - 1
     return block * (10 ** 6) + position // samples_per_window
+
+
+def _scored_windows(samples: dragfit.DragSamples, per_window: int) -> tuple[np.ndarray, np.ndarray]:
+    """Window of every sample and which samples are scored. A log with segments is scored per segment
+    (one window each, from HOLD_SETTLE_S after its start: what replay's per-segment errors measure);
+    otherwise in consecutive windows of ``per_window`` samples within each block."""
+    scored = samples.hold_age_s >= HOLD_SETTLE_S if samples.hold_age_s is not None else None
+    if samples.hold is None or scored is None or not scored.any():  # no segments, or none long enough
+        return _window_ids(samples.group, per_window), np.ones(len(samples), dtype=bool)
+    return samples.log_index.astype(np.int64) * (10 ** 9) + samples.hold.astype(np.int64), scored
 
 
 def window_speed_errors(predicted: np.ndarray, truth: np.ndarray, windows: np.ndarray) -> np.ndarray:
@@ -70,7 +81,8 @@ def _held_out(samples: dragfit.DragSamples, fit_predict: dragfit.FitPredict, tes
     """Hold-mean speed errors and true speeds of the windows of the ``test`` samples."""
     held_out = samples.select(test)
     predicted = fit_predict(samples.select(~test), held_out)
-    windows = _window_ids(held_out.group, per_window)
+    windows, scored = _scored_windows(held_out, per_window)
+    predicted, held_out, windows = predicted[scored], held_out.select(scored), windows[scored]
     _, inverse, count = np.unique(windows, return_inverse=True, return_counts=True)
     speed = np.bincount(inverse, weights=np.hypot(held_out.airflow[:, 0], held_out.airflow[:, 1])) / count
     return window_speed_errors(predicted, held_out.airflow, windows), speed

@@ -54,6 +54,32 @@ def test_windows_split_blocks_and_never_span_two():
     assert len(set(ids[:5]) & set(ids[5:])) == 0
 
 
+def test_with_segments_each_hold_is_one_window_scored_after_its_transition():
+    """Two logs of three 8 s segments at 10 Hz; the prediction is 1 m/s off during each segment's first
+    5 s (the transition) and exact after it. Scored per segment after HOLD_SETTLE_S, the hold-mean
+    errors are 0; the fixed 10 s windows, which straddle transitions, see the transitions' error."""
+    from dobwind import dragfit, holdcv
+
+    t = np.arange(240) / 10.0
+    segment = (t // 8).astype(int)
+    hold, age = dragfit.segment_runs(t, segment)
+    assert list(np.unique(hold)) == [0, 1, 2] and age.max() == pytest.approx(7.9) and age[80] == 0.0
+    n = 2 * len(t)
+    truth = np.tile([5.0, 0.0, 0.0], (n, 1))
+    predicted = truth.copy()
+    predicted[np.tile(age < holdcv.HOLD_SETTLE_S, 2), 0] += 1.0
+    zeros = np.zeros(n)
+    samples = dragfit.DragSamples(zeros[:, None] * np.ones(3), np.zeros((n, 3, len(dragfit.PARAMETERS))), zeros + 1,
+                                  zeros, truth, np.repeat([0, 1], len(t)), np.repeat([0, 1], len(t)),
+                                  hold=np.tile(hold, 2), hold_age_s=np.tile(age, 2))
+    windows, scored = holdcv._scored_windows(samples, 100)
+    assert len(np.unique(windows[scored])) == 6
+    assert np.all(window_speed_errors(predicted[scored], truth[scored], windows[scored]) == 0.0)
+    fixed = dataclasses.replace(samples, hold=None, hold_age_s=None)
+    windows, scored = holdcv._scored_windows(fixed, 100)
+    assert scored.all() and np.max(window_speed_errors(predicted, truth, windows)) > 0.3
+
+
 def test_predicted_hold_error_inside_and_beyond_the_calibration():
     hold = HoldCV(0.05, (1.0, 5.0), (0.10, 0.02), 0.3)
     assert hold.predicted(3.0, 8.0) == pytest.approx(0.06)     # linear between bands
