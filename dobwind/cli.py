@@ -55,10 +55,13 @@ def cmd_generate(args: argparse.Namespace) -> int:
 
 
 def cmd_verify(args: argparse.Namespace) -> int:
+    from dobwind.codegen.generate import refuse_ill_conditioned_terms
     from dobwind.harness.verify import verify_airframe
     from dobwind.model.airframe import load_airframe
 
     af = load_airframe(args.airframe)
+    if args.c_dir is None and args.precision in ("single", "both"):
+        refuse_ill_conditioned_terms(af, args.airframe)  # generate refuses them: nothing to verify
     report = verify_airframe(af, args.precision, steps=args.steps, seed=args.seed,
                              c_dir=None if args.c_dir is None else Path(args.c_dir))
     if args.json:
