@@ -127,6 +127,18 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _refuse_out_of_range(text: str, output: str) -> None:
+    """The fitted airframe goes through the loader before it is written: a file that `check` would
+    refuse is never written (absurd logs can fit a thrust scale or a coefficient out of range)."""
+    from dobwind.model.airframe import parse_airframe
+
+    try:
+        parse_airframe(text, output)
+    except InputError as exc:
+        raise InputError(output, exc.where, f"the fitted airframe would be refused: {exc.message}; "
+                         "nothing written (check the logs' units)") from None
+
+
 def cmd_fit(args: argparse.Namespace) -> int:
     from dobwind.fit import fit_plot, text_report
     from dobwind.fitfamily import fit_airframe
@@ -147,6 +159,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
     written = passed or args.force  # a model that failed its self-check is written only when forced
     if written:
         text = dump_airframe(new)
+        _refuse_out_of_range(text, args.output)
         with OutputFiles(targets) as out:
             write_atomically(out.stage(args.output), lambda handle: handle.write(text))
             fit_plot(new, points, str(out.stage(plot)))

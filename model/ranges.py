@@ -40,6 +40,10 @@ class Range:
         return f"{zero}in {left}{self.low:g}, {self.high:g}{right}{unit}"
 
 
+# The smallest nonzero magnitude of a value that may be 0: physically zero, yet a normal float with
+# eight decades to spare, so that the C literal neither vanishes nor loses digits.
+TINY = 1e-30
+
 # Dotted key -> range. Magnitude ranges (``coefficients``) apply to |value|.
 RANGES: dict[str, Range] = {
     # 5 g (the lightest flying micro quadrotors are about 20 g) to 10 t (beyond any multirotor).
@@ -57,11 +61,11 @@ RANGES: dict[str, Range] = {
     # kg/s: 1e-3 is a time constant of hours even on a 5 g vehicle; the pole test catches the upper end.
     "observer.gains": Range(1e-3, 1e7, "kg/s"),
     # The weight of the heaviest vehicle in range at the highest gravity (1e4 kg x 100 m/s^2).
-    "observer.force_offset": Range(0.0, 1e6, "N"),
+    "observer.force_offset": Range(TINY, 1e6, "N", zero_allowed=True),
     # Off (0), or from the sample time to a day.
     "observer.acceleration_bias_time": Range(1e-4, 86400.0, "s", zero_allowed=True),
     # Hurricane winds are 70 m/s; no multirotor flies in 100.
-    "filter.speeds": Range(0.0, 100.0, "m/s"),
+    "filter.speeds": Range(TINY, 100.0, "m/s", zero_allowed=True),
     # A time constant of 160 s is the slowest useful wind smoothing; the top is checked against Nyquist.
     "filter.cutoffs": Range(1e-3, 5000.0, "Hz"),
     # The sample time to 10 s: a longer gap is a restart, not a step.
@@ -69,14 +73,14 @@ RANGES: dict[str, Range] = {
     "limits.max_tilt_deg": Range(1.0, 90.0, "deg", high_open=True),
     # Force-air coefficients: m/s per N^p. Zero drops the term; fitted values are 1e-3..10, and with
     # |p| <= 4 and forces up to 1e6 N every product c * term stays inside single precision.
-    "force_air.coefficients": Range(1e-12, 1e6, "", zero_allowed=True),
+    "force_air.coefficients": Range(TINY, 1e6, "", zero_allowed=True),
     # Drag-law coefficients (N per (m/s)^k): a hundred tonnes at 1 m/s.
-    "force_air.drag": Range(0.0, 1e6, ""),
+    "force_air.drag": Range(TINY, 1e6, "", zero_allowed=True),
     "envelope.force_h_max": Range(0.0, 1e6, "N", low_open=True),
-    "envelope.force_z": Range(0.0, 1e6, "N"),
+    "envelope.force_z": Range(TINY, 1e6, "N", zero_allowed=True),
     "envelope.airflow_h_max": Range(0.0, 1000.0, "m/s", low_open=True),
-    "uncertainty.speeds": Range(0.0, 1000.0, "m/s"),
-    "uncertainty.sigma": Range(0.0, 1000.0, "m/s"),
+    "uncertainty.speeds": Range(TINY, 1000.0, "m/s", zero_allowed=True),
+    "uncertainty.sigma": Range(TINY, 1000.0, "m/s", zero_allowed=True),
 }
 
 NAME_MAX_CHARS = 64            # symbols stay readable, file names far below the usual 255-byte limit
