@@ -78,9 +78,27 @@ def settling_time_s(sys: ct.LTI, threshold: float = 0.02) -> float:
         return float(times[-1])
 
 
+def _reachable(a: np.ndarray, b: np.ndarray) -> list[int]:
+    """Indices of the states an input reaches, directly or through A (graph closure on the nonzeros)."""
+    reached = set(np.flatnonzero(np.any(b != 0, axis=1)).tolist())
+    frontier = list(reached)
+    while frontier:
+        i = frontier.pop()
+        for j in np.flatnonzero(a[:, i] != 0).tolist():
+            if j not in reached:
+                reached.add(j)
+                frontier.append(j)
+    return sorted(reached)
+
+
 def noise_gain(sys: ct.LTI) -> float:
     """RMS of the output per unit RMS of white input noise (one independent sample per step)."""
     a, b, c, d = (np.asarray(m, dtype=float) for m in (sys.A, sys.B, sys.C, sys.D))
+    # Only the states the noise reaches carry its variance. An unreached one (a held previous sample,
+    # zero in the linearization) can couple with a gain like 2e6 into the rest and make the Lyapunov
+    # system ill-conditioned (scipy's LinAlgWarning) without changing the result, so it is dropped.
+    keep = _reachable(a, b)
+    a, b, c = a[np.ix_(keep, keep)], b[keep], c[:, keep]
     if a.size == 0:
         return float(abs(d[0, 0]))
     p = scipy.linalg.solve_discrete_lyapunov(a, b @ b.T)
