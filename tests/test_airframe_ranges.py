@@ -198,7 +198,8 @@ def test_generate_and_verify_refuse_an_ill_conditioned_term_in_single_precision_
     path = _write(tmp_path, airframe_dict(**{"force_air.horizontal.terms": ["1", "abs(m)^0.5*n^3"],
                                              "force_air.horizontal.coefficients": [0.5, 0.1]}))
     for argv in (["generate", str(path), "-o", str(tmp_path / "single")], ["verify", str(path)],
-                 ["verify", str(path), "--precision", "single"]):
+                 ["verify", str(path), "--precision", "single"],
+                 ["replay", str(path), str(tmp_path / "none.csv"), "--backend", "c"]):
         assert main(argv) == 2, argv
         err = _one_line(capsys)
         assert f"{path}: force_air.horizontal.terms: term 'abs(m)^0.5*n^3' cannot be generated in single" in err
