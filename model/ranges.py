@@ -58,7 +58,8 @@ RANGES: dict[str, Range] = {
     "thrust.coefficients": Range(0.0, 1e6, "N"),
     # 10 kHz to 1 Hz; the step rejects dt below 1e-5 s.
     "observer.sample_time": Range(1e-4, 1.0, "s"),
-    # kg/s: 1e-3 is a time constant of hours even on a 5 g vehicle; the pole test catches the upper end.
+    # kg/s: below 1e-3 even the lightest vehicle's observer (m / gain = 5 s at 5 g) would be slower than
+    # the wind it tracks; the pole test refuses gains too stiff for the sample time.
     "observer.gains": Range(1e-3, 1e7, "kg/s"),
     # The weight of the heaviest vehicle in range at the highest gravity (1e4 kg x 100 m/s^2).
     "observer.force_offset": Range(TINY, 1e6, "N", zero_allowed=True),
@@ -76,9 +77,9 @@ RANGES: dict[str, Range] = {
     "force_air.coefficients": Range(TINY, 1e6, "", zero_allowed=True),
     # Drag-law coefficients (N per (m/s)^k): a hundred tonnes at 1 m/s.
     "force_air.drag": Range(TINY, 1e6, "", zero_allowed=True),
-    "envelope.force_h_max": Range(0.0, 1e6, "N", low_open=True),
+    "envelope.force_h_max": Range(TINY, 1e6, "N"),
     "envelope.force_z": Range(TINY, 1e6, "N", zero_allowed=True),
-    "envelope.airflow_h_max": Range(0.0, 1000.0, "m/s", low_open=True),
+    "envelope.airflow_h_max": Range(TINY, 1000.0, "m/s"),
     "uncertainty.speeds": Range(TINY, 1000.0, "m/s", zero_allowed=True),
     "uncertainty.sigma": Range(TINY, 1000.0, "m/s", zero_allowed=True),
 }
