@@ -23,6 +23,7 @@ from dobwind.model.exercise import flight_inputs
 from dobwind.model.status import REJECTED_MASK, STATUS_BITS
 from dobwind.model.stability import require_stable
 from dobwind.model.step import StepModel, build_step
+from dobwind.model.terms import single_precision_problem
 from dobwind.model.version import VERSION
 
 SELFTEST_ROWS = 120
@@ -141,11 +142,24 @@ def generate_code(af: Airframe, precision: str = "single", model: StepModel | No
     """``source`` names the airframe file in errors (default: the airframe's name)."""
     model = model or build_step(af)
     _refuse_unstable(af)
+    if precision == "single":
+        refuse_ill_conditioned_terms(af, source or af.name)
     try:
         return _render(af, precision, model)
     except LiteralError as exc:
         raise InputError(source or af.name, None, f"cannot print the C in {precision} precision: {exc} "
                          "(check the airframe's values)") from None
+
+
+def refuse_ill_conditioned_terms(af: Airframe, source: str) -> None:
+    """A term whose float evaluation cannot meet verify's single-precision tolerance is refused here,
+    with its reason, rather than generated and then failing verify."""
+    for table, model in (("horizontal", af.horizontal), ("vertical", af.vertical)):
+        for term in model.terms:
+            problem = single_precision_problem(term)
+            if problem is not None:
+                raise InputError(source, f"force_air.{table}.terms",
+                                 f"term '{term.text}' cannot be generated in single precision: {problem}")
 
 
 def _render(af: Airframe, precision: str, model: StepModel) -> GeneratedCode:

@@ -55,10 +55,13 @@ def cmd_generate(args: argparse.Namespace) -> int:
 
 
 def cmd_verify(args: argparse.Namespace) -> int:
+    from dobwind.codegen.generate import refuse_ill_conditioned_terms
     from dobwind.harness.verify import verify_airframe
     from dobwind.model.airframe import load_airframe
 
     af = load_airframe(args.airframe)
+    if args.c_dir is None and args.precision in ("single", "both"):
+        refuse_ill_conditioned_terms(af, args.airframe)  # generate refuses them: nothing to verify
     report = verify_airframe(af, args.precision, steps=args.steps, seed=args.seed,
                              c_dir=None if args.c_dir is None else Path(args.c_dir))
     if args.json:
@@ -124,6 +127,18 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _refuse_out_of_range(text: str, output: str) -> None:
+    """The fitted airframe goes through the loader before it is written: a file that `check` would
+    refuse is never written (absurd logs can fit a thrust scale or a coefficient out of range)."""
+    from dobwind.model.airframe import parse_airframe
+
+    try:
+        parse_airframe(text, output)
+    except InputError as exc:
+        raise InputError(output, exc.where, f"the fitted airframe would be refused: {exc.message}; "
+                         "nothing written (check the logs' units)") from None
+
+
 def cmd_fit(args: argparse.Namespace) -> int:
     from dobwind.fit import fit_plot, text_report
     from dobwind.fitfamily import fit_airframe
@@ -144,6 +159,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
     written = passed or args.force  # a model that failed its self-check is written only when forced
     if written:
         text = dump_airframe(new)
+        _refuse_out_of_range(text, args.output)
         with OutputFiles(targets) as out:
             write_atomically(out.stage(args.output), lambda handle: handle.write(text))
             fit_plot(new, points, str(out.stage(plot)))
@@ -171,6 +187,10 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
     check_targets(_replay_targets(args), [args.airframe, args.log])
     af = load_airframe(args.airframe)
+    if args.backend == "c" and args.precision == "single":
+        from dobwind.codegen.generate import refuse_ill_conditioned_terms
+
+        refuse_ill_conditioned_terms(af, args.airframe)  # named by its file, before any log is read
     from dobwind.autopilot import is_autopilot_log
 
     if is_autopilot_log(args.log):

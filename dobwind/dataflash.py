@@ -62,11 +62,20 @@ def _load(path: str) -> dict[str, list[dict]]:
                 if msg is None:
                     break
                 out[msg.get_type()].append(msg.to_dict())
+            _close(reader)
     except OSError as exc:
         raise InputError(path, None, f"cannot read: {exc.strerror}") from None
     except Exception as exc:  # DFReader raises many kinds on corrupt files
         raise InputError(path, None, f"not a readable DataFlash log ({type(exc).__name__}: {str(exc)[:80]})") from None
     return out
+
+
+def _close(reader) -> None:
+    """DFReader keeps its file and a memory map open until close() (a leaked file per log read)."""
+    try:
+        reader.close()
+    except Exception:  # noqa: BLE001 - closing is best effort; the messages are already read
+        pass
 
 
 def messages_found(path: str) -> dict[str, int]:

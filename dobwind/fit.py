@@ -27,7 +27,7 @@ from dobwind.analysis.figures import settling_time_s
 from dobwind.analysis.linear import axis_system
 from dobwind.envelope import calibration_envelope, uncertainty_table
 from dobwind.errors import CheckFailed, InputError
-from dobwind.logs import TRUTH_COLUMNS, FlightLog, heading_yaw, read_log, required_columns, step_inputs
+from dobwind.logs import TRUTH_BOUNDS, TRUTH_COLUMNS, FlightLog, heading_yaw, read_log, required_columns, step_inputs
 from dobwind.model import forceair, reference
 from dobwind.model.airframe import Airframe, FilterSchedule, ForceAirModel
 from dobwind.model.status import accepted
@@ -125,7 +125,7 @@ def read_calibration_logs(af: Airframe, log_paths: list[str], still_air: bool = 
         for path in log_paths:
             if is_autopilot_log(path):  # autopilot logs carry no true wind
                 raise InputError(path, "wind_n", "an autopilot log has no true wind: fit it with --still-air")
-        return [read_log(path, needed) for path in log_paths]
+        return [read_log(path, needed, TRUTH_BOUNDS) for path in log_paths]
     logs = []
     for path in log_paths:
         # Autopilot logs: rows without data or on the ground are NaN, which the step rejects.

@@ -23,6 +23,11 @@ from dobwind.errors import InputError
 from dobwind.model.airframe import Airframe
 
 TRUTH_COLUMNS = ("wind_n", "wind_e", "wind_d")
+# The largest true wind component a calibration log may hold (m/s): hurricanes reach 70 m/s and no
+# multirotor flies in 100 (the airframe's filter.speeds stop there too). Beyond it a value is a unit or
+# export error, and fitting it gives coefficients of 1e299 and an infinite RMSE (issue #16).
+TRUE_WIND_MAX_MPS = 100.0
+TRUTH_BOUNDS = {name: TRUE_WIND_MAX_MPS for name in TRUTH_COLUMNS}
 # The step's outputs in their order, with status inserted where the original format had it last: new
 # outputs are appended after it so that readers of the older columns keep working.
 ESTIMATE_COLUMNS = ("t", "force_n", "force_e", "force_d", "wind_n", "wind_e", "wind_d", "wind_speed_h",
@@ -80,9 +85,11 @@ class LogChunk:
 
 
 def iter_log(path: str | Path, needed: list[tuple[str, str]] | None = None,
-             block_bytes: int = BLOCK_BYTES, progress: Callable[[int], None] | None = None) -> Iterator[LogChunk]:
+             block_bytes: int = BLOCK_BYTES, progress: Callable[[int], None] | None = None,
+             bounds: dict[str, float] | None = None) -> Iterator[LogChunk]:
     """The log in bounded chunks, every check of ``read_log`` applied (time increasing across chunks
-    too). ``progress`` is told how many bytes each chunk took."""
+    too). ``progress`` is told how many bytes each chunk took. ``bounds``: column -> largest magnitude
+    a value may have (NaN, an empty cell, stays a missing value)."""
     path = str(path)
     try:
         handle = open(path, "rb")
@@ -98,6 +105,7 @@ def iter_log(path: str | Path, needed: list[tuple[str, str]] | None = None,
             columns = {name: block.data[:, i] for i, name in enumerate(header.names)}
             last_t = _check_time(columns["t"], last_t, block.lines, path)
             _check_labels(columns, "segment", path, block.lines)
+            _check_bounds(columns, bounds or {}, path, block.lines)
             yield LogChunk(FlightLog(path, columns), block.lines, rows)
             rows += len(block.lines)
             if progress is not None:
@@ -119,9 +127,22 @@ def _check_time(t: np.ndarray, previous: float, lines: np.ndarray, path: str) ->
     return float(t[-1])
 
 
-def read_log(path: str | Path, needed: list[tuple[str, str]] | None = None) -> FlightLog:
+def _check_bounds(columns: dict[str, np.ndarray], bounds: dict[str, float], path: str, lines: np.ndarray) -> None:
+    for name, limit in bounds.items():
+        if name not in columns:
+            continue
+        with np.errstate(invalid="ignore"):
+            bad = np.abs(columns[name]) > limit  # NaN compares False: a missing value, not an error
+        if bad.any():
+            row = int(np.flatnonzero(bad)[0])
+            raise InputError(path, f"line {lines[row]}, column {name}",
+                             f"{columns[name][row]:g} is beyond +-{limit:g}")
+
+
+def read_log(path: str | Path, needed: list[tuple[str, str]] | None = None,
+             bounds: dict[str, float] | None = None) -> FlightLog:
     """The whole log in memory (fit and the plots need it); replay streams with ``iter_log``."""
-    chunks = [chunk.log.columns for chunk in iter_log(path, needed)]
+    chunks = [chunk.log.columns for chunk in iter_log(path, needed, bounds=bounds)]
     names = list(chunks[0])
     if len(chunks) == 1:
         return FlightLog(str(path), chunks[0])

@@ -90,7 +90,10 @@ def _topic(ulog, name: str, fields: list[str], optional: tuple[str, ...] = ()) -
         if data.name == name and data.multi_id == 0 and all(f in data.data for f in fields):
             if len(data.data["timestamp"]) < 2:
                 return None
-            out = {f: np.asarray(data.data[f], dtype=float) for f in fields + [o for o in optional if o in data.data]}
+            # A signalling NaN among a damaged file's float32 values raises "invalid" when widened; it
+            # becomes a quiet NaN, which the step rejects (NONFINITE) like any other missing value.
+            with np.errstate(invalid="ignore"):
+                out = {f: np.asarray(data.data[f], dtype=float) for f in fields + [o for o in optional if o in data.data]}
             out["t"] = np.asarray(data.data["timestamp"], dtype=float) * 1e-6
             return out
     return None
@@ -100,7 +103,8 @@ def truncation(path: str) -> str | None:
     """How the file ends, when its last message is cut off (pyulog reads such a file silently): walks
     the message headers (u16 size, u8 type) from the end of the 16-byte file header."""
     try:
-        blob = open(path, "rb").read()
+        with open(path, "rb") as handle:
+            blob = handle.read()
     except OSError:
         return None
     pos, size = 16, len(blob)

@@ -16,7 +16,9 @@ from typing import Any
 
 from dobwind.model.errors import InputError
 from dobwind.model.forceair import DRAG_FRAMES, HORIZONTAL_DRAG_KEYS, ROTOR_DRAG_KEY, VERTICAL_DRAG_KEYS, DragLaw
-from dobwind.model.terms import Term, TermError, parse_term
+from dobwind.model.ranges import (MAX_TERMS, MAX_FACTOR_POWER, MAX_TERM_DEGREE, MAX_THRUST_COEFFICIENTS,
+                                  MIN_SPEED_GAP_MPS, NAME_MAX_CHARS, RANGES, Range, single_precision_ok)
+from dobwind.model.terms import Term, TermError, parse_term, range_problem
 
 DISCRETIZATIONS = ("paper", "euler", "zoh", "tustin")
 ACCELERATION_MODES = ("ned", "specific_force", "velocity")
@@ -215,6 +217,14 @@ class _Reader:
             raise self.fail(name, f"every value must be > 0, got {value!r}")
         return tuple(float(v) for v in value)
 
+    def within(self, name: str, values: float | tuple[float, ...], range_key: str, magnitude: bool = False) -> None:
+        """Every value (its magnitude with ``magnitude``) inside ``RANGES[range_key]``."""
+        bounds: Range = RANGES[range_key]
+        for value in (values if isinstance(values, tuple) else (values,)):
+            if not bounds.contains(abs(value) if magnitude else value):
+                what = "|value|" if magnitude else "value"
+                raise self.fail(name, f"{what} must be {bounds.describe()}, got {value:g}")
+
     def table_of(self, name: str, known: tuple[str, ...] | None = None, required: bool = True) -> "_Reader | None":
         value = self.raw(name, required=required)
         if value is None:
@@ -239,13 +249,20 @@ def _force_air(reader: _Reader) -> ForceAirModel:
     raw_terms = reader.raw("terms")
     if not isinstance(raw_terms, list) or not raw_terms or not all(isinstance(t, str) for t in raw_terms):
         raise reader.fail("terms", "expected a non-empty list of strings")
+    if len(raw_terms) > MAX_TERMS:
+        raise reader.fail("terms", f"has {len(raw_terms)} terms; at most {MAX_TERMS}")
     terms = []
     for text in raw_terms:
         try:
-            terms.append(parse_term(text))
+            term = parse_term(text)
         except TermError as exc:
-            raise reader.fail("terms", f"term '{text}': {exc}") from None
+            raise reader.fail("terms", f"term {_short(text)}: {exc}") from None
+        problem = range_problem(term, MAX_FACTOR_POWER, MAX_TERM_DEGREE)
+        if problem is not None:
+            raise reader.fail("terms", f"term {_short(text)}: {problem}")
+        terms.append(term)
     coefficients = reader.numbers("coefficients")
+    reader.within("coefficients", coefficients, "force_air.coefficients", magnitude=True)
     if len(coefficients) != len(terms):
         raise reader.fail("coefficients", f"has {len(coefficients)} values for {len(terms)} terms")
     reader.done()
@@ -262,6 +279,8 @@ def _drag_law(reader: _Reader) -> DragLaw:
         values[ROTOR_DRAG_KEY] = reader.number(ROTOR_DRAG_KEY, default=0.0)
     elif reader.has(ROTOR_DRAG_KEY):
         raise reader.fail(ROTOR_DRAG_KEY, 'rotor drag is a term of the body-frame law only (frame = "body")')
+    for key, value in values.items():
+        reader.within(key, value, "force_air.drag", magnitude=True)
     for key in ("l0", "q0", "lz", "qz") + ((ROTOR_DRAG_KEY,) if frame == "body" else ()):
         if values[key] < 0:
             raise reader.fail(key, f"a drag coefficient must be >= 0, got {values[key]!r}")
@@ -293,6 +312,7 @@ def _force_air_tables(fa: _Reader) -> tuple[ForceAirModel, ForceAirModel, DragLa
 def _thrust(reader: _Reader) -> Thrust:
     source = reader.string("source", THRUST_SOURCES)
     scale = reader.number("scale", default=1.0, positive=True)
+    reader.within("scale", scale, "thrust.scale")
     if source == "collective":
         for key in ("rotors", "max_rpm", "coefficients"):
             if reader.has(key):
@@ -303,17 +323,30 @@ def _thrust(reader: _Reader) -> Thrust:
     if isinstance(rotors, bool) or not isinstance(rotors, int) or not 1 <= rotors <= MAX_ROTORS:
         raise reader.fail("rotors", f"expected a whole number from 1 to {MAX_ROTORS}, got {rotors!r}")
     max_rpm = reader.number("max_rpm", positive=True)
+    reader.within("max_rpm", max_rpm, "thrust.max_rpm")
     coefficients = reader.numbers("coefficients")
+    if len(coefficients) > MAX_THRUST_COEFFICIENTS:
+        raise reader.fail("coefficients", f"has {len(coefficients)} values; at most {MAX_THRUST_COEFFICIENTS}")
+    reader.within("coefficients", coefficients, "thrust.coefficients", magnitude=True)
+    # The step folds c_k * scale / max_rpm^k (and rotors * c_0 * scale) into one constant per power.
+    for k, c in enumerate(coefficients):
+        folded = c * scale * (rotors if k == 0 else 1.0 / max_rpm ** k)
+        if not single_precision_ok(folded):
+            raise reader.fail("coefficients", f"coefficient {k} ({c:g}) over max_rpm^{k} is {folded:.3g}, "
+                              "outside single precision's normal range")
     reader.done()
     return Thrust("rpm", scale, rotors, max_rpm, coefficients)
 
 
 def _envelope(reader: _Reader) -> Envelope:
     force_h_max = reader.number("force_h_max", positive=True)
+    reader.within("force_h_max", force_h_max, "envelope.force_h_max")
     force_z = reader.numbers("force_z", length=2)
+    reader.within("force_z", force_z, "envelope.force_z", magnitude=True)
     if force_z[0] >= force_z[1]:
         raise reader.fail("force_z", f"must be [low, high] with low < high, got {list(force_z)!r}")
     airflow_h_max = reader.number("airflow_h_max", positive=True)
+    reader.within("airflow_h_max", airflow_h_max, "envelope.airflow_h_max")
     reader.done()
     return Envelope(force_h_max, (force_z[0], force_z[1]), airflow_h_max)
 
@@ -321,34 +354,51 @@ def _envelope(reader: _Reader) -> Envelope:
 def _uncertainty(reader: _Reader) -> Uncertainty:
     speeds = reader.numbers("speeds")
     if speeds[0] < 0 or any(b <= a for a, b in zip(speeds, speeds[1:])):
-        raise reader.fail("speeds", f"must be >= 0 and strictly increasing, got {list(speeds)!r}")
+        raise reader.fail("speeds", f"must be >= 0 and strictly increasing, got {_short(list(speeds))}")
+    reader.within("speeds", speeds, "uncertainty.speeds")
     columns = []
     for key in ("sigma_h", "sigma_up"):
         values = reader.numbers(key)
         if len(values) != len(speeds):
             raise reader.fail(key, f"has {len(values)} values for {len(speeds)} speeds")
         if any(v < 0 for v in values):
-            raise reader.fail(key, f"every value must be >= 0, got {list(values)!r}")
+            raise reader.fail(key, f"every value must be >= 0, got {_short(list(values))}")
+        reader.within(key, values, "uncertainty.sigma")
         columns.append(values)
     noise = []
     for key in ("noise_h", "noise_up"):
         value = reader.number(key, default=0.0)
         if value < 0:
             raise reader.fail(key, f"must be >= 0, got {value!r}")
+        if value > 0:
+            reader.within(key, value, "uncertainty.sigma")
         noise.append(value)
     reader.done()
     return Uncertainty(speeds, columns[0], columns[1], noise[0], noise[1])
 
 
+def _name(top: _Reader) -> str:
+    name = top.string("name")
+    if len(name) > NAME_MAX_CHARS:
+        raise top.fail("name", f"has {len(name)} characters; at most {NAME_MAX_CHARS} (it prefixes C symbols and file names)")
+    if not re.fullmatch(r"[a-z][a-z0-9_]*", name):
+        raise top.fail("name", f"must match [a-z][a-z0-9_]* (it prefixes C symbols), got {_short(name)}")
+    return name
+
+
 def _observer(obs: _Reader) -> Observer:
     sample_time = obs.number("sample_time", positive=True)
+    obs.within("sample_time", sample_time, "observer.sample_time")
     gains = obs.numbers("gains", length=3, positive=True)
+    obs.within("gains", gains, "observer.gains")
     discretization = obs.string("discretization", DISCRETIZATIONS)
     acceleration = obs.string("acceleration", ACCELERATION_MODES)
     offset = obs.numbers("force_offset", length=3, default=(0.0, 0.0, 0.0))
+    obs.within("force_offset", offset, "observer.force_offset", magnitude=True)
     bias_time = obs.number("acceleration_bias_time", default=0.0)
     if bias_time < 0:
         raise obs.fail("acceleration_bias_time", f"must be >= 0 s (0: no bias estimate), got {bias_time!r}")
+    obs.within("acceleration_bias_time", bias_time, "observer.acceleration_bias_time")
     if bias_time > 0 and acceleration == "velocity":
         raise obs.fail("acceleration_bias_time", 'needs an acceleration input; with acceleration = "velocity" '
                        "there is no acceleration bias to estimate (set it to 0 or remove it)")
@@ -361,10 +411,15 @@ def _filter(flt: _Reader, sample_time: float) -> FilterSchedule:
     if speeds[0] < 0:
         raise flt.fail("speeds", "must be >= 0")
     if any(b <= a for a, b in zip(speeds, speeds[1:])):
-        raise flt.fail("speeds", f"must be strictly increasing, got {list(speeds)!r}")
+        raise flt.fail("speeds", f"must be strictly increasing, got {_short(list(speeds))}")
+    flt.within("speeds", speeds, "filter.speeds")
+    gap = min((b - a for a, b in zip(speeds, speeds[1:])), default=MIN_SPEED_GAP_MPS)
+    if gap < MIN_SPEED_GAP_MPS * (1 - 1e-9):  # 99.99 - 99.98 is 0.00999999999999 in binary
+        raise flt.fail("speeds", f"breakpoints {gap:.3g} m/s apart; at least {MIN_SPEED_GAP_MPS:g} m/s")
     cutoffs = flt.numbers("cutoffs", positive=True)
     if len(cutoffs) != len(speeds):
         raise flt.fail("cutoffs", f"has {len(cutoffs)} values for {len(speeds)} speeds")
+    flt.within("cutoffs", cutoffs, "filter.cutoffs")
     flt.done()
     nyquist = 0.5 / sample_time
     if max(cutoffs) >= nyquist:
@@ -372,13 +427,15 @@ def _filter(flt: _Reader, sample_time: float) -> FilterSchedule:
     return FilterSchedule(speeds, cutoffs)
 
 
-def _limits(lim: _Reader | None, source: str, sample_time: float) -> Limits:
+def _limits(lim: _Reader | None, sample_time: float, source: str) -> Limits:
     limits = Limits()
     if lim is not None:
         max_dt = lim.number("max_dt", default=DEFAULT_MAX_DT_S, positive=True)
+        lim.within("max_dt", max_dt, "limits.max_dt")
         max_tilt = lim.number("max_tilt_deg", default=DEFAULT_MAX_TILT_DEG, positive=True)
         if max_tilt >= 90.0:
             raise lim.fail("max_tilt_deg", f"must be below 90, got {max_tilt!r}")
+        lim.within("max_tilt_deg", max_tilt, "limits.max_tilt_deg")
         lim.done()
         limits = Limits(max_dt, max_tilt)
     if limits.max_dt_s < sample_time:
@@ -392,41 +449,38 @@ def _ros2_topics(ros: _Reader | None) -> tuple[tuple[str, str], ...]:
     topics = tuple((role, ros.string(role)) for role in ROS2_TOPIC_ROLES if ros.has(role))
     for role, topic in topics:
         if not topic.startswith("/"):
-            raise ros.fail(role, f"must be an absolute topic name starting with '/', got {topic!r}")
+            raise ros.fail(role, f"must be an absolute topic name starting with '/', got {_short(topic)}")
     ros.done()
     return topics
 
 
-def parse_airframe(text: str, source: str) -> Airframe:
-    """Validate airframe TOML text; ``source`` names the file in error messages."""
+def _document(text: str, source: str) -> dict[str, Any]:
     try:
-        document = tomllib.loads(text)
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise InputError(source, None, f"TOML syntax error: {exc}") from None
     except RecursionError:  # tomllib recurses once per nesting level of arrays and inline tables
         raise InputError(source, None, "TOML nested too deeply") from None
-    top = _Reader(source, document, known=TOP_KEYS)
-    name = top.string("name")
-    if not re.fullmatch(r"[a-z][a-z0-9_]*", name):
-        raise top.fail("name", f"must match [a-z][a-z0-9_]* (it prefixes C symbols), got {name!r}")
+
+
+def parse_airframe(text: str, source: str) -> Airframe:
+    """Validate airframe TOML text; ``source`` names the file in error messages. Every number is
+    checked against its range in ``model/ranges.py`` before anything is built from it."""
+    top = _Reader(source, _document(text, source), known=TOP_KEYS)
+    name = _name(top)
     mass = top.number("mass", positive=True)
+    top.within("mass", mass, "mass")
     gravity = top.number("gravity", default=STANDARD_GRAVITY, positive=True)
-
+    top.within("gravity", gravity, "gravity")
     thrust = _thrust(top.table_of("thrust", THRUST_KEYS))  # type: ignore[arg-type]
-
     observer = _observer(top.table_of("observer", OBSERVER_KEYS))  # type: ignore[arg-type]
-    fa = top.table_of("force_air", FORCE_AIR_KEYS)
-    assert fa is not None
-    horizontal, vertical, drag = _force_air_tables(fa)
+    horizontal, vertical, drag = _force_air_tables(top.table_of("force_air", FORCE_AIR_KEYS))  # type: ignore[arg-type]
     schedule = _filter(top.table_of("filter", FILTER_KEYS), observer.sample_time_s)  # type: ignore[arg-type]
-    limits = _limits(top.table_of("limits", LIMITS_KEYS, required=False), source, observer.sample_time_s)
+    limits = _limits(top.table_of("limits", LIMITS_KEYS, required=False), observer.sample_time_s, source)
     env = top.table_of("envelope", ENVELOPE_KEYS, required=False)
     unc = top.table_of("uncertainty", UNCERTAINTY_KEYS, required=False)
-    envelope = _envelope(env) if env is not None else None
-    uncertainty = _uncertainty(unc) if unc is not None else None
     ros2_topics = _ros2_topics(top.table_of("ros2_topics", ROS2_TOPIC_ROLES, required=False))
     top.done()
-
     return Airframe(
         name=name,
         mass_kg=mass,
@@ -438,8 +492,8 @@ def parse_airframe(text: str, source: str) -> Airframe:
         filter=schedule,
         limits=limits,
         content_sha256=hashlib.sha256(text.encode()).hexdigest(),
-        envelope=envelope,
-        uncertainty=uncertainty,
+        envelope=_envelope(env) if env is not None else None,
+        uncertainty=_uncertainty(unc) if unc is not None else None,
         drag=drag,
         ros2_topics=ros2_topics,
     )
