@@ -74,6 +74,8 @@ def vehicle_tables(config: Config, results: list[dict[str, Any]]) -> tuple[list[
         labelled.append(("worst", worst_by_vehicle[vehicle]))
         lines.append(table(f"{vehicle} ({config.vehicle_dir / vehicle}.vehicle.toml)", labelled))
         for r in rows:
+            if (r.get("fit") or {}).get("model"):
+                lines.append(f"  seed {r['seed']}: fit chose the {r['fit']['model']} family")
             if "error" in r:
                 lines.append(f"  seed {r['seed']}: {r['error']}")
             for warning in (r.get("fit") or {}).get("warnings", []):

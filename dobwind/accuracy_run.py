@@ -91,7 +91,8 @@ def _fit(job: Job, logs: list[str]) -> tuple[str, dict[str, Any]]:
                     "self_check_passed": (report.get("self_check") or {}).get("passed"),
                     "rmse_mps": report.get("horizontal_rmse_mps"),
                     "extrapolation_rmse_mps": report.get("horizontal_extrapolation_rmse_mps"),
-                    "terms": report.get("horizontal_terms"), "thrust_scale": report.get("thrust_scale"),
+                    "model": report.get("model"), "terms": report.get("horizontal_terms"),
+                    "thrust_scale": report.get("thrust_scale"),
                     "warnings": report.get("warnings", [])}
 
 

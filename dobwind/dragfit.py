@@ -289,7 +289,7 @@ def predicted_airflow(samples: DragSamples, theta: np.ndarray) -> np.ndarray:
 
 def airflow_errors(samples: DragSamples, theta: np.ndarray) -> tuple[float, float]:
     """RMS horizontal vector error and RMS vertical error (m/s) of the inverted law."""
-    error = predicted_airflow(samples, theta) - samples.airflow
+    error = prediction_error(predicted_airflow(samples, theta), samples.airflow)
     return float(np.sqrt(np.mean(error[:, 0] ** 2 + error[:, 1] ** 2))), float(np.sqrt(np.mean(error[:, 2] ** 2)))
 
 
@@ -298,6 +298,19 @@ FitPredict = Callable[[DragSamples, DragSamples], np.ndarray]
 
 def drag_fit_predict(active: tuple[str, ...]) -> FitPredict:
     return lambda train, test: predicted_airflow(test, robust_fit(train, active, rounds=2))
+
+
+# A held-out prediction further off than this (m/s) is as wrong as any: errors are clipped to it (NaN
+# too), so that a candidate law whose inversion diverges on some fold scores badly instead of
+# overflowing the sums (numpy's overflow warnings on the real Neural-Fly runs).
+ERROR_CLIP_MPS = 1e3
+
+
+def prediction_error(predicted: np.ndarray, truth: np.ndarray) -> np.ndarray:
+    """predicted - truth, clipped to +-ERROR_CLIP_MPS, NaN counted as the clip."""
+    with np.errstate(invalid="ignore", over="ignore"):
+        error = predicted - truth
+    return np.nan_to_num(np.clip(error, -ERROR_CLIP_MPS, ERROR_CLIP_MPS), nan=ERROR_CLIP_MPS)
 
 
 def grouped_cv(samples: DragSamples, fit_predict: FitPredict) -> tuple[float, float]:
@@ -310,7 +323,7 @@ def grouped_cv(samples: DragSamples, fit_predict: FitPredict) -> tuple[float, fl
     squared_h, squared_v, count = 0.0, 0.0, 0
     for k in range(min(FOLDS, len(unique))):
         test = fold == k
-        error = fit_predict(samples.select(~test), samples.select(test)) - samples.airflow[test]
+        error = prediction_error(fit_predict(samples.select(~test), samples.select(test)), samples.airflow[test])
         squared_h += float(np.sum(error[:, 0] ** 2 + error[:, 1] ** 2))
         squared_v += float(np.sum(error[:, 2] ** 2))
         count += int(test.sum())
@@ -325,7 +338,7 @@ def extrapolation_error(samples: DragSamples, fit_predict: FitPredict) -> float:
     top = level[inverse] >= TOP_SHARE * level.max()
     if top.all() or (~top).sum() < 50:
         return math.nan
-    error = fit_predict(samples.select(~top), samples.select(top)) - samples.airflow[top]
+    error = prediction_error(fit_predict(samples.select(~top), samples.select(top)), samples.airflow[top])
     return float(np.sqrt(np.mean(error[:, 0] ** 2 + error[:, 1] ** 2)))
 
 

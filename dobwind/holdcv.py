@@ -80,7 +80,8 @@ def _held_out(samples: dragfit.DragSamples, fit_predict: dragfit.FitPredict, tes
               per_window: int) -> tuple[np.ndarray, np.ndarray]:
     """Hold-mean speed errors and true speeds of the windows of the ``test`` samples."""
     held_out = samples.select(test)
-    predicted = fit_predict(samples.select(~test), held_out)
+    # A diverged prediction counts as the clip (dragfit.prediction_error), never as inf or NaN.
+    predicted = held_out.airflow + dragfit.prediction_error(fit_predict(samples.select(~test), held_out), held_out.airflow)
     windows, scored = _scored_windows(held_out, per_window)
     predicted, held_out, windows = predicted[scored], held_out.select(scored), windows[scored]
     _, inverse, count = np.unique(windows, return_inverse=True, return_counts=True)

@@ -133,6 +133,9 @@ def _publish(built: Path, target: Path) -> bool:
         except OSError:
             shutil.copyfile(built, staged)
         os.replace(staged, target)
+        # rename() does nothing when both names are links to one file (a concurrent publisher got there
+        # first with the same library): the staged name is then still there.
+        staged.unlink(missing_ok=True)
         return True
     except OSError:
         if staged is not None:

@@ -169,3 +169,18 @@ def test_generated_c_of_a_body_drag_airframe_matches_the_reference():
 
     report = verify_airframe(_body_airframe(BODY_LAWS["every term"]), "both", steps=500)
     assert report.passed, report
+
+
+def test_a_diverged_prediction_scores_as_the_clip_not_as_overflow():
+    """CV errors of a candidate law whose inversion blew up: finite, the clip, and no numpy warning."""
+    import warnings
+
+    truth = np.zeros((4, 3))
+    predicted = np.array([[1e300, 0, 0], [np.inf, -np.inf, 0], [np.nan, 0, 0], [0.5, -0.25, 0.0]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        error = dragfit.prediction_error(predicted, truth)
+        assert np.isfinite(np.sum(error ** 2))
+    clip = dragfit.ERROR_CLIP_MPS
+    np.testing.assert_array_equal(error[:, 0], [clip, clip, clip, 0.5])
+    np.testing.assert_array_equal(error[3], [0.5, -0.25, 0.0])
