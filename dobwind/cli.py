@@ -140,7 +140,7 @@ def _refuse_out_of_range(text: str, output: str) -> None:
 
 
 def cmd_fit(args: argparse.Namespace) -> int:
-    from dobwind.fit import fit_plot, text_report
+    from dobwind.fitreport import fit_plot, text_report
     from dobwind.fitfamily import fit_airframe
     from dobwind.logs import write_atomically
     from dobwind.model.airframe import load_airframe

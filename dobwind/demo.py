@@ -15,7 +15,7 @@ import numpy as np
 from dobwind import baseline
 from dobwind.analysis.report import analyze, write_plots
 from dobwind.emit import generate_to_dir
-from dobwind.fit import fit_plot, text_report
+from dobwind.fitreport import fit_plot, text_report
 from dobwind.fitfamily import fit_airframe
 from dobwind.harness.verify import verify_airframe
 from dobwind.logs import read_log, required_columns, write_atomically

@@ -117,6 +117,7 @@ def test_replay_json_with_nan_true_wind(tmp_path, capsys):
 def test_fit_json_with_a_non_finite_figure(tmp_path, capsys, monkeypatch):
     import dobwind.fit as fit
     import dobwind.fitfamily as fitfamily
+    import dobwind.fitreport as fitreport
     from dobwind.model.airframe import load_airframe
 
     af = load_airframe(M300)
@@ -126,7 +127,7 @@ def test_fit_json_with_a_non_finite_figure(tmp_path, capsys, monkeypatch):
 
     passed = asdict(verdict(af, [], 0.05, 8.0, Thresholds()))  # the self-check is not what this test is about
     monkeypatch.setattr(fitfamily, "fit_airframe", lambda *a, **k: (af, fit.FitReport(points=9, self_check=passed), None))
-    monkeypatch.setattr(fit, "fit_plot", lambda *a, **k: None)
+    monkeypatch.setattr(fitreport, "fit_plot", lambda *a, **k: None)
     out = tmp_path / "fitted.toml"
     code, report = _json_run(["fit", str(M300), "x.csv", "-o", str(out), "--json"], capsys)
     assert code == 0 and report["horizontal_rmse_mps"] is None  # FitReport's default is NaN

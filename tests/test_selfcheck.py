@@ -220,12 +220,13 @@ def test_force_writes_a_model_that_failed_and_warns(tmp_path, capsys, monkeypatc
     """--force: the same failed verdict is written, exit 0, one warning line with the reasons."""
     import dobwind.fit as fit
     import dobwind.fitfamily as fitfamily
+    import dobwind.fitreport as fitreport
 
     af = load_airframe(M300)
     failed = verdict(af, [_log("a.csv", fit_samples=0)], 0.3, 10.0, Thresholds())
     report = fit.FitReport(points=9, self_check=dataclasses.asdict(failed))
     monkeypatch.setattr(fitfamily, "fit_airframe", lambda *a, **k: (af, report, None))
-    monkeypatch.setattr(fit, "fit_plot", lambda af, points, path: open(path, "wb").write(b"png"))
+    monkeypatch.setattr(fitreport, "fit_plot", lambda af, points, path: open(path, "wb").write(b"png"))
     out = tmp_path / "forced.toml"
     assert main(["fit", str(M300), "a.csv", "-o", str(out), "--force"]) == 0
     captured = capsys.readouterr()

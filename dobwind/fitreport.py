@@ -1,0 +1,122 @@
+"""What `dobwind fit` shows a person: the text report of a fit and its figure (the fitted surface with
+the calibration points and residuals, or the drag law). The fitting itself is in fit.py, fitfamily.py
+and dragfit.py."""
+from __future__ import annotations
+
+import numpy as np
+
+from dobwind.fit import FOLDS, FitReport, Points
+from dobwind.model.airframe import Airframe
+from dobwind.model.forceair import term_matrix
+from dobwind.model.terms import parse_term
+
+
+def _term_matrix(terms: list[str], m: np.ndarray, n: np.ndarray, fz: np.ndarray) -> np.ndarray:
+    return term_matrix([parse_term(t) for t in terms], m, n, fz)
+
+
+def _errors(cv: float | None, extrapolated: float | None) -> str:
+    text = f"grouped {FOLDS}-fold CV " + ("n/a (one hold)" if cv is None else f"{cv:.3f} m/s")
+    return text + ("" if extrapolated is None else f", top holds extrapolated {extrapolated:.3f} m/s")
+
+
+def text_report(report: FitReport) -> str:
+    def model(terms: list[str], coefs: list[float]) -> str:
+        return " + ".join(f"{c:.4g}*{t}" if t != "1" else f"{c:.4g}" for t, c in zip(terms, coefs))
+
+    vertical = ("kept from the airframe" if report.vertical_rmse_mps is None else
+                f"RMSE {report.vertical_rmse_mps:.3f} m/s, "
+                + _errors(report.vertical_cv_rmse_mps, report.vertical_extrapolation_rmse_mps))
+    families = [f"family {name}: " + ", ".join(f"{k} {'n/a' if v is None else f'{v:.3f}'}" for k, v in scores.items()
+                                              if v is None or isinstance(v, float))
+                for name, scores in report.families.items()]
+    chosen = [f"model: {report.model} (chosen by grouped CV and extrapolation of the airflow)"] + families
+    if report.model == "drag":
+        law = ", ".join(f"{k} {v:.4g}" for k, v in report.drag.items())
+        return "\n".join(chosen + [
+            f"{report.samples} samples; thrust scale {report.thrust_scale:.4f}; force offset "
+            f"[{', '.join(f'{v:.3f}' for v in report.force_offset_n)}] N",
+            f"drag law: {law}",
+            f"  horizontal airflow RMSE {report.horizontal_rmse_mps:.3f} m/s, "
+            + _errors(report.horizontal_cv_rmse_mps, report.horizontal_extrapolation_rmse_mps),
+            f"  vertical airflow RMSE {report.vertical_rmse_mps:.3f} m/s"])
+    return "\n".join(chosen + [
+        f"calibration points {report.points} (2 s means of steady flight; {report.outliers_removed} outliers removed), "
+        f"{report.zero_airflow_points} at zero airflow; {report.directions} of 12 airflow directions, "
+        f"{report.speeds} speeds",
+        f"thrust scale {report.thrust_scale:.4f}; force offset [{', '.join(f'{v:.3f}' for v in report.force_offset_n)}] N",
+        f"horizontal speed = {model(report.horizontal_terms, report.horizontal_coefficients)}",
+        f"  RMSE {report.horizontal_rmse_mps:.3f} m/s, "
+        + _errors(report.horizontal_cv_rmse_mps, report.horizontal_extrapolation_rmse_mps),
+        f"vertical (down) = {model(report.vertical_terms, report.vertical_coefficients)}",
+        f"  {vertical}",
+    ])
+
+
+def drag_plot(af: Airframe, path: str) -> None:
+    """The fitted drag law: force along body x, y and z against airflow speed along that axis."""
+    import matplotlib.pyplot as plt
+
+    from dobwind.model.forceair import body_drag_force, drag_force
+    from dobwind.plots import save
+
+    assert af.drag is not None
+    speed = np.linspace(0.0, 12.0, 121)
+    zero = np.zeros_like(speed)
+    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    for label, (vx, vy, vz), pick in (("x (forward)", (speed, zero, zero), 0), ("y (right)", (zero, speed, zero), 1),
+                                      ("z (down)", (zero, zero, speed), 2)):
+        # The body-frame law at hover thrust (rotor term 1); the heading-frame law of level flight.
+        force = body_drag_force(af.drag, vx, vy, vz, 1.0, 1e-9) if af.drag.frame == "body" else drag_force(af.drag, vx, vy, vz)
+        ax.plot(speed, force[pick] + zero, label=f"air along body {label}")
+    ax.set_xlabel("relative airflow speed along the axis (m/s)")
+    ax.set_ylabel("force (N)")
+    ax.set_title(f"{af.name}: fitted drag law (force against airflow along each body axis)")
+    ax.grid(True, alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    save(fig, path)
+
+
+def fit_plot(af: Airframe, points: Points | None, path: str) -> None:
+    """Fitted horizontal surface over the (m, n) force plane with the calibration points, and residuals."""
+    import matplotlib.pyplot as plt
+
+    from dobwind.plots import save
+
+    if af.drag is not None or points is None:
+        drag_plot(af, path)
+        return
+
+    fig, (surface, residual, vertical) = plt.subplots(1, 3, figsize=(16, 5), width_ratios=(1.25, 1, 1))
+    span = max(float(np.max(np.abs(np.r_[points.m, points.n]))) * 1.1, 1e-3)
+    grid = np.linspace(-span, span, 121)
+    mm, nn = np.meshgrid(grid, grid)
+    terms = list(af.horizontal.term_texts)
+    values = _term_matrix(terms, mm.ravel(), nn.ravel(), np.zeros(mm.size)) @ np.asarray(af.horizontal.coefficients)
+    contour = surface.contourf(mm, nn, np.maximum(values, 0).reshape(mm.shape), levels=20, cmap="viridis")
+    fig.colorbar(contour, ax=surface, label="horizontal airflow speed (m/s)")
+    # Thin dark edges: white ones hid the colour of small points, and the colour is the point's message.
+    surface.scatter(points.m, points.n, c=points.speed_h, cmap="viridis", edgecolors="black", linewidths=0.3, s=18,
+                    vmin=contour.get_clim()[0], vmax=contour.get_clim()[1])
+    surface.set_xlabel("m: heading-frame x force, offset removed (N)")
+    surface.set_ylabel("n: heading-frame y force (N)")
+    surface.set_title("model surface; points: calibration truth, same colour scale", fontsize=10)
+    surface.set_aspect("equal")
+    predicted = _term_matrix(terms, points.m, points.n, points.fz) @ np.asarray(af.horizontal.coefficients)
+    residual.scatter(points.speed_h, np.maximum(predicted, 0) - points.speed_h, s=10, alpha=0.7, color="#0072B2")
+    residual.set_xlabel("true horizontal airflow speed (m/s)")
+    residual.set_title("horizontal: model - truth", fontsize=10)
+    # The vertical model is a function of the vertical airflow: its residuals belong on that axis.
+    if af.vertical.terms:
+        vpred = _term_matrix(list(af.vertical.term_texts), points.m, points.n, points.fz) @ np.asarray(af.vertical.coefficients)
+        vertical.scatter(-points.air_z, -(vpred - points.air_z), s=10, alpha=0.7, color="#D55E00")
+    vertical.set_xlabel("true vertical airflow, up (m/s)")
+    vertical.set_title("vertical: model - truth (up)", fontsize=10)
+    for ax in (residual, vertical):
+        ax.axhline(0, color="black", lw=0.8)
+        ax.set_ylabel("residual (m/s)")
+        ax.grid(True, alpha=0.3)
+    fig.suptitle(f"{af.name}: force-air fit ({len(points.m)} calibration points, {af.force_air_model} model)")
+    fig.tight_layout()
+    save(fig, path)
