@@ -138,48 +138,79 @@ def _forward_fill(x: np.ndarray, valid: np.ndarray) -> np.ndarray:
     return x[index]
 
 
+# Rows of full-rate regressor columns built and filtered at a time: the (rows, 3, P) arrays of a whole
+# 500 Hz hour would take gigabytes; only the decimated rows are kept.
+COLUMN_BLOCK_ROWS = 65536
+
+
+def _unit_columns(frame: str, af: Airframe, airflow_ned: np.ndarray, thrust: np.ndarray, c: np.ndarray,
+                  s: np.ndarray, q: np.ndarray | None) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """(rows, 3, P) NED force per unit of each parameter for a run of rows, and what the body frame's
+    inversion needs at each row (its attitude and rotor term)."""
+    if frame == "body":
+        rot = rotation_matrices(q / np.linalg.norm(q, axis=1)[:, None])
+        rotor = np.sqrt(np.linalg.norm(thrust, axis=1) / (af.mass_kg * af.gravity_mps2))
+        return body_columns(airflow_ned, rot, rotor, c, s, thrust), {"rotation": rot, "rotor": rotor}
+    unit = basis(np.column_stack(heading_force(airflow_ned.T, c, s, (0.0, 0.0, 0.0))))
+    ned = np.stack([*heading_to_ned(unit[:, 0], unit[:, 1], c[:, None], s[:, None]), unit[:, 2]], axis=1)
+    ned[:, :, PARAMETERS.index("kappa")] = thrust
+    return ned, {}
+
+
+class _BlockFilter:
+    """H along axis 0 over consecutive blocks, its state carried, starting in steady state at the first
+    row (as the step starts at the input): the blocks' outputs are one pass's, bit for bit."""
+
+    def __init__(self, b: np.ndarray, a: np.ndarray) -> None:
+        self.b, self.a, self.zi = b, a, None
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        if self.zi is None:
+            zi = lfilter_zi(self.b, self.a)
+            self.zi = zi.reshape((len(zi),) + (1,) * (x.ndim - 1)) * x[:1]
+        out, self.zi = lfilter(self.b, self.a, x, axis=0, zi=self.zi)
+        return out
+
+
 def log_samples(af: Airframe, cutoff_hz: float, t: np.ndarray, force_ned: np.ndarray, airflow_ned: np.ndarray,
                 thrust_ned: np.ndarray, yaw: np.ndarray, usable: np.ndarray, frame: str = "heading",
-                q: np.ndarray | None = None, segment: np.ndarray | None = None) -> dict[str, np.ndarray]:
+                q: np.ndarray | None = None, segment: np.ndarray | None = None,
+                block_rows: int = COLUMN_BLOCK_ROWS) -> dict[str, np.ndarray]:
     """One log's samples, filtered and decimated. ``thrust_ned`` is u_f z_b; ``usable`` marks samples the
     step accepted and that are at least one settling time clear of a start or rejection. The body frame
     needs the attitude quaternions ``q``. With the log's ``segment`` labels, each sample also records
     which segment (run of one label) it is in and how long after its start (holdcv scores segments as
-    replay does)."""
+    replay does). The full-rate columns are built and filtered ``block_rows`` rows at a time."""
     valid = np.isfinite(airflow_ned).all(axis=1) & np.isfinite(thrust_ned).all(axis=1) & np.isfinite(yaw)
     if frame == "body":
         valid &= np.isfinite(q).all(axis=1) & (np.linalg.norm(np.nan_to_num(q), axis=1) > 0)
     first = int(np.argmax(valid))
     valid[:first] = True  # filled from the first valid row; kept out of the fit by ``usable``
     airflow_ned, thrust_ned, yaw = (_forward_fill(v, valid) for v in (airflow_ned, thrust_ned, yaw))
+    q = _forward_fill(q, valid) if frame == "body" else None
     c, s = np.cos(yaw), np.sin(yaw)
-    air_c = np.column_stack(heading_force(airflow_ned.T, c, s, (0.0, 0.0, 0.0)))
-    extra: dict[str, np.ndarray] = {}
-    if frame == "body":
-        q = _forward_fill(q, valid)
-        rot = rotation_matrices(q / np.linalg.norm(q, axis=1)[:, None])
-        rotor = np.sqrt(np.linalg.norm(thrust_ned, axis=1) / (af.mass_kg * af.gravity_mps2))
-        ned = body_columns(airflow_ned, rot, rotor, c, s, thrust_ned)
-        extra = {"rotation": rot, "rotor": rotor}
-    else:
-        unit = basis(air_c)
-        ned = np.stack([*heading_to_ned(unit[:, 0], unit[:, 1], c[:, None], s[:, None]), unit[:, 2]], axis=1)
-        ned[:, :, PARAMETERS.index("kappa")] = thrust_ned
     dt = float(np.median(np.diff(t))) if len(t) > 1 else af.observer.sample_time_s
-    columns = np.empty_like(ned)
-    filtered_air = np.empty_like(air_c)
-    for axis in range(3):
-        b, a = observer_filter(af, dt, cutoff_hz, axis)
-        columns[:, axis] = _filtered(b, a, ned[:, axis])
-        filtered_air[:, axis] = _filtered(b, a, air_c[:, axis])
     step = max(1, int(round(1.0 / (DECIMATED_RATE_HZ * dt))))
     keep = np.zeros(len(t), dtype=bool)
     keep[::step] = True
     keep &= usable & valid & np.isfinite(force_ned).all(axis=1)
+    filters = [(_BlockFilter(*observer_filter(af, dt, cutoff_hz, axis)), _BlockFilter(*observer_filter(af, dt, cutoff_hz, axis)))
+               for axis in range(3)]
+    kept_columns, kept_air, kept_extra = [], [], []
+    for lo in range(0, len(t), block_rows):
+        rows = slice(lo, lo + block_rows)
+        ned, extra = _unit_columns(frame, af, airflow_ned[rows], thrust_ned[rows], c[rows], s[rows],
+                                   None if q is None else q[rows])
+        air_c = np.column_stack(heading_force(airflow_ned[rows].T, c[rows], s[rows], (0.0, 0.0, 0.0)))
+        pick = keep[rows]
+        kept_columns.append(np.stack([filters[axis][0](ned[:, axis]) for axis in range(3)], axis=1)[pick])
+        kept_air.append(np.column_stack([filters[axis][1](air_c[:, axis]) for axis in range(3)])[pick])
+        kept_extra.append({k: v[pick] for k, v in extra.items()})
+    extra = {k: np.concatenate([e[k] for e in kept_extra]) for k in (kept_extra[0] if kept_extra else {})}
     if segment is not None:
-        extra.update(zip(("hold", "hold_age_s"), segment_runs(t, segment)))
-    return {"observed": force_ned[keep], "columns": columns[keep], "cos_yaw": c[keep], "sin_yaw": s[keep],
-            "airflow": filtered_air[keep], "time": t[keep], **{k: v[keep] for k, v in extra.items()}}
+        extra.update((k, v[keep]) for k, v in zip(("hold", "hold_age_s"), segment_runs(t, segment)))
+    return {"observed": force_ned[keep], "columns": np.concatenate(kept_columns), "cos_yaw": c[keep],
+            "sin_yaw": s[keep], "airflow": np.concatenate(kept_air), "time": t[keep], **extra}
 
 
 def thrust_ned(af: Airframe, rotor_rpm: np.ndarray | None, thrust: np.ndarray | None, q: np.ndarray) -> np.ndarray:

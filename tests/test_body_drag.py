@@ -184,3 +184,28 @@ def test_a_diverged_prediction_scores_as_the_clip_not_as_overflow():
     clip = dragfit.ERROR_CLIP_MPS
     np.testing.assert_array_equal(error[:, 0], [clip, clip, clip, 0.5])
     np.testing.assert_array_equal(error[3], [0.5, -0.25, 0.0])
+
+
+@pytest.mark.parametrize("frame", ["heading", "body"])
+def test_columns_built_in_blocks_equal_one_pass(frame):
+    """log_samples filters its full-rate columns block by block, the filter state carried: any block size
+    gives the single block's samples bit for bit (blocks cut inside holds and between decimated rows)."""
+    af = load_airframe(M300)
+    rng = np.random.default_rng(8)
+    n = 5000
+    t = np.arange(n) / 50.0
+    air = np.column_stack([np.repeat(rng.uniform(0, 9, 25), 200), np.repeat(rng.uniform(-3, 3, 25), 200),
+                           rng.normal(0, 0.3, n)])
+    yaw = np.repeat(rng.uniform(-math.pi, math.pi, 25), 200)
+    rot = Rotation.from_euler("ZYX", np.column_stack([yaw, rng.normal(0, 0.2, n), rng.normal(0, 0.2, n)]))
+    q = rot.as_quat()[:, [3, 0, 1, 2]]
+    thrust = 80.0 * rot.as_matrix()[:, :, 2]
+    force = rng.normal(0, 1.0, (n, 3))
+    usable = rng.uniform(size=n) > 0.1
+    segment = np.repeat(np.arange(25), 200)
+    whole = dragfit.log_samples(af, 0.5, t, force, air, thrust, yaw, usable, frame, q, segment, block_rows=10 ** 9)
+    for rows in (1, 333, 1000):
+        parts = dragfit.log_samples(af, 0.5, t, force, air, thrust, yaw, usable, frame, q, segment, block_rows=rows)
+        assert set(parts) == set(whole)
+        for key, value in whole.items():
+            np.testing.assert_array_equal(parts[key], value, err_msg=f"{key}, blocks of {rows}")
