@@ -97,10 +97,7 @@ def observer_filter(af: Airframe, dt_s: float, cutoff_hz: float, axis: int) -> t
 
 def _filtered(b: np.ndarray, a: np.ndarray, x: np.ndarray) -> np.ndarray:
     """H along axis 0, starting in steady state at the first row (as the step starts at the input)."""
-    zi = lfilter_zi(b, a)
-    shape = (len(zi),) + (1,) * (x.ndim - 1)
-    out, _ = lfilter(b, a, x, axis=0, zi=zi.reshape(shape) * x[:1])
-    return out
+    return _BlockFilter(b, a)(x)
 
 
 def basis(airflow_c: np.ndarray) -> np.ndarray:
@@ -220,8 +217,7 @@ def thrust_ned(af: Airframe, rotor_rpm: np.ndarray | None, thrust: np.ndarray | 
         u_f = sum(c * np.sum(omega ** k, axis=1) for k, c in enumerate(af.thrust.coefficients)) * af.thrust.scale
     else:
         u_f = np.asarray(thrust) * af.thrust.scale
-    w, x, y, z = (q[:, i] / np.linalg.norm(q, axis=1) for i in range(4))
-    z_b = np.column_stack([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)])
+    z_b = rotation_matrices(q / np.linalg.norm(q, axis=1)[:, None])[:, :, 2]
     return u_f[:, None] * z_b
 
 
