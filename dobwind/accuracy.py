@@ -9,7 +9,10 @@ goals are missed (it measures; 2 on bad usage).
 
     python -m dobwind.accuracy [--quick] [--vehicles a,b] [--seeds N] [--hold S] [-o out/accuracy]
 
-Quick mode (--quick, or DOBWIND_ACCURACY_QUICK=1): one seed, three vehicles, split real runs only.
+Then the sample-rate study (dobwind/accuracy_rates.py): one vehicle calibrated at 50 to 500 Hz.
+
+Quick mode (--quick, or DOBWIND_ACCURACY_QUICK=1): one seed, three vehicles, split real runs only, no
+rate study.
 """
 from __future__ import annotations
 
@@ -23,8 +26,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from dobwind.accuracy_rates import RATE_VEHICLE, rate_lines, rate_study
 from dobwind.accuracy_real import real_lines, real_runs
-from dobwind.accuracy_report import goal_lines, row_values, table, worst
+from dobwind.accuracy_report import goal_lines, per_run_ratio_line, row_values, table, worst
 from dobwind.accuracy_run import Job, run_job
 from dobwind.atomic import write_text_atomically
 from dobwind.cli import _Parser
@@ -49,6 +53,7 @@ class Config:
     workers: int
     leave_one_out: bool
     fit_options: tuple[str, ...] = ()
+    rates: bool = True          # the sample-rate study (dobwind/accuracy_rates.py)
 
 
 def available_vehicles(vehicle_dir: Path) -> tuple[str, ...]:
@@ -84,7 +89,8 @@ def vehicle_tables(config: Config, results: list[dict[str, Any]]) -> tuple[list[
     return lines, worst_by_vehicle
 
 
-def report(config: Config, results: list[dict[str, Any]], real: dict[str, Any] | None, elapsed_s: float) -> tuple[str, dict]:
+def report(config: Config, results: list[dict[str, Any]], real: dict[str, Any] | None, elapsed_s: float,
+           rates: dict[str, Any] | None = None) -> tuple[str, dict]:
     fit = f"fit {' '.join(config.fit_options)} (NOT the plain workflow)" if config.fit_options else "fit with no options"
     lines = [f"dobwind accuracy: {len(config.vehicles)} vehicles x {len(config.seeds)} seeds; calibration holds "
              f"{config.hold_s or 'default'} s; {fit}; replay --backend c (single precision)", ""]
@@ -94,7 +100,11 @@ def report(config: Config, results: list[dict[str, Any]], real: dict[str, Any] |
     lines.append(table("Summary (worst over seeds per vehicle; WORST over every vehicle; FAIL: a step failed)",
                        [*worst_by_vehicle.items(), ("WORST", overall)]))
     goal_text, verdicts = goal_lines(overall)
-    lines += ["", "Goals (#12), judged on the WORST row:", *goal_text]
+    lines += ["", "Goals (#12), judged on the WORST row:", *goal_text, per_run_ratio_line(results)]
+    if rates is not None:
+        rate_text, rate_verdicts = rate_lines(rates)
+        lines += ["", *rate_text]
+        verdicts.update(rate_verdicts)
     if real is None:
         lines += ["", f"Real runs: skipped ({config.data_dir} not found)"]
     else:
@@ -104,7 +114,7 @@ def report(config: Config, results: list[dict[str, Any]], real: dict[str, Any] |
     lines.append(f"\nbenchmark took {elapsed_s:.0f} s")
     document = {"config": {k: str(v) if isinstance(v, Path) else v for k, v in config.__dict__.items()},
                 "runs": results, "worst_by_vehicle": worst_by_vehicle, "worst": overall,
-                "goals": verdicts, "real": real, "elapsed_s": elapsed_s}
+                "goals": verdicts, "real": real, "rates": rates, "elapsed_s": elapsed_s}
     return "\n".join(lines), document
 
 
@@ -117,6 +127,8 @@ def parse_config(argv: list[str] | None) -> Config:
     parser.add_argument("--vehicle-dir", default=str(VEHICLE_DIR))
     parser.add_argument("--data", default=str(DEFAULT_DATA), help="Neural-Fly folder (skipped when absent)")
     parser.add_argument("--workers", type=int, default=MAX_WORKERS)
+    parser.add_argument("--no-rates", action="store_true",
+                        help=f"skip the sample-rate study ({RATE_VEHICLE} calibrated at 50-500 Hz; about 4 min)")
     parser.add_argument("-o", "--output", default="out/accuracy", help="folder for accuracy.json and accuracy.txt")
     parser.add_argument("--fit-option", action="append", default=[], metavar="OPT",
                         help="diagnosis only: pass OPT to every simulated vehicle's `dobwind fit` (repeatable; "
@@ -135,7 +147,8 @@ def parse_config(argv: list[str] | None) -> Config:
         parser.error("--hold: must be > 0 seconds")
     seeds = args.seeds or (1 if quick else 2)
     return Config(names, tuple(range(1, seeds + 1)), args.hold, vehicle_dir, Path(args.data), Path(args.output),
-                  args.workers, leave_one_out=not quick, fit_options=tuple(args.fit_option))
+                  args.workers, leave_one_out=not quick, fit_options=tuple(args.fit_option),
+                  rates=not (quick or args.no_rates) and RATE_VEHICLE in known)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -143,8 +156,10 @@ def main(argv: list[str] | None = None) -> int:
     start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="dobwind-accuracy-") as scratch:
         results = run_vehicles(config, Path(scratch))
+        rates = (rate_study(config.vehicle_dir, Path(scratch) / "rates", config.hold_s or CALIBRATION_HOLD_S,
+                            config.workers) if config.rates else None)
     real = real_runs(config.data_dir, config.leave_one_out)
-    text, document = report(config, results, real, time.perf_counter() - start)
+    text, document = report(config, results, real, time.perf_counter() - start, rates)
     print(text)
     write_text_atomically(config.output / "accuracy.json", lambda h: h.write(json.dumps(document, indent=2, allow_nan=True)))
     write_text_atomically(config.output / "accuracy.txt", lambda h: h.write(text + "\n"))

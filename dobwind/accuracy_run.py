@@ -113,21 +113,26 @@ def goal_metrics(scenario: str, replay: dict[str, Any]) -> dict[str, Any]:
         metrics["speed_rms"] = _rms([row["speed_error"] for row in seg.get("table", [])])
         metrics["hold_speeds"] = [row["true_speed"] for row in seg.get("table", [])]
         metrics["hold_errors"] = [row["speed_error"] for row in seg.get("table", [])]
+        metrics["hold_scored_s"] = [row.get("scored_s") for row in seg.get("table", [])]
     return metrics
 
 
-def predicted_rms(fit: dict[str, Any], hold_speeds: list[float]) -> float | None:
+def predicted_rms(fit: dict[str, Any], hold_speeds: list[float], scored_s: list[float | None] | None = None) -> float | None:
     """The tunnel's per-hold RMS speed error as the fit predicts it: at each hold's speed, the hold-level
-    CV of that speed band inside the calibrated range, the hold-level extrapolation error beyond it."""
+    CV of that speed band inside the calibrated range, the hold-level extrapolation error beyond it. With
+    the holds' scored lengths, each band's bias and noise give the figure for a hold that long (the
+    calibration's holds are shorter than the tunnel's: holdcv's note)."""
     from dobwind.holdcv import HoldCV
 
-    table, cv, calibrated = fit.get("hold_cv_by_speed"), fit.get("cv_rmse_mps"), fit.get("calibrated_speed_mps")
+    table, cv, calibrated = fit.get("hold_cv_by_speed") or {}, fit.get("cv_rmse_mps"), fit.get("calibrated_speed_mps")
     if not hold_speeds or cv is None or calibrated is None:
         return None
     extrapolation = fit.get("hold_extrapolation_mps")
-    hold = HoldCV(cv, tuple((table or {}).get("speeds_mps", ())), tuple((table or {}).get("rms_mps", ())),
-                  math.nan if extrapolation is None else extrapolation)
-    return _rms([hold.predicted(s, calibrated) for s in hold_speeds])
+    hold = HoldCV(cv, tuple(table.get("speeds_mps", ())), tuple(table.get("rms_mps", ())),
+                  math.nan if extrapolation is None else extrapolation,
+                  tuple(table.get("bias_mps", ())), tuple(table.get("noise_mps_sqrt_s", ())))
+    lengths = scored_s if scored_s is not None else [None] * len(hold_speeds)
+    return _rms([hold.predicted(s, calibrated, length) for s, length in zip(hold_speeds, lengths)])
 
 
 def run_job(job: Job) -> dict[str, Any]:
@@ -170,10 +175,12 @@ def _cv_ratios(result: dict[str, Any]) -> None:
     and shown in tun/CV all, which predicts them by the fit's hold-level extrapolation figure."""
     tunnel, calibrated = result["tunnel"], result["fit"].get("calibrated_speed_mps")
     speeds, errors = tunnel.get("hold_speeds", []), tunnel.get("hold_errors", [])
+    lengths = tunnel.get("hold_scored_s") or [None] * len(speeds)
     inside = [i for i, s in enumerate(speeds) if calibrated is not None and s <= calibrated]
     tunnel["speed_rms_calibrated"] = _rms([errors[i] for i in inside]) if inside else None
-    tunnel["predicted_rms"] = predicted_rms(result["fit"], speeds)
-    tunnel["predicted_rms_calibrated"] = predicted_rms(result["fit"], [speeds[i] for i in inside])
+    tunnel["predicted_rms"] = predicted_rms(result["fit"], speeds, lengths)
+    tunnel["predicted_rms_calibrated"] = predicted_rms(result["fit"], [speeds[i] for i in inside],
+                                                       [lengths[i] for i in inside])
     for key, actual, predicted in (("cv_ratio", tunnel["speed_rms_calibrated"], tunnel["predicted_rms_calibrated"]),
                                    ("cv_ratio_all", tunnel.get("speed_rms"), tunnel["predicted_rms"])):
         result[key] = actual / predicted if actual is not None and predicted else None

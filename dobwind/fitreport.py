@@ -20,6 +20,25 @@ def _errors(cv: float | None, extrapolated: float | None) -> str:
     return text + ("" if extrapolated is None else f", top holds extrapolated {extrapolated:.3f} m/s")
 
 
+def _hold_line(report: FitReport, scored_s: float = 15.0) -> list[str]:
+    """The hold-level CV, split into what a longer hold keeps and what averages out (dobwind/holdcv.py),
+    and what that means for a hold scored for ``scored_s`` (replay scores a 20 s hold for 15 s)."""
+    table = report.hold_cv_by_speed or {}
+    if report.hold_cv_speed_mps is None or not table.get("bias_mps"):
+        return []
+    from dobwind.holdcv import HoldCV
+
+    hold = HoldCV(report.hold_cv_speed_mps, tuple(table["speeds_mps"]), tuple(table["rms_mps"]), float("nan"),
+                  tuple(table["bias_mps"]), tuple(table["noise_mps_sqrt_s"]))
+    speeds = table["speeds_mps"]
+    longer = [hold.predicted(v, float("inf"), scored_s) for v in speeds]
+    window = table.get("window_s")
+    return [f"hold-level CV {report.hold_cv_speed_mps:.3f} m/s (held-out holds scored "
+            f"{'?' if window is None else f'{window:.1f}'} s); by airflow speed "
+            + ", ".join(f"{v:.1f} m/s: {r:.3f} (bias {b:.3f})" for v, r, b in zip(speeds, table["rms_mps"], table["bias_mps"])),
+            f"  expected on holds scored {scored_s:g} s: " + ", ".join(f"{v:.1f} m/s: {e:.3f}" for v, e in zip(speeds, longer))]
+
+
 def text_report(report: FitReport) -> str:
     def model(terms: list[str], coefs: list[float]) -> str:
         return " + ".join(f"{c:.4g}*{t}" if t != "1" else f"{c:.4g}" for t, c in zip(terms, coefs))
@@ -30,8 +49,8 @@ def text_report(report: FitReport) -> str:
     families = [f"family {name}: " + ", ".join(f"{k} {'n/a' if v is None else f'{v:.3f}'}" for k, v in scores.items()
                                               if v is None or isinstance(v, float))
                 for name, scores in report.families.items()]
-    chosen = [f"model: {report.model} (chosen by grouped CV and extrapolation of the airflow)"] + families
-    if report.model == "drag":
+    chosen = [f"model: {report.model} (chosen by grouped CV and extrapolation of the airflow)"] + families + _hold_line(report)
+    if report.drag:  # either drag family (heading or body frame)
         law = ", ".join(f"{k} {v:.4g}" for k, v in report.drag.items())
         return "\n".join(chosen + [
             f"{report.samples} samples; thrust scale {report.thrust_scale:.4f}; force offset "

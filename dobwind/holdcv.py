@@ -8,6 +8,14 @@ speed of the mean wind over a hold, after the transition. Two things separate th
 So this CV keeps the same folds and the same fitted models, but scores each held-out block in windows
 of about a hold: the speed of the mean predicted airflow minus the speed of the mean true airflow, both
 H-filtered, heading frame. Its RMS over windows is the figure a replay's per-hold speed errors follow.
+
+A hold's error has a part a longer hold keeps (the model's bias at that airflow) and a part that averages
+out (noise). Calibration holds are often short (8 s, scored 3 s), the holds a user replays longer, so the
+two are separated: the difference between a window's two halves holds no bias, and its mean square over
+4 is the noise variance of the whole window's mean. Noise variance times scored length is about constant
+once the window is longer than the noise's correlation (1 s turbulence, the H filter), so the error to
+expect on a hold scored for T seconds is sqrt(bias^2 + noise^2 / T). Halves still correlated make the
+difference small, so the split leans toward bias: the longer-hold figure errs high, never low.
 """
 from __future__ import annotations
 
@@ -58,15 +66,23 @@ class HoldCV:
     band_speeds_mps: tuple[float, ...]    # mean true speed of each band of windows, increasing
     band_rms_mps: tuple[float, ...]       # RMS error of the windows in that band
     extrapolation_mps: float              # top blocks held out, the model fitted on the rest
+    band_bias_mps: tuple[float, ...] = ()          # per band: the RMS error a hold of any length keeps
+    band_noise_mps_sqrt_s: tuple[float, ...] = ()  # per band: the noise RMS of a 1 s hold (falls as 1/sqrt(T))
+    window_s: float = math.nan                     # median scored length of the held-out windows
 
-    def predicted(self, speed_mps: float, calibrated_mps: float) -> float:
+    def predicted(self, speed_mps: float, calibrated_mps: float, scored_s: float | None = None) -> float:
         """The error to expect on a hold at this airflow speed: the band's CV inside the calibrated
-        range (linear between bands, clamped), the extrapolation figure beyond it."""
+        range (linear between bands, clamped), the extrapolation figure beyond it. With ``scored_s``
+        (the hold's scored length), the band's bias and noise give the figure for a hold that long."""
         if speed_mps > calibrated_mps and math.isfinite(self.extrapolation_mps):
             return self.extrapolation_mps
         if not self.band_speeds_mps:
             return self.rms_mps
-        return float(np.interp(speed_mps, self.band_speeds_mps, self.band_rms_mps))
+        if scored_s is None or len(self.band_bias_mps) != len(self.band_speeds_mps):
+            return float(np.interp(speed_mps, self.band_speeds_mps, self.band_rms_mps))
+        bias = np.interp(speed_mps, self.band_speeds_mps, np.square(self.band_bias_mps))
+        noise = np.interp(speed_mps, self.band_speeds_mps, np.square(self.band_noise_mps_sqrt_s))
+        return float(np.sqrt(bias + noise / max(scored_s, 1e-3)))
 
 
 def _folds(group: np.ndarray) -> np.ndarray:
@@ -76,9 +92,38 @@ def _folds(group: np.ndarray) -> np.ndarray:
     return np.array([fold_of[g] for g in group])
 
 
+def _half_differences(predicted: np.ndarray, truth: np.ndarray, inverse: np.ndarray,
+                      count: np.ndarray) -> np.ndarray:
+    """Per window: the speed error of its second half (in time) minus that of its first half; NaN for
+    a window of fewer than 4 samples. Samples of a window are in time order (dragfit's row order)."""
+    order = np.argsort(inverse, kind="stable")
+    rank = np.empty_like(inverse)
+    rank[order] = np.arange(len(inverse)) - np.repeat(np.cumsum(count) - count, count)
+    half = inverse * 2 + (2 * rank >= count[inverse])
+    halves = np.full(2 * len(count), np.nan)
+    present = np.unique(half)
+    halves[present] = window_speed_errors(predicted, truth, half)
+    difference = halves[1::2] - halves[0::2]
+    return np.where(count >= 4, difference, np.nan)
+
+
+@dataclass(frozen=True)
+class _Windows:
+    """The held-out windows of one fold: hold-mean speed error, true speed, half difference, length."""
+    error_mps: np.ndarray
+    speed_mps: np.ndarray
+    half_difference_mps: np.ndarray
+    length_s: np.ndarray
+
+    @staticmethod
+    def joined(parts: list["_Windows"]) -> "_Windows":
+        return _Windows(*(np.concatenate([getattr(p, f) for p in parts]) for f in
+                          ("error_mps", "speed_mps", "half_difference_mps", "length_s")))
+
+
 def _held_out(samples: dragfit.DragSamples, fit_predict: dragfit.FitPredict, test: np.ndarray,
-              per_window: int) -> tuple[np.ndarray, np.ndarray]:
-    """Hold-mean speed errors and true speeds of the windows of the ``test`` samples."""
+              per_window: int) -> _Windows:
+    """Hold-mean speed errors, true speeds, half differences and lengths of the ``test`` samples' windows."""
     held_out = samples.select(test)
     # A diverged prediction counts as the clip (dragfit.prediction_error), never as inf or NaN.
     predicted = held_out.airflow + dragfit.prediction_error(fit_predict(samples.select(~test), held_out), held_out.airflow)
@@ -86,19 +131,38 @@ def _held_out(samples: dragfit.DragSamples, fit_predict: dragfit.FitPredict, tes
     predicted, held_out, windows = predicted[scored], held_out.select(scored), windows[scored]
     _, inverse, count = np.unique(windows, return_inverse=True, return_counts=True)
     speed = np.bincount(inverse, weights=np.hypot(held_out.airflow[:, 0], held_out.airflow[:, 1])) / count
-    return window_speed_errors(predicted, held_out.airflow, windows), speed
+    return _Windows(window_speed_errors(predicted, held_out.airflow, windows), speed,
+                    _half_differences(predicted, held_out.airflow, inverse, count), count / dragfit.DECIMATED_RATE_HZ)
 
 
-def _bands(speed: np.ndarray, error: np.ndarray) -> tuple[tuple[float, ...], tuple[float, ...]]:
+def _split(windows: _Windows, band: np.ndarray) -> tuple[float, float]:
+    """(bias RMS, noise RMS x sqrt(s)) of a band of windows; see the module's note."""
+    usable = band[np.isfinite(windows.half_difference_mps[band])]
+    if not usable.size:
+        return float(np.sqrt(np.mean(windows.error_mps[band] ** 2))), 0.0
+    noise_var = windows.half_difference_mps[usable] ** 2 / 4.0                 # of each window's mean
+    bias_var = max(0.0, float(np.mean(windows.error_mps[usable] ** 2) - np.mean(noise_var)))
+    return math.sqrt(bias_var), math.sqrt(float(np.mean(noise_var * windows.length_s[usable])))
+
+
+def _bands(windows: _Windows) -> tuple[tuple[float, ...], ...]:
+    """Per band of windows by true speed: mean speed, RMS error, bias RMS, noise RMS x sqrt(s)."""
+    speed, error = windows.speed_mps, windows.error_mps
     order = np.argsort(speed, kind="stable")
     count = int(min(MAX_BANDS, max(1, speed.size // MIN_WINDOWS_PER_BAND)))
-    centres, rms = [], []
+    centres: list[float] = []
+    rms: list[float] = []
+    bias: list[float] = []
+    noise: list[float] = []
     for band in np.array_split(order, count):
         centre = float(np.mean(speed[band]))
         if band.size and (not centres or centre > centres[-1]):
             centres.append(centre)
             rms.append(float(np.sqrt(np.mean(error[band] ** 2))))
-    return tuple(centres), tuple(rms)
+            b, n = _split(windows, band)
+            bias.append(b)
+            noise.append(n)
+    return tuple(centres), tuple(rms), tuple(bias), tuple(noise)
 
 
 def hold_cv(samples: dragfit.DragSamples, fit_predict: dragfit.FitPredict,
@@ -109,13 +173,15 @@ def hold_cv(samples: dragfit.DragSamples, fit_predict: dragfit.FitPredict,
         return None
     fold = _folds(samples.group)
     per_window = max(1, int(round(window_s * dragfit.DECIMATED_RATE_HZ)))
-    parts = [_held_out(samples, fit_predict, fold == k, per_window) for k in range(min(dragfit.FOLDS, fold.max() + 1))]
-    error, speed = np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+    held = _Windows.joined([_held_out(samples, fit_predict, fold == k, per_window)
+                            for k in range(min(dragfit.FOLDS, fold.max() + 1))])
     unique, inverse = np.unique(samples.group, return_inverse=True)
     level = np.bincount(inverse, np.hypot(samples.airflow[:, 0], samples.airflow[:, 1])) / np.bincount(inverse)
     top = level[inverse] >= dragfit.TOP_SHARE * level.max()
     extrapolation = math.nan
     if not top.all() and (~top).sum() >= 50:
-        top_error, _ = _held_out(samples, fit_predict, top, per_window)
+        top_error = _held_out(samples, fit_predict, top, per_window).error_mps
         extrapolation = float(np.sqrt(np.mean(top_error ** 2)))
-    return HoldCV(float(np.sqrt(np.mean(error ** 2))), *_bands(speed, error), extrapolation)
+    centres, rms, bias, noise = _bands(held)
+    return HoldCV(float(np.sqrt(np.mean(held.error_mps ** 2))), centres, rms, extrapolation, bias, noise,
+                  float(np.median(held.length_s)))

@@ -52,6 +52,7 @@ class _Segments:
     count: dict[int, int] = field(default_factory=dict)
     est: dict[int, np.ndarray] = field(default_factory=dict)
     true: dict[int, np.ndarray] = field(default_factory=dict)
+    scored: dict[int, list[float]] = field(default_factory=dict)   # first and last scored time (s)
 
     def add(self, seg: np.ndarray, t: np.ndarray, valid: np.ndarray, wind: np.ndarray, truth: np.ndarray) -> None:
         labels, first, inverse = np.unique(seg, return_index=True, return_inverse=True)
@@ -68,6 +69,15 @@ class _Segments:
                 self.count[key] = self.count.get(key, 0) + int(n[i])
                 self.est[key] = self.est.get(key, np.zeros(3)) + sums[0][i]
                 self.true[key] = self.true.get(key, np.zeros(3)) + sums[1][i]
+                times = t[use][idx == i]
+                span = self.scored.setdefault(key, [float(times[0]), float(times[-1])])
+                span[1] = float(times[-1])
+
+    def _scored_s(self, label: int) -> float:
+        """The scored length: the span of the scored rows plus one sample period."""
+        first, last = self.scored[label]
+        n = self.count[label]
+        return (last - first) * n / (n - 1) if n > 1 else 0.0
 
     def table(self) -> list[dict]:
         rows = []
@@ -80,7 +90,8 @@ class _Segments:
                          if true_speed >= MIN_SPEED_FOR_DIRECTION else None)
             rows.append({"segment": s, "true_speed": true_speed, "est_speed": est_speed,
                          "speed_error": est_speed - true_speed, "direction_error": direction,
-                         "vertical_error": float(est_mean[2] - true_mean[2]), "samples": self.count[s]})
+                         "vertical_error": float(est_mean[2] - true_mean[2]), "samples": self.count[s],
+                         "scored_s": self._scored_s(s)})
         return rows
 
 

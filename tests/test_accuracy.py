@@ -4,11 +4,12 @@ from __future__ import annotations
 import json
 import math
 
+import numpy as np
 import pytest
 
 from dobwind.accuracy import main
 from dobwind.accuracy_real import real_lines, real_runs
-from dobwind.accuracy_report import GOALS, worst
+from dobwind.accuracy_report import GOALS, per_run_ratio_line, worst
 from dobwind.accuracy_run import Job, run_job
 from dobwind.model.airframe_toml import dumps
 from tests.helpers import ROOT
@@ -44,12 +45,18 @@ def test_whole_benchmark_on_a_tiny_vehicle(vehicle_dir, tmp_path, capsys):
     tunnel = run["tunnel"]
     # The RMS of the per-hold errors lies between their mean absolute value and their maximum.
     assert tunnel["speed_mean"] <= tunnel["speed_rms"] + 1e-12 <= tunnel["speed_max"] + 2e-12
-    # The ratio's denominator is the fit's own prediction for these holds: the hold-level CV of each
-    # hold's speed band, the hold-level extrapolation error beyond the calibrated range.
-    bands = run["fit"]["hold_cv_by_speed"]["rms_mps"]
-    assert 0 < tunnel["predicted_rms"] <= max(bands + [run["fit"]["hold_extrapolation_mps"]])
-    assert min(bands) <= tunnel["predicted_rms_calibrated"] <= max(bands)
-    inside = [e for s, e in zip(tunnel["hold_speeds"], tunnel["hold_errors"]) if s <= run["fit"]["calibrated_speed_mps"]]
+    # The ratio's denominator is the fit's own prediction for these holds: inside the calibrated range,
+    # each hold's speed band's bias and noise for a hold scored as long as this one,
+    # sqrt(bias^2 + noise^2 / T) (interpolated between bands); beyond it, the extrapolation error.
+    table, calibrated = run["fit"]["hold_cv_by_speed"], run["fit"]["calibrated_speed_mps"]
+    assert 0 < tunnel["predicted_rms"] <= max(table["rms_mps"] + [run["fit"]["hold_extrapolation_mps"]])
+    rows = [(s, e, t) for s, e, t in zip(tunnel["hold_speeds"], tunnel["hold_errors"], tunnel["hold_scored_s"]) if s <= calibrated]
+    assert all(14.0 < t <= 15.01 for _, _, t in rows)  # 20 s holds scored after replay's 5 s settle
+    expected = [np.interp(s, table["speeds_mps"], np.square(table["bias_mps"]))
+                + np.interp(s, table["speeds_mps"], np.square(table["noise_mps_sqrt_s"])) / t for s, _, t in rows]
+    assert tunnel["predicted_rms_calibrated"] == pytest.approx(math.sqrt(sum(expected) / len(expected)))
+    assert tunnel["predicted_rms_calibrated"] < math.sqrt(np.mean(np.square(table["rms_mps"])))  # longer holds
+    inside = [e for _, e, _ in rows]
     assert 0 < len(inside) < len(tunnel["hold_speeds"])  # 3-10 m/s holds against a 0-8 m/s calibration
     assert run["cv_ratio"] == pytest.approx(math.sqrt(sum(e * e for e in inside) / len(inside))
                                             / tunnel["predicted_rms_calibrated"])
@@ -79,8 +86,24 @@ def test_worst_row_and_goals():
     assert w["tun/CV"] == 0.3  # a factor 3.3 too small is further from 1 than a factor 1.8 too large
     goals = {g.column: g for g in GOALS}
     assert goals["tun spd mean"].met(0.08) and not goals["tun spd mean"].met(0.0801)
-    ratio = goals["tun/CV"]
+    ratio = goals["tun/CV pool"]
     assert ratio.met(0.5) and ratio.met(2.0) and not ratio.met(0.49) and not ratio.met(2.01) and not ratio.met(None)
+
+
+def test_the_cv_ratio_goal_pools_each_vehicles_runs_then_takes_the_worst_vehicle():
+    """Vehicle a: runs with tunnel RMS 0.01 and 0.03 against predictions 0.02 and 0.02, pooled
+    sqrt((0.01^2 + 0.03^2) / 2) / 0.02 = 1.118 although the runs alone read 0.5 and 1.5; vehicle b
+    reads 0.2 / 0.05 = 4: the worst vehicle is b."""
+    def run(vehicle, actual, predicted):
+        return {"vehicle": vehicle, "cv_ratio": actual / predicted,
+                "tunnel": {"speed_rms_calibrated": actual, "predicted_rms_calibrated": predicted}}
+    a = [run("a", 0.01, 0.02), run("a", 0.03, 0.02)]
+    assert worst(a)["tun/CV pool"] == pytest.approx(math.sqrt((0.01 ** 2 + 0.03 ** 2) / 2) / 0.02)
+    assert worst(a)["tun/CV"] == pytest.approx(0.5)  # the run farthest from 1, two-sided
+    both = a + [run("b", 0.2, 0.05)]
+    assert worst(both)["tun/CV pool"] == pytest.approx(4.0)
+    assert "2 of 3 within a factor 2; farthest b seed None: 4.00" in per_run_ratio_line(both)
+    assert worst([run("a", 0.01, 0.02), {"vehicle": "a", "tunnel": {}}])["tun/CV pool"] is None  # a failed run
 
 
 def test_real_runs_are_skipped_without_the_data(tmp_path):
@@ -121,3 +144,25 @@ def test_benchmark_vehicles_cover_the_brief():
         # The same 0.5 Hz observer bandwidth for all: lambda ~ 2 pi f m (6.28 kg/s per kg, a little
         # less for the paper's discrete form at a low rate).
         assert 5.8 < airframes[n].observer.gains[0] / airframes[n].mass_kg < 6.3, n
+
+
+def test_rate_study_fits_each_rate_and_measures_the_spread_of_one_tunnel(vehicle_dir, tmp_path):
+    """The tiny vehicle calibrated at 20 and 40 Hz; both fits replay one tunnel flight, so the spread
+    of a hold's estimate over rates is the difference of its two errors."""
+    from dobwind.accuracy_rates import RATE_GOAL, rate_lines, rate_study
+
+    study = rate_study(vehicle_dir, tmp_path / "rates", 7.0, 2, vehicle="tiny", rates_hz=(20.0, 40.0))
+    low, high = study["rates"]
+    assert "error" not in low and "error" not in high
+    assert 1.9 < high["rows"] / low["rows"] < 2.1  # the same flight at twice the rate
+    calibrated = min(low["fit"]["calibrated_speed_mps"], high["fit"]["calibrated_speed_mps"])
+    spreads = [abs(a - b) for s, a, b in zip(low["tunnel"]["hold_speeds"], low["tunnel"]["hold_errors"],
+                                            high["tunnel"]["hold_errors"]) if s <= calibrated]
+    assert study["spread_mps"] == pytest.approx(max(spreads))
+    assert study["predicted_mps"] == max(low["tunnel"]["predicted_rms_calibrated"], high["tunnel"]["predicted_rms_calibrated"])
+    lines, verdict = rate_lines(study)
+    assert verdict == {RATE_GOAL: study["spread_mps"] <= study["predicted_mps"]}
+    assert any(line.strip().startswith("20  ") for line in lines) and any(line.strip().startswith("40  ") for line in lines)
+    failed = {**study, "rates": [low, {"rate_hz": 40.0, "error": "fit: exit 1"}]}
+    from dobwind.accuracy_rates import spread
+    assert spread(failed["rates"]) == (None, None)

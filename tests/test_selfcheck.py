@@ -80,6 +80,65 @@ def test_with_segments_each_hold_is_one_window_scored_after_its_transition():
     assert scored.all() and np.max(window_speed_errors(predicted, truth, windows)) > 0.3
 
 
+def _hold_samples(holds: int, rate_hz: float = 10.0, hold_s: float = 8.0):
+    """One log of ``holds`` segments along heading x, at 1-8 m/s in turn; ``observed[:, 0]`` carries each
+    sample's index so that a fake fit_predict can add a known error to it."""
+    from dobwind import dragfit
+
+    t = np.arange(int(holds * hold_s * rate_hz)) / rate_hz
+    hold, age = dragfit.segment_runs(t, (t // hold_s).astype(int))
+    n = len(t)
+    observed = np.zeros((n, 3))
+    observed[:, 0] = np.arange(n)
+    truth = np.zeros((n, 3))
+    truth[:, 0] = 1.0 + hold % 8
+    return dragfit.DragSamples(observed, np.zeros((n, 3, len(dragfit.PARAMETERS))), np.ones(n), np.zeros(n), truth,
+                               hold, np.zeros(n, dtype=int), hold=hold, hold_age_s=age)
+
+
+def _adding(error_x: np.ndarray):
+    return lambda train, test: test.airflow + np.c_[error_x[test.observed[:, 0].astype(int)], np.zeros((len(test), 2))]
+
+
+def test_hold_cv_separates_a_bias_that_stays_from_noise_that_averages_out():
+    """A constant 0.05 m/s bias plus white noise of 0.2 m/s per 10 Hz sample: a window's mean has noise
+    variance 0.04 / n, so noise x sqrt(T) = 0.2 sqrt(0.1 s) whatever the window; the bias is 0.05. The
+    scored part of an 8 s hold is 3 s, so on it the RMS error is sqrt(0.05^2 + 0.04 / 30), and on a
+    hold scored for 15 s, sqrt(0.05^2 + 0.004 / 15)."""
+    from dobwind import holdcv
+
+    samples = _hold_samples(600)
+    noise = np.random.default_rng(3).normal(0.0, 0.2, len(samples))
+    hold = holdcv.hold_cv(samples, _adding(0.05 + noise))
+    assert hold.window_s == pytest.approx(3.0)
+    assert hold.rms_mps == pytest.approx(math.sqrt(0.05 ** 2 + 0.04 / 30), rel=0.06)
+    assert len(hold.band_bias_mps) == 5   # five speed bands of 120 windows each
+    assert np.mean(hold.band_bias_mps) == pytest.approx(0.05, rel=0.1) and np.allclose(hold.band_bias_mps, 0.05, rtol=0.3)
+    assert np.allclose(hold.band_noise_mps_sqrt_s, 0.2 * math.sqrt(0.1), rtol=0.15)
+    assert hold.predicted(5.0, 8.0, 15.0) == pytest.approx(math.sqrt(0.05 ** 2 + 0.004 / 15), rel=0.1)
+    speed = hold.band_speeds_mps[2]
+    assert hold.predicted(speed, 8.0) == pytest.approx(hold.band_rms_mps[2])  # no length: as measured
+    # Limiting cases: a pure bias has no noise and predicts itself at any length; pure noise no bias.
+    biased = holdcv.hold_cv(samples, _adding(np.full(len(samples), 0.05)))
+    assert np.allclose(biased.band_bias_mps, 0.05) and np.allclose(biased.band_noise_mps_sqrt_s, 0.0)
+    assert biased.predicted(5.0, 8.0, 100.0) == pytest.approx(0.05)
+    noisy = holdcv.hold_cv(samples, _adding(noise))
+    assert max(noisy.band_bias_mps) < 0.015 and noisy.predicted(5.0, 8.0, 300.0) < 0.5 * noisy.rms_mps
+
+
+def test_hold_cv_halves_are_halves_in_time():
+    """+0.1 m/s in each scored window's first half, -0.1 in its second: every window's mean is exact,
+    the halves differ by 0.2, so the split reads noise of variance 0.01 per window and no bias."""
+    from dobwind import holdcv
+
+    samples = _hold_samples(100)
+    scored_age = samples.hold_age_s - holdcv.HOLD_SETTLE_S
+    error = np.where(scored_age < 1.5, 0.1, -0.1)
+    hold = holdcv.hold_cv(samples, _adding(error))
+    assert hold.rms_mps == pytest.approx(0.0, abs=1e-9)
+    assert np.allclose(hold.band_noise_mps_sqrt_s, math.sqrt(0.01 * 3.0)) and np.allclose(hold.band_bias_mps, 0.0)
+
+
 def test_predicted_hold_error_inside_and_beyond_the_calibration():
     hold = HoldCV(0.05, (1.0, 5.0), (0.10, 0.02), 0.3)
     assert hold.predicted(3.0, 8.0) == pytest.approx(0.06)     # linear between bands

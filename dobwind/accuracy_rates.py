@@ -1,0 +1,130 @@
+"""`make accuracy`'s sample-rate study (#12: "the same flight at 50, 100, 250 and 500 Hz gives the same
+model within noise").
+
+One vehicle's calibration flight (sweep + vertical, one seed) is simulated at each rate, fitted with no
+options, and one tunnel flight (the vehicle's own rate) is replayed through every fit. The tunnel flight
+is the same for all, so its noise cancels between the rows: what differs is the model alone. "Within
+noise" is judged against the fits' own word: the spread over rates of each calibrated hold's estimated
+speed must stay within the hold error the fits predict for that tunnel (their hold-level CV for holds
+that long, holdcv's note); a rate-dependent cleaning or filter would break it.
+"""
+from __future__ import annotations
+
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from dobwind.accuracy_run import Job, _cv_ratios, _fit, _json, goal_metrics, run_child
+
+RATES_HZ = (50.0, 100.0, 250.0, 500.0)
+RATE_VEHICLE = "px4quad"   # mixed drag, thrust shape and inflow error, x/y anisotropy; 50 Hz of its own
+RATE_SEED = 1
+
+
+@dataclass(frozen=True)
+class RateJob:
+    vehicle: str
+    vehicle_dir: str
+    rate_hz: float
+    hold_s: float
+    workdir: str
+    tunnel_log: str
+
+
+def _simulate(job: RateJob, scenario: str, seed: int, rate: float | None, log: Path, hold: float | None) -> int:
+    base = Path(job.vehicle_dir) / job.vehicle
+    args = ["simulate", scenario, "--airframe", f"{base}.airframe.toml", "--vehicle", f"{base}.vehicle.toml",
+            "--seed", str(seed), "-o", str(log)]
+    args += ["--rate", f"{rate:g}"] if rate is not None else []
+    args += ["--hold", f"{hold:g}"] if hold is not None else []
+    return run_child(args, log.parent).exit_code
+
+
+def run_rate(job: RateJob) -> dict[str, Any]:
+    """Calibrate at ``job.rate_hz``, fit, replay the shared tunnel flight; failures are results."""
+    work = Path(job.workdir)
+    work.mkdir(parents=True, exist_ok=True)
+    result: dict[str, Any] = {"rate_hz": job.rate_hz}
+    logs = [work / f"{s}.csv" for s in ("sweep", "vertical")]
+    for scenario, seed, log in zip(("sweep", "vertical"), (100 * RATE_SEED + 1, 100 * RATE_SEED + 2), logs):
+        if _simulate(job, scenario, seed, job.rate_hz, log, job.hold_s) != 0:
+            result["error"] = f"simulate {scenario} at {job.rate_hz:g} Hz failed"
+            return result
+    result["rows"] = sum(sum(1 for _ in open(log)) - 1 for log in logs)
+    fit_job = Job(job.vehicle, job.vehicle_dir, RATE_SEED, job.hold_s, job.workdir)
+    fitted, result["fit"] = _fit(fit_job, [str(log) for log in logs])
+    for log in logs:
+        log.unlink()
+    if result["fit"]["exit_code"] != 0:
+        result["error"] = f"fit: exit {result['fit']['exit_code']}: {result['fit']['message']}"
+        return result
+    parsed = _json(run_child(["replay", fitted, job.tunnel_log, "--backend", "c", "--json"], work))
+    if parsed is None:
+        result["error"] = "replay of the tunnel flight failed"
+        return result
+    result["tunnel"] = goal_metrics("tunnel", parsed)
+    _cv_ratios(result)
+    return result
+
+
+def spread(results: list[dict[str, Any]]) -> tuple[float | None, float | None]:
+    """(largest spread over rates of a calibrated tunnel hold's estimated speed, largest predicted hold
+    error among the fits), m/s; None when a rate failed."""
+    if not results or any("error" in r for r in results):
+        return None, None
+    calibrated = min(r["fit"]["calibrated_speed_mps"] for r in results)
+    speeds = results[0]["tunnel"]["hold_speeds"]
+    inside = [i for i, s in enumerate(speeds) if s <= calibrated]
+    errors = [[r["tunnel"]["hold_errors"][i] for r in results] for i in inside]
+    predicted = [r["tunnel"]["predicted_rms_calibrated"] for r in results]
+    if not errors or any(p is None for p in predicted):
+        return None, None
+    return max(max(e) - min(e) for e in errors), max(predicted)
+
+
+def rate_study(vehicle_dir: Path, scratch: Path, hold_s: float, workers: int, vehicle: str = RATE_VEHICLE,
+               rates_hz: tuple[float, ...] = RATES_HZ) -> dict[str, Any]:
+    scratch.mkdir(parents=True, exist_ok=True)
+    tunnel = scratch / "tunnel.csv"
+    job0 = RateJob(vehicle, str(vehicle_dir), 0.0, hold_s, str(scratch), str(tunnel))
+    if _simulate(job0, "tunnel", 100 * RATE_SEED + 3, None, tunnel, None) != 0:
+        return {"vehicle": vehicle, "rates_hz": list(rates_hz), "error": "simulate tunnel failed", "rates": []}
+    jobs = [RateJob(vehicle, str(vehicle_dir), r, hold_s, str(scratch / f"rate_{r:g}"), str(tunnel)) for r in rates_hz]
+    if workers <= 1:
+        results = [run_rate(j) for j in jobs]
+    else:
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            results = list(pool.map(run_rate, jobs))
+    largest, predicted = spread(results)
+    return {"vehicle": vehicle, "rates_hz": list(rates_hz), "rates": results, "spread_mps": largest,
+            "predicted_mps": predicted}
+
+
+RATE_GOAL = "the same model at 50-500 Hz: spread of tunnel hold speeds <= the fits' predicted hold error"
+
+
+def rate_lines(study: dict[str, Any]) -> tuple[list[str], dict[str, bool]]:
+    lines = [f"Sample rate ({study['vehicle']}: one calibration flight simulated at "
+             + ", ".join(f"{r:g}" for r in study["rates_hz"]) + " Hz, fitted with no options; one tunnel flight replayed "
+             "through each fit)",
+             f"  {'rate Hz':>8s}  {'rows':>9s}  {'model':>10s}  {'fit s':>6s}  {'fit MB':>6s}  {'hold CV':>7s}  "
+             f"{'tun spd mean':>12s}  {'tun spd max':>11s}  {'tun dir mean':>12s}  {'tun dir max':>11s}"]
+    if "error" in study:
+        return lines + [f"  {study['error']}"], {RATE_GOAL: False}
+    for r in study["rates"]:
+        if "error" in r:
+            lines.append(f"  {r['rate_hz']:8g}  {r['error']}")
+            continue
+        fit, tun = r["fit"], r["tunnel"]
+        lines.append(f"  {r['rate_hz']:8g}  {r['rows']:9d}  {fit.get('model') or '-':>10s}  {fit['time_s']:6.0f}  "
+                     f"{fit['peak_rss_mb']:6.0f}  {fit['cv_rmse_mps'] or float('nan'):7.3f}  "
+                     f"{tun['speed_mean']:12.3f}  {tun['speed_max']:11.3f}  {tun['direction_mean']:12.2f}  "
+                     f"{tun['direction_max']:11.2f}")
+    largest, predicted = study["spread_mps"], study["predicted_mps"]
+    ok = largest is not None and predicted is not None and largest <= predicted
+    if largest is not None and predicted is not None:
+        lines.append(f"  largest spread over rates of a calibrated tunnel hold's estimated speed: {largest:.3f} m/s; "
+                     f"the fits' largest predicted hold error: {predicted:.3f} m/s")
+    lines.append(f"  {'PASS' if ok else 'MISS'}  {RATE_GOAL}")
+    return lines, {RATE_GOAL: ok}

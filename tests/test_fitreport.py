@@ -1,0 +1,34 @@
+"""The fit's text report: each family's own form, and the hold-level CV's split with its longer-hold figure."""
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from dobwind.fit import FitReport
+from dobwind.fitreport import text_report
+
+
+def _drag_report(model: str) -> FitReport:
+    report = FitReport(points=1000, thrust_scale=0.97, model=model, samples=1000,
+                       drag={"lx": 0.1, "qx": 0.02}, force_offset_n=(0.0, 0.0, 0.0))
+    report.horizontal_rmse_mps, report.vertical_rmse_mps = 0.1, 0.05
+    report.hold_cv_speed_mps = 0.05
+    report.hold_cv_by_speed = {"speeds_mps": [1.0, 5.0], "rms_mps": [0.06, 0.04], "bias_mps": [0.03, 0.02],
+                               "noise_mps_sqrt_s": [0.06, 0.06], "window_s": 3.0}
+    return report
+
+
+@pytest.mark.parametrize("model", ["drag", "drag-body"])
+def test_either_drag_family_reports_its_law_not_polynomial_terms(model):
+    text = text_report(_drag_report(model))
+    assert "drag law: lx 0.1, qx 0.02" in text
+    assert "horizontal speed =" not in text and "calibration points" not in text
+
+
+def test_hold_line_gives_the_longer_hold_figure_from_bias_and_noise():
+    text = text_report(_drag_report("drag-body"))
+    assert "hold-level CV 0.050 m/s (held-out holds scored 3.0 s)" in text
+    # sqrt(bias^2 + noise^2 / 15 s) at each band
+    expected = [math.sqrt(0.03 ** 2 + 0.06 ** 2 / 15), math.sqrt(0.02 ** 2 + 0.06 ** 2 / 15)]
+    assert f"expected on holds scored 15 s: 1.0 m/s: {expected[0]:.3f}, 5.0 m/s: {expected[1]:.3f}" in text
