@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from dobwind.accuracy_run import Job, _cv_ratios, _fit, _json, goal_metrics, run_child
+from dobwind.accuracy_run import CALIBRATION, Job, _cv_ratios, _fit, _json, _simulate, goal_metrics, run_child, simulated_rows
 
 RATES_HZ = (50.0, 100.0, 250.0, 500.0)
 RATE_VEHICLE = "px4quad"   # mixed drag, thrust shape and inflow error, x/y anisotropy; 50 Hz of its own
@@ -31,37 +31,33 @@ class RateJob:
     workdir: str
     tunnel_log: str
 
-
-def _simulate(job: RateJob, scenario: str, seed: int, rate: float | None, log: Path, hold: float | None) -> int:
-    base = Path(job.vehicle_dir) / job.vehicle
-    args = ["simulate", scenario, "--airframe", f"{base}.airframe.toml", "--vehicle", f"{base}.vehicle.toml",
-            "--seed", str(seed), "-o", str(log)]
-    args += ["--rate", f"{rate:g}"] if rate is not None else []
-    args += ["--hold", f"{hold:g}"] if hold is not None else []
-    return run_child(args, log.parent).exit_code
+    def job(self) -> Job:
+        """The benchmark's job for this folder (seed RATE_SEED: the same flight at every rate)."""
+        return Job(self.vehicle, self.vehicle_dir, RATE_SEED, self.hold_s, self.workdir)
 
 
 def run_rate(job: RateJob) -> dict[str, Any]:
     """Calibrate at ``job.rate_hz``, fit, replay the shared tunnel flight; failures are results."""
-    work = Path(job.workdir)
-    work.mkdir(parents=True, exist_ok=True)
-    result: dict[str, Any] = {"rate_hz": job.rate_hz}
-    logs = [work / f"{s}.csv" for s in ("sweep", "vertical")]
-    for scenario, seed, log in zip(("sweep", "vertical"), (100 * RATE_SEED + 1, 100 * RATE_SEED + 2), logs):
-        if _simulate(job, scenario, seed, job.rate_hz, log, job.hold_s) != 0:
-            result["error"] = f"simulate {scenario} at {job.rate_hz:g} Hz failed"
+    Path(job.workdir).mkdir(parents=True, exist_ok=True)
+    result: dict[str, Any] = {"rate_hz": job.rate_hz, "rows": 0}
+    logs = []
+    for scenario in CALIBRATION:
+        log, child = _simulate(job.job(), scenario, job.hold_s, job.rate_hz)
+        if child.exit_code != 0:
+            result["error"] = f"simulate {scenario} at {job.rate_hz:g} Hz: exit {child.exit_code}: {child.last_stderr}"
             return result
-    result["rows"] = sum(sum(1 for _ in open(log)) - 1 for log in logs)
-    fit_job = Job(job.vehicle, job.vehicle_dir, RATE_SEED, job.hold_s, job.workdir)
-    fitted, result["fit"] = _fit(fit_job, [str(log) for log in logs])
+        logs.append(log)
+        result["rows"] += simulated_rows(child)
+    fitted, result["fit"] = _fit(job.job(), logs)
     for log in logs:
-        log.unlink()
+        Path(log).unlink()
     if result["fit"]["exit_code"] != 0:
         result["error"] = f"fit: exit {result['fit']['exit_code']}: {result['fit']['message']}"
         return result
-    parsed = _json(run_child(["replay", fitted, job.tunnel_log, "--backend", "c", "--json"], work))
+    replay = run_child(["replay", fitted, job.tunnel_log, "--backend", "c", "--json"], Path(job.workdir))
+    parsed = _json(replay)
     if parsed is None:
-        result["error"] = "replay of the tunnel flight failed"
+        result["error"] = f"replay tunnel: exit {replay.exit_code}: {replay.last_stderr}"
         return result
     result["tunnel"] = goal_metrics("tunnel", parsed)
     _cv_ratios(result)
@@ -85,12 +81,13 @@ def spread(results: list[dict[str, Any]]) -> tuple[float | None, float | None]:
 
 def rate_study(vehicle_dir: Path, scratch: Path, hold_s: float, workers: int, vehicle: str = RATE_VEHICLE,
                rates_hz: tuple[float, ...] = RATES_HZ) -> dict[str, Any]:
+    """The study's results, the spread and the prediction it is judged against (see the module's note)."""
     scratch.mkdir(parents=True, exist_ok=True)
-    tunnel = scratch / "tunnel.csv"
-    job0 = RateJob(vehicle, str(vehicle_dir), 0.0, hold_s, str(scratch), str(tunnel))
-    if _simulate(job0, "tunnel", 100 * RATE_SEED + 3, None, tunnel, None) != 0:
-        return {"vehicle": vehicle, "rates_hz": list(rates_hz), "error": "simulate tunnel failed", "rates": []}
-    jobs = [RateJob(vehicle, str(vehicle_dir), r, hold_s, str(scratch / f"rate_{r:g}"), str(tunnel)) for r in rates_hz]
+    tunnel, child = _simulate(Job(vehicle, str(vehicle_dir), RATE_SEED, None, str(scratch)), "tunnel", None)
+    if child.exit_code != 0:
+        return {"vehicle": vehicle, "rates_hz": list(rates_hz), "rates": [],
+                "error": f"simulate tunnel: exit {child.exit_code}: {child.last_stderr}"}
+    jobs = [RateJob(vehicle, str(vehicle_dir), r, hold_s, str(scratch / f"rate_{r:g}"), tunnel) for r in rates_hz]
     if workers <= 1:
         results = [run_rate(j) for j in jobs]
     else:

@@ -61,14 +61,22 @@ def _seed(job: Job, scenario: str) -> int:
     return 100 * job.seed + SEED_OFFSET[scenario]
 
 
-def _simulate(job: Job, scenario: str, hold: float | None) -> tuple[str, Child]:
+def _simulate(job: Job, scenario: str, hold: float | None, rate_hz: float | None = None) -> tuple[str, Child]:
+    """Simulate into the job's folder; ``rate_hz`` None: the vehicle file's own rate."""
     base = Path(job.vehicle_dir) / job.vehicle
     log = str(Path(job.workdir) / f"{scenario}.csv")
     args = ["simulate", scenario, "--airframe", f"{base}.airframe.toml", "--vehicle", f"{base}.vehicle.toml",
             "--seed", str(_seed(job, scenario)), "-o", log]
     if hold is not None:
         args += ["--hold", f"{hold:g}"]
+    if rate_hz is not None:
+        args += ["--rate", f"{rate_hz:g}"]
     return log, run_child(args, Path(job.workdir))
+
+
+def simulated_rows(child: Child) -> int:
+    found = re.search(r": (\d+) rows, ", child.stdout)  # simulate prints "LOG: N rows, ..."
+    return int(found.group(1)) if found else 0
 
 
 def _json(child: Child) -> dict[str, Any] | None:
@@ -146,8 +154,7 @@ def run_job(job: Job) -> dict[str, Any]:
             result["error"] = f"simulate {scenario}: exit {child.exit_code}: {child.last_stderr}"
             return result
         logs.append(log)
-        found = re.search(r": (\d+) rows, ", child.stdout)  # simulate prints "LOG: N rows, ..."
-        rows += int(found.group(1)) if found else 0
+        rows += simulated_rows(child)
     result["calibration_rows"] = rows
     fitted, result["fit"] = _fit(job, logs)
     for log in logs:
