@@ -10,6 +10,7 @@ goals are missed (it measures; 2 on bad usage).
     python -m dobwind.accuracy [--quick] [--vehicles a,b] [--seeds N] [--hold S] [-o out/accuracy]
 
 Then the sample-rate study (dobwind/accuracy_rates.py): one vehicle calibrated at 50 to 500 Hz.
+`--random N` runs N random vehicles (dobwind/accuracy_family.py) instead of the benchmark's.
 
 Quick mode (--quick, or DOBWIND_ACCURACY_QUICK=1): one seed, three vehicles, split real runs only, no
 rate study.
@@ -26,6 +27,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from dobwind.accuracy_family import write_random_vehicles
 from dobwind.accuracy_rates import RATE_VEHICLE, rate_lines, rate_study
 from dobwind.accuracy_real import real_lines, real_runs
 from dobwind.accuracy_report import goal_lines, per_run_ratio_line, row_values, table, worst
@@ -127,6 +129,10 @@ def parse_config(argv: list[str] | None) -> Config:
     parser.add_argument("--vehicle-dir", default=str(VEHICLE_DIR))
     parser.add_argument("--data", default=str(DEFAULT_DATA), help="Neural-Fly folder (skipped when absent)")
     parser.add_argument("--workers", type=int, default=MAX_WORKERS)
+    parser.add_argument("--random", type=int, default=0, metavar="N",
+                        help="N random vehicles (dobwind/accuracy_family.py) instead of the benchmark's, written "
+                        "to OUTPUT/random_vehicles for --vehicle-dir reruns")
+    parser.add_argument("--random-seed", type=int, default=1, help="seed of the --random draw (default 1)")
     parser.add_argument("--no-rates", action="store_true",
                         help=f"skip the sample-rate study ({RATE_VEHICLE} calibrated at 50-500 Hz; about 4 min)")
     parser.add_argument("-o", "--output", default="out/accuracy", help="folder for accuracy.json and accuracy.txt")
@@ -136,8 +142,14 @@ def parse_config(argv: list[str] | None) -> Config:
     args = parser.parse_args(argv)
     quick = args.quick or os.environ.get("DOBWIND_ACCURACY_QUICK", "") not in ("", "0")
     vehicle_dir = Path(args.vehicle_dir)
+    if args.random < 0:
+        parser.error("--random: must be >= 0")
+    if args.random:
+        vehicle_dir = Path(args.output) / "random_vehicles"
+        write_random_vehicles(vehicle_dir, args.random_seed, args.random)
     known = available_vehicles(vehicle_dir)
-    names = tuple(args.vehicles.split(",")) if args.vehicles else (QUICK_VEHICLES if quick else known)
+    names = tuple(args.vehicles.split(",")) if args.vehicles else (
+        QUICK_VEHICLES if quick and not args.random else known)
     unknown = [n for n in names if n not in known]
     if unknown:
         parser.error(f"--vehicles: unknown vehicle {unknown[0]!r} in {vehicle_dir} (known: {', '.join(known)})")
