@@ -245,6 +245,19 @@ def merge(parts: list[dict[str, np.ndarray]], frame: str = "heading") -> DragSam
                        holds.get("hold"), holds.get("hold_age_s"))
 
 
+def _normal_equations(samples: DragSamples, weights: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """A^T A and A^T y of the weighted system (rows: sample and axis), from ONE product [A y]^T [A y]:
+    a separate A^T y (a matrix-vector product) took twice as long as A^T A on two shared cores, where
+    BLAS's threads wait for each other."""
+    params = samples.columns.shape[2]
+    w = np.ones(samples.observed.size) if weights is None else weights.reshape(-1)
+    augmented = np.empty((samples.observed.size, params + 1))
+    np.multiply(samples.columns.reshape(-1, params), w[:, None], out=augmented[:, :params])
+    np.multiply(samples.observed.reshape(-1), w, out=augmented[:, params])
+    product = augmented.T @ augmented
+    return product[:params, :params], product[:params, params]
+
+
 def _solve(samples: DragSamples, active: tuple[str, ...], weights: np.ndarray | None = None) -> np.ndarray:
     """Weighted least squares on the active parameters (the rest zero), drag coefficients kept >= 0
     by dropping a negative one and solving again (an active set: at most a few rounds).
@@ -252,10 +265,7 @@ def _solve(samples: DragSamples, active: tuple[str, ...], weights: np.ndarray | 
     Solved through the normal equations of the column-scaled problem: the Gram matrix of every
     parameter is formed once (N x 3 x P^2 products) and each active set takes its submatrix, instead of
     an SVD of the whole (3N x P) system per set, which made the fit's cross-validation slow."""
-    w = np.ones(samples.observed.shape) if weights is None else weights
-    a = (samples.columns * w[:, :, None]).reshape(-1, samples.columns.shape[2])
-    gram = a.T @ a
-    rhs = a.T @ (samples.observed * w).reshape(-1)
+    gram, rhs = _normal_equations(samples, weights)
     free = list(active)
     parameters = samples.parameters
     while True:
