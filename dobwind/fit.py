@@ -167,9 +167,10 @@ def calibration_run(af: Airframe, logs: list[FlightLog]) -> CalibrationRun:
     model = build_step(cal)
     force, v_filt, status = [], [], []
     for log in logs:
-        traj = reference.run(model, step_inputs(model, log))
-        force.append(traj.outputs[:, model.outputs.slice("force_ned")].copy())
-        v_filt.append(traj.states[:, model.state.slice("v_filt")].copy())
+        traj = reference.run_columns(model, step_inputs(model, log), model.state.slice("v_filt"),
+                                     model.outputs.slice("force_ned"))
+        force.append(traj.outputs)
+        v_filt.append(traj.states)
         status.append(traj.status)
     return CalibrationRun(cal, model, tuple(logs), tuple(force), tuple(v_filt), tuple(status))
 
