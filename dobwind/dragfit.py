@@ -200,8 +200,10 @@ def log_samples(af: Airframe, cutoff_hz: float, t: np.ndarray, force_ned: np.nda
                                    None if q is None else q[rows])
         air_c = np.column_stack(heading_force(airflow_ned[rows].T, c[rows], s[rows], (0.0, 0.0, 0.0)))
         pick = keep[rows]
-        kept_columns.append(np.stack([filters[axis][0](ned[:, axis]) for axis in range(3)], axis=1)[pick])
-        kept_air.append(np.column_stack([filters[axis][1](air_c[:, axis]) for axis in range(3)])[pick])
+        # The decimated rows are picked from each filtered axis before stacking (stacking the full rate
+        # first was a second pass over the largest arrays).
+        kept_columns.append(np.stack([filters[axis][0](ned[:, axis])[pick] for axis in range(3)], axis=1))
+        kept_air.append(np.column_stack([filters[axis][1](air_c[:, axis])[pick] for axis in range(3)]))
         kept_extra.append({k: v[pick] for k, v in extra.items()})
     extra = {k: np.concatenate([e[k] for e in kept_extra]) for k in (kept_extra[0] if kept_extra else {})}
     if segment is not None:
@@ -245,31 +247,34 @@ def merge(parts: list[dict[str, np.ndarray]], frame: str = "heading") -> DragSam
                        holds.get("hold"), holds.get("hold_age_s"))
 
 
-def _normal_equations(samples: DragSamples, weights: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
-    """A^T A and A^T y of the weighted system (rows: sample and axis), from ONE product [A y]^T [A y]:
-    a separate A^T y (a matrix-vector product) took twice as long as A^T A on two shared cores, where
-    BLAS's threads wait for each other."""
-    params = samples.columns.shape[2]
+def _normal_equations(samples: DragSamples, weights: np.ndarray | None,
+                      columns: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    """A^T A and A^T y of the weighted system (rows: sample and axis) on these parameter columns, from
+    ONE product [A y]^T [A y]: a separate A^T y (a matrix-vector product) took twice as long as A^T A on
+    two shared cores, where BLAS's threads wait for each other. [A y] is built transposed, a row per
+    column: only the active columns are read, without a fancy-indexed copy of them first."""
+    flat = samples.columns.reshape(-1, samples.columns.shape[2])
     w = np.ones(samples.observed.size) if weights is None else weights.reshape(-1)
-    augmented = np.empty((samples.observed.size, params + 1))
-    np.multiply(samples.columns.reshape(-1, params), w[:, None], out=augmented[:, :params])
-    np.multiply(samples.observed.reshape(-1), w, out=augmented[:, params])
-    product = augmented.T @ augmented
-    return product[:params, :params], product[:params, params]
+    augmented = np.empty((len(columns) + 1, samples.observed.size))
+    for row, column in enumerate(columns):
+        np.multiply(flat[:, column], w, out=augmented[row])
+    np.multiply(samples.observed.reshape(-1), w, out=augmented[-1])
+    product = augmented @ augmented.T
+    return product[:-1, :-1], product[:-1, -1]
 
 
 def _solve(samples: DragSamples, active: tuple[str, ...], weights: np.ndarray | None = None) -> np.ndarray:
     """Weighted least squares on the active parameters (the rest zero), drag coefficients kept >= 0
     by dropping a negative one and solving again (an active set: at most a few rounds).
 
-    Solved through the normal equations of the column-scaled problem: the Gram matrix of every
-    parameter is formed once (N x 3 x P^2 products) and each active set takes its submatrix, instead of
-    an SVD of the whole (3N x P) system per set, which made the fit's cross-validation slow."""
-    gram, rhs = _normal_equations(samples, weights)
-    free = list(active)
+    Solved through the normal equations of the column-scaled problem: the Gram matrix of the active
+    parameters is formed once (N x 3 x P^2 products) and each smaller set takes its submatrix, instead
+    of an SVD of the whole (3N x P) system per set, which made the fit's cross-validation slow."""
     parameters = samples.parameters
+    gram, rhs = _normal_equations(samples, weights, [parameters.index(p) for p in active])
+    free = list(active)
     while True:
-        cols = [parameters.index(p) for p in free]
+        cols = [active.index(p) for p in free]
         sub = gram[np.ix_(cols, cols)]
         scale = np.sqrt(np.maximum(np.diag(sub), 1e-24))
         # rcond 1e-14 on the Gram matrix drops directions the data cannot tell apart (1e-7 of the
