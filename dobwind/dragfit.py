@@ -200,8 +200,10 @@ def log_samples(af: Airframe, cutoff_hz: float, t: np.ndarray, force_ned: np.nda
                                    None if q is None else q[rows])
         air_c = np.column_stack(heading_force(airflow_ned[rows].T, c[rows], s[rows], (0.0, 0.0, 0.0)))
         pick = keep[rows]
-        kept_columns.append(np.stack([filters[axis][0](ned[:, axis]) for axis in range(3)], axis=1)[pick])
-        kept_air.append(np.column_stack([filters[axis][1](air_c[:, axis]) for axis in range(3)])[pick])
+        # The decimated rows are picked from each filtered axis before stacking (stacking the full rate
+        # first was a second pass over the largest arrays).
+        kept_columns.append(np.stack([filters[axis][0](ned[:, axis])[pick] for axis in range(3)], axis=1))
+        kept_air.append(np.column_stack([filters[axis][1](air_c[:, axis])[pick] for axis in range(3)]))
         kept_extra.append({k: v[pick] for k, v in extra.items()})
     extra = {k: np.concatenate([e[k] for e in kept_extra]) for k in (kept_extra[0] if kept_extra else {})}
     if segment is not None:
@@ -245,21 +247,34 @@ def merge(parts: list[dict[str, np.ndarray]], frame: str = "heading") -> DragSam
                        holds.get("hold"), holds.get("hold_age_s"))
 
 
+def _normal_equations(samples: DragSamples, weights: np.ndarray | None,
+                      columns: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    """A^T A and A^T y of the weighted system (rows: sample and axis) on these parameter columns, from
+    ONE product [A y]^T [A y]: a separate A^T y (a matrix-vector product) took twice as long as A^T A on
+    two shared cores, where BLAS's threads wait for each other. [A y] is built transposed, a row per
+    column: only the active columns are read, without a fancy-indexed copy of them first."""
+    flat = samples.columns.reshape(-1, samples.columns.shape[2])
+    w = np.ones(samples.observed.size) if weights is None else weights.reshape(-1)
+    augmented = np.empty((len(columns) + 1, samples.observed.size))
+    for row, column in enumerate(columns):
+        np.multiply(flat[:, column], w, out=augmented[row])
+    np.multiply(samples.observed.reshape(-1), w, out=augmented[-1])
+    product = augmented @ augmented.T
+    return product[:-1, :-1], product[:-1, -1]
+
+
 def _solve(samples: DragSamples, active: tuple[str, ...], weights: np.ndarray | None = None) -> np.ndarray:
     """Weighted least squares on the active parameters (the rest zero), drag coefficients kept >= 0
     by dropping a negative one and solving again (an active set: at most a few rounds).
 
-    Solved through the normal equations of the column-scaled problem: the Gram matrix of every
-    parameter is formed once (N x 3 x P^2 products) and each active set takes its submatrix, instead of
-    an SVD of the whole (3N x P) system per set, which made the fit's cross-validation slow."""
-    w = np.ones(samples.observed.shape) if weights is None else weights
-    a = (samples.columns * w[:, :, None]).reshape(-1, samples.columns.shape[2])
-    gram = a.T @ a
-    rhs = a.T @ (samples.observed * w).reshape(-1)
-    free = list(active)
+    Solved through the normal equations of the column-scaled problem: the Gram matrix of the active
+    parameters is formed once (N x 3 x P^2 products) and each smaller set takes its submatrix, instead
+    of an SVD of the whole (3N x P) system per set, which made the fit's cross-validation slow."""
     parameters = samples.parameters
+    gram, rhs = _normal_equations(samples, weights, [parameters.index(p) for p in active])
+    free = list(active)
     while True:
-        cols = [parameters.index(p) for p in free]
+        cols = [active.index(p) for p in free]
         sub = gram[np.ix_(cols, cols)]
         scale = np.sqrt(np.maximum(np.diag(sub), 1e-24))
         # rcond 1e-14 on the Gram matrix drops directions the data cannot tell apart (1e-7 of the
@@ -340,32 +355,57 @@ def prediction_error(predicted: np.ndarray, truth: np.ndarray) -> np.ndarray:
     return np.nan_to_num(np.clip(error, -ERROR_CLIP_MPS, ERROR_CLIP_MPS), nan=ERROR_CLIP_MPS)
 
 
-def grouped_cv(samples: DragSamples, fit_predict: FitPredict) -> tuple[float, float]:
-    """Horizontal vector and vertical RMS airflow errors (m/s) on held-out blocks, FOLDS folds."""
+Split = tuple[DragSamples, DragSamples]  # (fitted on, scored on)
+
+
+def fold_splits(samples: DragSamples) -> tuple[Split, ...]:
+    """grouped_cv's FOLDS folds over the blocks (none with fewer than two blocks). Selected once by
+    choose_drag_law, which scores a dozen candidate laws on the same folds."""
     unique = np.unique(samples.group)
     if len(unique) < 2:
-        return math.nan, math.nan
+        return ()
     fold_of = dict(zip(np.random.default_rng(0).permutation(unique), np.arange(len(unique)) % FOLDS))
     fold = np.array([fold_of[g] for g in samples.group])
-    squared_h, squared_v, count = 0.0, 0.0, 0
-    for k in range(min(FOLDS, len(unique))):
-        test = fold == k
-        error = prediction_error(fit_predict(samples.select(~test), samples.select(test)), samples.airflow[test])
-        squared_h += float(np.sum(error[:, 0] ** 2 + error[:, 1] ** 2))
-        squared_v += float(np.sum(error[:, 2] ** 2))
-        count += int(test.sum())
-    return math.sqrt(squared_h / count), math.sqrt(squared_v / count)
+    return tuple((samples.select(fold != k), samples.select(fold == k)) for k in range(min(FOLDS, len(unique))))
 
 
-def extrapolation_error(samples: DragSamples, fit_predict: FitPredict) -> float:
-    """Horizontal airflow error on the fastest blocks when the model is fitted on the rest."""
+def top_split(samples: DragSamples) -> Split | None:
+    """extrapolation_error's split: the fastest blocks scored, the rest fitted (None when undefined)."""
     unique, inverse = np.unique(samples.group, return_inverse=True)
     speed = np.hypot(samples.airflow[:, 0], samples.airflow[:, 1])
     level = np.bincount(inverse, speed) / np.bincount(inverse)
     top = level[inverse] >= TOP_SHARE * level.max()
     if top.all() or (~top).sum() < 50:
+        return None
+    return samples.select(~top), samples.select(top)
+
+
+def grouped_cv(samples: DragSamples, fit_predict: FitPredict,
+               folds: tuple[Split, ...] | None = None) -> tuple[float, float]:
+    """Horizontal vector and vertical RMS airflow errors (m/s) on held-out blocks, FOLDS folds
+    (``folds``: fold_splits(samples), when already made)."""
+    folds = fold_splits(samples) if folds is None else folds
+    if not folds:
+        return math.nan, math.nan
+    squared_h, squared_v, count = 0.0, 0.0, 0
+    for train, test in folds:
+        error = prediction_error(fit_predict(train, test), test.airflow)
+        squared_h += float(np.sum(error[:, 0] ** 2 + error[:, 1] ** 2))
+        squared_v += float(np.sum(error[:, 2] ** 2))
+        count += len(test)
+    return math.sqrt(squared_h / count), math.sqrt(squared_v / count)
+
+
+def extrapolation_error(samples: DragSamples, fit_predict: FitPredict) -> float:
+    """Horizontal airflow error on the fastest blocks when the model is fitted on the rest."""
+    return top_error(fit_predict, top_split(samples))
+
+
+def top_error(fit_predict: FitPredict, split: Split | None) -> float:
+    """extrapolation_error on an already-made top_split (NaN when it is undefined)."""
+    if split is None:
         return math.nan
-    error = prediction_error(fit_predict(samples.select(~top), samples.select(top)), samples.airflow[top])
+    error = prediction_error(fit_predict(*split), split[1].airflow)
     return float(np.sqrt(np.mean(error[:, 0] ** 2 + error[:, 1] ** 2)))
 
 
@@ -392,23 +432,24 @@ def choose_drag_law(samples: DragSamples) -> DragChoice:
     """Horizontal set first (with the fullest vertical set), then the vertical set; the smallest set
     within 2 % of the best score wins at each stage."""
     vertical_full = VERTICAL_SETS[-1]
+    folds, top = fold_splits(samples), top_split(samples)  # the same splits for every candidate
     scored = []
     for h in (BODY_HORIZONTAL_SETS if samples.frame == "body" else HORIZONTAL_SETS):
         fit_predict = drag_fit_predict(h + vertical_full + ALWAYS)
-        cv_h, _ = grouped_cv(samples, fit_predict)
-        scored.append((combined(cv_h, extrapolation_error(samples, fit_predict)), h))
+        cv_h, _ = grouped_cv(samples, fit_predict, folds)
+        scored.append((combined(cv_h, top_error(fit_predict, top)), h))
     best = min(s for s, _ in scored)
     horizontal = next(h for s, h in scored if s <= best * 1.02)
     scored_v = []
     for v in VERTICAL_SETS:
-        scored_v.append((grouped_cv(samples, drag_fit_predict(horizontal + v + ALWAYS))[1], v))
+        scored_v.append((grouped_cv(samples, drag_fit_predict(horizontal + v + ALWAYS), folds)[1], v))
     best_v = min(s for s, _ in scored_v)
     vertical = next(v for s, v in scored_v if s <= best_v * 1.02)
     active = horizontal + vertical + ALWAYS
     theta = robust_fit(samples, active)
-    cv_h, cv_v = grouped_cv(samples, drag_fit_predict(active))
+    cv_h, cv_v = grouped_cv(samples, drag_fit_predict(active), folds)
     rmse_h, rmse_v = airflow_errors(samples, theta)
-    return DragChoice(theta, active, cv_h, cv_v, extrapolation_error(samples, drag_fit_predict(active)), rmse_h, rmse_v)
+    return DragChoice(theta, active, cv_h, cv_v, top_error(drag_fit_predict(active), top), rmse_h, rmse_v)
 
 
 def polynomial_fit_predict(horizontal: list[Term], vertical: list[Term],

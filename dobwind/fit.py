@@ -31,6 +31,7 @@ from dobwind.logs import TRUTH_BOUNDS, TRUTH_COLUMNS, FlightLog, heading_yaw, re
 from dobwind.model import forceair, reference
 from dobwind.model.airframe import Airframe, FilterSchedule, ForceAirModel
 from dobwind.model.status import accepted
+from dobwind.model.step import StepModel
 from dobwind.model.terms import parse_term
 
 CHUNK_S = 2.0
@@ -140,27 +141,58 @@ def calibration_airframe(af: Airframe) -> Airframe:
     return dataclasses.replace(af, filter=FilterSchedule((0.0,), (max(af.filter.cutoffs_hz),)))
 
 
-def calibration_points(af: Airframe, logs: list[FlightLog], dynamic: bool = False) -> tuple[Points, float]:
-    """Chunk means from every log, and the settling time used for cleaning. ``dynamic`` keeps
-    manoeuvring flight too (only yaw changes and rejected samples are cut), in shorter chunks."""
-    cal = calibration_airframe(af)
+@dataclass(frozen=True)
+class CalibrationRun:
+    """The calibration airframe's step over each log, reduced to what calibration reads: the drag-law
+    samples (fitfamily.drag_samples) and the polynomial family's first cleaning pass run the same
+    airframe over the same logs, so fit_airframe runs it once for both."""
+    airframe: Airframe                  # calibration_airframe of the airframe it was run for
+    model: StepModel
+    logs: tuple[FlightLog, ...]
+    force_ned: tuple[np.ndarray, ...]   # per log (N, 3): the step's force_ned output
+    v_filt: tuple[np.ndarray, ...]      # per log (N, 3): its delayed ground velocity state
+    status: tuple[np.ndarray, ...]      # per log (N,)
+
+    def serves(self, af: Airframe, logs: list[FlightLog]) -> bool:
+        """Whether this run is the one ``af`` would make over ``logs`` (the same log objects)."""
+        return (calibration_airframe(af) == self.airframe and len(logs) == len(self.logs)
+                and all(a is b for a, b in zip(logs, self.logs)))
+
+
+def calibration_run(af: Airframe, logs: list[FlightLog]) -> CalibrationRun:
+    """The step of ``calibration_airframe(af)`` over every log (the Python reference)."""
     from dobwind.model.step import build_step
 
+    cal = calibration_airframe(af)
     model = build_step(cal)
-    settle = settling_time_s(axis_system(model, 0, with_filter=True)) + 1.0
+    force, v_filt, status = [], [], []
+    for log in logs:
+        traj = reference.run_columns(model, step_inputs(model, log), model.state.slice("v_filt"),
+                                     model.outputs.slice("force_ned"))
+        force.append(traj.outputs)
+        v_filt.append(traj.states)
+        status.append(traj.status)
+    return CalibrationRun(cal, model, tuple(logs), tuple(force), tuple(v_filt), tuple(status))
+
+
+def calibration_points(af: Airframe, logs: list[FlightLog], dynamic: bool = False,
+                       run: CalibrationRun | None = None) -> tuple[Points, float]:
+    """Chunk means from every log, and the settling time used for cleaning. ``dynamic`` keeps
+    manoeuvring flight too (only yaw changes and rejected samples are cut), in shorter chunks. ``run``:
+    the calibration run, when already made (used only if it is ``af``'s over ``logs``)."""
+    run = run if run is not None and run.serves(af, logs) else calibration_run(af, logs)
+    settle = settling_time_s(axis_system(run.model, 0, with_filter=True)) + 1.0
     chunks: list[dict[str, float]] = []
     group_base = 0
-    for log in logs:
-        traj = reference.run(model, step_inputs(model, log))
+    for log, force, v_filt, status in zip(logs, run.force_ned, run.v_filt, run.status):
         t = log.time_s
-        force = traj.outputs[:, model.outputs.slice("force_ned")]
         q = log.stack("q_w", "q_x", "q_y", "q_z")
         yaw = heading_yaw(log, q)
         c, s = np.cos(yaw), np.sin(yaw)
         f_c = np.column_stack(forceair.heading_force(force.T, c, s, (0.0, 0.0, 0.0)))
         # The estimator adds the ground velocity after the observer and low-pass (delay matching), so
         # the truth it should reproduce is the true wind minus that same delayed velocity.
-        rel = log.true_wind - traj.states[:, model.state.slice("v_filt")]
+        rel = log.true_wind - v_filt
         rel_c = np.column_stack(forceair.heading_force(rel.T, c, s, (0.0, 0.0, 0.0)))
         dt = float(np.median(np.diff(t))) if len(t) > 1 else af.observer.sample_time_s
         # Smoothed over the settling time: turbulence must not count as a change, a wind step must.
@@ -169,7 +201,7 @@ def calibration_points(af: Airframe, logs: list[FlightLog], dynamic: bool = Fals
         # Smoothed over a second: attitude noise on a real log is several deg/s sample to sample.
         smooth_yaw = _moving_mean(np.unwrap(yaw)[:, None], int(round(1.0 / dt)))[:, 0]
         yaw_rate = np.r_[0.0, np.degrees(np.abs(np.diff(smooth_yaw))) / np.diff(t)]
-        change = (yaw_rate > YAW_RATE_CHANGE_DEG_S) | ~accepted(traj.status)
+        change = (yaw_rate > YAW_RATE_CHANGE_DEG_S) | ~accepted(status)
         if not dynamic:
             change |= airflow_rate > AIRFLOW_CHANGE_MPS2
         change[0] = True
@@ -311,11 +343,12 @@ def _zero_airflow(points: Points) -> np.ndarray:
     return (points.speed_h < ZERO_AIRFLOW_MPS) & (np.abs(points.air_z) < ZERO_AIRFLOW_MPS)
 
 
-def fit_polynomial(af: Airframe, logs: list[FlightLog], terms: str = "auto",
-                   dynamic: bool = False) -> tuple[Airframe, FitReport, Points]:
-    """The paper's family from steady chunks (or manoeuvres with ``dynamic``)."""
+def fit_polynomial(af: Airframe, logs: list[FlightLog], terms: str = "auto", dynamic: bool = False,
+                   run: CalibrationRun | None = None) -> tuple[Airframe, FitReport, Points]:
+    """The paper's family from steady chunks (or manoeuvres with ``dynamic``); ``run``: the calibration
+    run of ``af`` over ``logs``, when already made."""
     report = FitReport()
-    af, points = _calibrated_points(af, logs, dynamic, report)
+    af, points = _calibrated_points(af, logs, dynamic, report, run)
     h_terms = _horizontal_terms(af, points, terms, report)
     (report.horizontal_coefficients, report.horizontal_rmse_mps, report.horizontal_cv_rmse_mps,
      report.horizontal_extrapolation_rmse_mps) = _least_squares(h_terms, points, points.speed_h)
@@ -333,11 +366,11 @@ def fit_polynomial(af: Airframe, logs: list[FlightLog], terms: str = "auto",
     return new, report, points
 
 
-def _calibrated_points(af: Airframe, logs: list[FlightLog], dynamic: bool,
-                       report: FitReport) -> tuple[Airframe, Points]:
+def _calibrated_points(af: Airframe, logs: list[FlightLog], dynamic: bool, report: FitReport,
+                       run: CalibrationRun | None = None) -> tuple[Airframe, Points]:
     """The thrust scale and the force offset from zero-airflow data, then the cleaned calibration points
     with the offset removed. Returns the airframe with the new thrust scale."""
-    raw, _ = calibration_points(af, logs, dynamic)
+    raw, _ = calibration_points(af, logs, dynamic, run)
     zero = _zero_airflow(raw)
     report.zero_airflow_points = int(zero.sum())
     if zero.sum() >= 3:

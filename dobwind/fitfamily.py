@@ -13,12 +13,10 @@ from dobwind.analysis.figures import settling_time_s
 from dobwind.analysis.linear import axis_system
 from dobwind.envelope import calibration_envelope, uncertainty_table, with_observer_noise
 from dobwind.errors import CheckFailed
-from dobwind.fit import FitReport, Points, calibration_airframe, fit_polynomial, read_calibration_logs
-from dobwind.logs import FlightLog, heading_yaw, step_inputs
-from dobwind.model import reference
+from dobwind.fit import CalibrationRun, FitReport, Points, calibration_run, fit_polynomial, read_calibration_logs
+from dobwind.logs import FlightLog, heading_yaw
 from dobwind.model.airframe import Airframe, ForceAirModel
 from dobwind.model.status import accepted
-from dobwind.model.step import build_step
 from dobwind.selfcheck import Thresholds, self_check
 
 MODELS = ("auto", "drag", "drag-heading", "drag-body", "polynomial")
@@ -28,28 +26,27 @@ DRAG_FRAMES_OF = {"auto": ("heading", "body"), "drag": ("heading", "body"), "dra
 FAMILY_OF_FRAME = {"heading": "drag", "body": "drag-body"}
 
 
-def drag_samples(af: Airframe, logs: list[FlightLog],
-                 frames: tuple[str, ...] = ("heading",)) -> tuple[dict[str, dragfit.DragSamples], list[int]]:
+def drag_samples(af: Airframe, logs: list[FlightLog], frames: tuple[str, ...] = ("heading",),
+                 run: CalibrationRun | None = None) -> tuple[dict[str, dragfit.DragSamples], list[int]]:
     """Decimated per-sample calibration data from every log for each drag-law frame (the same samples
-    and blocks in each), and how many samples each log gave."""
-    cal = calibration_airframe(af)
-    model = build_step(cal)
+    and blocks in each), and how many samples each log gave. ``run``: the calibration run of ``af``
+    over ``logs``, when already made."""
+    run = run if run is not None and run.serves(af, logs) else calibration_run(af, logs)
+    cal, model = run.airframe, run.model
     settle = settling_time_s(axis_system(model, 0, with_filter=True))
     cutoff = cal.filter.cutoffs_hz[0]
     parts: dict[str, list] = {frame: [] for frame in frames}
-    for log in logs:
-        traj = reference.run(model, step_inputs(model, log))
+    for log, force, status in zip(logs, run.force_ned, run.status):
         t = log.time_s
         q = log.stack("q_w", "q_x", "q_y", "q_z")
         yaw = heading_yaw(log, q)
-        rejected = ~accepted(traj.status)
+        rejected = ~accepted(status)
         rejected[0] = True
         last_reject = np.maximum.accumulate(np.where(rejected, t, -np.inf))
         usable = ~rejected & (t - last_reject >= settle)
         airflow = log.true_wind - log.stack("vel_n", "vel_e", "vel_d")
         rpm = log.stack(*[f"rpm_{i + 1}" for i in range(af.thrust.rotors)]) if af.thrust.source == "rpm" else None
         thrust = dragfit.thrust_ned(cal, rpm, log.columns.get("thrust"), q)
-        force = traj.outputs[:, model.outputs.slice("force_ned")]
         for frame in frames:
             parts[frame].append(dragfit.log_samples(cal, cutoff, t, force, airflow, thrust, yaw, usable, frame, q,
                                                     log.columns.get("segment")))
@@ -116,7 +113,8 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynami
     scores: dict[str, dict[str, Any]] = {}
     failures: list[str] = []
     frames = DRAG_FRAMES_OF[model]
-    by_frame, per_log = drag_samples(af, logs, frames or ("heading",))
+    run = calibration_run(af, logs)  # one reference pass for the drag samples and the polynomial family
+    by_frame, per_log = drag_samples(af, logs, frames or ("heading",), run)
     samples = by_frame.get("heading", next(iter(by_frame.values())))
     for frame in frames:
         family = FAMILY_OF_FRAME[frame]
@@ -130,7 +128,7 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynami
                                         holdcv.hold_cv(by_frame[frame], dragfit.drag_fit_predict(choice.active)))
     if model in ("polynomial", "auto"):
         try:
-            fitted, report, points = fit_polynomial(af, logs, terms, dynamic)
+            fitted, report, points = fit_polynomial(af, logs, terms, dynamic, run)
             families["polynomial"] = (fitted, report, points)
             scores["polynomial"] = _polynomial_scores(fitted, samples) if len(samples) >= 100 else {}
         except CheckFailed as exc:

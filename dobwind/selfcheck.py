@@ -112,8 +112,8 @@ def check_log(af: Airframe, log: FlightLog, fit_samples: int, settle_s: float | 
     SEGMENT_SETTLE_S)."""
     model = model if model is not None else build_step(af)
     settle = settle_s if settle_s is not None else min(SEGMENT_SETTLE_S, settling_time_s(axis_system(model, 0, with_filter=True)))
-    traj = reference.run(model, step_inputs(model, log))
-    wind = traj.outputs[:, model.outputs.slice("wind_ned")]
+    traj = reference.run_columns(model, step_inputs(model, log), slice(0, 0), model.outputs.slice("wind_ned"))
+    wind = traj.outputs
     truth = matched_truth(af, log, wind)
     t = log.time_s
     usable = accepted(traj.status) & (t >= t[0] + WARMUP_S) & np.isfinite(log.true_wind).all(axis=1)

@@ -28,12 +28,14 @@ analysis and flight share one definition. Frames and signs: docs/model.md.
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
 
+from dobwind.model.sxvector import VectorFunction
 from dobwind.model.terms import Term, polynomial_expr, term_expr
 
 # Below this horizontal force (N) the force direction is noise; the polynomial family scales the
@@ -83,6 +85,25 @@ class DragLaw:
         if self.frame != "heading":
             values["frame"] = self.frame
         return values
+
+
+def symbolic_law(frame: str) -> DragLaw:
+    """A law whose coefficients are SX symbols named by their keys: the NumPy inversions below are built
+    once on it and take the coefficients as inputs, instead of rebuilding the expression per law."""
+    keys = DragLaw(0.0, 0.0, frame=frame).keys()
+    symbols: dict = {k: ca.SX.sym(k) for k in keys}
+    return DragLaw(**symbols, frame=frame)
+
+
+def _used(law: DragLaw, keys: tuple[str, ...]) -> list[str]:
+    """The keys whose terms the law has: a numeric zero drops its term, a symbol is always kept."""
+    return [k for k in keys if isinstance(getattr(law, k), ca.SX) or getattr(law, k) != 0.0]
+
+
+def _symbols(law: DragLaw) -> list[ca.SX]:
+    """The law's symbolic coefficients (none for a numeric law): inputs of the Newton steps' inner
+    Functions, which may not have free symbols."""
+    return [v for v in (getattr(law, k) for k in law.keys()) if isinstance(v, ca.SX)]
 
 
 def heading_force(force_ned, cos_yaw, sin_yaw, offset: tuple[float, float, float]):
@@ -147,8 +168,9 @@ def horizontal_drag_basis(vx, vy, s):
 
 def _horizontal_drag(law: DragLaw, vx, vy, s):
     basis = horizontal_drag_basis(vx, vy, s)
-    fx = sum(getattr(law, k) * basis[k][0] for k in HORIZONTAL_DRAG_KEYS if getattr(law, k) != 0.0)
-    fy = sum(getattr(law, k) * basis[k][1] for k in HORIZONTAL_DRAG_KEYS if getattr(law, k) != 0.0)
+    used = _used(law, HORIZONTAL_DRAG_KEYS)
+    fx = sum(getattr(law, k) * basis[k][0] for k in used)
+    fy = sum(getattr(law, k) * basis[k][1] for k in used)
     return fx, fy
 
 
@@ -166,8 +188,9 @@ def _newton_step(law: DragLaw, vx: ca.SX, vy: ca.SX, m: ca.SX, n: ca.SX) -> tupl
     s = ca.sqrt(sx * sx + sy * sy + DRAG_SPEED_EPS_MPS ** 2)
     fx, fy = _horizontal_drag(law, sx, sy, s)
     force = ca.vertcat(fx, fy)
-    law_and_slope = ca.Function("drag_law", [sx, sy], [force, ca.jacobian(force, ca.vertcat(sx, sy))])
-    value, j = law_and_slope(vx, vy)
+    coefficients = _symbols(law)
+    law_and_slope = ca.Function("drag_law", [sx, sy, *coefficients], [force, ca.jacobian(force, ca.vertcat(sx, sy))])
+    value, j = law_and_slope(vx, vy, *coefficients)
     rx, ry = value[0] - m, value[1] - n
     j11, j12, j21, j22 = j[0, 0], j[0, 1], j[1, 0], j[1, 1]
     inv_det = 1 / ca.fmax(j11 * j22 - j12 * j21, _DENOMINATOR_FLOOR)
@@ -191,14 +214,27 @@ def drag_airflow(law: DragLaw, m: ca.SX, n: ca.SX, fz: ca.SX):
     return vx, vy, vz
 
 
+@functools.lru_cache(maxsize=None)
+def _heading_inversion() -> VectorFunction:
+    """``drag_airflow`` on the symbolic law, built once: (m, n, fz, coefficients) -> airflow."""
+    law, sm, sn, sz = symbolic_law("heading"), ca.SX.sym("m"), ca.SX.sym("n"), ca.SX.sym("fz")
+    return VectorFunction(ca.Function("drag_airflow", [sm, sn, sz, ca.vertcat(*_symbols(law))],
+                                      [ca.vertcat(*drag_airflow(law, sm, sn, sz))]))
+
+
+def _coefficients(law: DragLaw, frame: str) -> np.ndarray:
+    """The law's coefficients in the order of ``symbolic_law(frame)``'s symbols."""
+    return np.array([float(getattr(law, k)) for k in DragLaw(0.0, 0.0, frame=frame).keys()])
+
+
 def drag_airflow_numpy(law: DragLaw, m: np.ndarray, n: np.ndarray, fz: np.ndarray) -> np.ndarray:
-    """``drag_airflow`` over arrays: (N, 3) airflow, through the same symbolic expressions."""
-    sm, sn, sz = ca.SX.sym("m"), ca.SX.sym("n"), ca.SX.sym("fz")
-    f = ca.Function("drag_airflow", [sm, sn, sz], [ca.vertcat(*drag_airflow(law, sm, sn, sz))])
+    """``drag_airflow`` over arrays: (N, 3) airflow, through the same symbolic expressions (the law's
+    coefficients as inputs; a zero coefficient then adds an exact 0 instead of dropping its term)."""
     rows = len(m)
     if rows == 0:
         return np.zeros((0, 3))
-    return np.asarray(f.map(rows)(np.asarray(m, float), np.asarray(n, float), np.asarray(fz, float))).T
+    force = [np.asarray(v, float).reshape(1, rows) for v in (m, n, fz)]
+    return _heading_inversion()([*force, _coefficients(law, "heading")], rows)[0].T
 
 
 def body_drag_basis(ax, ay, az, rotor, eps: float = 0.0) -> dict[str, tuple]:
@@ -230,15 +266,16 @@ def body_drag_basis(ax, ay, az, rotor, eps: float = 0.0) -> dict[str, tuple]:
 def body_drag_force(law: DragLaw, ax, ay, az, rotor, eps: float = 0.0):
     """The body-frame law forward: body-frame force (N) of the body-frame airflow. SX or NumPy."""
     basis = body_drag_basis(ax, ay, az, rotor, eps)
-    used = [k for k in law.keys() if getattr(law, k) != 0.0]
+    used = _used(law, law.keys())
     return tuple(sum(getattr(law, k) * basis[k][i] for k in used) for i in range(3))
 
 
 def _body_newton_step(law: DragLaw, a: ca.SX, rotor: ca.SX, force_b: ca.SX) -> ca.SX:
     sa, sr = ca.SX.sym("a", 3), ca.SX.sym("rotor")
     value = ca.vertcat(*body_drag_force(law, sa[0], sa[1], sa[2], sr, DRAG_SPEED_EPS_MPS))
-    law_and_slope = ca.Function("body_drag_law", [sa, sr], [value, ca.jacobian(value, sa)])
-    f, slope = law_and_slope(a, rotor)
+    coefficients = _symbols(law)
+    law_and_slope = ca.Function("body_drag_law", [sa, sr, *coefficients], [value, ca.jacobian(value, sa)])
+    f, slope = law_and_slope(a, rotor, *coefficients)
     # J^-1 r by the adjugate, with J and r divided by J's trace first: the same step, but products of
     # three Jacobian entries stay within single precision at any airflow the validation lets through.
     # The determinant is floored (a calibrated law is strictly increasing along every axis).
@@ -271,16 +308,24 @@ def body_drag_airflow(law: DragLaw, force_ned: ca.SX, rot: ca.SX, rotor: ca.SX) 
     return rot @ a
 
 
+@functools.lru_cache(maxsize=None)
+def _body_inversion() -> VectorFunction:
+    """``body_drag_airflow`` on the symbolic law, built once: (force, rot, rotor, coefficients) -> airflow."""
+    law, sf, sr, sq = symbolic_law("body"), ca.SX.sym("f", 3), ca.SX.sym("rot", 9), ca.SX.sym("rotor")
+    return VectorFunction(ca.Function("body_drag_airflow", [sf, sr, sq, ca.vertcat(*_symbols(law))],
+                                      [body_drag_airflow(law, sf, ca.reshape(sr, 3, 3), sq)]))
+
+
 def body_drag_airflow_numpy(law: DragLaw, force_ned: np.ndarray, rot: np.ndarray, rotor: np.ndarray) -> np.ndarray:
-    """``body_drag_airflow`` over arrays: force (N, 3), rot (N, 3, 3), rotor (N,) -> (N, 3) NED airflow."""
-    sf, sr, sq = ca.SX.sym("f", 3), ca.SX.sym("rot", 9), ca.SX.sym("rotor")
-    f = ca.Function("body_drag_airflow", [sf, sr, sq], [body_drag_airflow(law, sf, ca.reshape(sr, 3, 3), sq)])
+    """``body_drag_airflow`` over arrays: force (N, 3), rot (N, 3, 3), rotor (N,) -> (N, 3) NED airflow
+    (the law's coefficients as inputs, as in ``drag_airflow_numpy``)."""
     rows = len(force_ned)
     if rows == 0:
         return np.zeros((0, 3))
-    # ca.reshape is column-major: pass each matrix transposed, flattened row by row.
-    flat = np.transpose(rot, (0, 2, 1)).reshape(rows, 9)
-    return np.asarray(f.map(rows)(force_ned.T, flat.T, np.asarray(rotor, float)[None, :])).T
+    # ca.reshape is column-major: row k of the (9, N) input is rot[:, k % 3, k // 3].
+    flat = np.transpose(rot, (2, 1, 0)).reshape(9, rows)
+    inputs = [np.asarray(force_ned, float).T, flat, np.asarray(rotor, float).reshape(1, rows), _coefficients(law, "body")]
+    return _body_inversion()(inputs, rows)[0].T
 
 
 def term_matrix(terms: list[Term], m: np.ndarray, n: np.ndarray, fz: np.ndarray) -> np.ndarray:

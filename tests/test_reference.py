@@ -65,3 +65,17 @@ def test_in_place_evaluation_equals_calling_the_function_dense_or_sparse():
         want = [np.asarray(r).T for r in f(state, padded.T)]
         assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
         assert np.array_equal(got[2], want[2][:, 0]), f.name()
+
+
+def test_run_columns_keeps_exactly_those_columns_of_the_run():
+    model = build_step(make_airframe())
+    u = _inputs(model, 300, np.random.default_rng(8))
+    rolled = reference.rolled_step(model, 64)
+    whole = reference.run(model, u, rolled=rolled)
+    states, outputs = model.state.slice("v_filt"), model.outputs.slice("force_ned")
+    part = reference.run_columns(model, u, states, outputs, rolled=rolled)
+    assert part.states.shape == (300, 3) and part.outputs.shape == (300, 3)
+    np.testing.assert_array_equal(part.states, whole.states[:, states])
+    np.testing.assert_array_equal(part.outputs, whole.outputs[:, outputs])
+    np.testing.assert_array_equal(part.status, whole.status)
+    assert reference.run_columns(model, u, slice(0, 0), outputs, rolled=rolled).states.shape == (300, 0)
