@@ -188,7 +188,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     check_targets(_replay_targets(args), [args.airframe, args.log])
     af = load_airframe(args.airframe)
     if args.backend == "c" and args.precision == "single":
-        from dobwind.codegen.generate import refuse_ill_conditioned_terms
+        from dobwind.codegen.single_terms import refuse_ill_conditioned_terms
 
         refuse_ill_conditioned_terms(af, args.airframe)  # named by its file, before any log is read
     from dobwind.autopilot import is_autopilot_log

@@ -8,16 +8,13 @@ compiler, or for any other format, ``row_formatter`` returns None and the caller
 from __future__ import annotations
 
 import ctypes
-import hashlib
 import re
-import shutil
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from dobwind.harness.libcache import cache_dir, publish
+from dobwind.harness.libcache import cached_template_library
 
 MAX_PRECISION = 9           # one digit in the format; the scaled values stay below 2^52 (every half exact)
 _FORMAT = re.compile(r"%(?:\.([0-9])([fg])|d)")
@@ -52,56 +49,12 @@ def row_layout(formats: list[str]) -> RowLayout | None:
     return RowLayout(tuple(kinds), tuple(precisions))
 
 
-def render_source() -> str:
-    from dobwind.harness.build import HARNESS_TEMPLATES
-
-    return HARNESS_TEMPLATES.get_template(_TEMPLATE).render(
-        max_precision=MAX_PRECISION,
-        pow10=[f"1e{k}" for k in range(23)],            # 10^22 is the largest power of ten a double holds exactly
-        ipow10=[str(10 ** k) for k in range(MAX_PRECISION + 1)])
-
-
-def _recipe_key(compile_command: list[str]) -> str:
-    """What the library is made from: the template, this module (it renders it), the compiler and flags."""
-    from dobwind.harness import build
-
-    digest = hashlib.sha256()
-    for path in (Path(build.__file__).parent / "templates" / _TEMPLATE, Path(__file__)):
-        digest.update(path.read_bytes() + b"\0")
-    digest.update("\0".join(compile_command).encode())
-    return digest.hexdigest()[:32]
-
-
-def _compile_command() -> list[str]:
-    from dobwind.harness.build import C_STD, STRICT_FLAGS, system_compiler
-
-    return [system_compiler(), C_STD, *STRICT_FLAGS, "-O2", "-fPIC", "-shared"]
-
-
 def format_library() -> Path | None:
     """The compiled formatter from the cache, built on a miss; None when no compiler can build it."""
-    command = _compile_command()
-    target = cache_dir() / f"libdobwind_format_{_recipe_key(command)}.so"
-    if target.is_file():
-        return target
-    if shutil.which(command[0]) is None:
-        return None
-    from dobwind.harness.build import run
-    from dobwind.model.errors import CheckFailed
-
-    with tempfile.TemporaryDirectory(prefix="dobwind-") as tmp:
-        source = Path(tmp) / "format_rows.c"
-        source.write_text(render_source())
-        built = Path(tmp) / "libformat.so"
-        try:
-            run([*command, str(source), "-o", str(built), "-lm"])
-        except (CheckFailed, OSError):
-            return None
-        if publish(built, target):
-            return target
-        kept = Path(tempfile.mkdtemp(prefix="dobwind-format-")) / built.name  # an unusable cache folder
-        shutil.copyfile(built, kept)
-        return kept
+    return cached_template_library(_TEMPLATE, {
+        "max_precision": MAX_PRECISION,
+        "pow10": [f"1e{k}" for k in range(23)],  # 10^22 is the largest power of ten a double holds exactly
+        "ipow10": [str(10 ** k) for k in range(MAX_PRECISION + 1)]})
 
 
 class RowFormatter:

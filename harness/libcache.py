@@ -1,6 +1,8 @@
-"""The folder compiled host libraries are cached in, and publishing a library into it."""
+"""The folder compiled host libraries are cached in, publishing a library into it, and the small
+host libraries rendered from a template (the CSV formatter and parser) built into it once."""
 from __future__ import annotations
 
+import hashlib
 import os
 import shutil
 import tempfile
@@ -38,3 +40,46 @@ def publish(built: Path, target: Path) -> bool:
         if staged is not None:
             staged.unlink(missing_ok=True)
         return False
+
+
+def _compile_command() -> list[str]:
+    from dobwind.harness.build import C_STD, STRICT_FLAGS, system_compiler
+
+    return [system_compiler(), C_STD, *STRICT_FLAGS, "-O2", "-fPIC", "-shared"]
+
+
+def _template_key(template: str, params: dict, command: list[str]) -> str:
+    """What such a library is made from: the template's text, its parameters, the compiler and flags."""
+    from dobwind.harness import build
+
+    digest = hashlib.sha256((Path(build.__file__).parent / "templates" / template).read_bytes() + b"\0")
+    digest.update(repr(sorted(params.items())).encode() + b"\0" + "\0".join(command).encode())
+    return digest.hexdigest()[:32]
+
+
+def cached_template_library(template: str, params: dict) -> Path | None:
+    """harness/templates/<template> rendered with ``params`` and compiled to a shared library, from the
+    cache (built and added on a miss); None when no compiler can build it. Keyed on what it is made
+    from, so a hit neither renders nor compiles."""
+    command = _compile_command()
+    target = cache_dir() / f"lib{template.split('.')[0]}_{_template_key(template, params, command)}.so"
+    if target.is_file():
+        return target
+    if shutil.which(command[0]) is None:
+        return None
+    from dobwind.harness.build import HARNESS_TEMPLATES, run
+    from dobwind.model.errors import CheckFailed
+
+    with tempfile.TemporaryDirectory(prefix="dobwind-") as tmp:
+        source = Path(tmp) / template.removesuffix(".j2")
+        source.write_text(HARNESS_TEMPLATES.get_template(template).render(**params))
+        built = Path(tmp) / target.name
+        try:
+            run([*command, str(source), "-o", str(built), "-lm"])
+        except (CheckFailed, OSError):
+            return None
+        if publish(built, target):
+            return target
+        kept = Path(tempfile.mkdtemp(prefix="dobwind-lib-")) / built.name  # the cache folder is not usable
+        shutil.copyfile(built, kept)
+        return kept

@@ -148,8 +148,8 @@ def test_without_a_compiler_the_writer_uses_percent(cache, monkeypatch):
 
 def test_the_library_is_cached(cache):
     row_formatter(["%.6g"])
-    built = sorted(cache.glob("libdobwind_format_*.so"))
+    built = sorted(cache.glob("libformat_rows_*.so"))
     assert len(built) == 1
     stamp = built[0].stat().st_mtime_ns
     row_formatter(["%.3f"])
-    assert sorted(cache.glob("libdobwind_format_*.so")) == built and built[0].stat().st_mtime_ns == stamp
+    assert sorted(cache.glob("libformat_rows_*.so")) == built and built[0].stat().st_mtime_ns == stamp
