@@ -1,8 +1,9 @@
 """Numeric CSV in bounded chunks, every row with its true line number in the file.
 
 The file is read as bytes in blocks cut at line ends. A block whose every line has the header's number
-of fields goes to pandas' C parser (about twice as fast as ``np.loadtxt`` here, measured
-in benchmarks/bench_replay.py); any other block (comment or blank lines inside the data, a bad cell, a
+of fields, each a plain number or empty, is converted in one pass by a small compiled parser
+(harness/cparse.py; each number the double nearest it, as float() gives), or by pandas' C parser where
+no compiler is found (about twice as fast as ``np.loadtxt`` here); any other block (comment or blank lines inside the data, a bad cell, a
 short row) is parsed line by line, which skips those lines but keeps counting them, so that an error
 names the line an editor shows. Empty cells and the words nan/inf are values; other text is an error.
 """
@@ -144,13 +145,18 @@ def _parse_slow(piece: bytes, first_line: int, names: list[str], path: str) -> B
     return Block(data, np.asarray(lines, dtype=np.int64))
 
 
-def read_blocks(handle: BinaryIO, header: Header, path: str, block_bytes: int = BLOCK_BYTES) -> Iterator[Block]:
-    """The data rows after the header, block by block (blocks with no data rows are not yielded)."""
+def read_blocks(handle: BinaryIO, header: Header, path: str, block_bytes: int = BLOCK_BYTES,
+                compiled: bool = True) -> Iterator[Block]:
+    """The data rows after the header, block by block (blocks with no data rows are not yielded).
+    ``compiled=False`` uses pandas even when the compiled parser is there."""
+    from dobwind.harness.cparse import block_parser
+
     next_line = header.line + 1
     ncols = len(header.names)
+    parser = block_parser() if compiled else None
     for piece in _pieces(handle, block_bytes):
         count = _line_count(piece)
-        data = _parse_fast(piece, ncols)
+        data = parser.parse(piece, ncols, count) if parser is not None else _parse_fast(piece, ncols)
         if data is not None:
             block = Block(data, np.arange(next_line, next_line + count, dtype=np.int64))
         else:
