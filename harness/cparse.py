@@ -24,13 +24,20 @@ class BlockParser:
         lib = ctypes.CDLL(library)
         lib.dobwind_parse_rows.argtypes = [ctypes.c_char_p, ctypes.c_long, ctypes.c_long, _DOUBLE_P, ctypes.c_long]
         lib.dobwind_parse_rows.restype = ctypes.c_long
+        lib.dobwind_count_lines.argtypes = [ctypes.c_char_p, ctypes.c_long]
+        lib.dobwind_count_lines.restype = ctypes.c_long
         self._run = lib.dobwind_parse_rows
+        self._count = lib.dobwind_count_lines
 
-    def parse(self, piece: bytes, ncols: int, lines: int) -> np.ndarray | None:
-        """(lines, ncols) float64 when every one of the block's ``lines`` lines is a row of ncols
+    def count_lines(self, piece: bytes, end: int) -> int:
+        """The lines of piece[:end], the last one with or without its newline."""
+        return self._count(piece, end)
+
+    def parse(self, piece: bytes, ncols: int, lines: int, end: int | None = None) -> np.ndarray | None:
+        """(lines, ncols) float64 when every one of the ``lines`` lines of piece[:end] is a row of ncols
         numbers, else None."""
         out = np.empty((lines, ncols), dtype=np.float64)
-        rows = self._run(piece, len(piece), ncols, out, lines)
+        rows = self._run(piece, len(piece) if end is None else end, ncols, out, lines)
         return out if rows == lines else None
 
 

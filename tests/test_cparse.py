@@ -93,6 +93,15 @@ def test_anything_else_is_left_to_the_careful_pass(parser, text):
     assert parser.parse(text.encode(), 2, lines) is None
 
 
+@pytest.mark.parametrize("text", ["", "\n", "a", "a\n", "a\nb", "a\nb\n", "\n\n\n", "a\r\nb\r\n", "x" * 5000 + "\n" * 3])
+def test_line_count_is_the_readers(parser, text):
+    from dobwind.csvchunks import _line_count
+
+    data = text.encode() + b"tail after the end"
+    assert parser.count_lines(data, len(text)) == (_line_count(data, len(text)) if text else 0)
+    assert parser.count_lines(data, len(text)) == len(text.splitlines())
+
+
 def test_more_lines_than_counted_are_refused(parser):
     assert parser.parse(b"1,2\n3,4\n", 2, 1) is None
     assert parser.parse(b"1,2\n3,4\n", 2, 3) is None  # fewer: the caller's count was wrong, not the block
