@@ -10,11 +10,10 @@ from __future__ import annotations
 import ctypes
 import re
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-from dobwind.harness.libcache import cached_template_library
+from dobwind.harness.libcache import load_template_library
 
 MAX_PRECISION = 9           # one digit in the format; the scaled values stay below 2^52 (every half exact)
 _FORMAT = re.compile(r"%(?:\.([0-9])([fg])|d)")
@@ -49,9 +48,9 @@ def row_layout(formats: list[str]) -> RowLayout | None:
     return RowLayout(tuple(kinds), tuple(precisions))
 
 
-def format_library() -> Path | None:
+def format_library() -> ctypes.CDLL | None:
     """The compiled formatter from the cache, built on a miss; None when no compiler can build it."""
-    return cached_template_library(_TEMPLATE, {
+    return load_template_library(_TEMPLATE, {
         "max_precision": MAX_PRECISION,
         "pow10": [f"1e{k}" for k in range(23)],  # 10^22 is the largest power of ten a double holds exactly
         "ipow10": [str(10 ** k) for k in range(MAX_PRECISION + 1)]})
@@ -60,8 +59,7 @@ def format_library() -> Path | None:
 class RowFormatter:
     """Formats float64 row blocks; ``format`` returns None when the caller must use `%` instead."""
 
-    def __init__(self, library: Path, layout: RowLayout) -> None:
-        lib = ctypes.CDLL(str(library))
+    def __init__(self, lib: ctypes.CDLL, layout: RowLayout) -> None:
         lib.dobwind_format_rows.argtypes = [_DOUBLE_P, ctypes.c_long, ctypes.c_long, _INT_P, _INT_P, _CHAR_P,
                                             ctypes.c_long]
         lib.dobwind_format_rows.restype = ctypes.c_long
@@ -87,5 +85,5 @@ def row_formatter(formats: list[str]) -> RowFormatter | None:
     layout = row_layout(formats)
     if layout is None:
         return None
-    library = format_library()
-    return None if library is None else RowFormatter(library, layout)
+    lib = format_library()
+    return None if lib is None else RowFormatter(lib, layout)

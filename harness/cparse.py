@@ -13,15 +13,14 @@ import ctypes
 
 import numpy as np
 
-from dobwind.harness.libcache import cached_template_library
+from dobwind.harness.libcache import load_template_library
 
 _TEMPLATE = "parse_rows.c.j2"
 _DOUBLE_P = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
 
 
 class BlockParser:
-    def __init__(self, library: str) -> None:
-        lib = ctypes.CDLL(library)
+    def __init__(self, lib: ctypes.CDLL) -> None:
         lib.dobwind_parse_rows.argtypes = [ctypes.c_char_p, ctypes.c_long, ctypes.c_long, _DOUBLE_P, ctypes.c_long]
         lib.dobwind_parse_rows.restype = ctypes.c_long
         lib.dobwind_count_lines.argtypes = [ctypes.c_char_p, ctypes.c_long]
@@ -43,5 +42,5 @@ class BlockParser:
 
 def block_parser() -> BlockParser | None:
     """The compiled parser, or None when no compiler can build it."""
-    library = cached_template_library(_TEMPLATE, {"pow10": [f"1e{k}" for k in range(23)]})
-    return None if library is None else BlockParser(str(library))
+    lib = load_template_library(_TEMPLATE, {"pow10": [f"1e{k}" for k in range(23)]})
+    return None if lib is None else BlockParser(lib)

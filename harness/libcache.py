@@ -2,6 +2,7 @@
 host libraries rendered from a template (the CSV formatter and parser) built into it once."""
 from __future__ import annotations
 
+import ctypes
 import hashlib
 import os
 import shutil
@@ -57,14 +58,15 @@ def _template_key(template: str, params: dict, command: list[str]) -> str:
     return digest.hexdigest()[:32]
 
 
-def cached_template_library(template: str, params: dict) -> Path | None:
-    """harness/templates/<template> rendered with ``params`` and compiled to a shared library, from the
-    cache (built and added on a miss); None when no compiler can build it. Keyed on what it is made
-    from, so a hit neither renders nor compiles."""
+def load_template_library(template: str, params: dict) -> ctypes.CDLL | None:
+    """harness/templates/<template> rendered with ``params``, compiled to a shared library and loaded:
+    from the cache, built and added on a miss; None when no compiler can build it. Keyed on what it is
+    made from, so a hit neither renders nor compiles. With an unusable cache folder the private build
+    is loaded before its folder goes (the loader keeps its mapping)."""
     command = _compile_command()
     target = cache_dir() / f"lib{template.split('.')[0]}_{_template_key(template, params, command)}.so"
     if target.is_file():
-        return target
+        return ctypes.CDLL(str(target))
     if shutil.which(command[0]) is None:
         return None
     from dobwind.harness.build import HARNESS_TEMPLATES, run
@@ -78,8 +80,4 @@ def cached_template_library(template: str, params: dict) -> Path | None:
             run([*command, str(source), "-o", str(built), "-lm"])
         except (CheckFailed, OSError):
             return None
-        if publish(built, target):
-            return target
-        kept = Path(tempfile.mkdtemp(prefix="dobwind-lib-")) / built.name  # the cache folder is not usable
-        shutil.copyfile(built, kept)
-        return kept
+        return ctypes.CDLL(str(target if publish(built, target) else built))

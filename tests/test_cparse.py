@@ -131,3 +131,22 @@ def _body(text: str) -> io.BytesIO:
     handle = io.BytesIO(text.encode())
     handle.readline()
     return handle
+
+
+def test_without_a_compiler_the_reader_uses_pandas(tmp_path, monkeypatch):
+    from dobwind.logs import read_log
+
+    monkeypatch.setenv("DOBWIND_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setenv("CC", "/nonexistent/cc")
+    assert block_parser() is None
+    path = tmp_path / "log.csv"
+    path.write_text("t,x\n0.1,1.5\n0.2,\n0.3,-2e-3\n")
+    log = read_log(str(path))
+    assert log.time_s.tolist() == [0.1, 0.2, 0.3] and log.columns["x"][2] == -2e-3 and np.isnan(log.columns["x"][1])
+
+
+def test_an_unusable_cache_folder_still_gives_a_parser(tmp_path, monkeypatch):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    monkeypatch.setenv("DOBWIND_CACHE", str(blocker / "cache"))
+    assert block_parser().parse(b"1,2\n", 2, 1).tolist() == [[1.0, 2.0]]
