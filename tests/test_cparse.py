@@ -115,11 +115,12 @@ def test_line_ends(parser):
 
 
 def test_blocks_match_pandas_where_both_read_them(parser, tmp_path):
-    """The compiled reader and pandas (compiled=False) give the same doubles for a simulated log."""
+    """The compiled reader and pandas (compiled=False) give the same doubles for the ways logs are
+    written (simulate's %.6f and %.7g, %.9g, shortest round-trip digits)."""
     rng = np.random.default_rng(7)
-    data = np.column_stack([np.arange(3000) * 0.01, rng.normal(0, 1, (3000, 3)) * [1, 30, 1e-4]])
-    text = "t,a,b,c\n" + "".join("%.6f,%.7g,%.7g,%.9g\n" % tuple(row) for row in data)
-    header = Header(["t", "a", "b", "c"], 1)
+    data = np.column_stack([np.arange(3000) * 0.01, rng.normal(0, 1, (3000, 4)) * [1, 30, 1e-4, 1e-12]])
+    text = "t,a,b,c,d\n" + "".join("%.6f,%.7g,%.7g,%.9g,%r\n" % (*row[:4], float(row[4])) for row in data)
+    header = Header(["t", "a", "b", "c", "d"], 1)
     blocks = [list(read_blocks(_body(text), header, "x.csv", 4096, compiled=c)) for c in (True, False)]
     assert len(blocks[0]) == len(blocks[1]) > 1
     for ours, theirs in zip(*blocks):
