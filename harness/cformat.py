@@ -18,7 +18,7 @@ from dobwind.harness.libcache import load_template_library
 MAX_PRECISION = 9           # one digit in the format; the scaled values stay below 2^52 (every half exact)
 _FORMAT = re.compile(r"%(?:\.([0-9])([fg])|d)")
 _KINDS = {"f": 0, "g": 1, "d": 2}
-FIELD_BYTES = 48            # room per value the library insists on (its FIELD_ROOM)
+FIELD_BYTES = 48            # room per value the library insists on (its FIELD_ROOM) before each value
 _TEMPLATE = "format_rows.c.j2"
 _DOUBLE_P = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
 _INT_P = np.ctypeslib.ndpointer(dtype=np.int32, flags="C_CONTIGUOUS")
@@ -51,7 +51,7 @@ def row_layout(formats: list[str]) -> RowLayout | None:
 def format_library() -> ctypes.CDLL | None:
     """The compiled formatter from the cache, built on a miss; None when no compiler can build it."""
     return load_template_library(_TEMPLATE, {
-        "max_precision": MAX_PRECISION,
+        "max_precision": MAX_PRECISION, "field_room": FIELD_BYTES,
         "pow10": [f"1e{k}" for k in range(23)],  # 10^22 is the largest power of ten a double holds exactly
         "ipow10": [str(10 ** k) for k in range(MAX_PRECISION + 1)]})
 
