@@ -14,6 +14,7 @@ import numpy as np
 from dobwind.codegen.printer import CPrinter, LiteralError
 from dobwind.codegen.kernels import kernel_literals
 from dobwind.codegen.sections import build_sections, c_element, signal_sizes
+from dobwind.codegen.single_terms import refuse_ill_conditioned_terms  # noqa: F401 (re-exported)
 from dobwind.codegen.tolerance import MIN_SPEED_FOR_DIRECTION, SELFTEST_TOLERANCE
 from dobwind.model import reference
 from dobwind.model.airframe import Airframe
@@ -23,7 +24,6 @@ from dobwind.model.exercise import flight_inputs
 from dobwind.model.status import REJECTED_MASK, STATUS_BITS
 from dobwind.model.stability import require_stable
 from dobwind.model.step import StepModel, build_step
-from dobwind.model.terms import single_precision_problem
 from dobwind.model.version import VERSION
 
 SELFTEST_ROWS = 120
@@ -149,17 +149,6 @@ def generate_code(af: Airframe, precision: str = "single", model: StepModel | No
     except LiteralError as exc:
         raise InputError(source or af.name, None, f"cannot print the C in {precision} precision: {exc} "
                          "(check the airframe's values)") from None
-
-
-def refuse_ill_conditioned_terms(af: Airframe, source: str) -> None:
-    """A term whose float evaluation cannot meet verify's single-precision tolerance is refused here,
-    with its reason, rather than generated and then failing verify."""
-    for table, model in (("horizontal", af.horizontal), ("vertical", af.vertical)):
-        for term in model.terms:
-            problem = single_precision_problem(term)
-            if problem is not None:
-                raise InputError(source, f"force_air.{table}.terms",
-                                 f"term '{term.text}' cannot be generated in single precision: {problem}")
 
 
 def _render(af: Airframe, precision: str, model: StepModel) -> GeneratedCode:

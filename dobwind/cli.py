@@ -188,7 +188,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     check_targets(_replay_targets(args), [args.airframe, args.log])
     af = load_airframe(args.airframe)
     if args.backend == "c" and args.precision == "single":
-        from dobwind.codegen.generate import refuse_ill_conditioned_terms
+        from dobwind.codegen.single_terms import refuse_ill_conditioned_terms
 
         refuse_ill_conditioned_terms(af, args.airframe)  # named by its file, before any log is read
     from dobwind.autopilot import is_autopilot_log
@@ -311,6 +311,17 @@ def _version() -> str:
         return __version__
 
 
+class _VersionAction(argparse.Action):
+    """--version, looked up only when asked: the package metadata costs 45 ms of every other command."""
+
+    def __init__(self, option_strings: list[str], dest: str = argparse.SUPPRESS, help: str | None = None) -> None:
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:  # type: ignore[no-untyped-def]
+        print(f"dobwind {_version()}")  # stdout, as argparse's own version action prints
+        parser.exit()
+
+
 AIRFRAME_HELP = "airframe TOML file (see docs/formats.md for its keys and units)"
 JSON_HELP = "print the results as JSON (indent 2, units in the key names) instead of text"
 # adds one subcommand: (name, one-line description) -> its parser
@@ -320,7 +331,7 @@ _Command = Callable[[str, str], argparse.ArgumentParser]
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="dobwind", description="Airframe description -> verified C wind estimator.",
                      formatter_class=DefaultsFormatter)
-    parser.add_argument("--version", action="version", version=f"dobwind {_version()}")
+    parser.add_argument("--version", action=_VersionAction, help="show program's version number and exit")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser, metavar="COMMAND")
 
     def command(name: str, text: str) -> argparse.ArgumentParser:

@@ -1,8 +1,9 @@
 """Numeric CSV in bounded chunks, every row with its true line number in the file.
 
 The file is read as bytes in blocks cut at line ends. A block whose every line has the header's number
-of fields goes to pandas' C parser (about twice as fast as ``np.loadtxt`` here, measured
-in benchmarks/bench_replay.py); any other block (comment or blank lines inside the data, a bad cell, a
+of fields, each a plain number or empty, is converted in one pass by a small compiled parser
+(harness/cparse.py; each number the double nearest it, as float() gives), or by pandas' C parser where
+no compiler is found (about twice as fast as ``np.loadtxt`` here); any other block (comment or blank lines inside the data, a bad cell, a
 short row) is parsed line by line, which skips those lines but keeps counting them, so that an error
 names the line an editor shows. Empty cells and the words nan/inf are values; other text is an error.
 """
@@ -59,26 +60,34 @@ def read_header(handle: BinaryIO, path: str) -> Header:
     raise InputError(path, None, "no header row")
 
 
-def _pieces(handle: BinaryIO, block_bytes: int) -> Iterator[bytes]:
-    """Blocks of whole lines (the last may lack its newline)."""
+def _pieces(handle: BinaryIO, block_bytes: int) -> Iterator[tuple[bytes, int]]:
+    """Blocks of whole lines, as (buffer, end): the lines are buffer[:end] (the last may lack its
+    newline). On a seekable file the bytes after the last line end are read again with the next block
+    (a seek back) rather than copied into it: joining and slicing 8 MB blocks cost five times the read."""
+    seekable = handle.seekable()
     rest = b""
     while True:
         block = handle.read(block_bytes)
         if not block:
             if rest:
-                yield rest
+                yield rest, len(rest)
             return
-        block = rest + block
+        if rest:
+            block, rest = rest + block, b""
         cut = block.rfind(b"\n") + 1
-        if cut == 0:  # one line longer than a block: keep reading
+        if cut == 0:  # one line longer than a block (or the last line, without its newline): keep reading
             rest = block
             continue
-        rest = block[cut:]
-        yield block[:cut]
+        if cut < len(block):
+            if seekable:
+                handle.seek(cut - len(block), io.SEEK_CUR)
+            else:
+                rest = block[cut:]
+        yield block, cut
 
 
-def _line_count(piece: bytes) -> int:
-    return piece.count(b"\n") + (0 if piece.endswith(b"\n") else 1)
+def _line_count(piece: bytes, end: int) -> int:
+    return piece.count(b"\n", 0, end) + (0 if piece[end - 1] == ord("\n") else 1)
 
 
 def _rows_if_regular(piece: bytes, ncols: int) -> int | None:
@@ -144,13 +153,21 @@ def _parse_slow(piece: bytes, first_line: int, names: list[str], path: str) -> B
     return Block(data, np.asarray(lines, dtype=np.int64))
 
 
-def read_blocks(handle: BinaryIO, header: Header, path: str, block_bytes: int = BLOCK_BYTES) -> Iterator[Block]:
-    """The data rows after the header, block by block (blocks with no data rows are not yielded)."""
+def read_blocks(handle: BinaryIO, header: Header, path: str, block_bytes: int = BLOCK_BYTES,
+                compiled: bool = True) -> Iterator[Block]:
+    """The data rows after the header, block by block (blocks with no data rows are not yielded).
+    ``compiled=False`` uses pandas even when the compiled parser is there."""
+    from dobwind.harness.cparse import block_parser
+
     next_line = header.line + 1
     ncols = len(header.names)
-    for piece in _pieces(handle, block_bytes):
-        count = _line_count(piece)
-        data = _parse_fast(piece, ncols)
+    parser = block_parser() if compiled else None
+    for buffer, end in _pieces(handle, block_bytes):
+        count = parser.count_lines(buffer, end) if parser is not None else _line_count(buffer, end)
+        data = parser.parse(buffer, ncols, count, end) if parser is not None else None
+        if data is None:  # the slower passes take the lines as bytes of their own
+            piece = buffer[:end] if end < len(buffer) else buffer
+            data = _parse_fast(piece, ncols) if parser is None else None
         if data is not None:
             block = Block(data, np.arange(next_line, next_line + count, dtype=np.int64))
         else:

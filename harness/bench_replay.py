@@ -6,6 +6,8 @@ all cases alike, and reports median wall times and each case's peak resident mem
 
     .venv/bin/python -m dobwind.harness.bench_replay [--rounds 3] [--work out/bench-replay] [--simulate]
 
+``--before PYTHON`` also runs every replay case with another interpreter (a virtual environment of an
+earlier checkout), interleaved with these, for before/after ratios from one run.
 ``--simulate`` also reports the peak memory of ``dobwind simulate`` writing the 1 h and the 4 h log (one
 run each: memory, not time, is its goal).
 """
@@ -34,8 +36,9 @@ class Case:
     argv: list[str]
 
 
-def _dobwind(*args: str) -> list[str]:
-    return [sys.executable, "-m", "dobwind.cli", *args]
+def _dobwind(*args: str, python: str = sys.executable) -> list[str]:
+    # -P: the package comes from the interpreter's own install, never from the working folder
+    return [python, "-P", "-m", "dobwind.cli", *args]
 
 
 def _log(work: Path, hours: int) -> Path:
@@ -59,23 +62,32 @@ def _measure(argv: list[str]) -> tuple[float, float]:
     return wall, usage.ru_maxrss / 1024.0
 
 
-def cases(work: Path, log: Path, suffix: str) -> list[Case]:
-    out = str(work / f"estimates_{log.stem}.csv")
+def replay_cases(work: Path, log: Path, suffix: str, python: str = sys.executable, prefix: str = "") -> list[Case]:
+    out = str(work / f"estimates_{'before_' if prefix else ''}{log.stem}.csv")
+    replay = ("replay", str(AIRFRAME), str(log))
     return [
-        Case(f"csv.reader pass{suffix}", [sys.executable, "-c", _CSV_PASS, str(log)]),
-        Case(f"replay python -o{suffix}", _dobwind("replay", str(AIRFRAME), str(log), "-o", out)),
-        Case(f"replay c -o{suffix}", _dobwind("replay", str(AIRFRAME), str(log), "--backend", "c", "-o", out)),
-        Case(f"replay c, no -o{suffix}", _dobwind("replay", str(AIRFRAME), str(log), "--backend", "c")),
+        Case(f"{prefix}replay python -o{suffix}", _dobwind(*replay, "-o", out, python=python)),
+        Case(f"{prefix}replay c -o{suffix}", _dobwind(*replay, "--backend", "c", "-o", out, python=python)),
+        Case(f"{prefix}replay c, no -o{suffix}", _dobwind(*replay, "--backend", "c", python=python)),
     ]
 
 
-def run(rounds: int, work: Path, with_4h: bool) -> dict[str, tuple[float, float]]:
+def cases(work: Path, log: Path, suffix: str, before: str | None = None) -> list[Case]:
+    found = [Case(f"csv.reader pass{suffix}", [sys.executable, "-c", _CSV_PASS, str(log)]),
+             *replay_cases(work, log, suffix)]
+    return found + (replay_cases(work, log, suffix, before, "before: ") if before else [])
+
+
+def run(rounds: int, work: Path, with_4h: bool, before: str | None = None) -> dict[str, tuple[float, float]]:
     work.mkdir(parents=True, exist_ok=True)
-    all_cases = cases(work, _log(work, 1), " (1 h)")
+    all_cases = cases(work, _log(work, 1), " (1 h)", before)
     if with_4h:
-        all_cases += [c for c in cases(work, _log(work, 4), " (4 h)") if "python" in c.label or "reader" in c.label]
-    subprocess.run(_dobwind("replay", str(AIRFRAME), str(_log(work, 1)), "--backend", "c"), check=True,
-                   stdout=subprocess.DEVNULL)  # warms the compiled-library cache, as any second run finds it
+        all_cases += [c for c in cases(work, _log(work, 4), " (4 h)", before) if "python" in c.label or "reader" in c.label]
+    # Warms the compiled-library caches (the step's and the formatter's), as any second run finds them.
+    for python in (sys.executable, *([before] if before else [])):
+        warm = _dobwind("replay", str(AIRFRAME), str(_log(work, 1)), "--backend", "c", "-o", str(work / "warm.csv"),
+                        python=python)
+        subprocess.run(warm, check=True, stdout=subprocess.DEVNULL)
     times: dict[str, list[float]] = {c.label: [] for c in all_cases}
     peaks: dict[str, float] = {c.label: 0.0 for c in all_cases}
     for _ in range(rounds):
@@ -109,6 +121,10 @@ def report(results: dict[str, tuple[float, float]]) -> str:
         base = results[f"csv.reader pass{label[label.rfind(' ('):]}"][0]
         lines.append(f"| {label} | {wall:.2f} | {wall / base:.2f}x | {peak:.0f} |")
     one = results["replay python -o (1 h)"][1]
+    for label, (wall, _) in results.items():
+        if label.startswith("before: "):
+            now = results[label[len("before: "):]][0]
+            lines.append(f"{label[len('before: '):]}: after / before {now / wall:.2f}")
     if "replay python -o (4 h)" in results:
         four = results["replay python -o (4 h)"][1]
         lines.append(f"\n4 h peak / 1 h peak (python backend, -o): {four / one:.2f} (goal <= {GOAL_4H_PEAK_RATIO})")
@@ -121,9 +137,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--work", type=Path, default=Path("out/bench-replay"))
     parser.add_argument("--no-4h", action="store_true", help="skip the 4 h log (its simulation takes minutes)")
+    parser.add_argument("--before", metavar="PYTHON", help="also run the replay cases with this interpreter, interleaved")
     parser.add_argument("--simulate", action="store_true", help="also the peak memory of simulate (1 h and 4 h)")
     args = parser.parse_args(argv)
-    print(report(run(args.rounds, args.work, not args.no_4h)))
+    print(report(run(args.rounds, args.work, not args.no_4h, args.before)))
     if args.simulate:
         print(simulate_report(simulate_peaks(args.work)))
     return 0

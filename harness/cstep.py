@@ -3,8 +3,6 @@ from __future__ import annotations
 
 import ctypes
 import hashlib
-import os
-import shutil
 import sys
 import tempfile
 from dataclasses import dataclass
@@ -14,8 +12,8 @@ import casadi
 import jinja2
 import numpy as np
 
-from dobwind.codegen.generate import generate_code, write_files
 from dobwind.harness.build import STRICT_FLAGS, build_shared_library, system_compiler, write_shim
+from dobwind.harness.libcache import cache_dir, publish
 from dobwind.model.reference import Trajectory
 from dobwind.model.step import StepModel
 
@@ -74,17 +72,11 @@ def compile_step(model: StepModel, precision: str, work_dir: Path | None = None,
 
 
 def _build_and_load(model: StepModel, precision: str, work: Path, extra_flags: tuple[str, ...]) -> CStep:
+    from dobwind.codegen.generate import generate_code, write_files
+
     code = generate_code(model.airframe, precision, model)
     write_files(code.files, work)
     return CStep(model, build_shared_library(model, precision, work, work, extra_flags))
-
-
-def cache_dir() -> Path:
-    """$DOBWIND_CACHE, else $XDG_CACHE_HOME/dobwind, else ~/.cache/dobwind."""
-    if os.environ.get("DOBWIND_CACHE"):
-        return Path(os.environ["DOBWIND_CACHE"])
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "dobwind"
 
 
 def _source_key(folder: Path, extra_flags: tuple[str, ...]) -> str:
@@ -118,31 +110,6 @@ def _recipe_key(model: StepModel, precision: str, extra_flags: tuple[str, ...]) 
     return digest.hexdigest()[:32]
 
 
-def _publish(built: Path, target: Path) -> bool:
-    """Puts a library into the cache under ``target`` (a hard link, else a copy renamed into place, so
-    that no reader sees a partial file); False when the folder is not usable."""
-    staged = None
-    try:
-        target.parent.mkdir(parents=True, exist_ok=True)
-        handle, name = tempfile.mkstemp(prefix=f".{target.name}.", dir=target.parent)
-        os.close(handle)
-        staged = Path(name)
-        try:
-            staged.unlink()
-            os.link(built, staged)
-        except OSError:
-            shutil.copyfile(built, staged)
-        os.replace(staged, target)
-        # rename() does nothing when both names are links to one file (a concurrent publisher got there
-        # first with the same library): the staged name is then still there.
-        staged.unlink(missing_ok=True)
-        return True
-    except OSError:
-        if staged is not None:
-            staged.unlink(missing_ok=True)
-        return False
-
-
 def cached_step(model: StepModel, precision: str, extra_flags: tuple[str, ...] = ()) -> CStep:
     """The compiled step from the cache, built and added on a miss.
 
@@ -156,6 +123,8 @@ def cached_step(model: StepModel, precision: str, extra_flags: tuple[str, ...] =
     recipe = cache_dir() / f"{stem}_r{_recipe_key(model, precision, extra_flags)}.so"
     if recipe.is_file():
         return CStep(model, recipe)
+    from dobwind.codegen.generate import generate_code, write_files  # on a miss only: 30-60 ms of imports
+
     with tempfile.TemporaryDirectory(prefix="dobwind-") as tmp:
         work = Path(tmp)
         code = generate_code(model.airframe, precision, model)
@@ -164,7 +133,7 @@ def cached_step(model: StepModel, precision: str, extra_flags: tuple[str, ...] =
         cached = cache_dir() / f"{stem}_{_source_key(work, extra_flags)}.so"
         if not cached.is_file():
             built = build_shared_library(model, precision, work, work, extra_flags)
-            if not _publish(built, cached):
+            if not publish(built, cached):
                 return CStep(model, built)  # loaded before the folder goes: the loader keeps its mapping
-        _publish(cached, recipe)
+        publish(cached, recipe)
         return CStep(model, cached)

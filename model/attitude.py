@@ -3,8 +3,12 @@ a quaternion implies, and the attitude that points the thrust along a wanted dir
 NED; the thrust acts along -z_body (docs/model.md, frames)."""
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-from scipy.spatial.transform import Rotation
+
+if TYPE_CHECKING:  # SciPy's import takes 0.27 s, a sixth of a replay that never builds an attitude
+    from scipy.spatial.transform import Rotation
 
 
 def euler_to_quaternion(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.ndarray:
@@ -43,6 +47,8 @@ def attitude_with_body_down(z_b: np.ndarray, yaw: np.ndarray) -> Rotation:
     y = np.cross(z_b, heading)
     y /= np.linalg.norm(y, axis=1)[:, None]
     x = np.cross(y, z_b)
+    from scipy.spatial.transform import Rotation
+
     return Rotation.from_matrix(np.stack([x, y, z_b], axis=2))
 
 

@@ -197,7 +197,9 @@ def test_library_cache_reuses_one_build_and_survives_concurrent_misses(tmp_path,
         raise AssertionError("a cache hit must not compile, nor generate")
 
     monkeypatch.setattr(cstep, "build_shared_library", no_compiler)
-    monkeypatch.setattr(cstep, "generate_code", no_compiler)
+    from dobwind.codegen import generate  # cstep imports it on a miss only
+
+    monkeypatch.setattr(generate, "generate_code", no_compiler)
     again = cstep.compile_step(model, "double")
     rows = flight_inputs(model, 300, seed=2)
     assert np.array_equal(again.run(rows).outputs, built[0].run(rows).outputs)
