@@ -23,8 +23,6 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
-from dobwind.analysis.figures import settling_time_s
-from dobwind.analysis.linear import axis_system
 from dobwind.envelope import calibration_envelope, uncertainty_table
 from dobwind.errors import CheckFailed, InputError
 from dobwind.logs import TRUTH_BOUNDS, TRUTH_COLUMNS, FlightLog, heading_yaw, read_log, required_columns, step_inputs
@@ -181,7 +179,7 @@ def calibration_points(af: Airframe, logs: list[FlightLog], dynamic: bool = Fals
     manoeuvring flight too (only yaw changes and rejected samples are cut), in shorter chunks. ``run``:
     the calibration run, when already made (used only if it is ``af``'s over ``logs``)."""
     run = run if run is not None and run.serves(af, logs) else calibration_run(af, logs)
-    settle = settling_time_s(axis_system(run.model, 0, with_filter=True)) + 1.0
+    settle = run.model.settling_time_s + 1.0
     chunks: list[dict[str, float]] = []
     group_base = 0
     for log, force, v_filt, status in zip(logs, run.force_ned, run.v_filt, run.status):

@@ -9,8 +9,6 @@ from typing import Any
 import numpy as np
 
 from dobwind import dragfit, holdcv
-from dobwind.analysis.figures import settling_time_s
-from dobwind.analysis.linear import axis_system
 from dobwind.envelope import calibration_envelope, uncertainty_table, with_observer_noise
 from dobwind.errors import CheckFailed
 from dobwind.fit import CalibrationRun, FitReport, Points, calibration_run, fit_polynomial, read_calibration_logs
@@ -33,7 +31,7 @@ def drag_samples(af: Airframe, logs: list[FlightLog], frames: tuple[str, ...] = 
     over ``logs``, when already made."""
     run = run if run is not None and run.serves(af, logs) else calibration_run(af, logs)
     cal, model = run.airframe, run.model
-    settle = settling_time_s(axis_system(model, 0, with_filter=True))
+    settle = model.settling_time_s
     cutoff = cal.filter.cutoffs_hz[0]
     parts: dict[str, list] = {frame: [] for frame in frames}
     for log, force, status in zip(logs, run.force_ned, run.status):

@@ -19,8 +19,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from dobwind import dragfit
-from dobwind.analysis.figures import settling_time_s
-from dobwind.analysis.linear import axis_system
 from dobwind.envelope import observer_noise, pooled_noise
 from dobwind.logs import FlightLog, step_inputs
 from dobwind.model import reference
@@ -111,7 +109,7 @@ def check_log(af: Airframe, log: FlightLog, fit_samples: int, settle_s: float | 
     per-segment and per-log errors. A segment is scored from ``settle_s`` after its start (default: see
     SEGMENT_SETTLE_S)."""
     model = model if model is not None else build_step(af)
-    settle = settle_s if settle_s is not None else min(SEGMENT_SETTLE_S, settling_time_s(axis_system(model, 0, with_filter=True)))
+    settle = settle_s if settle_s is not None else min(SEGMENT_SETTLE_S, model.settling_time_s)
     traj = reference.run_columns(model, step_inputs(model, log), slice(0, 0), model.outputs.slice("wind_ned"))
     wind = traj.outputs
     truth = matched_truth(af, log, wind)
