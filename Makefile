@@ -41,7 +41,8 @@ realdata: $(STAMP)
 	$(BIN)/python -m dobwind.realdata
 
 # Issue #12's generalization benchmark: six simulated vehicles x 2 seeds through the whole command-line
-# workflow, plus the real runs when present (~25 min on 2 cores). ACCURACY_ARGS=--quick: under 5 min.
+# workflow, a sample-rate study, and the real runs when present (4 min on 2 idle cores, 10-20 min when
+# loaded). ACCURACY_ARGS=--quick: one seed, three vehicles; --random N: N random vehicles.
 accuracy: $(STAMP)
 	$(BIN)/python -m dobwind.accuracy $(ACCURACY_ARGS)
 
