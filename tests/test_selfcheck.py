@@ -234,6 +234,28 @@ def test_a_good_fit_passes_and_its_replay_matches_replay(tiny, tmp_path, capsys)
     assert max(abs(by_segment[s] - mine[s]) for s in by_segment) < 0.01
 
 
+def test_the_self_check_runs_the_compiled_double_step_or_without_a_compiler_the_reference(tiny, monkeypatch):
+    """With a compiler the self-check replays through the double-precision C (faster for a body law);
+    without one, through the reference. The project holds the two bit for bit equal, so the check's
+    every figure is the same either way."""
+    import dataclasses as dc
+
+    from dobwind import selfcheck
+    from dobwind.logs import read_log
+
+    fitted = load_airframe(tiny["airframe"])
+    log = read_log(tiny["vertical"])
+    compiled_runs = []
+    real_compile = selfcheck.compile_step
+    monkeypatch.setattr(selfcheck, "compile_step", lambda *a: compiled_runs.append(a[1]) or real_compile(*a))
+    with_c = check_log(fitted, log, 1, 5.0)
+    assert compiled_runs == ["double"]
+    monkeypatch.setattr(selfcheck, "system_compiler", lambda: "/nonexistent/cc")
+    without_c = check_log(fitted, log, 1, 5.0)
+    assert compiled_runs == ["double"]   # not asked again: no compiler
+    assert dc.asdict(with_c) == dc.asdict(without_c) and with_c.points_kept > 0 and with_c.noise_h_mps > 0
+
+
 def test_fit_records_the_observer_noise_of_its_own_replay(tiny, tmp_path, capsys):
     """Issue #10: sigma = the residual table at the speed plus the observer noise. The self-check's
     replay measures the noise (scatter about each segment's mean error) on each log; the same vehicle
