@@ -63,15 +63,17 @@ class _Segments:
         idx = inverse[use]
         n = np.bincount(idx, minlength=len(labels))
         sums = [np.column_stack([np.bincount(idx, a[use, k], len(labels)) for k in range(3)]) for a in (wind, truth)]
+        first_s, last_s = np.full(len(labels), np.inf), np.full(len(labels), -np.inf)
+        np.minimum.at(first_s, idx, t[use])
+        np.maximum.at(last_s, idx, t[use])
         for i, label in enumerate(labels.tolist()):
             if n[i]:
                 key = int(label)
                 self.count[key] = self.count.get(key, 0) + int(n[i])
                 self.est[key] = self.est.get(key, np.zeros(3)) + sums[0][i]
                 self.true[key] = self.true.get(key, np.zeros(3)) + sums[1][i]
-                times = t[use][idx == i]
-                span = self.scored.setdefault(key, [float(times[0]), float(times[-1])])
-                span[1] = float(times[-1])
+                span = self.scored.setdefault(key, [float(first_s[i]), float(last_s[i])])
+                span[1] = float(last_s[i])
 
     def _scored_s(self, label: int) -> float:
         """The scored length: the span of the scored rows plus one sample period."""

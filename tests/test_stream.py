@@ -143,7 +143,7 @@ def test_streamed_replay_is_the_single_pass_bit_for_bit(gapped_log, tmp_path, ba
 
 def _same_table(got: list[dict], expected: list[dict]) -> None:
     assert [(r["segment"], r["samples"]) for r in got] == [(r["segment"], r["samples"]) for r in expected]
-    for key in ("true_speed", "est_speed", "vertical_error"):
+    for key in ("true_speed", "est_speed", "vertical_error", "scored_s"):
         assert [r[key] for r in got] == pytest.approx([r[key] for r in expected], rel=1e-12, abs=1e-13)
 
 
@@ -164,6 +164,8 @@ def test_streamed_score_matches_a_direct_transcription(gapped_log):
     row = next(r for r in metrics["per_segment"]["table"] if r["segment"] == label)
     assert row["samples"] == use.size
     assert row["est_speed"] == pytest.approx(np.hypot(*wind[use, :2].mean(axis=0)), rel=1e-12)
+    # The scored span plus one sample period (blocks of 20,011 bytes cut the segment several times).
+    assert row["scored_s"] == pytest.approx((t[use[-1]] - t[use[0]]) * use.size / (use.size - 1), rel=1e-12)
 
 
 def test_library_cache_reuses_one_build_and_survives_concurrent_misses(tmp_path, monkeypatch):
