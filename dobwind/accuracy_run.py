@@ -132,13 +132,10 @@ def predicted_rms(fit: dict[str, Any], hold_speeds: list[float], scored_s: list[
     calibration's holds are shorter than the tunnel's: holdcv's note)."""
     from dobwind.holdcv import HoldCV
 
-    table, cv, calibrated = fit.get("hold_cv_by_speed") or {}, fit.get("cv_rmse_mps"), fit.get("calibrated_speed_mps")
+    cv, calibrated = fit.get("cv_rmse_mps"), fit.get("calibrated_speed_mps")
     if not hold_speeds or cv is None or calibrated is None:
         return None
-    extrapolation = fit.get("hold_extrapolation_mps")
-    hold = HoldCV(cv, tuple(table.get("speeds_mps", ())), tuple(table.get("rms_mps", ())),
-                  math.nan if extrapolation is None else extrapolation,
-                  tuple(table.get("bias_mps", ())), tuple(table.get("noise_mps_sqrt_s", ())))
+    hold = HoldCV.from_table(cv, fit.get("hold_cv_by_speed"), fit.get("hold_extrapolation_mps"))
     lengths = scored_s if scored_s is not None else [None] * len(hold_speeds)
     return _rms([hold.predicted(s, calibrated, length) for s, length in zip(hold_speeds, lengths)])
 

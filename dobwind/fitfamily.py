@@ -86,10 +86,7 @@ def _family_scores(cv: tuple[float, float], extrapolation: float,
                               "score_mps": _none(dragfit.combined(cv[0], extrapolation))}
     if hold is not None:
         scores.update({"hold_cv_speed_mps": _none(hold.rms_mps),
-                       "hold_cv_by_speed": {"speeds_mps": list(hold.band_speeds_mps), "rms_mps": list(hold.band_rms_mps),
-                                            "bias_mps": list(hold.band_bias_mps),
-                                            "noise_mps_sqrt_s": list(hold.band_noise_mps_sqrt_s),
-                                            "window_s": _none(hold.window_s)},
+                       "hold_cv_by_speed": hold.band_table(),
                        "hold_extrapolation_speed_mps": _none(hold.extrapolation_mps)})
     return scores
 

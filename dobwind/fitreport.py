@@ -28,8 +28,7 @@ def _hold_line(report: FitReport, scored_s: float = 15.0) -> list[str]:
         return []
     from dobwind.holdcv import HoldCV
 
-    hold = HoldCV(report.hold_cv_speed_mps, tuple(table["speeds_mps"]), tuple(table["rms_mps"]), float("nan"),
-                  tuple(table["bias_mps"]), tuple(table["noise_mps_sqrt_s"]))
+    hold = HoldCV.from_table(report.hold_cv_speed_mps, table)
     speeds = table["speeds_mps"]
     longer = [hold.predicted(v, float("inf"), scored_s) for v in speeds]
     window = table.get("window_s")

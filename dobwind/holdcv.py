@@ -70,6 +70,21 @@ class HoldCV:
     band_noise_mps_sqrt_s: tuple[float, ...] = ()  # per band: the noise RMS of a 1 s hold (falls as 1/sqrt(T))
     window_s: float = math.nan                     # median scored length of the held-out windows
 
+    def band_table(self) -> dict:
+        """The bands as the fit reports them (`hold_cv_by_speed`); ``from_table`` reads them back."""
+        return {"speeds_mps": list(self.band_speeds_mps), "rms_mps": list(self.band_rms_mps),
+                "bias_mps": list(self.band_bias_mps), "noise_mps_sqrt_s": list(self.band_noise_mps_sqrt_s),
+                "window_s": self.window_s if math.isfinite(self.window_s) else None}
+
+    @staticmethod
+    def from_table(rms_mps: float, table: dict | None, extrapolation_mps: float | None = None) -> "HoldCV":
+        """A fit report's figures back as a HoldCV (missing bands, bias or noise: empty)."""
+        table = table or {}
+        return HoldCV(rms_mps, tuple(table.get("speeds_mps", ())), tuple(table.get("rms_mps", ())),
+                      math.nan if extrapolation_mps is None else extrapolation_mps,
+                      tuple(table.get("bias_mps", ())), tuple(table.get("noise_mps_sqrt_s", ())),
+                      math.nan if table.get("window_s") is None else table["window_s"])
+
     def predicted(self, speed_mps: float, calibrated_mps: float, scored_s: float | None = None) -> float:
         """The error to expect on a hold at this airflow speed: the band's CV inside the calibrated
         range (linear between bands, clamped), the extrapolation figure beyond it. With ``scored_s``
