@@ -82,7 +82,10 @@ def vehicle_tables(config: Config, results: list[dict[str, Any]]) -> tuple[list[
         lines.append(table(f"{vehicle} ({config.vehicle_dir / vehicle}.vehicle.toml)", labelled))
         for r in rows:
             if (r.get("fit") or {}).get("model"):
-                lines.append(f"  seed {r['seed']}: fit chose the {r['fit']['model']} family")
+                low_pass = r["fit"].get("low_pass") or {}
+                lowered = (f"; low-pass at zero airflow {low_pass['cutoff_hz'][0]:.3g} -> {low_pass['cutoff_hz'][1]:.3g} Hz"
+                           if low_pass else "")
+                lines.append(f"  seed {r['seed']}: fit chose the {r['fit']['model']} family{lowered}")
             if "error" in r:
                 lines.append(f"  seed {r['seed']}: {r['error']}")
             for warning in (r.get("fit") or {}).get("warnings", []):

@@ -145,6 +145,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
     from dobwind.logs import write_atomically
     from dobwind.model.airframe import load_airframe
     from dobwind.model.airframe_toml import dump_airframe
+    from dobwind.hovernoise import HoverNoise
     from dobwind.selfcheck import Thresholds, text_table
 
     plot = args.plot if args.plot is not None else str(args.output).removesuffix(".toml") + "_fit.png"
@@ -153,8 +154,9 @@ def cmd_fit(args: argparse.Namespace) -> int:
     af = load_airframe(args.airframe)
     limits = Thresholds(cv_share=args.max_error_share, replay_share=args.max_error_share,
                         floor_mps=args.error_floor, direction_deg=args.max_direction_error)
+    hover = HoverNoise(target_mps=args.hover_noise)
     new, report, points = fit_airframe(af, list(args.logs), args.terms, args.dynamic, args.model, args.still_air,
-                                       limits)
+                                       limits, hover)
     passed = bool(report.self_check["passed"])
     written = passed or args.force  # a model that failed its self-check is written only when forced
     if written:
@@ -429,6 +431,14 @@ def _add_fit(command: _Command) -> None:
     p.add_argument("--max-direction-error", type=opt.DIRECTION_LIMIT, default=limits.direction_deg, metavar="DEG",
                    help="self-check: the largest mean per-segment direction error of a training replay "
                    f"({opt.DIRECTION_LIMIT.text()}; default {limits.direction_deg:g})")
+    from dobwind.hovernoise import HoverNoise
+
+    hover = HoverNoise()
+    p.add_argument("--hover-noise", type=opt.HOVER_NOISE, default=hover.target_mps, metavar="MPS",
+                   help="the wind estimate's noise per horizontal axis at low airflow that the fit aims for: when "
+                   "the self-check measures more, the low-pass's cutoff at zero airflow is lowered (never below "
+                   f"{hover.floor_hz:g} Hz, never raised); 0 keeps the airframe's ({opt.HOVER_NOISE.text()}; "
+                   f"default {hover.target_mps:g})")
     p.add_argument("--json", action="store_true", help=JSON_HELP)
     p.set_defaults(func=cmd_fit)
 

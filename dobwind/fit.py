@@ -99,6 +99,9 @@ class FitReport:
     hold_cv_by_speed: dict | None = None                 # {"speeds_mps": [...], "rms_mps": [...]}
     hold_extrapolation_speed_mps: float | None = None    # top blocks held out, hold-mean speed error
     self_check: dict = field(default_factory=dict)
+    # The low-pass's first cutoff when the fit lowered it for the noise at low airflow (hovernoise.py):
+    # {"cutoff_hz": [before, after], "still_noise_mps": [before, after], "target_mps": ...}; else empty.
+    low_pass: dict = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
 
 

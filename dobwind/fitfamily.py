@@ -4,18 +4,19 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
 from dobwind import dragfit, holdcv
+from dobwind.hovernoise import HoverNoise, quieter_schedule
 from dobwind.envelope import calibration_envelope, uncertainty_table, with_observer_noise
 from dobwind.errors import CheckFailed
 from dobwind.fit import CalibrationRun, FitReport, Points, calibration_run, fit_polynomial, read_calibration_logs
 from dobwind.logs import FlightLog, heading_yaw
 from dobwind.model.airframe import Airframe, ForceAirModel
 from dobwind.model.status import accepted
-from dobwind.selfcheck import Thresholds, self_check
+from dobwind.selfcheck import SelfCheck, Thresholds, self_check
 
 MODELS = ("auto", "drag", "drag-heading", "drag-body", "polynomial")
 # --model -> the drag-law frames it fits (both drag frames are scored alike and the better one is kept).
@@ -99,10 +100,11 @@ def _polynomial_scores(fitted: Airframe, samples: dragfit.DragSamples) -> dict[s
 
 
 def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynamic: bool = False,
-                 model: str = "auto", still_air: bool = False,
-                 limits: Thresholds = Thresholds()) -> tuple[Airframe, FitReport, Points | None]:
+                 model: str = "auto", still_air: bool = False, limits: Thresholds = Thresholds(),
+                 hover: HoverNoise = HoverNoise()) -> tuple[Airframe, FitReport, Points | None]:
     """Both families fitted and scored, the better one chosen, then the self-check (report.self_check;
-    the caller refuses to write a model that failed it unless forced)."""
+    the caller refuses to write a model that failed it unless forced), and the low-pass at zero airflow
+    lowered when the noise there is above ``hover.target_mps`` (dobwind/hovernoise.py)."""
     logs = read_calibration_logs(af, log_paths, still_air)
     families: dict[str, tuple[Airframe, FitReport, Points | None]] = {}
     scores: dict[str, dict[str, Any]] = {}
@@ -142,10 +144,40 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynami
     speed_range = _speed_range(samples, points)
     cv = report.hold_cv_speed_mps if report.hold_cv_speed_mps is not None else report.horizontal_cv_rmse_mps
     check = self_check(new, logs, per_log, cv, speed_range, limits)
+    new, check, report.low_pass, quiet_warnings = _quiet_hover(
+        new, check, hover, lambda af_: self_check(af_, logs, per_log, cv, speed_range, limits))
+    report.warnings += quiet_warnings
     report.self_check = dataclasses.asdict(check)
     # The self-check's replay measured the observer noise; the sigma outputs add it to the residuals (#10).
     new = dataclasses.replace(new, uncertainty=with_observer_noise(new.uncertainty, check.noise_h_mps, check.noise_up_mps))
     return new, report, points
+
+
+def _quiet_hover(af: Airframe, check: SelfCheck, hover: HoverNoise,
+                 recheck: Callable[[Airframe], SelfCheck]) -> tuple[Airframe, SelfCheck, dict[str, Any], list[str]]:
+    """The airframe with its first low-pass cutoff lowered until the self-check's noise at low airflow
+    meets the target (at most ``hover.rounds`` more self-check passes), that last check, what changed
+    (empty when nothing did) and warnings. A lower cutoff settles more slowly: a schedule that turns a
+    passing self-check into a failing one (short holds left with nothing to score) is not taken."""
+    before_hz, before_mps = af.filter.cutoffs_hz[0], check.still_noise_mps
+    warnings: list[str] = []
+    for _ in range(hover.rounds):
+        schedule = quieter_schedule(af.filter, check.still_noise_mps, hover)
+        if schedule is None:
+            break
+        lowered = dataclasses.replace(af, filter=schedule)
+        again = recheck(lowered)
+        if check.passed and not again.passed:
+            warnings.append(f"the low-pass at zero airflow was kept at {af.filter.cutoffs_hz[0]:.3g} Hz (noise at low "
+                            f"airflow {check.still_noise_mps:.3f} m/s, --hover-noise {hover.target_mps:g}): at "
+                            f"{schedule.cutoffs_hz[0]:.3g} Hz the self-check fails ({'; '.join(again.reasons)})")
+            break
+        af, check = lowered, again
+    if af.filter.cutoffs_hz[0] == before_hz:
+        return af, check, {}, warnings
+    change = {"cutoff_hz": [before_hz, af.filter.cutoffs_hz[0]],
+              "still_noise_mps": [before_mps, check.still_noise_mps], "target_mps": hover.target_mps}
+    return af, check, change, warnings
 
 
 def _speed_range(samples: dragfit.DragSamples, points: Points | None) -> float:

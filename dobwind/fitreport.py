@@ -38,6 +38,16 @@ def _hold_line(report: FitReport, scored_s: float = 15.0) -> list[str]:
             f"  expected on holds scored {scored_s:g} s: " + ", ".join(f"{v:.1f} m/s: {e:.3f}" for v, e in zip(speeds, longer))]
 
 
+def _low_pass_line(report: FitReport) -> list[str]:
+    """What the fit did to the low-pass at zero airflow (dobwind/hovernoise.py), if anything."""
+    change = report.low_pass
+    if not change:
+        return []
+    (f0, f1), (n0, n1) = change["cutoff_hz"], change["still_noise_mps"]
+    return [f"low-pass at zero airflow lowered {f0:.3g} -> {f1:.3g} Hz: noise at low airflow {n0:.3f} -> {n1:.3f} m/s "
+            f"per horizontal axis (target {change['target_mps']:g} m/s; --hover-noise)"]
+
+
 def text_report(report: FitReport) -> str:
     def model(terms: list[str], coefs: list[float]) -> str:
         return " + ".join(f"{c:.4g}*{t}" if t != "1" else f"{c:.4g}" for t, c in zip(terms, coefs))
@@ -48,7 +58,8 @@ def text_report(report: FitReport) -> str:
     families = [f"family {name}: " + ", ".join(f"{k} {'n/a' if v is None else f'{v:.3f}'}" for k, v in scores.items()
                                               if v is None or isinstance(v, float))
                 for name, scores in report.families.items()]
-    chosen = [f"model: {report.model} (chosen by grouped CV and extrapolation of the airflow)"] + families + _hold_line(report)
+    chosen = ([f"model: {report.model} (chosen by grouped CV and extrapolation of the airflow)"] + families
+              + _hold_line(report) + _low_pass_line(report))
     if report.drag:  # either drag family (heading or body frame)
         law = ", ".join(f"{k} {v:.4g}" for k, v in report.drag.items())
         return "\n".join(chosen + [

@@ -48,3 +48,4 @@ MAX_FREQUENCIES = 50
 ERROR_SHARE = Bound(0.001, 10.0)          # fit self-check: share of the calibrated airflow speed range
 ERROR_FLOOR = Bound(0.0, 100.0, "m/s")
 DIRECTION_LIMIT = Bound(0.1, 180.0, "deg")
+HOVER_NOISE = Bound(0.0, 10.0, "m/s")     # fit: noise target at low airflow; 0 keeps the airframe's low-pass

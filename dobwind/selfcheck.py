@@ -37,6 +37,11 @@ SEGMENT_SETTLE_S = 5.0    # a segment's first seconds are a transition: not scor
 WINDOW_S = 10.0           # segments of a log without a `segment` column
 MIN_SEGMENT_POINTS = 10
 MIN_SPEED_FOR_DIRECTION_MPS = 1.0
+# Segments whose mean true horizontal airflow speed AND true wind speed are below this are "low
+# airflow": the drag law is at its flattest there and the low-pass (scheduled on the wind estimate) at
+# its first cutoff, so the scatter of their estimate, per horizontal axis, is what still air reads as
+# wind (dobwind/hovernoise.py).
+STILL_AIRFLOW_MPS = 1.0
 
 
 @dataclass
@@ -54,6 +59,9 @@ class LogCheck:
     noise_h_mps: float = 0.0
     noise_up_mps: float = 0.0
     noise_dof: int = 0
+    # The same scatter per horizontal axis (north and east pooled) on low-airflow segments only.
+    still_noise_mps: float = 0.0
+    still_dof: int = 0
 
 
 @dataclass
@@ -68,6 +76,7 @@ class SelfCheck:
     logs: list[LogCheck]
     noise_h_mps: float = 0.0   # the observer noise over every log (horizontal speed, vertical wind)
     noise_up_mps: float = 0.0
+    still_noise_mps: float | None = None  # per-axis horizontal noise at low airflow (None: no such segment)
 
 
 def matched_truth(af: Airframe, log: FlightLog, wind_est: np.ndarray) -> np.ndarray:
@@ -139,7 +148,8 @@ def check_log(af: Airframe, log: FlightLog, fit_samples: int, settle_s: float | 
     labels = _segment_labels(log)
     order = np.argsort(labels, kind="stable")
     values, first = np.unique(labels[order], return_index=True)
-    rows, errors_h, errors_up = [], [], []
+    airflow_h = np.hypot(*(log.true_wind[:, :2] - log.stack("vel_n", "vel_e")).T)
+    rows, errors_h, errors_up, errors_still = [], [], [], []
     for label, lo, hi in zip(values, first, np.r_[first[1:], len(order)]):
         members = order[lo:hi]
         use = members[usable[members] & (t[members] >= t[members[0]] + settle)]
@@ -147,8 +157,11 @@ def check_log(af: Airframe, log: FlightLog, fit_samples: int, settle_s: float | 
             rows.append(_segment_row(int(label), wind[use], truth[use]))
             errors_h.append(np.hypot(wind[use, 0], wind[use, 1]) - np.hypot(truth[use, 0], truth[use, 1]))
             errors_up.append(truth[use, 2] - wind[use, 2])  # NED down: up is its negative
+            if max(np.mean(airflow_h[use]), rows[-1]["true_speed_mps"]) < STILL_AIRFLOW_MPS:
+                errors_still += [wind[use, 0] - truth[use, 0], wind[use, 1] - truth[use, 1]]
     check = LogCheck(log.path, log.rows, fit_samples, int(sum(r["points"] for r in rows)), rows)
     (check.noise_h_mps, check.noise_dof), (check.noise_up_mps, _) = observer_noise(errors_h), observer_noise(errors_up)
+    check.still_noise_mps, check.still_dof = observer_noise(errors_still)
     if rows:
         speed = np.array([r["speed_error_mps"] for r in rows])
         check.speed_rms_mps = float(np.sqrt(np.mean(speed ** 2)))
@@ -200,8 +213,9 @@ def verdict(af: Airframe, logs: list[LogCheck], cv_mps: float | None, speed_rang
                            f"> {limits.direction_deg:g} deg")
     noise_h = pooled_noise([(c.noise_h_mps, c.noise_dof) for c in logs])
     noise_up = pooled_noise([(c.noise_up_mps, c.noise_dof) for c in logs])
+    still = pooled_noise([(c.still_noise_mps, c.still_dof) for c in logs]) if any(c.still_dof for c in logs) else None
     return SelfCheck(not reasons, reasons, cv_mps, speed_range_mps, cv_limit, replay_limit, limits.direction_deg, logs,
-                     noise_h, noise_up)
+                     noise_h, noise_up, still)
 
 
 def self_check(af: Airframe, logs: list[FlightLog], fit_samples: list[int], cv_mps: float | None,
@@ -242,5 +256,8 @@ def text_table(check: dict) -> str:
         lines += _segment_lines(c["segments"])
     lines.append(f"  observer noise (sample scatter about each segment's mean error): {check['noise_h_mps']:.3f} m/s "
                  f"horizontal speed, {check['noise_up_mps']:.3f} m/s vertical; the sigma outputs include it")
+    if check.get("still_noise_mps") is not None:
+        lines.append(f"  at low airflow (segments under {STILL_AIRFLOW_MPS:g} m/s): {check['still_noise_mps']:.3f} m/s "
+                     "per horizontal axis")
     lines.append("self-check: " + ("PASS" if check["passed"] else "FAIL: " + "; ".join(check["reasons"])))
     return "\n".join(lines)
