@@ -43,7 +43,9 @@ def quieter_schedule(schedule: FilterSchedule, noise_mps: float | None, cfg: Hov
     if cfg.target_mps <= 0 or noise_mps is None or noise_mps <= 0 or len(schedule.cutoffs_hz) < 2:
         return None
     current = schedule.cutoffs_hz[0]
-    wanted = max(cfg.floor_hz, current * (cfg.target_mps / noise_mps) ** 2)
+    # Three significant digits: the airframe file stays readable, and the self-check runs on the value
+    # that is written.
+    wanted = max(cfg.floor_hz, float(f"{current * (cfg.target_mps / noise_mps) ** 2:.3g}"))
     if wanted >= current * cfg.min_change:
         return None
     return dataclasses.replace(schedule, cutoffs_hz=(wanted,) + tuple(schedule.cutoffs_hz[1:]))
