@@ -106,7 +106,8 @@ class PointsReducer:
         self.rows = _Rows()
         self.ready: dict[str, list[np.ndarray]] = {"air": [], "yaw": []}
         self.previous: tuple[float, np.ndarray, float] | None = None  # t, smoothed airflow, smoothed yaw
-        self.last_change, self.run_count = -math.inf, 0
+        self.last_change, self.run_count = -math.inf, 0   # the last change's time, the runs so far
+        self.open_run = -1                                  # the run whose steady rows are kept
         self.run: dict[str, list[np.ndarray]] = {}
         self.chunks: list[dict[str, float]] = []
 
@@ -148,13 +149,17 @@ class PointsReducer:
         self.last_change = float(last_change[-1])
         steady = (t - last_change) >= self.settle
         run_id = self.run_count + np.cumsum(change)
-        for run in np.unique(run_id):
-            if run != self.run_count:
+        self.run_count = int(run_id[-1])
+        steady_rows = np.flatnonzero(steady)
+        # A run's rows are consecutive: the steady rows split where their run changes.
+        for piece in np.split(steady_rows, np.flatnonzero(np.diff(run_id[steady_rows])) + 1):
+            if not len(piece):
+                continue
+            if run_id[piece[0]] != self.open_run:
                 self._close_run()
-                self.run_count = int(run)
-            rows_of_run = steady & (run_id == run)
+                self.open_run = int(run_id[piece[0]])
             for key in ("t", "f_c", "rel_c"):
-                self.run.setdefault(key, []).append(rows[key][rows_of_run])
+                self.run.setdefault(key, []).append(rows[key][piece])
 
     def _close_run(self) -> None:
         """The current run's 2 s chunks (from its first steady row), when it had steady rows."""
@@ -171,4 +176,4 @@ class PointsReducer:
             fm, rm = f_c[sel].mean(axis=0), rel_c[sel].mean(axis=0)
             self.chunks.append({"m": fm[0], "n": fm[1], "fz": fm[2], "speed_h": math.hypot(rm[0], rm[1]),
                                 "air_z": rm[2], "air_angle": math.atan2(rm[1], rm[0]),
-                                "group": self.group_base + self.run_count})
+                                "group": self.group_base + self.open_run})
