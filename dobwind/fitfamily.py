@@ -15,9 +15,8 @@ from dobwind.envelope import calibration_envelope, uncertainty_table, with_obser
 from dobwind.errors import CheckFailed
 from dobwind.fit import (CalibrationRun, FitReport, Points, PointsOf, calibration_points, calibration_run, fit_polynomial,
                          no_steady_data, points_from, read_calibration_logs)
-from dobwind.logs import FlightLog, heading_yaw
+from dobwind.logs import FlightLog
 from dobwind.model.airframe import Airframe, ForceAirModel
-from dobwind.model.status import accepted
 from dobwind.selfcheck import SelfCheck, Thresholds, self_check, self_check_sources
 
 MODELS = ("auto", "drag", "drag-heading", "drag-body", "polynomial")
@@ -119,13 +118,17 @@ def _streamed_logs(af: Airframe, log_paths: list[str], frames: tuple[str, ...], 
     shapes = [calstream.log_shape(source, af) for source in sources]
     first = calstream.reduce_logs(af, sources, shapes, frames, dynamic, points)
     per_log = [len(part["time"]) for part in first.samples[frames[0]]]
-    by_frame = {frame: dragfit.merge(first.samples[frame], frame) for frame in frames}
+    by_frame = {frame: dragfit.merge(first.samples.pop(frame), frame) for frame in frames}  # one copy kept
+    chunks = {af: (first.chunks, first.settle_s)}
 
     def points_of(airframe: Airframe) -> tuple[Points, float]:
-        reduced = first if airframe == af else calstream.reduce_logs(airframe, sources, shapes, (), dynamic, True)
-        if not reduced.chunks:
-            raise CheckFailed(no_steady_data(reduced.settle_s))
-        return points_from(reduced.chunks), reduced.settle_s
+        if airframe not in chunks:
+            reduced = calstream.reduce_logs(airframe, sources, shapes, (), dynamic, True)
+            chunks[airframe] = (reduced.chunks, reduced.settle_s)
+        found, settle = chunks[airframe]
+        if not found:
+            raise CheckFailed(no_steady_data(settle))
+        return points_from(found), settle
 
     return _Calibration(by_frame, per_log, points_of, lambda new, cv, speed, limits: self_check_sources(
         new, sources, shapes, per_log, cv, speed, limits))
