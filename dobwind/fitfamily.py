@@ -113,7 +113,8 @@ def _streamed_logs(af: Airframe, log_paths: list[str], frames: tuple[str, ...], 
                    points: bool, block_bytes: int) -> _Calibration:
     """Every log read ``block_bytes`` at a time, once for its shape, once for the calibration step (drag
     samples and chunk means together), again for the points of a rescaled airframe and for the
-    self-check: the numbers of _whole_logs in memory that does not grow with the logs' length."""
+    self-check: the numbers of _whole_logs, with nothing kept at the logs' full rate (what the fit
+    keeps, the decimated samples and chunk means, still grows with their length)."""
     sources = calstream.calibration_sources(af, log_paths, still_air, block_bytes)
     shapes = [calstream.log_shape(source, af) for source in sources]
     first = calstream.reduce_logs(af, sources, shapes, frames, dynamic, points)
