@@ -156,7 +156,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
                         floor_mps=args.error_floor, direction_deg=args.max_direction_error)
     hover = HoverNoise(target_mps=args.hover_noise)
     new, report, points = fit_airframe(af, list(args.logs), args.terms, args.dynamic, args.model, args.still_air,
-                                       limits, hover)
+                                       limits, hover=hover)
     passed = bool(report.self_check["passed"])
     written = passed or args.force  # a model that failed its self-check is written only when forced
     if written:

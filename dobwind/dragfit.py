@@ -130,9 +130,13 @@ def body_columns(airflow_ned: np.ndarray, rot: np.ndarray, rotor: np.ndarray, co
     return out
 
 
-def _forward_fill(x: np.ndarray, valid: np.ndarray) -> np.ndarray:
-    index = np.maximum.accumulate(np.where(valid, np.arange(len(valid)), 0))
-    return x[index]
+def _forward_fill(x: np.ndarray, valid: np.ndarray, carried: np.ndarray | None = None) -> np.ndarray:
+    """Invalid rows take the last valid row's value (``carried``: the previous block's last valid row)."""
+    if carried is None:
+        index = np.maximum.accumulate(np.where(valid, np.arange(len(valid)), 0))
+        return x[index]
+    index = np.maximum.accumulate(np.where(valid, np.arange(1, len(valid) + 1), 0))
+    return np.concatenate([carried[None], x])[index]
 
 
 # Rows of full-rate regressor columns built and filtered at a time: the (rows, 3, P) arrays of a whole
@@ -169,47 +173,118 @@ class _BlockFilter:
         return out
 
 
+def sample_step(dt_s: float) -> int:
+    """Every how many rows a sample is kept (about DECIMATED_RATE_HZ)."""
+    return max(1, int(round(1.0 / (DECIMATED_RATE_HZ * dt_s))))
+
+
+class LogSampler:
+    """One log's samples, filtered and decimated, fed a block of consecutive rows at a time; ``result``
+    gives what one pass over the whole log gives, bit for bit. What a block hands the next: each
+    filter's state, the last valid row (invalid rows are filled from it), the absolute row index (the
+    decimation keeps rows 0, step, 2 step, ... of the log) and the current segment run.
+
+    ``dt_s`` is the log's median sample time (it sets H and the decimation, so it is the whole log's,
+    found before the first block). Rows before the log's first valid one keep their own values."""
+
+    def __init__(self, af: Airframe, cutoff_hz: float, dt_s: float, frame: str = "heading",
+                 column_rows: int = COLUMN_BLOCK_ROWS) -> None:
+        self.af, self.frame, self.column_rows = af, frame, column_rows
+        self.step = sample_step(dt_s)
+        self.filters = [(_BlockFilter(*observer_filter(af, dt_s, cutoff_hz, axis)),
+                         _BlockFilter(*observer_filter(af, dt_s, cutoff_hz, axis))) for axis in range(3)]
+        self.rows = 0
+        self.last_valid: tuple[np.ndarray, ...] | None = None   # airflow, thrust, yaw (and q) of it
+        self.segment_run: tuple[float, int, float] | None = None  # label, run index, its start time
+        self.parts: list[dict[str, np.ndarray]] = []
+
+    def _valid(self, airflow_ned: np.ndarray, thrust_ned: np.ndarray, yaw: np.ndarray,
+               q: np.ndarray | None) -> np.ndarray:
+        valid = np.isfinite(airflow_ned).all(axis=1) & np.isfinite(thrust_ned).all(axis=1) & np.isfinite(yaw)
+        if self.frame == "body":
+            valid &= np.isfinite(q).all(axis=1) & (np.linalg.norm(np.nan_to_num(q), axis=1) > 0)
+        if self.last_valid is None:  # before the log's first valid row: kept as they are, out of the fit by usable
+            valid |= np.cumsum(valid) == 0
+        return valid
+
+    def add(self, t: np.ndarray, force_ned: np.ndarray, airflow_ned: np.ndarray, thrust_ned: np.ndarray,
+            yaw: np.ndarray, usable: np.ndarray, q: np.ndarray | None = None,
+            segment: np.ndarray | None = None) -> None:
+        """The next rows: ``thrust_ned`` is u_f z_b; ``usable`` marks rows the step accepted that are at
+        least one settling time clear of a start or rejection; the body frame needs the attitude ``q``;
+        with the log's ``segment`` labels each sample records its segment run and the time since it began."""
+        q = q if self.frame == "body" else None
+        valid = self._valid(airflow_ned, thrust_ned, yaw, q)
+        values = [v for v in (airflow_ned, thrust_ned, yaw, q) if v is not None]
+        carried = self.last_valid or (None,) * len(values)
+        filled = [_forward_fill(v, valid, c) for v, c in zip(values, carried)]
+        if valid.any():
+            last = int(np.flatnonzero(valid)[-1])
+            self.last_valid = tuple(v[last].copy() for v in filled)
+        airflow_ned, thrust_ned, yaw = filled[:3]
+        q = filled[3] if q is not None else None
+        c, s = np.cos(yaw), np.sin(yaw)
+        keep = (self.rows + np.arange(len(t))) % self.step == 0
+        keep &= usable & valid & np.isfinite(force_ned).all(axis=1)
+        self.rows += len(t)
+        part = {"observed": force_ned[keep], "cos_yaw": c[keep], "sin_yaw": s[keep], "time": t[keep],
+                **self._columns(airflow_ned, thrust_ned, c, s, q, keep)}
+        if segment is not None:
+            part.update((k, v[keep]) for k, v in zip(("hold", "hold_age_s"), self._segment_runs(t, segment)))
+        self.parts.append(part)
+
+    def _columns(self, airflow_ned: np.ndarray, thrust_ned: np.ndarray, c: np.ndarray, s: np.ndarray,
+                 q: np.ndarray | None, keep: np.ndarray) -> dict[str, np.ndarray]:
+        """The filtered regressor columns and airflow at the kept rows, built ``column_rows`` at a time."""
+        kept_columns, kept_air, kept_extra = [], [], []
+        for lo in range(0, len(keep), self.column_rows):
+            rows = slice(lo, lo + self.column_rows)
+            ned, extra = _unit_columns(self.frame, self.af, airflow_ned[rows], thrust_ned[rows], c[rows], s[rows],
+                                       None if q is None else q[rows])
+            air_c = np.column_stack(heading_force(airflow_ned[rows].T, c[rows], s[rows], (0.0, 0.0, 0.0)))
+            pick = keep[rows]
+            # The decimated rows are picked from each filtered axis before stacking (stacking the full rate
+            # first was a second pass over the largest arrays).
+            kept_columns.append(np.stack([self.filters[axis][0](ned[:, axis])[pick] for axis in range(3)], axis=1))
+            kept_air.append(np.column_stack([self.filters[axis][1](air_c[:, axis])[pick] for axis in range(3)]))
+            kept_extra.append({k: v[pick] for k, v in extra.items()})
+        if not kept_columns:
+            return {}
+        out = {"columns": np.concatenate(kept_columns), "airflow": np.concatenate(kept_air)}
+        out.update((k, np.concatenate([e[k] for e in kept_extra])) for k in kept_extra[0])
+        return out
+
+    def _segment_runs(self, t: np.ndarray, segment: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """segment_runs over the log so far: the run of the previous block's last row may go on."""
+        previous = self.segment_run
+        start = np.r_[previous is None or segment[0] != previous[0], segment[1:] != segment[:-1]]
+        first = np.maximum.accumulate(np.where(start, np.arange(len(t)), -1))
+        begun = np.where(first >= 0, t[np.maximum(first, 0)], previous[2] if previous else np.nan)
+        run = np.cumsum(start) - 1 + (previous[1] + 1 if previous else 0)
+        self.segment_run = (segment[-1], int(run[-1]), float(begun[-1]))
+        return run, t - begun
+
+    def result(self) -> dict[str, np.ndarray]:
+        """The samples of every row fed (none when no row of the log was valid)."""
+        parts = [p for p in self.parts if "columns" in p]
+        out = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+        return out if self.last_valid is not None else {k: v[:0] for k, v in out.items()}
+
+
+def median_step(t: np.ndarray, af: Airframe) -> float:
+    """A log's sample time: the median step of its times (the airframe's when it has one row)."""
+    return float(np.median(np.diff(t))) if len(t) > 1 else af.observer.sample_time_s
+
+
 def log_samples(af: Airframe, cutoff_hz: float, t: np.ndarray, force_ned: np.ndarray, airflow_ned: np.ndarray,
                 thrust_ned: np.ndarray, yaw: np.ndarray, usable: np.ndarray, frame: str = "heading",
                 q: np.ndarray | None = None, segment: np.ndarray | None = None,
                 block_rows: int = COLUMN_BLOCK_ROWS) -> dict[str, np.ndarray]:
-    """One log's samples, filtered and decimated. ``thrust_ned`` is u_f z_b; ``usable`` marks samples the
-    step accepted and that are at least one settling time clear of a start or rejection. The body frame
-    needs the attitude quaternions ``q``. With the log's ``segment`` labels, each sample also records
-    which segment (run of one label) it is in and how long after its start (holdcv scores segments as
-    replay does). The full-rate columns are built and filtered ``block_rows`` rows at a time."""
-    valid = np.isfinite(airflow_ned).all(axis=1) & np.isfinite(thrust_ned).all(axis=1) & np.isfinite(yaw)
-    if frame == "body":
-        valid &= np.isfinite(q).all(axis=1) & (np.linalg.norm(np.nan_to_num(q), axis=1) > 0)
-    first = int(np.argmax(valid))
-    valid[:first] = True  # filled from the first valid row; kept out of the fit by ``usable``
-    airflow_ned, thrust_ned, yaw = (_forward_fill(v, valid) for v in (airflow_ned, thrust_ned, yaw))
-    q = _forward_fill(q, valid) if frame == "body" else None
-    c, s = np.cos(yaw), np.sin(yaw)
-    dt = float(np.median(np.diff(t))) if len(t) > 1 else af.observer.sample_time_s
-    step = max(1, int(round(1.0 / (DECIMATED_RATE_HZ * dt))))
-    keep = np.zeros(len(t), dtype=bool)
-    keep[::step] = True
-    keep &= usable & valid & np.isfinite(force_ned).all(axis=1)
-    filters = [(_BlockFilter(*observer_filter(af, dt, cutoff_hz, axis)), _BlockFilter(*observer_filter(af, dt, cutoff_hz, axis)))
-               for axis in range(3)]
-    kept_columns, kept_air, kept_extra = [], [], []
-    for lo in range(0, len(t), block_rows):
-        rows = slice(lo, lo + block_rows)
-        ned, extra = _unit_columns(frame, af, airflow_ned[rows], thrust_ned[rows], c[rows], s[rows],
-                                   None if q is None else q[rows])
-        air_c = np.column_stack(heading_force(airflow_ned[rows].T, c[rows], s[rows], (0.0, 0.0, 0.0)))
-        pick = keep[rows]
-        # The decimated rows are picked from each filtered axis before stacking (stacking the full rate
-        # first was a second pass over the largest arrays).
-        kept_columns.append(np.stack([filters[axis][0](ned[:, axis])[pick] for axis in range(3)], axis=1))
-        kept_air.append(np.column_stack([filters[axis][1](air_c[:, axis])[pick] for axis in range(3)]))
-        kept_extra.append({k: v[pick] for k, v in extra.items()})
-    extra = {k: np.concatenate([e[k] for e in kept_extra]) for k in (kept_extra[0] if kept_extra else {})}
-    if segment is not None:
-        extra.update((k, v[keep]) for k, v in zip(("hold", "hold_age_s"), segment_runs(t, segment)))
-    return {"observed": force_ned[keep], "columns": np.concatenate(kept_columns), "cos_yaw": c[keep],
-            "sin_yaw": s[keep], "airflow": np.concatenate(kept_air), "time": t[keep], **extra}
+    """One whole log's samples (LogSampler.add's arguments); the full-rate columns are built and
+    filtered ``block_rows`` rows at a time."""
+    sampler = LogSampler(af, cutoff_hz, median_step(t, af), frame, block_rows)
+    sampler.add(t, force_ned, airflow_ned, thrust_ned, yaw, usable, q, segment)
+    return sampler.result()
 
 
 def thrust_ned(af: Airframe, rotor_rpm: np.ndarray | None, thrust: np.ndarray | None, q: np.ndarray) -> np.ndarray:

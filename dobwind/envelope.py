@@ -69,11 +69,26 @@ def observer_noise(segment_errors: list[np.ndarray]) -> tuple[float, int]:
     errors of steady segments (one array each): each segment's mean error is the model's error there
     (what the residual table covers) and is removed; the pooled standard deviation of what remains is
     the observer noise. Segments of fewer than two samples carry no scatter."""
-    deviations = [e - np.mean(e) for e in (np.asarray(a, dtype=float) for a in segment_errors) if e.size >= 2]
-    dof = sum(d.size - 1 for d in deviations)
+    return pooled_scatter([segment_scatter(e) for e in segment_errors])
+
+
+def segment_scatter(errors: np.ndarray) -> tuple[float, int]:
+    """One segment's sum of squared deviations from its mean error, and its sample count (none below
+    two samples): what observer_noise pools, kept when a segment's samples are dropped."""
+    e = np.asarray(errors, dtype=float)
+    if e.size < 2:
+        return 0.0, 0
+    d = e - np.mean(e)
+    return float(np.sum(d * d)), int(d.size)
+
+
+def pooled_scatter(parts: list[tuple[float, int]]) -> tuple[float, int]:
+    """observer_noise from the segments' segment_scatter, in their order."""
+    kept = [(squares, size) for squares, size in parts if size >= 2]
+    dof = sum(size - 1 for _, size in kept)
     if dof == 0:
         return 0.0, 0
-    return float(math.sqrt(sum(float(np.sum(d * d)) for d in deviations) / dof)), dof
+    return float(math.sqrt(sum(squares for squares, _ in kept) / dof)), dof
 
 
 def pooled_noise(noises: list[tuple[float, int]]) -> float:

@@ -19,10 +19,13 @@ import dataclasses
 import itertools
 import math
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 from scipy.spatial import cKDTree
 
+from dobwind.calpoints import POINT_KEYS, PointsReducer
+from dobwind.dragfit import median_step
 from dobwind.envelope import calibration_envelope, uncertainty_table
 from dobwind.errors import CheckFailed, InputError
 from dobwind.logs import TRUTH_BOUNDS, TRUTH_COLUMNS, FlightLog, heading_yaw, read_log, required_columns, step_inputs
@@ -32,10 +35,7 @@ from dobwind.model.status import accepted
 from dobwind.model.step import StepModel
 from dobwind.model.terms import parse_term
 
-CHUNK_S = 2.0
 ZERO_AIRFLOW_MPS = 0.3
-YAW_RATE_CHANGE_DEG_S = 2.0
-AIRFLOW_CHANGE_MPS2 = 0.25
 MIN_POINTS = 8
 FOLDS = 5
 EXTRAPOLATION_SHARE = 0.9
@@ -110,13 +110,6 @@ def _term_matrix(terms: list[str], m: np.ndarray, n: np.ndarray, fz: np.ndarray)
     return forceair.term_matrix([parse_term(t) for t in terms], m, n, fz)
 
 
-def _moving_mean(x: np.ndarray, window: int) -> np.ndarray:
-    # np.convolve "same" returns max(len(x), window) rows: a log shorter than the window must not grow.
-    window = max(1, min(window, len(x)))
-    kernel = np.ones(window) / window
-    return np.column_stack([np.convolve(x[:, i], kernel, mode="same") for i in range(x.shape[1])])
-
-
 def read_calibration_logs(af: Airframe, log_paths: list[str], still_air: bool = False) -> list[FlightLog]:
     """Logs with the true wind; ``still_air``: logs flown in still air, whose wind columns may be absent
     (taken as zero: the relative airflow is minus the ground velocity)."""
@@ -186,44 +179,38 @@ def calibration_points(af: Airframe, logs: list[FlightLog], dynamic: bool = Fals
     chunks: list[dict[str, float]] = []
     group_base = 0
     for log, force, v_filt, status in zip(logs, run.force_ned, run.v_filt, run.status):
-        t = log.time_s
-        q = log.stack("q_w", "q_x", "q_y", "q_z")
-        yaw = heading_yaw(log, q)
-        c, s = np.cos(yaw), np.sin(yaw)
-        f_c = np.column_stack(forceair.heading_force(force.T, c, s, (0.0, 0.0, 0.0)))
-        # The estimator adds the ground velocity after the observer and low-pass (delay matching), so
-        # the truth it should reproduce is the true wind minus that same delayed velocity.
-        rel = log.true_wind - v_filt
-        rel_c = np.column_stack(forceair.heading_force(rel.T, c, s, (0.0, 0.0, 0.0)))
-        dt = float(np.median(np.diff(t))) if len(t) > 1 else af.observer.sample_time_s
-        # Smoothed over the settling time: turbulence must not count as a change, a wind step must.
-        smooth = _moving_mean(rel_c, int(round(max(settle, 3.0) / dt)))
-        airflow_rate = np.r_[0.0, np.linalg.norm(np.diff(smooth, axis=0), axis=1) / np.diff(t)]
-        # Smoothed over a second: attitude noise on a real log is several deg/s sample to sample.
-        smooth_yaw = _moving_mean(np.unwrap(yaw)[:, None], int(round(1.0 / dt)))[:, 0]
-        yaw_rate = np.r_[0.0, np.degrees(np.abs(np.diff(smooth_yaw))) / np.diff(t)]
-        change = (yaw_rate > YAW_RATE_CHANGE_DEG_S) | ~accepted(status)
-        if not dynamic:
-            change |= airflow_rate > AIRFLOW_CHANGE_MPS2
-        change[0] = True
-        last_change = np.maximum.accumulate(np.where(change, t, -np.inf))
-        steady = (t - last_change) >= settle
-        run_id = np.cumsum(change)
-        for run in np.unique(run_id[steady]):
-            idx = np.flatnonzero(steady & (run_id == run))
-            bounds = np.arange(t[idx[0]], t[idx[-1]] + 1e-9, CHUNK_S / 2 if dynamic else CHUNK_S)
-            for a, b in zip(bounds[:-1], bounds[1:]):
-                sel = idx[(t[idx] >= a) & (t[idx] < b)]
-                if len(sel) < 5:
-                    continue
-                fm, rm = f_c[sel].mean(axis=0), rel_c[sel].mean(axis=0)
-                chunks.append({"m": fm[0], "n": fm[1], "fz": fm[2], "speed_h": math.hypot(rm[0], rm[1]),
-                               "air_z": rm[2], "air_angle": math.atan2(rm[1], rm[0]), "group": group_base + run})
-        group_base += int(run_id[-1]) + 1
+        reducer = PointsReducer(settle, median_step(log.time_s, af), log.rows, dynamic, group_base)
+        reducer.add(*heading_rows(log, force, v_filt, status))
+        log_chunks, group_base = reducer.finish()
+        chunks += log_chunks
     if not chunks:
-        raise CheckFailed("no steady calibration data in the logs (holds must last longer than "
-                          f"{settle:.1f} s after each yaw or wind change)")
-    return Points(*(np.array([ch[k] for ch in chunks]) for k in ("m", "n", "fz", "speed_h", "air_z", "air_angle", "group"))), settle
+        raise CheckFailed(no_steady_data(settle))
+    return points_from(chunks), settle
+
+
+def no_steady_data(settle_s: float) -> str:
+    return (f"no steady calibration data in the logs (holds must last longer than {settle_s:.1f} s after each yaw "
+            "or wind change)")
+
+
+def points_from(chunks: list[dict[str, float]]) -> Points:
+    """Points from chunk means (calpoints.PointsReducer's), in their order."""
+    return Points(*(np.array([ch[k] for ch in chunks]) for k in POINT_KEYS))
+
+
+def heading_rows(log: FlightLog, force: np.ndarray, v_filt: np.ndarray,
+                 status: np.ndarray) -> tuple[np.ndarray, ...]:
+    """What the cleaning reads of a log's rows: time, heading-frame force and true relative airflow,
+    yaw and the step's acceptance."""
+    q = log.stack("q_w", "q_x", "q_y", "q_z")
+    yaw = heading_yaw(log, q)
+    c, s = np.cos(yaw), np.sin(yaw)
+    f_c = np.column_stack(forceair.heading_force(force.T, c, s, (0.0, 0.0, 0.0)))
+    # The estimator adds the ground velocity after the observer and low-pass (delay matching), so
+    # the truth it should reproduce is the true wind minus that same delayed velocity.
+    rel = log.true_wind - v_filt
+    rel_c = np.column_stack(forceair.heading_force(rel.T, c, s, (0.0, 0.0, 0.0)))
+    return log.time_s, f_c, rel_c, yaw, accepted(status)
 
 
 def remove_outliers(points: Points, k: int = 8) -> tuple[Points, int]:
@@ -344,12 +331,17 @@ def _zero_airflow(points: Points) -> np.ndarray:
     return (points.speed_h < ZERO_AIRFLOW_MPS) & (np.abs(points.air_z) < ZERO_AIRFLOW_MPS)
 
 
+PointsOf = Callable[[Airframe], tuple[Points, float]]  # an airframe -> calibration_points over the logs
+
+
 def fit_polynomial(af: Airframe, logs: list[FlightLog], terms: str = "auto", dynamic: bool = False,
-                   run: CalibrationRun | None = None) -> tuple[Airframe, FitReport, Points]:
+                   run: CalibrationRun | None = None, points_of: PointsOf | None = None) -> tuple[Airframe, FitReport, Points]:
     """The paper's family from steady chunks (or manoeuvres with ``dynamic``); ``run``: the calibration
-    run of ``af`` over ``logs``, when already made."""
+    run of ``af`` over ``logs``, when already made; ``points_of``: calibration_points of any airframe over
+    the logs, made another way (then ``logs`` is not read)."""
     report = FitReport()
-    af, points = _calibrated_points(af, logs, dynamic, report, run)
+    points_of = points_of or (lambda airframe: calibration_points(airframe, logs, dynamic, run))
+    af, points = _calibrated_points(af, points_of, report)
     h_terms = _horizontal_terms(af, points, terms, report)
     (report.horizontal_coefficients, report.horizontal_rmse_mps, report.horizontal_cv_rmse_mps,
      report.horizontal_extrapolation_rmse_mps) = _least_squares(h_terms, points, points.speed_h)
@@ -367,11 +359,10 @@ def fit_polynomial(af: Airframe, logs: list[FlightLog], terms: str = "auto", dyn
     return new, report, points
 
 
-def _calibrated_points(af: Airframe, logs: list[FlightLog], dynamic: bool, report: FitReport,
-                       run: CalibrationRun | None = None) -> tuple[Airframe, Points]:
+def _calibrated_points(af: Airframe, points_of: PointsOf, report: FitReport) -> tuple[Airframe, Points]:
     """The thrust scale and the force offset from zero-airflow data, then the cleaned calibration points
     with the offset removed. Returns the airframe with the new thrust scale."""
-    raw, _ = calibration_points(af, logs, dynamic, run)
+    raw, _ = points_of(af)
     zero = _zero_airflow(raw)
     report.zero_airflow_points = int(zero.sum())
     if zero.sum() >= 3:
@@ -381,7 +372,7 @@ def _calibrated_points(af: Airframe, logs: list[FlightLog], dynamic: bool, repor
         weight = af.mass_kg * af.gravity_mps2
         scale = af.thrust.scale * weight / (weight + float(raw.fz[zero].mean()))
         af = dataclasses.replace(af, thrust=dataclasses.replace(af.thrust, scale=scale))
-        raw, _ = calibration_points(af, logs, dynamic)
+        raw, _ = points_of(af)
         zero = _zero_airflow(raw)
     else:
         report.warnings.append("no zero-airflow data: the thrust scale is kept from the airframe")

@@ -4,19 +4,21 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from dataclasses import dataclass
 from typing import Any, Callable
 
 import numpy as np
 
-from dobwind import dragfit, holdcv
-from dobwind.hovernoise import HoverNoise, quieter_schedule
+from dobwind import calstream, dragfit, holdcv
+from dobwind.csvchunks import BLOCK_BYTES
 from dobwind.envelope import calibration_envelope, uncertainty_table, with_observer_noise
 from dobwind.errors import CheckFailed
-from dobwind.fit import CalibrationRun, FitReport, Points, calibration_run, fit_polynomial, read_calibration_logs
-from dobwind.logs import FlightLog, heading_yaw
+from dobwind.hovernoise import HoverNoise, quieter_schedule
+from dobwind.fit import (CalibrationRun, FitReport, Points, PointsOf, calibration_points, calibration_run, fit_polynomial,
+                         no_steady_data, points_from, read_calibration_logs)
+from dobwind.logs import FlightLog
 from dobwind.model.airframe import Airframe, ForceAirModel
-from dobwind.model.status import accepted
-from dobwind.selfcheck import SelfCheck, Thresholds, self_check
+from dobwind.selfcheck import SelfCheck, Thresholds, self_check, self_check_sources
 
 MODELS = ("auto", "drag", "drag-heading", "drag-body", "polynomial")
 # --model -> the drag-law frames it fits (both drag frames are scored alike and the better one is kept).
@@ -32,23 +34,12 @@ def drag_samples(af: Airframe, logs: list[FlightLog], frames: tuple[str, ...] = 
     over ``logs``, when already made."""
     run = run if run is not None and run.serves(af, logs) else calibration_run(af, logs)
     cal, model = run.airframe, run.model
-    settle = model.settling_time_s
-    cutoff = cal.filter.cutoffs_hz[0]
     parts: dict[str, list] = {frame: [] for frame in frames}
     for log, force, status in zip(logs, run.force_ned, run.status):
-        t = log.time_s
-        q = log.stack("q_w", "q_x", "q_y", "q_z")
-        yaw = heading_yaw(log, q)
-        rejected = ~accepted(status)
-        rejected[0] = True
-        last_reject = np.maximum.accumulate(np.where(rejected, t, -np.inf))
-        usable = ~rejected & (t - last_reject >= settle)
-        airflow = log.true_wind - log.stack("vel_n", "vel_e", "vel_d")
-        rpm = log.stack(*[f"rpm_{i + 1}" for i in range(af.thrust.rotors)]) if af.thrust.source == "rpm" else None
-        thrust = dragfit.thrust_ned(cal, rpm, log.columns.get("thrust"), q)
+        reducer = calstream.DragReducer(cal, model.settling_time_s, dragfit.median_step(log.time_s, cal), frames)
+        reducer.add(log, force, status)
         for frame in frames:
-            parts[frame].append(dragfit.log_samples(cal, cutoff, t, force, airflow, thrust, yaw, usable, frame, q,
-                                                    log.columns.get("segment")))
+            parts[frame].append(reducer.result(frame))
     counts = [len(p["time"]) for p in parts[frames[0]]]
     return {frame: dragfit.merge(parts[frame], frame) for frame in frames}, counts
 
@@ -99,19 +90,70 @@ def _polynomial_scores(fitted: Airframe, samples: dragfit.DragSamples) -> dict[s
                           holdcv.hold_cv(samples, fit_predict))
 
 
+@dataclass(frozen=True)
+class _Calibration:
+    """What the fit reads of its logs, however they were read: each drag-law frame's merged samples, the
+    samples per log, the polynomial family's points of any airframe, and the self-check's replay."""
+    by_frame: dict[str, dragfit.DragSamples]
+    per_log: list[int]
+    points_of: PointsOf
+    check: Callable[[Airframe, float | None, float, Thresholds], SelfCheck]
+
+
+def _whole_logs(af: Airframe, log_paths: list[str], frames: tuple[str, ...], dynamic: bool,
+                still_air: bool) -> _Calibration:
+    """Every log read whole and reduced in one block (the reference the streamed fit is held to)."""
+    logs = read_calibration_logs(af, log_paths, still_air)
+    run = calibration_run(af, logs)  # one reference pass for the drag samples and the polynomial family
+    by_frame, per_log = drag_samples(af, logs, frames, run)
+    return _Calibration(by_frame, per_log, lambda airframe: calibration_points(airframe, logs, dynamic, run),
+                        lambda new, cv, speed, limits: self_check(new, logs, per_log, cv, speed, limits))
+
+
+def _streamed_logs(af: Airframe, log_paths: list[str], frames: tuple[str, ...], dynamic: bool, still_air: bool,
+                   points: bool, block_bytes: int) -> _Calibration:
+    """Every log read ``block_bytes`` at a time, once for its shape, once for the calibration step (drag
+    samples and chunk means together), again for the points of a rescaled airframe and for the
+    self-check: the numbers of _whole_logs, with nothing kept at the logs' full rate (what the fit
+    keeps, the decimated samples and chunk means, still grows with their length)."""
+    sources = calstream.calibration_sources(af, log_paths, still_air, block_bytes)
+    shapes = [calstream.log_shape(source, af) for source in sources]
+    first = calstream.reduce_logs(af, sources, shapes, frames, dynamic, points)
+    per_log = [len(part["time"]) for part in first.samples[frames[0]]]
+    by_frame = {frame: dragfit.merge(first.samples.pop(frame), frame) for frame in frames}  # one copy kept
+    chunks = {af: (first.chunks, first.settle_s)}
+
+    def points_of(airframe: Airframe) -> tuple[Points, float]:
+        if airframe not in chunks:
+            reduced = calstream.reduce_logs(airframe, sources, shapes, (), dynamic, True)
+            chunks[airframe] = (reduced.chunks, reduced.settle_s)
+        found, settle = chunks[airframe]
+        if not found:
+            raise CheckFailed(no_steady_data(settle))
+        return points_from(found), settle
+
+    return _Calibration(by_frame, per_log, points_of, lambda new, cv, speed, limits: self_check_sources(
+        new, sources, shapes, per_log, cv, speed, limits))
+
+
 def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynamic: bool = False,
                  model: str = "auto", still_air: bool = False, limits: Thresholds = Thresholds(),
+                 block_bytes: int | None = BLOCK_BYTES,
                  hover: HoverNoise = HoverNoise()) -> tuple[Airframe, FitReport, Points | None]:
     """Both families fitted and scored, the better one chosen, then the self-check (report.self_check;
     the caller refuses to write a model that failed it unless forced), and the low-pass at zero airflow
-    lowered when the noise there is above ``hover.target_mps`` (dobwind/hovernoise.py)."""
-    logs = read_calibration_logs(af, log_paths, still_air)
+    lowered when the noise there is above ``hover.target_mps`` (dobwind/hovernoise.py). The logs are
+    read ``block_bytes`` at a time (None: each whole, in memory; the same airframe)."""
+    frames = DRAG_FRAMES_OF[model]
+    if block_bytes is None:
+        calibration = _whole_logs(af, log_paths, frames or ("heading",), dynamic, still_air)
+    else:
+        calibration = _streamed_logs(af, log_paths, frames or ("heading",), dynamic, still_air,
+                                     model in ("polynomial", "auto"), block_bytes)
+    by_frame, per_log = calibration.by_frame, calibration.per_log
     families: dict[str, tuple[Airframe, FitReport, Points | None]] = {}
     scores: dict[str, dict[str, Any]] = {}
     failures: list[str] = []
-    frames = DRAG_FRAMES_OF[model]
-    run = calibration_run(af, logs)  # one reference pass for the drag samples and the polynomial family
-    by_frame, per_log = drag_samples(af, logs, frames or ("heading",), run)
     samples = by_frame.get("heading", next(iter(by_frame.values())))
     for frame in frames:
         family = FAMILY_OF_FRAME[frame]
@@ -125,7 +167,7 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynami
                                         holdcv.hold_cv(by_frame[frame], dragfit.drag_fit_predict(choice.active)))
     if model in ("polynomial", "auto"):
         try:
-            fitted, report, points = fit_polynomial(af, logs, terms, dynamic, run)
+            fitted, report, points = fit_polynomial(af, [], terms, dynamic, points_of=calibration.points_of)
             families["polynomial"] = (fitted, report, points)
             scores["polynomial"] = _polynomial_scores(fitted, samples) if len(samples) >= 100 else {}
         except CheckFailed as exc:
@@ -143,9 +185,9 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynami
             report.warnings.append(f"{log_paths[index]}: contributed no usable sample")
     speed_range = _speed_range(samples, points)
     cv = report.hold_cv_speed_mps if report.hold_cv_speed_mps is not None else report.horizontal_cv_rmse_mps
-    check = self_check(new, logs, per_log, cv, speed_range, limits)
+    check = calibration.check(new, cv, speed_range, limits)
     new, check, report.low_pass, quiet_warnings = _quiet_hover(
-        new, check, hover, lambda af_: self_check(af_, logs, per_log, cv, speed_range, limits))
+        new, check, hover, lambda af_: calibration.check(af_, cv, speed_range, limits))
     report.warnings += quiet_warnings
     report.self_check = dataclasses.asdict(check)
     # The self-check's replay measured the observer noise; the sigma outputs add it to the residuals (#10).

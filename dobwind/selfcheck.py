@@ -20,9 +20,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from dobwind import dragfit
-from dobwind.envelope import observer_noise, pooled_noise
+from dobwind.calstream import LogShape, LogSource, memory_source
+from dobwind.envelope import pooled_noise, pooled_scatter, segment_scatter
 from dobwind.harness.build import system_compiler
-from dobwind.harness.cstep import compile_step
+from dobwind.harness.cstep import CStep, compile_step
 from dobwind.logs import FlightLog, step_inputs
 from dobwind.model import reference
 from dobwind.model.airframe import Airframe
@@ -79,20 +80,6 @@ class SelfCheck:
     still_noise_mps: float | None = None  # per-axis horizontal noise at low airflow (None: no such segment)
 
 
-def matched_truth(af: Airframe, log: FlightLog, wind_est: np.ndarray) -> np.ndarray:
-    """The true wind through H, the response the estimate went through (delay matching)."""
-    truth = np.nan_to_num(log.true_wind)
-    t = log.time_s
-    dt = float(np.median(np.diff(t))) if len(t) > 1 else af.observer.sample_time_s
-    speed = float(np.median(np.hypot(wind_est[:, 0], wind_est[:, 1]))) if len(wind_est) else 0.0
-    cutoff = float(np.interp(speed, af.filter.speeds_mps, af.filter.cutoffs_hz))
-    out = np.empty_like(truth)
-    for axis in range(3):
-        b, a = dragfit.observer_filter(af, dt, cutoff, axis)
-        out[:, axis] = dragfit._filtered(b, a, truth[:, axis])
-    return out
-
-
 def _wrap_deg(a: float) -> float:
     return (a + 180.0) % 360.0 - 180.0
 
@@ -109,67 +96,159 @@ def _segment_row(label: int, est: np.ndarray, true: np.ndarray) -> dict:
             "points": int(len(est))}
 
 
-def _segment_labels(log: FlightLog) -> np.ndarray:
+def _compiled(model: StepModel) -> CStep | None:
+    """The compiled double-precision step when a C compiler is found: `verify` holds it to the
+    reference bit for bit, and for a fitted body-frame law (about 1,700 instructions a step) it runs the
+    250 Hz hour in 1.2 s with its compilation against the reference's 4.3 s. None without a compiler,
+    or if the build fails (the reference is run instead)."""
+    if shutil.which(system_compiler()) is None:
+        return None
+    try:
+        return compile_step(model, "double")
+    except (CheckFailed, OSError):
+        return None
+
+
+class _WindRun:
+    """The step (compiled, else the reference) over one log's consecutive blocks, its state carried:
+    (wind rows, status) of each block, the numbers of one pass."""
+
+    def __init__(self, model: StepModel, step: CStep | None) -> None:
+        self.model, self.step, self.wind = model, step, model.outputs.slice("wind_ned")
+        self.rolled = reference.rolled_step(model) if step is None else None
+        self.state = step.initial_state() if step is not None else None
+        self.previous_t: float | None = None
+
+    def run(self, log: FlightLog) -> tuple[np.ndarray, np.ndarray]:
+        inputs = step_inputs(self.model, log, self.previous_t)
+        self.previous_t = float(log.time_s[-1])
+        if self.step is not None:
+            traj = self.step.run(inputs, self.state, keep_states=False)
+            wind = traj.outputs[:, self.wind]
+        else:
+            traj = reference.run_columns(self.model, inputs, slice(None), self.wind, self.state, self.rolled)
+            wind = traj.outputs
+        self.state = traj.states[-1].copy()
+        return wind, traj.status
+
+
+def _segment_labels(log: FlightLog, t0: float) -> np.ndarray:
     if log.has("segment"):
         return log.columns["segment"].astype(np.int64)
-    t = log.time_s
-    return np.floor((t - t[0]) / WINDOW_S).astype(np.int64)
+    return np.floor((log.time_s - t0) / WINDOW_S).astype(np.int64)
 
 
-def _wind_run(model: StepModel, inputs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(wind rows, status) of the step over one log. The compiled double-precision step when a C
-    compiler is found: `verify` holds it to the reference bit for bit, and for a fitted body-frame law
-    (about 1,700 instructions a step) it runs the 250 Hz hour in 1.2 s with its compilation against
-    the reference's 4.3 s. Without a compiler, or if the build fails, the reference itself."""
-    wind = model.outputs.slice("wind_ned")
-    if shutil.which(system_compiler()) is not None:
-        try:
-            step = compile_step(model, "double")
-        except (CheckFailed, OSError):
-            step = None
-        if step is not None:
-            traj = step.run(inputs, step.initial_state(), keep_states=False)
-            return traj.outputs[:, wind], traj.status
-    traj = reference.run_columns(model, inputs, slice(0, 0), wind)
-    return traj.outputs, traj.status
+# A scored segment: its row, the scatter of its speed and vertical errors, and (at low airflow only) of
+# its north and east errors.
+_Scored = tuple[dict, tuple[float, int], tuple[float, int], list[tuple[float, int]]]
 
 
-def check_log(af: Airframe, log: FlightLog, fit_samples: int, settle_s: float | None = None,
-              model: StepModel | None = None) -> LogCheck:
-    """One calibration log through the airframe's step (``model``, built from ``af`` when not given):
-    per-segment and per-log errors. A segment is scored from ``settle_s`` after its start (default: see
-    SEGMENT_SETTLE_S)."""
+class _Segments:
+    """Scored rows per segment label, a segment's rows dropped once it is scored: when its label
+    changes (a label seen again after that makes the caller score the log with every segment kept)."""
+
+    def __init__(self, settle_s: float, keep_all: bool) -> None:
+        self.settle, self.keep_all = settle_s, keep_all
+        self.start: dict[int, float] = {}
+        self.rows: dict[int, list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
+        self.done: dict[int, _Scored] = {}
+        self.current: int | None = None
+        self.recurred = False
+
+    def add(self, labels: np.ndarray, t: np.ndarray, usable: np.ndarray, wind: np.ndarray, truth: np.ndarray,
+            airflow_h: np.ndarray) -> None:
+        """``airflow_h``: the true horizontal airflow speed of each row."""
+        change = np.flatnonzero(np.r_[True, labels[1:] != labels[:-1]])
+        for lo, hi in zip(change, np.r_[change[1:], len(labels)]):
+            label = int(labels[lo])
+            if label != self.current and not self.keep_all:
+                self._score(self.current)
+            if label in self.done:
+                self.recurred = True
+            self.current = label
+            begun = self.start.setdefault(label, float(t[lo]))
+            use = np.flatnonzero(usable[lo:hi] & (t[lo:hi] >= begun + self.settle)) + lo
+            self.rows.setdefault(label, []).append((wind[use], truth[use], airflow_h[use]))
+
+    def finish(self) -> list[_Scored]:
+        """Per scored segment in label order: its row, and its speed and vertical error scatter."""
+        for label in list(self.rows):
+            self._score(label)
+        return [self.done[label] for label in sorted(self.done)]
+
+    def _score(self, label: int | None) -> None:
+        pieces = self.rows.pop(label, None)
+        if pieces is None:
+            return
+        wind, truth, airflow_h = (np.concatenate([p[i] for p in pieces]) for i in (0, 1, 2))
+        if len(wind) >= MIN_SEGMENT_POINTS:
+            errors_h = np.hypot(wind[:, 0], wind[:, 1]) - np.hypot(truth[:, 0], truth[:, 1])
+            errors_up = truth[:, 2] - wind[:, 2]  # NED down: up is its negative
+            row = _segment_row(label, wind, truth)
+            still = ([segment_scatter(wind[:, 0] - truth[:, 0]), segment_scatter(wind[:, 1] - truth[:, 1])]
+                     if max(float(np.mean(airflow_h)), row["true_speed_mps"]) < STILL_AIRFLOW_MPS else [])
+            self.done[label] = (row, segment_scatter(errors_h), segment_scatter(errors_up), still)
+
+
+def _median_speed(model: StepModel, step: CStep | None, source: LogSource) -> float:
+    """The median estimated horizontal wind speed over the log (a first pass: it sets the cutoff of the
+    truth's delay matching). Its speeds are kept for the median only, 8 bytes a row."""
+    run = _WindRun(model, step)
+    speeds = [np.hypot(wind[:, 0], wind[:, 1]) for wind, _ in (run.run(block) for block in source.blocks())]
+    speed = np.concatenate(speeds)
+    return float(np.median(speed)) if len(speed) else 0.0
+
+
+def check_source(af: Airframe, source: LogSource, shape: LogShape, fit_samples: int, settle_s: float | None = None,
+                 model: StepModel | None = None, keep_all: bool = False) -> LogCheck:
+    """check_log over a log read a block at a time (two passes: the median speed, then the scores)."""
     model = model if model is not None else build_step(af)
     settle = settle_s if settle_s is not None else min(SEGMENT_SETTLE_S, model.settling_time_s)
-    wind, status = _wind_run(model, step_inputs(model, log))
-    truth = matched_truth(af, log, wind)
-    t = log.time_s
-    usable = accepted(status) & (t >= t[0] + WARMUP_S) & np.isfinite(log.true_wind).all(axis=1)
-    labels = _segment_labels(log)
-    order = np.argsort(labels, kind="stable")
-    values, first = np.unique(labels[order], return_index=True)
-    airflow_h = np.hypot(*(log.true_wind[:, :2] - log.stack("vel_n", "vel_e")).T)
-    rows, errors_h, errors_up, errors_still = [], [], [], []
-    for label, lo, hi in zip(values, first, np.r_[first[1:], len(order)]):
-        members = order[lo:hi]
-        use = members[usable[members] & (t[members] >= t[members[0]] + settle)]
-        if use.size >= MIN_SEGMENT_POINTS:
-            rows.append(_segment_row(int(label), wind[use], truth[use]))
-            errors_h.append(np.hypot(wind[use, 0], wind[use, 1]) - np.hypot(truth[use, 0], truth[use, 1]))
-            errors_up.append(truth[use, 2] - wind[use, 2])  # NED down: up is its negative
-            if max(np.mean(airflow_h[use]), rows[-1]["true_speed_mps"]) < STILL_AIRFLOW_MPS:
-                errors_still += [wind[use, 0] - truth[use, 0], wind[use, 1] - truth[use, 1]]
-    check = LogCheck(log.path, log.rows, fit_samples, int(sum(r["points"] for r in rows)), rows)
-    (check.noise_h_mps, check.noise_dof), (check.noise_up_mps, _) = observer_noise(errors_h), observer_noise(errors_up)
-    check.still_noise_mps, check.still_dof = observer_noise(errors_still)
-    if rows:
-        speed = np.array([r["speed_error_mps"] for r in rows])
+    step = _compiled(model)
+    cutoff = float(np.interp(_median_speed(model, step, source), af.filter.speeds_mps, af.filter.cutoffs_hz))
+    filters = [dragfit._BlockFilter(*dragfit.observer_filter(af, shape.dt_s, cutoff, axis)) for axis in range(3)]
+    run, segments, t0 = _WindRun(model, step), _Segments(settle, keep_all), None
+    for log in source.blocks():
+        wind, status = run.run(log)
+        true_wind = log.true_wind
+        truth = np.empty_like(true_wind)
+        for axis in range(3):  # the true wind through H, the response the estimate went through
+            truth[:, axis] = filters[axis](np.nan_to_num(true_wind)[:, axis])
+        t = log.time_s
+        t0 = float(t[0]) if t0 is None else t0
+        usable = accepted(status) & (t >= t0 + WARMUP_S) & np.isfinite(true_wind).all(axis=1)
+        airflow_h = np.hypot(*(true_wind[:, :2] - log.stack("vel_n", "vel_e")).T)
+        segments.add(_segment_labels(log, t0), t, usable, wind, truth, airflow_h)
+        if segments.recurred and not keep_all:
+            return check_source(af, source, shape, fit_samples, settle_s, model, keep_all=True)
+    return _log_check(source.path, shape.rows, fit_samples, segments.finish())
+
+
+def _log_check(path: str, rows: int, fit_samples: int,
+               scored: list[_Scored]) -> LogCheck:
+    segment_rows = [row for row, _, _, _ in scored]
+    check = LogCheck(path, rows, fit_samples, int(sum(r["points"] for r in segment_rows)), segment_rows)
+    check.noise_h_mps, check.noise_dof = pooled_scatter([h for _, h, _, _ in scored])
+    check.noise_up_mps, _ = pooled_scatter([up for _, _, up, _ in scored])
+    check.still_noise_mps, check.still_dof = pooled_scatter([axis for _, _, _, still in scored for axis in still])
+    if segment_rows:
+        speed = np.array([r["speed_error_mps"] for r in segment_rows])
         check.speed_rms_mps = float(np.sqrt(np.mean(speed ** 2)))
         check.speed_max_mps = float(np.max(np.abs(speed)))
-        dirs = [r["direction_error_deg"] for r in rows if r["direction_error_deg"] is not None]
+        dirs = [r["direction_error_deg"] for r in segment_rows if r["direction_error_deg"] is not None]
         check.direction_mean_deg = float(np.mean(dirs)) if dirs else None
         check.direction_max_deg = float(np.max(dirs)) if dirs else None
     return check
+
+
+def check_log(af: Airframe, log: FlightLog, fit_samples: int, settle_s: float | None = None,
+              model: StepModel | None = None, block_rows: int | None = None) -> LogCheck:
+    """One calibration log through the airframe's step (``model``, built from ``af`` when not given):
+    per-segment and per-log errors. A segment is scored from ``settle_s`` after its start (default: see
+    SEGMENT_SETTLE_S). ``block_rows``: the log is run and scored that many rows at a time (the same
+    figures)."""
+    shape = LogShape(log.rows, dragfit.median_step(log.time_s, af))
+    return check_source(af, memory_source(log, block_rows or log.rows), shape, fit_samples, settle_s, model)
 
 
 def coefficients(af: Airframe) -> dict[str, float]:
@@ -223,6 +302,15 @@ def self_check(af: Airframe, logs: list[FlightLog], fit_samples: list[int], cv_m
     """Replay every calibration log through ``af`` and judge the fit (see the module docstring)."""
     model = build_step(af)
     checks = [check_log(af, log, count, model=model) for log, count in zip(logs, fit_samples)]
+    return verdict(af, checks, cv_mps, speed_range_mps, limits)
+
+
+def self_check_sources(af: Airframe, sources: list[LogSource], shapes: list[LogShape], fit_samples: list[int],
+                       cv_mps: float | None, speed_range_mps: float, limits: Thresholds = Thresholds()) -> SelfCheck:
+    """self_check over logs read a block at a time."""
+    model = build_step(af)
+    checks = [check_source(af, source, shape, count, model=model)
+              for source, shape, count in zip(sources, shapes, fit_samples)]
     return verdict(af, checks, cv_mps, speed_range_mps, limits)
 
 

@@ -9,7 +9,9 @@ all cases alike, and reports median wall times and each case's peak resident mem
 ``--before PYTHON`` also runs every replay case with another interpreter (a virtual environment of an
 earlier checkout), interleaved with these, for before/after ratios from one run.
 ``--simulate`` also reports the peak memory of ``dobwind simulate`` writing the 1 h and the 4 h log (one
-run each: memory, not time, is its goal).
+run each: memory, not time, is its goal). ``--fit`` also reports the peak memory and wall time of ``dobwind
+fit`` on a 1 h and a 4 h sweep of the px4quad benchmark vehicle at 100 Hz (one run each), and ``--no-replay``
+skips the replay cases (for ``--simulate`` or ``--fit`` alone).
 """
 from __future__ import annotations
 
@@ -23,6 +25,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 AIRFRAME = Path(__file__).resolve().parents[1] / "airframes" / "m300.toml"
+FIT_VEHICLE = Path(__file__).resolve().parents[1] / "benchmarks" / "vehicles" / "px4quad"
+FIT_SEED = "11"
 SWEEP_HOLDS = 324            # the sweep scenario's holds: --hold = duration / 324
 GOAL_TIME_RATIO = 1.5
 GOAL_PEAK_MB = 300.0
@@ -115,6 +119,34 @@ def simulate_report(peaks: dict[str, float]) -> str:
             f"(goal <= {GOAL_4H_PEAK_RATIO})")
 
 
+def _fit_log(work: Path, hours: int) -> Path:
+    """The px4quad sweep of ``hours`` at 100 Hz (its true vehicle, not the airframe's own drag)."""
+    path = work / f"px4quad_sweep_{hours}h_100hz.csv"
+    if not path.exists():
+        hold = f"{hours * 3600 / SWEEP_HOLDS:.6f}"
+        subprocess.run(_dobwind("simulate", "sweep", "--airframe", f"{FIT_VEHICLE}.airframe.toml", "--vehicle",
+                                f"{FIT_VEHICLE}.vehicle.toml", "--seed", FIT_SEED, "--rate", "100", "--hold", hold,
+                                "-o", str(path)), check=True, stdout=subprocess.DEVNULL)
+    return path
+
+
+def fit_peaks(work: Path) -> dict[str, tuple[float, float]]:
+    """(wall s, peak resident MB) of `dobwind fit` on the 1 h and the 4 h px4quad sweep."""
+    work.mkdir(parents=True, exist_ok=True)
+    results = {}
+    for hours in (1, 4):
+        out = work / f"fit_{hours}h.toml"
+        results[f"{hours} h"] = _measure(_dobwind("fit", f"{FIT_VEHICLE}.airframe.toml", str(_fit_log(work, hours)),
+                                                  "-o", str(out), "--plot", str(work / f"fit_{hours}h.png")))
+    return results
+
+
+def fit_report(results: dict[str, tuple[float, float]]) -> str:
+    (one_s, one), (four_s, four) = results["1 h"], results["4 h"]
+    return (f"fit (px4quad sweep, 100 Hz): 1 h {one:.0f} MB in {one_s:.1f} s, 4 h {four:.0f} MB in {four_s:.1f} s; "
+            f"4 h / 1 h peak {four / one:.2f} (goal <= {GOAL_4H_PEAK_RATIO})")
+
+
 def report(results: dict[str, tuple[float, float]]) -> str:
     lines = ["| case | median s | vs csv.reader | peak MB |", "|---|---:|---:|---:|"]
     for label, (wall, peak) in results.items():
@@ -139,10 +171,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-4h", action="store_true", help="skip the 4 h log (its simulation takes minutes)")
     parser.add_argument("--before", metavar="PYTHON", help="also run the replay cases with this interpreter, interleaved")
     parser.add_argument("--simulate", action="store_true", help="also the peak memory of simulate (1 h and 4 h)")
+    parser.add_argument("--fit", action="store_true", help="also the peak memory of fit (1 h and 4 h)")
+    parser.add_argument("--no-replay", action="store_true", help="skip the replay cases")
     args = parser.parse_args(argv)
-    print(report(run(args.rounds, args.work, not args.no_4h, args.before)))
+    if not args.no_replay:
+        print(report(run(args.rounds, args.work, not args.no_4h, args.before)))
     if args.simulate:
         print(simulate_report(simulate_peaks(args.work)))
+    if args.fit:
+        print(fit_report(fit_peaks(args.work)))
     return 0
 
 

@@ -193,9 +193,21 @@ def test_the_noise_at_low_airflow_comes_from_segments_slow_in_both_airflow_and_w
     sigma = np.repeat([0.2, 0.02, 0.02, 0.02], n)
     noise = np.random.default_rng(3).normal(size=(len(t), 3)) * sigma[:, None]
     estimate = np.column_stack([wind_n, zero, zero]) + noise
-    monkeypatch.setattr(selfcheck, "step_inputs", lambda model, log_: None)
-    monkeypatch.setattr(selfcheck, "_wind_run", lambda model, inputs: (estimate, np.zeros(len(t), dtype=np.int64)))
-    check = selfcheck.check_log(make_airframe(), log, 100, settle_s=5.0)
-    assert len(check.segments) == 4
-    assert check.still_noise_mps == pytest.approx(0.2, rel=0.06)
-    assert check.still_dof == 2 * (n - int(5.0 * rate) - 1)
+
+    class Estimate:
+        """The step's stand-in: each block's rows of ``estimate``, status 0."""
+        def __init__(self, model, step):
+            pass
+
+        def run(self, block):
+            rows = np.searchsorted(t, block.time_s)
+            return estimate[rows], np.zeros(len(rows), dtype=np.int64)
+
+    monkeypatch.setattr(selfcheck, "_WindRun", Estimate)
+    whole = selfcheck.check_log(make_airframe(), log, 100, settle_s=5.0)
+    assert len(whole.segments) == 4
+    assert whole.still_noise_mps == pytest.approx(0.2, rel=0.06)
+    assert whole.still_dof == 2 * (n - int(5.0 * rate) - 1)
+    # Read 70 rows at a time (segments end inside blocks): the same figure.
+    blocks = selfcheck.check_log(make_airframe(), log, 100, settle_s=5.0, block_rows=70)
+    assert (blocks.still_noise_mps, blocks.still_dof) == (whole.still_noise_mps, whole.still_dof)
