@@ -82,6 +82,11 @@ class LogShape:
     dt_s: float   # median sample time (dragfit.median_step)
 
 
+def sample_rate_hz(shapes: list[LogShape]) -> float:
+    """The drag samples' rate for these logs (dragfit.sample_rate_hz of their whole duration)."""
+    return dragfit.sample_rate_hz(sum(shape.rows * shape.dt_s for shape in shapes))
+
+
 def log_shape(source: LogSource, af: Airframe) -> LogShape:
     """A first pass over the log (it also raises any input error before the fit starts). Its times are
     kept for the median only: 8 bytes a row, freed before the fit's larger arrays are made."""
@@ -110,9 +115,11 @@ class DragReducer:
     """fitfamily.drag_samples for one log, block by block: the step's rejections carried (a row is
     usable a settling time after the last one) and one LogSampler per drag-law frame."""
 
-    def __init__(self, cal: Airframe, settle_s: float, dt_s: float, frames: tuple[str, ...]) -> None:
+    def __init__(self, cal: Airframe, settle_s: float, dt_s: float, frames: tuple[str, ...],
+                 rate_hz: float = dragfit.DECIMATED_RATE_HZ) -> None:
         self.cal, self.settle = cal, settle_s
-        self.samplers = {frame: dragfit.LogSampler(cal, cal.filter.cutoffs_hz[0], dt_s, frame) for frame in frames}
+        self.samplers = {frame: dragfit.LogSampler(cal, cal.filter.cutoffs_hz[0], dt_s, frame, rate_hz=rate_hz)
+                         for frame in frames}
         self.last_reject: float | None = None
 
     def add(self, log: FlightLog, force: np.ndarray, status: np.ndarray) -> None:
@@ -162,9 +169,10 @@ def reduce_logs(af: Airframe, sources: list[LogSource], shapes: list[LogShape], 
     samples: dict[str, list[dict[str, np.ndarray]]] = {frame: [] for frame in frames}
     chunks: list[dict[str, float]] = []
     group_base = 0
+    rate_hz = sample_rate_hz(shapes)
     for source, shape in zip(sources, shapes):
         stepper = StepStream(model)
-        drag = DragReducer(cal, model.settling_time_s, shape.dt_s, frames)
+        drag = DragReducer(cal, model.settling_time_s, shape.dt_s, frames, rate_hz)
         reducer = points_reducer(model, shape, dynamic, group_base) if points else None
         for block in source.blocks():
             traj = stepper.run(block, force_columns)

@@ -38,6 +38,10 @@ PARAMETERS = HORIZONTAL_DRAG_KEYS + ("ox", "oy") + VERTICAL_DRAG_KEYS + ("kappa"
 BODY_PARAMETERS = HORIZONTAL_DRAG_KEYS + (ROTOR_DRAG_KEY, "ox", "oy") + VERTICAL_DRAG_KEYS + ("kappa",)
 NONNEGATIVE = ("l0", "q0", "lz", "qz", ROTOR_DRAG_KEY)
 DECIMATED_RATE_HZ = 10.0
+# At most an hour of 10 Hz samples over all the calibration logs: longer calibrations are sampled
+# evenly more sparsely (sample_rate_hz), so that what the fit keeps, and the cross-validation's copies
+# of it, stop growing with the logs' length. Sixteen coefficients need far fewer samples than this.
+MAX_SAMPLES = 36_000
 BLOCK_S = 20.0          # cross-validation groups: consecutive blocks of flight
 FOLDS = 5
 TOP_SHARE = 0.85        # extrapolation test: blocks at least this share of the fastest block's speed
@@ -71,6 +75,7 @@ class DragSamples:
     rotor: np.ndarray | None = None     # (N,) sqrt(u_f / (m g)) at the sample, nominal thrust
     hold: np.ndarray | None = None      # (N,) the log's segment (a run of one `segment` label), when it has one
     hold_age_s: np.ndarray | None = None  # (N,) time since that segment started
+    rate_hz: float = DECIMATED_RATE_HZ    # the rate the samples were taken at (sample_rate_hz)
 
     @property
     def parameters(self) -> tuple[str, ...]:
@@ -80,7 +85,7 @@ class DragSamples:
         pick = lambda a: None if a is None else a[keep]
         return DragSamples(self.observed[keep], self.columns[keep], self.cos_yaw[keep], self.sin_yaw[keep],
                            self.airflow[keep], self.group[keep], self.log_index[keep], self.frame,
-                           pick(self.rotation), pick(self.rotor), pick(self.hold), pick(self.hold_age_s))
+                           pick(self.rotation), pick(self.rotor), pick(self.hold), pick(self.hold_age_s), self.rate_hz)
 
     def __len__(self) -> int:
         return len(self.observed)
@@ -173,9 +178,15 @@ class _BlockFilter:
         return out
 
 
-def sample_step(dt_s: float) -> int:
-    """Every how many rows a sample is kept (about DECIMATED_RATE_HZ)."""
-    return max(1, int(round(1.0 / (DECIMATED_RATE_HZ * dt_s))))
+def sample_rate_hz(total_s: float) -> float:
+    """The rate the drag samples are taken at from logs lasting ``total_s`` in all: DECIMATED_RATE_HZ,
+    or lower so that there are at most MAX_SAMPLES."""
+    return min(DECIMATED_RATE_HZ, MAX_SAMPLES / total_s) if total_s > 0 else DECIMATED_RATE_HZ
+
+
+def sample_step(dt_s: float, rate_hz: float = DECIMATED_RATE_HZ) -> int:
+    """Every how many rows a sample is kept (about ``rate_hz``)."""
+    return max(1, int(round(1.0 / (rate_hz * dt_s))))
 
 
 class LogSampler:
@@ -188,9 +199,9 @@ class LogSampler:
     found before the first block). Rows before the log's first valid one keep their own values."""
 
     def __init__(self, af: Airframe, cutoff_hz: float, dt_s: float, frame: str = "heading",
-                 column_rows: int = COLUMN_BLOCK_ROWS) -> None:
+                 column_rows: int = COLUMN_BLOCK_ROWS, rate_hz: float = DECIMATED_RATE_HZ) -> None:
         self.af, self.frame, self.column_rows = af, frame, column_rows
-        self.step = sample_step(dt_s)
+        self.step = sample_step(dt_s, rate_hz)
         self.filters = [(_BlockFilter(*observer_filter(af, dt_s, cutoff_hz, axis)),
                          _BlockFilter(*observer_filter(af, dt_s, cutoff_hz, axis))) for axis in range(3)]
         self.rows = 0
@@ -279,10 +290,10 @@ def median_step(t: np.ndarray, af: Airframe) -> float:
 def log_samples(af: Airframe, cutoff_hz: float, t: np.ndarray, force_ned: np.ndarray, airflow_ned: np.ndarray,
                 thrust_ned: np.ndarray, yaw: np.ndarray, usable: np.ndarray, frame: str = "heading",
                 q: np.ndarray | None = None, segment: np.ndarray | None = None,
-                block_rows: int = COLUMN_BLOCK_ROWS) -> dict[str, np.ndarray]:
+                block_rows: int = COLUMN_BLOCK_ROWS, rate_hz: float = DECIMATED_RATE_HZ) -> dict[str, np.ndarray]:
     """One whole log's samples (LogSampler.add's arguments); the full-rate columns are built and
     filtered ``block_rows`` rows at a time."""
-    sampler = LogSampler(af, cutoff_hz, median_step(t, af), frame, block_rows)
+    sampler = LogSampler(af, cutoff_hz, median_step(t, af), frame, block_rows, rate_hz)
     sampler.add(t, force_ned, airflow_ned, thrust_ned, yaw, usable, q, segment)
     return sampler.result()
 
@@ -305,7 +316,8 @@ def segment_runs(t: np.ndarray, segment: np.ndarray) -> tuple[np.ndarray, np.nda
     return np.cumsum(start) - 1, t - t[first]
 
 
-def merge(parts: list[dict[str, np.ndarray]], frame: str = "heading") -> DragSamples:
+def merge(parts: list[dict[str, np.ndarray]], frame: str = "heading",
+          rate_hz: float = DECIMATED_RATE_HZ) -> DragSamples:
     groups, offset = [], 0
     for part in parts:
         block = np.floor((part["time"] - part["time"][0]) / BLOCK_S).astype(int) if len(part["time"]) else np.zeros(0, int)
@@ -319,7 +331,7 @@ def merge(parts: list[dict[str, np.ndarray]], frame: str = "heading") -> DragSam
         if parts and all("hold" in p for p in parts) else {}
     return DragSamples(cat["observed"], cat["columns"], cat["cos_yaw"], cat["sin_yaw"], cat["airflow"],
                        np.concatenate(groups), logs, frame, body.get("rotation"), body.get("rotor"),
-                       holds.get("hold"), holds.get("hold_age_s"))
+                       holds.get("hold"), holds.get("hold_age_s"), rate_hz)
 
 
 def _normal_equations(samples: DragSamples, weights: np.ndarray | None,

@@ -35,13 +35,14 @@ def drag_samples(af: Airframe, logs: list[FlightLog], frames: tuple[str, ...] = 
     run = run if run is not None and run.serves(af, logs) else calibration_run(af, logs)
     cal, model = run.airframe, run.model
     parts: dict[str, list] = {frame: [] for frame in frames}
+    rate_hz = calstream.sample_rate_hz([calstream.LogShape(log.rows, dragfit.median_step(log.time_s, cal)) for log in logs])
     for log, force, status in zip(logs, run.force_ned, run.status):
-        reducer = calstream.DragReducer(cal, model.settling_time_s, dragfit.median_step(log.time_s, cal), frames)
+        reducer = calstream.DragReducer(cal, model.settling_time_s, dragfit.median_step(log.time_s, cal), frames, rate_hz)
         reducer.add(log, force, status)
         for frame in frames:
             parts[frame].append(reducer.result(frame))
     counts = [len(p["time"]) for p in parts[frames[0]]]
-    return {frame: dragfit.merge(parts[frame], frame) for frame in frames}, counts
+    return {frame: dragfit.merge(parts[frame], frame, rate_hz) for frame in frames}, counts
 
 
 def drag_airframe(af: Airframe, choice: dragfit.DragChoice, samples: dragfit.DragSamples) -> Airframe:
@@ -114,13 +115,15 @@ def _streamed_logs(af: Airframe, log_paths: list[str], frames: tuple[str, ...], 
                    points: bool, block_bytes: int) -> _Calibration:
     """Every log read ``block_bytes`` at a time, once for its shape, once for the calibration step (drag
     samples and chunk means together), again for the points of a rescaled airframe and for the
-    self-check: the numbers of _whole_logs, with nothing kept at the logs' full rate (what the fit
-    keeps, the decimated samples and chunk means, still grows with their length)."""
+    self-check: the numbers of _whole_logs, with nothing kept at the logs' full rate. The decimated
+    samples are capped (dragfit.MAX_SAMPLES); the polynomial family's chunk means, a few per hold, still
+    grow with the logs' length."""
     sources = calstream.calibration_sources(af, log_paths, still_air, block_bytes)
     shapes = [calstream.log_shape(source, af) for source in sources]
     first = calstream.reduce_logs(af, sources, shapes, frames, dynamic, points)
     per_log = [len(part["time"]) for part in first.samples[frames[0]]]
-    by_frame = {frame: dragfit.merge(first.samples.pop(frame), frame) for frame in frames}  # one copy kept
+    rate_hz = calstream.sample_rate_hz(shapes)
+    by_frame = {frame: dragfit.merge(first.samples.pop(frame), frame, rate_hz) for frame in frames}  # one copy kept
     chunks = {af: (first.chunks, first.settle_s)}
 
     def points_of(airframe: Airframe) -> tuple[Points, float]:

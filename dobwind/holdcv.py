@@ -147,7 +147,7 @@ def _held_out(samples: dragfit.DragSamples, fit_predict: dragfit.FitPredict, tes
     _, inverse, count = np.unique(windows, return_inverse=True, return_counts=True)
     speed = np.bincount(inverse, weights=np.hypot(held_out.airflow[:, 0], held_out.airflow[:, 1])) / count
     return _Windows(window_speed_errors(predicted, held_out.airflow, windows), speed,
-                    _half_differences(predicted, held_out.airflow, inverse, count), count / dragfit.DECIMATED_RATE_HZ)
+                    _half_differences(predicted, held_out.airflow, inverse, count), count / samples.rate_hz)
 
 
 def _split(windows: _Windows, band: np.ndarray) -> tuple[float, float]:
@@ -187,7 +187,7 @@ def hold_cv(samples: dragfit.DragSamples, fit_predict: dragfit.FitPredict,
     if len(np.unique(samples.group)) < 2:
         return None
     fold = _folds(samples.group)
-    per_window = max(1, int(round(window_s * dragfit.DECIMATED_RATE_HZ)))
+    per_window = max(1, int(round(window_s * samples.rate_hz)))
     held = _Windows.joined([_held_out(samples, fit_predict, fold == k, per_window)
                             for k in range(min(dragfit.FOLDS, fold.max() + 1))])
     unique, inverse = np.unique(samples.group, return_inverse=True)

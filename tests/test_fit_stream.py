@@ -166,3 +166,32 @@ def test_the_points_reducer_over_blocks_is_the_whole_log_cleaning(logs):
         for f in dataclasses.fields(points):
             np.testing.assert_array_equal(getattr(points, f.name), getattr(whole, f.name), err_msg=f"{size} {f.name}")
     assert len(whole) > 50
+
+
+def test_the_sample_rate_falls_so_that_a_long_calibration_keeps_at_most_max_samples():
+    assert dragfit.sample_rate_hz(3600.0) == dragfit.DECIMATED_RATE_HZ == 10.0
+    assert dragfit.sample_rate_hz(4 * 3600.0) == pytest.approx(2.5)
+    assert dragfit.sample_rate_hz(0.0) == 10.0
+    assert dragfit.sample_step(0.01, 2.5) == 40 and dragfit.sample_step(0.01) == 10
+
+
+def test_a_capped_calibration_is_thinned_evenly_and_streams_byte_for_byte(logs, monkeypatch):
+    """With the cap at a quarter of these logs' 10 Hz count, both paths take the same sparser samples
+    (2.5 Hz: every 5th row of the 12.5 Hz logs, where 10 Hz keeps every row), and the hold-level CV
+    counts its windows in seconds at that rate (samples.rate_hz)."""
+    af = load_airframe(AIRFRAME)
+    paths = [logs["sweep"], logs["vertical"]]
+    total_s = sum(read_log(p).rows * dragfit.median_step(read_log(p).time_s, af) for p in paths)
+    _, full, _ = fit_airframe(af, paths, model="drag-body", block_bytes=None)
+    monkeypatch.setattr(dragfit, "MAX_SAMPLES", total_s * dragfit.DECIMATED_RATE_HZ / 4)
+    whole, whole_report, _ = fit_airframe(af, paths, model="drag-body", block_bytes=None)
+    streamed, report, _ = fit_airframe(af, paths, model="drag-body", block_bytes=BLOCK_BYTES)
+    assert dump_airframe(streamed) == dump_airframe(whole)
+    assert dataclasses.asdict(report) == dataclasses.asdict(whole_report)
+    counts = [c["fit_samples"] for c in whole_report.self_check["logs"]]
+    full_counts = [c["fit_samples"] for c in full.self_check["logs"]]
+    assert all(abs(n - full_n / 5) <= 0.01 * full_n / 5 + 2 for n, full_n in zip(counts, full_counts)), (counts, full_counts)
+    assert whole_report.samples == sum(counts)
+    # The held-out holds are scored for as many seconds as at 10 Hz (fewer samples each).
+    window, full_window = whole_report.hold_cv_by_speed["window_s"], full.hold_cv_by_speed["window_s"]
+    assert window == pytest.approx(full_window, rel=0.25) and full_window > 1.0
