@@ -6,7 +6,8 @@ its image through the observer and the low-pass H; H is linear, so each regresso
 function of the true relative airflow, rotated to NED) is passed through the same H. The observed force
 is then a linear combination of the filtered columns on EVERY sample: no steady holds, no chunking, no
 delay guesswork, and no dependence on the sample rate (the filtered columns are decimated to about
-10 Hz, which H's bandwidth of at most a few Hz allows).
+10 Hz, which H's bandwidth of at most a few Hz allows; more sparsely for calibrations over an hour,
+MAX_SAMPLES).
 
 Besides the drag coefficients the regression holds a heading-frame horizontal force offset and kappa,
 the thrust error along the body axis (f_e = F_aero + kappa u_f z_b with kappa = 1 - true/nominal thrust):
@@ -38,9 +39,10 @@ PARAMETERS = HORIZONTAL_DRAG_KEYS + ("ox", "oy") + VERTICAL_DRAG_KEYS + ("kappa"
 BODY_PARAMETERS = HORIZONTAL_DRAG_KEYS + (ROTOR_DRAG_KEY, "ox", "oy") + VERTICAL_DRAG_KEYS + ("kappa",)
 NONNEGATIVE = ("l0", "q0", "lz", "qz", ROTOR_DRAG_KEY)
 DECIMATED_RATE_HZ = 10.0
-# At most an hour of 10 Hz samples over all the calibration logs: longer calibrations are sampled
-# evenly more sparsely (sample_rate_hz), so that what the fit keeps, and the cross-validation's copies
-# of it, stop growing with the logs' length. Sixteen coefficients need far fewer samples than this.
+# About an hour of 10 Hz samples at most over all the calibration logs (each log's step is rounded to
+# whole rows): longer calibrations are sampled evenly more sparsely (sample_rate_hz), so that what the
+# fit keeps, and the cross-validation's copies of it, stop growing with the logs' length. Sixteen
+# coefficients need far fewer samples than this.
 MAX_SAMPLES = 36_000
 BLOCK_S = 20.0          # cross-validation groups: consecutive blocks of flight
 FOLDS = 5

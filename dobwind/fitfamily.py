@@ -203,7 +203,8 @@ def _quiet_hover(af: Airframe, check: SelfCheck, hover: HoverNoise,
     """The airframe with its first low-pass cutoff lowered until the self-check's noise at low airflow
     meets the target (at most ``hover.rounds`` more self-check passes), that last check, what changed
     (empty when nothing did) and warnings. A lower cutoff settles more slowly: a schedule that turns a
-    passing self-check into a failing one (short holds left with nothing to score) is not taken."""
+    passing self-check into a failing one (short holds left with nothing to score, lag at wind changes)
+    is not taken, nor one whose check no longer finds a low-airflow segment to measure."""
     before_hz, before_mps = af.filter.cutoffs_hz[0], check.still_noise_mps
     warnings: list[str] = []
     for _ in range(hover.rounds):
@@ -212,12 +213,18 @@ def _quiet_hover(af: Airframe, check: SelfCheck, hover: HoverNoise,
             break
         lowered = dataclasses.replace(af, filter=schedule)
         again = recheck(lowered)
-        if check.passed and not again.passed:
-            warnings.append(f"the low-pass at zero airflow was kept at {af.filter.cutoffs_hz[0]:.3g} Hz (noise at low "
-                            f"airflow {check.still_noise_mps:.3f} m/s, --hover-noise {hover.target_mps:g}): at "
-                            f"{schedule.cutoffs_hz[0]:.3g} Hz the self-check fails ({'; '.join(again.reasons)})")
+        if (check.passed and not again.passed) or again.still_noise_mps is None:
+            why = "; ".join(again.reasons) if again.still_noise_mps is not None else "no low-airflow segment is left"
+            warnings.append(f"the low-pass at zero airflow was not lowered below {af.filter.cutoffs_hz[0]:.3g} Hz (noise "
+                            f"at low airflow {check.still_noise_mps:.3f} m/s, --hover-noise {hover.target_mps:g}): at "
+                            f"{schedule.cutoffs_hz[0]:.3g} Hz the self-check fails ({why})")
             break
         af, check = lowered, again
+    noise = check.still_noise_mps
+    if noise is not None and 0 < hover.target_mps < noise * hover.min_change \
+            and af.filter.cutoffs_hz[0] <= hover.floor_hz and not warnings:
+        warnings.append(f"the noise at low airflow is {noise:.3f} m/s per axis with the low-pass at zero airflow at "
+                        f"its floor, {hover.floor_hz:g} Hz (--hover-noise {hover.target_mps:g})")
     if af.filter.cutoffs_hz[0] == before_hz:
         return af, check, {}, warnings
     change = {"cutoff_hz": [before_hz, af.filter.cutoffs_hz[0]],

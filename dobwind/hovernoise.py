@@ -15,10 +15,17 @@ a variance proportional to its cutoff: the cutoff that meets the target is f (ta
 floor bounds the lag (a time constant of 1 / (2 pi floor)), and the airframe's own cutoffs are never
 raised. The delay-matched ground velocity goes through the same low-pass, so a lower cutoff adds no
 error in manoeuvres in still air; it slows only the response to a change of the wind itself.
+
+Two approximations, both on the side of lowering too little: the rule's square assumes the law is
+linear near zero airflow (a law growing like the square root of the force passes the noise as the
+cutoff's fourth root), and the scatter is measured about each segment's own mean, which takes up more
+of the noise the slower the low-pass is. The second pass starts from the noise measured at the first
+cutoff chosen, and the still-air flights of the benchmark are the measure that counts (README).
 """
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -40,7 +47,8 @@ class HoverNoise:
 def quieter_schedule(schedule: FilterSchedule, noise_mps: float | None, cfg: HoverNoise) -> FilterSchedule | None:
     """The schedule with its first cutoff lowered to meet ``cfg.target_mps``, or None to keep it (no
     figure, noise within the target, a one-point schedule, or a change too small to matter)."""
-    if cfg.target_mps <= 0 or noise_mps is None or noise_mps <= 0 or len(schedule.cutoffs_hz) < 2:
+    if cfg.target_mps <= 0 or noise_mps is None or not math.isfinite(noise_mps) or noise_mps <= 0 \
+            or len(schedule.cutoffs_hz) < 2:
         return None
     current = schedule.cutoffs_hz[0]
     # Three significant digits: the airframe file stays readable, and the self-check runs on the value
