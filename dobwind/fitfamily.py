@@ -35,9 +35,10 @@ def drag_samples(af: Airframe, logs: list[FlightLog], frames: tuple[str, ...] = 
     run = run if run is not None and run.serves(af, logs) else calibration_run(af, logs)
     cal, model = run.airframe, run.model
     parts: dict[str, list] = {frame: [] for frame in frames}
-    rate_hz = calstream.sample_rate_hz([calstream.LogShape(log.rows, dragfit.median_step(log.time_s, cal)) for log in logs])
-    for log, force, status in zip(logs, run.force_ned, run.status):
-        reducer = calstream.DragReducer(cal, model.settling_time_s, dragfit.median_step(log.time_s, cal), frames, rate_hz)
+    shapes = [calstream.LogShape(log.rows, dragfit.median_step(log.time_s, cal)) for log in logs]
+    rate_hz = calstream.sample_rate_hz(shapes)
+    for log, shape, force, status in zip(logs, shapes, run.force_ned, run.status):
+        reducer = calstream.DragReducer(cal, model.settling_time_s, shape.dt_s, frames, rate_hz)
         reducer.add(log, force, status)
         for frame in frames:
             parts[frame].append(reducer.result(frame))
