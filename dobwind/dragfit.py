@@ -31,7 +31,8 @@ from dobwind.model.attitude import rotation_matrices
 from dobwind.model.discretization import first_order
 from dobwind.model.forceair import (HORIZONTAL_DRAG_KEYS, ROTOR_DRAG_KEY, VERTICAL_DRAG_KEYS, DragLaw,
                                     along_force_scale, body_drag_airflow_numpy, body_drag_basis, drag_airflow_numpy,
-                                    heading_force, heading_to_ned, horizontal_drag_basis, term_matrix)
+                                    heading_force, heading_to_ned, horizontal_drag_basis, law_decreasing,
+                                    term_matrix)
 from dobwind.model.terms import Term
 
 PARAMETERS = HORIZONTAL_DRAG_KEYS + ("ox", "oy") + VERTICAL_DRAG_KEYS + ("kappa",)
@@ -49,12 +50,17 @@ FOLDS = 5
 TOP_SHARE = 0.85        # extrapolation test: blocks at least this share of the fastest block's speed
 HUBER_K = 2.0           # Huber threshold in robust standard deviations
 # Candidate horizontal and vertical parameter sets, smallest first; offsets and kappa are always in.
-HORIZONTAL_SETS = (("l0",), ("q0",), ("l0", "q0"), ("l0", "q0", "l2c", "q2c", "l2s", "q2s"),
+# The anisotropy of the quadratic (bluff-body) drag alone comes before that of both coefficients: a
+# vehicle with next to no linear drag cannot hold a linear anisotropy (l0 + l2c cos 2theta < 0 in some
+# direction makes the law decrease near zero airflow, and its inversion diverge there).
+HORIZONTAL_SETS = (("l0",), ("q0",), ("l0", "q0"), ("l0", "q0", "q2c", "q2s"), ("l0", "q0", "l2c", "q2c", "l2s", "q2s"),
                    ("l0", "q0", "l2c", "q2c", "l2s", "q2s", "q1c"))
 VERTICAL_SETS = (("lz",), ("qz",), ("lz", "qz"), ("lz", "qz", "i1"), ("lz", "qz", "i1", "i2"))
 # The body frame: the same shapes, with rotor drag beside (or instead of) the constant linear drag.
-BODY_HORIZONTAL_SETS = (("l0",), ("q0",), ("l0", "q0"), ("lr", "q0"), ("l0", "q0", "l2c", "q2c", "l2s", "q2s"),
-                        ("lr", "q0", "l2c", "q2c", "l2s", "q2s"), ("l0", "lr", "q0", "l2c", "q2c", "l2s", "q2s", "q1c"))
+# Rotor drag is isotropic in the rotor plane, so its sets pair it with the quadratic anisotropy first.
+BODY_HORIZONTAL_SETS = (("l0",), ("q0",), ("l0", "q0"), ("lr", "q0"), ("l0", "q0", "q2c", "q2s"), ("lr", "q0", "q2c", "q2s"),
+                        ("l0", "q0", "l2c", "q2c", "l2s", "q2s"), ("lr", "q0", "l2c", "q2c", "l2s", "q2s"),
+                        ("l0", "lr", "q0", "l2c", "q2c", "l2s", "q2s", "q1c"))
 ALWAYS = ("ox", "oy", "kappa")
 
 
@@ -507,6 +513,7 @@ class DragChoice:
     extrapolation_h_mps: float
     rmse_h_mps: float
     rmse_v_mps: float
+    dropped: tuple[str, ...] = ()   # sets whose law does not increase everywhere (never chosen)
 
     @property
     def score(self) -> float:
@@ -519,7 +526,9 @@ def combined(cv: float, extra: float) -> float:
 
 def choose_drag_law(samples: DragSamples) -> DragChoice:
     """Horizontal set first (with the fullest vertical set), then the vertical set; the smallest set
-    within 2 % of the best score wins at each stage."""
+    within 2 % of the best score wins at each stage. A law that does not increase everywhere on the
+    calibrated range and beyond (law_decreasing) is never chosen: its set is dropped and the choice made
+    again among the others (the isotropic sets' non-negative coefficients always increase)."""
     vertical_full = VERTICAL_SETS[-1]
     folds, top = fold_splits(samples), top_split(samples)  # the same splits for every candidate
     scored = []
@@ -527,18 +536,39 @@ def choose_drag_law(samples: DragSamples) -> DragChoice:
         fit_predict = drag_fit_predict(h + vertical_full + ALWAYS)
         cv_h, _ = grouped_cv(samples, fit_predict, folds)
         scored.append((combined(cv_h, top_error(fit_predict, top)), h))
-    best = min(s for s, _ in scored)
-    horizontal = next(h for s, h in scored if s <= best * 1.02)
-    scored_v = []
-    for v in VERTICAL_SETS:
-        scored_v.append((grouped_cv(samples, drag_fit_predict(horizontal + v + ALWAYS), folds)[1], v))
-    best_v = min(s for s, _ in scored_v)
-    vertical = next(v for s, v in scored_v if s <= best_v * 1.02)
-    active = horizontal + vertical + ALWAYS
-    theta = robust_fit(samples, active)
+    dropped: list[str] = []
+    while True:
+        best = min(s for s, _ in scored)
+        horizontal = next(h for s, h in scored if s <= best * 1.02)
+        scored_v = []
+        for v in VERTICAL_SETS:
+            scored_v.append((grouped_cv(samples, drag_fit_predict(horizontal + v + ALWAYS), folds)[1], v))
+        best_v = min(s for s, _ in scored_v)
+        vertical = next(v for s, v in scored_v if s <= best_v * 1.02)
+        active = horizontal + vertical + ALWAYS
+        theta = robust_fit(samples, active)
+        where = decreasing_at(samples, theta)
+        if where is None or len(scored) == 1:
+            break
+        dropped.append(f"{'+'.join(horizontal)}: the law decreases at {where}")
+        scored = [(s, h) for s, h in scored if h != horizontal]
     cv_h, cv_v = grouped_cv(samples, drag_fit_predict(active), folds)
     rmse_h, rmse_v = airflow_errors(samples, theta)
-    return DragChoice(theta, active, cv_h, cv_v, top_error(drag_fit_predict(active), top), rmse_h, rmse_v)
+    return DragChoice(theta, active, cv_h, cv_v, top_error(drag_fit_predict(active), top), rmse_h, rmse_v,
+                      tuple(dropped))
+
+
+# law_decreasing checks the fitted law up to this multiple of the fastest sample's horizontal airflow:
+# the tunnel flies past the calibration, and the step flags, but still inverts, what lies beyond it.
+LAW_CHECK_SPEED_SHARE = 1.5
+
+
+def decreasing_at(samples: DragSamples, theta: np.ndarray) -> str | None:
+    """law_decreasing for the law ``theta`` over the samples' airflow (and rotor terms), or None."""
+    speed = float(np.max(np.hypot(samples.airflow[:, 0], samples.airflow[:, 1]), initial=0.0))
+    rotors = (float(np.min(samples.rotor)), float(np.max(samples.rotor))) \
+        if samples.frame == "body" and samples.rotor is not None and len(samples.rotor) else (1.0,)
+    return law_decreasing(law_of(theta, samples.frame), LAW_CHECK_SPEED_SHARE * speed, rotors)
 
 
 def polynomial_fit_predict(horizontal: list[Term], vertical: list[Term],

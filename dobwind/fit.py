@@ -102,6 +102,8 @@ class FitReport:
     # The low-pass's first cutoff when the fit lowered it for the noise at low airflow (hovernoise.py):
     # {"cutoff_hz": [before, after], "still_noise_mps": [before, after], "target_mps": ...}; else empty.
     low_pass: dict = field(default_factory=dict)
+    # Drag-law sets whose fitted law decreased somewhere (dragfit.choose_drag_law): never chosen, with where.
+    not_increasing: list[str] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
 
 

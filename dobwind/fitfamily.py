@@ -165,6 +165,10 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynami
             failures.append(f"{family} family: only {len(samples)} usable samples (need 100)")
             continue
         choice = dragfit.choose_drag_law(by_frame[frame])
+        where = dragfit.decreasing_at(by_frame[frame], choice.theta)
+        if where is not None:  # every set's law decreased (a zero law): the step could not invert it
+            failures.append(f"{family} family: the fitted law decreases at {where}")
+            continue
         fitted = drag_airframe(af, choice, by_frame[frame])
         families[family] = (fitted, _drag_report(choice, by_frame[frame], fitted), None)
         scores[family] = _family_scores((choice.cv_h_mps, choice.cv_v_mps), choice.extrapolation_h_mps,
@@ -250,4 +254,5 @@ def _drag_report(choice: dragfit.DragChoice, samples: dragfit.DragSamples, fitte
     report.horizontal_rmse_mps, report.horizontal_cv_rmse_mps = choice.rmse_h_mps, _none(choice.cv_h_mps)
     report.horizontal_extrapolation_rmse_mps = _none(choice.extrapolation_h_mps)
     report.vertical_rmse_mps, report.vertical_cv_rmse_mps = choice.rmse_v_mps, _none(choice.cv_v_mps)
+    report.not_increasing = list(choice.dropped)
     return report

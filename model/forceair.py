@@ -348,3 +348,50 @@ def wind_from_deg_sx(north: ca.SX, east: ca.SX) -> ca.SX:
     towards = ca.atan2(-east, -north) * (180 / math.pi)  # (-180, 180]
     from_deg = towards + ca.if_else(towards < 0, 360, 0)
     return ca.if_else(from_deg >= 360, 0, from_deg)  # -tiny + 360 rounds to 360 in float
+
+
+# The grid on which a fitted drag law must increase: horizontal directions every 5 degrees, speeds from
+# LAW_CHECK_MIN_MPS up in geometric steps (a linear anisotropy bites next to zero airflow).
+LAW_CHECK_DIRECTIONS = 72
+LAW_CHECK_SPEEDS = 48
+LAW_CHECK_MIN_MPS = 0.01
+
+
+@functools.lru_cache(maxsize=None)
+def _law_slope(frame: str) -> VectorFunction:
+    """The forward law's Jacobian with respect to the airflow, on symbolic coefficients: (airflow, rotor,
+    coefficients) -> Jacobian (2 x 2 heading frame, horizontal; 3 x 3 body frame), smoothed as in Newton."""
+    law, a, rotor = symbolic_law(frame), ca.SX.sym("a", 3), ca.SX.sym("rotor")
+    if frame == "body":
+        force = ca.vertcat(*body_drag_force(law, a[0], a[1], a[2], rotor, DRAG_SPEED_EPS_MPS))
+        slope = ca.jacobian(force, a)
+    else:
+        s = ca.sqrt(a[0] * a[0] + a[1] * a[1] + DRAG_SPEED_EPS_MPS ** 2)
+        force = ca.vertcat(*_horizontal_drag(law, a[0], a[1], s))
+        slope = ca.jacobian(force, a[:2])
+    return VectorFunction(ca.Function("drag_law_slope", [a, rotor, ca.vertcat(*_symbols(law))], [slope]))
+
+
+def law_decreasing(law: DragLaw, speed_max_mps: float, rotors: tuple[float, ...] = (1.0,)) -> str | None:
+    """Where the law stops increasing on the grid up to ``speed_max_mps`` (level airflow; the body
+    frame at each rotor term of ``rotors``), or None. Increasing means a positive Jacobian determinant
+    and a positive slope along the airflow: otherwise two airflows give one force there, and the step's
+    Newton inversion can run off (the same force read as far faster air)."""
+    theta = np.linspace(0.0, 2 * math.pi, LAW_CHECK_DIRECTIONS, endpoint=False)
+    speed = np.geomspace(LAW_CHECK_MIN_MPS, max(speed_max_mps, 2 * LAW_CHECK_MIN_MPS), LAW_CHECK_SPEEDS)
+    t, s = np.meshgrid(theta, speed)
+    ux, uy = np.cos(t).ravel(), np.sin(t).ravel()
+    size = 3 if law.frame == "body" else 2
+    for rotor in (rotors if law.frame == "body" else (1.0,)):
+        a = np.vstack([ux * s.ravel(), uy * s.ravel(), np.zeros(ux.size)])
+        j = _law_slope(law.frame)([a, np.array([rotor]), _coefficients(law, law.frame)], ux.size)[0]
+        jac = j.T.reshape(-1, size, size).transpose(0, 2, 1)  # column-major nonzeros -> (rows, i, j)
+        u = np.zeros((ux.size, size))
+        u[:, 0], u[:, 1] = ux, uy
+        radial = np.einsum("ni,nij,nj->n", u, jac, u)
+        bad = ~((np.linalg.det(jac) > 0) & (radial > 0))
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            where = f"{math.degrees(theta[k % LAW_CHECK_DIRECTIONS]):.0f} deg from x at {s.ravel()[k]:.3g} m/s"
+            return where + (f", rotor term {rotor:.2f}" if law.frame == "body" else "")
+    return None
