@@ -537,21 +537,28 @@ def choose_drag_law(samples: DragSamples) -> DragChoice:
         cv_h, _ = grouped_cv(samples, fit_predict, folds)
         scored.append((combined(cv_h, top_error(fit_predict, top)), h))
     dropped: list[str] = []
-    while True:
+    while True:  # the law is checked with the fullest vertical set, before the vertical stage's CV
         best = min(s for s, _ in scored)
         horizontal = next(h for s, h in scored if s <= best * 1.02)
-        scored_v = []
-        for v in VERTICAL_SETS:
-            scored_v.append((grouped_cv(samples, drag_fit_predict(horizontal + v + ALWAYS), folds)[1], v))
-        best_v = min(s for s, _ in scored_v)
-        vertical = next(v for s, v in scored_v if s <= best_v * 1.02)
-        active = horizontal + vertical + ALWAYS
-        theta = robust_fit(samples, active)
+        theta = robust_fit(samples, horizontal + vertical_full + ALWAYS)
         where = decreasing_at(samples, theta)
         if where is None or len(scored) == 1:
             break
         dropped.append(f"{'+'.join(horizontal)}: the law decreases at {where}")
         scored = [(s, h) for s, h in scored if h != horizontal]
+    scored_v = []
+    for v in VERTICAL_SETS:
+        scored_v.append((grouped_cv(samples, drag_fit_predict(horizontal + v + ALWAYS), folds)[1], v))
+    best_v = min(s for s, _ in scored_v)
+    vertical = next(v for s, v in scored_v if s <= best_v * 1.02)
+    if vertical != vertical_full:
+        smaller = robust_fit(samples, horizontal + vertical + ALWAYS)
+        # The vertical terms barely move the horizontal ones; should they tip the law, the full set stays.
+        if decreasing_at(samples, smaller) is None or where is not None:
+            theta = smaller
+        else:
+            vertical = vertical_full
+    active = horizontal + vertical + ALWAYS
     cv_h, cv_v = grouped_cv(samples, drag_fit_predict(active), folds)
     rmse_h, rmse_v = airflow_errors(samples, theta)
     return DragChoice(theta, active, cv_h, cv_v, top_error(drag_fit_predict(active), top), rmse_h, rmse_v,

@@ -66,7 +66,7 @@ def text_report(report: FitReport) -> str:
             f"{report.samples} samples; thrust scale {report.thrust_scale:.4f}; force offset "
             f"[{', '.join(f'{v:.3f}' for v in report.force_offset_n)}] N",
             f"drag law: {law}",
-            *(f"  not chosen, the law decreases: {where}" for where in report.not_increasing),
+            *(f"  not chosen: {where}" for where in report.not_increasing),
             f"  horizontal airflow RMSE {report.horizontal_rmse_mps:.3f} m/s, "
             + _errors(report.horizontal_cv_rmse_mps, report.horizontal_extrapolation_rmse_mps),
             f"  vertical airflow RMSE {report.vertical_rmse_mps:.3f} m/s"])

@@ -127,3 +127,14 @@ def test_a_set_whose_law_decreases_is_dropped_and_the_choice_made_again(quadrati
     assert choice.active[:1] == ("q0",) and "l2c" not in choice.active
     assert len(choice.dropped) == 1 and choice.dropped[0].startswith("+".join(full) + ": the law decreases at ")
     assert dragfit.decreasing_at(quadratic_only, choice.theta) is None
+
+
+def test_the_report_names_a_dropped_set():
+    from dobwind.fit import FitReport
+    from dobwind.fitreport import text_report
+
+    report = FitReport(model="drag", drag={"l0": 0.0, "q0": 0.05}, horizontal_rmse_mps=0.1, vertical_rmse_mps=0.1,
+                       not_increasing=["l0+q0+l2c: the law decreases at 70 deg from x at 0.01 m/s"])
+    assert "  not chosen: l0+q0+l2c: the law decreases at 70 deg from x at 0.01 m/s" in text_report(report)
+    report.not_increasing = []
+    assert "not chosen" not in text_report(report)
