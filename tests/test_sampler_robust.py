@@ -151,11 +151,12 @@ def test_invalid_leading_rows_are_as_if_absent_whole_and_streamed(af, frame, col
         np.testing.assert_allclose(got["hold_age_s"], absent["hold_age_s"] + (got["hold"] == 0) * rows["t"][bad])
 
 
-def _blank_first_rows(path, out, columns: list[str], rows: int) -> None:
+def _blank_first_rows(path, out, columns: list[str], rows: int | None) -> None:
+    """A copy of the CSV log with ``columns`` empty on its first ``rows`` rows (None: every row)."""
     lines = open(path).read().splitlines(keepends=True)
     header = next(i for i, line in enumerate(lines) if not line.startswith("#"))
     names = lines[header].strip().split(",")
-    for row in range(rows):
+    for row in range(len(lines) - header - 1 if rows is None else rows):
         cells = lines[header + 1 + row].rstrip("\n").split(",")
         for name in columns:
             cells[names.index(name)] = ""
@@ -190,3 +191,18 @@ def test_fit_of_a_log_whose_first_rows_are_invalid(sweep, columns, capsys):
     clean, got = load_airframe(clean_out), load_airframe(broken_out)
     for key in ("l0", "q0", "lz", "qz"):
         assert getattr(got.drag, key) == pytest.approx(getattr(clean.drag, key), rel=0.02), key
+
+
+def test_fit_with_a_log_without_a_valid_row(sweep, capsys):
+    """A third log whose true wind is missing on every row: it used to give NaN samples (its rows were
+    all 'before the first valid one', kept as they were) and the fit died in the least squares. Now it
+    contributes no sample, the fit says so, and the drag law is the one the other two logs give."""
+    folder, path, vertical = sweep
+    blank = folder / "no_wind.csv"
+    _blank_first_rows(vertical, blank, ["wind_n"], None)
+    two, three = folder / "two.toml", folder / "three.toml"
+    for logs, out in (([path, vertical], two), ([path, vertical, blank], three)):
+        assert main(["fit", str(M300), *map(str, logs), "--model", "drag-heading", "--force", "-o", str(out)]) in (0, 1)
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and f"{blank}: contributed no usable sample" in err
+    assert load_airframe(three).drag == load_airframe(two).drag
