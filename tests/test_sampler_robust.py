@@ -151,6 +151,19 @@ def test_invalid_leading_rows_are_as_if_absent_whole_and_streamed(af, frame, col
         np.testing.assert_allclose(got["hold_age_s"], absent["hold_age_s"] + (got["hold"] == 0) * rows["t"][bad])
 
 
+def test_the_decimation_counts_the_invalid_leading_rows(af):
+    """53 invalid rows (not a multiple of the step): the samples are still the log's rows 0, step,
+    2 step, ... (as those of a log whose first rows were valid), fed whole or in blocks."""
+    rows = _rows(af, 50.0, 100.0)
+    rows["airflow_ned"][:53] = np.nan
+    step = dragfit.sample_step(0.02)
+    whole = _sampled(af, rows)
+    assert len(whole["time"]) == len(rows["t"]) // step - 53 // step - 1
+    assert np.all(np.round(whole["time"] * 50.0).astype(int) % step == 0)
+    for block in (23, 7):
+        np.testing.assert_array_equal(_sampled(af, rows, block=block)["columns"], whole["columns"])
+
+
 def _blank_first_rows(path, out, columns: list[str], rows: int | None) -> None:
     """A copy of the CSV log with ``columns`` empty on its first ``rows`` rows (None: every row)."""
     lines = open(path).read().splitlines(keepends=True)
@@ -206,3 +219,20 @@ def test_fit_with_a_log_without_a_valid_row(sweep, capsys):
     err = capsys.readouterr().err
     assert "Traceback" not in err and f"{blank}: contributed no usable sample" in err
     assert load_airframe(three).drag == load_airframe(two).drag
+
+
+def test_the_streamed_fit_of_a_log_with_invalid_first_rows_is_the_whole_log_fit(tmp_path):
+    """fit read a block at a time (blocks of about 60 rows) against the whole-log fit, the first 150 rows'
+    wind and thrust missing: the invalid run spans blocks, the airframes and reports are equal."""
+    from dobwind.fitfamily import fit_airframe
+    from dobwind.model.airframe_toml import dump_airframe
+    from tests.test_fit_stream import AIRFRAME, BLOCK_BYTES, _simulate
+
+    sweep, vertical = _simulate(tmp_path, "sweep", 5), _simulate(tmp_path, "vertical", 6)
+    broken = tmp_path / "broken.csv"
+    _blank_first_rows(sweep, broken, ["wind_n", "thrust"], 150)
+    af = load_airframe(AIRFRAME)
+    whole, whole_report, _ = fit_airframe(af, [str(broken), vertical], model="drag", block_bytes=None)
+    streamed, report, _ = fit_airframe(af, [str(broken), vertical], model="drag", block_bytes=BLOCK_BYTES)
+    assert dump_airframe(streamed) == dump_airframe(whole)
+    assert report == whole_report and whole_report.samples > 1000
