@@ -83,17 +83,26 @@ class DragSamples:
     rotor: np.ndarray | None = None     # (N,) sqrt(u_f / (m g)) at the sample, nominal thrust
     hold: np.ndarray | None = None      # (N,) the log's segment (a run of one `segment` label), when it has one
     hold_age_s: np.ndarray | None = None  # (N,) time since that segment started
-    rate_hz: float = DECIMATED_RATE_HZ    # the rate the samples were taken at (sample_rate_hz)
+    # (N,) the time each sample stands for: its log's decimation step times the log's sample time (the
+    # step is rounded to whole rows, so a log's rate is not the one asked for); None: 1/DECIMATED_RATE_HZ.
+    interval_s: np.ndarray | None = None
 
     @property
     def parameters(self) -> tuple[str, ...]:
         return parameters_of(self.frame)
 
+    def rates_hz(self) -> np.ndarray:
+        """(N,) the rate each sample's log was sampled at."""
+        if self.interval_s is None:
+            return np.full(len(self), DECIMATED_RATE_HZ)
+        return 1.0 / self.interval_s
+
     def select(self, keep: np.ndarray) -> "DragSamples":
         pick = lambda a: None if a is None else a[keep]
         return DragSamples(self.observed[keep], self.columns[keep], self.cos_yaw[keep], self.sin_yaw[keep],
                            self.airflow[keep], self.group[keep], self.log_index[keep], self.frame,
-                           pick(self.rotation), pick(self.rotor), pick(self.hold), pick(self.hold_age_s), self.rate_hz)
+                           pick(self.rotation), pick(self.rotor), pick(self.hold), pick(self.hold_age_s),
+                           pick(self.interval_s))
 
     def __len__(self) -> int:
         return len(self.observed)
@@ -204,17 +213,22 @@ class LogSampler:
     decimation keeps rows 0, step, 2 step, ... of the log) and the current segment run.
 
     ``dt_s`` is the log's median sample time (it sets H and the decimation, so it is the whole log's,
-    found before the first block). Rows before the log's first valid one keep their own values."""
+    found before the first block). The rows before the log's first valid one are left out, as if absent:
+    H has no value to start from there (a NaN would stay in its state for the rest of the log), and
+    starts in steady state at the first valid row as it does at a clean log's first row. They still
+    count in the row index and the segment runs (a segment began when its first row was logged)."""
 
     def __init__(self, af: Airframe, cutoff_hz: float, dt_s: float, frame: str = "heading",
                  column_rows: int = COLUMN_BLOCK_ROWS, rate_hz: float = DECIMATED_RATE_HZ) -> None:
         self.af, self.frame, self.column_rows = af, frame, column_rows
         self.step = sample_step(dt_s, rate_hz)
+        self.interval_s = self.step * dt_s   # what a sample stands for: whole rows, so not 1 / rate_hz
         self.filters = [(_BlockFilter(*observer_filter(af, dt_s, cutoff_hz, axis)),
                          _BlockFilter(*observer_filter(af, dt_s, cutoff_hz, axis))) for axis in range(3)]
         self.rows = 0
         self.last_valid: tuple[np.ndarray, ...] | None = None   # airflow, thrust, yaw (and q) of it
         self.segment_run: tuple[float, int, float] | None = None  # label, run index, its start time
+        self.segmented = False   # the log has segment labels (its samples record their runs)
         self.parts: list[dict[str, np.ndarray]] = []
 
     def _valid(self, airflow_ned: np.ndarray, thrust_ned: np.ndarray, yaw: np.ndarray,
@@ -222,8 +236,6 @@ class LogSampler:
         valid = np.isfinite(airflow_ned).all(axis=1) & np.isfinite(thrust_ned).all(axis=1) & np.isfinite(yaw)
         if self.frame == "body":
             valid &= np.isfinite(q).all(axis=1) & (np.linalg.norm(np.nan_to_num(q), axis=1) > 0)
-        if self.last_valid is None:  # before the log's first valid row: kept as they are, out of the fit by usable
-            valid |= np.cumsum(valid) == 0
         return valid
 
     def add(self, t: np.ndarray, force_ned: np.ndarray, airflow_ned: np.ndarray, thrust_ned: np.ndarray,
@@ -233,7 +245,24 @@ class LogSampler:
         least one settling time clear of a start or rejection; the body frame needs the attitude ``q``;
         with the log's ``segment`` labels each sample records its segment run and the time since it began."""
         q = q if self.frame == "body" else None
+        self.segmented = segment is not None
+        if not len(t):
+            return
+        runs = self._segment_runs(t, segment) if segment is not None else None
         valid = self._valid(airflow_ned, thrust_ned, yaw, q)
+        skip = 0 if self.last_valid is not None else int(np.argmax(valid)) if valid.any() else len(t)
+        self.rows += skip   # the rows before the log's first valid one: see the class's note
+        if skip == len(t):
+            return
+        rest = slice(skip, None)
+        runs = None if runs is None else (runs[0][rest], runs[1][rest])
+        self._sample(t[rest], force_ned[rest], airflow_ned[rest], thrust_ned[rest], yaw[rest], usable[rest],
+                     valid[rest], None if q is None else q[rest], runs)
+
+    def _sample(self, t: np.ndarray, force_ned: np.ndarray, airflow_ned: np.ndarray, thrust_ned: np.ndarray,
+                yaw: np.ndarray, usable: np.ndarray, valid: np.ndarray, q: np.ndarray | None,
+                runs: tuple[np.ndarray, np.ndarray] | None) -> None:
+        """add's rows from the log's first valid one on: invalid rows filled, filtered, decimated."""
         values = [v for v in (airflow_ned, thrust_ned, yaw, q) if v is not None]
         carried = self.last_valid or (None,) * len(values)
         filled = [_forward_fill(v, valid, c) for v, c in zip(values, carried)]
@@ -247,9 +276,10 @@ class LogSampler:
         keep &= usable & valid & np.isfinite(force_ned).all(axis=1)
         self.rows += len(t)
         part = {"observed": force_ned[keep], "cos_yaw": c[keep], "sin_yaw": s[keep], "time": t[keep],
+                "interval_s": np.full(int(keep.sum()), self.interval_s),
                 **self._columns(airflow_ned, thrust_ned, c, s, q, keep)}
-        if segment is not None:
-            part.update((k, v[keep]) for k, v in zip(("hold", "hold_age_s"), self._segment_runs(t, segment)))
+        if runs is not None:
+            part.update((k, v[keep]) for k, v in zip(("hold", "hold_age_s"), runs))
         self.parts.append(part)
 
     def _columns(self, airflow_ned: np.ndarray, thrust_ned: np.ndarray, c: np.ndarray, s: np.ndarray,
@@ -267,8 +297,6 @@ class LogSampler:
             kept_columns.append(np.stack([self.filters[axis][0](ned[:, axis])[pick] for axis in range(3)], axis=1))
             kept_air.append(np.column_stack([self.filters[axis][1](air_c[:, axis])[pick] for axis in range(3)]))
             kept_extra.append({k: v[pick] for k, v in extra.items()})
-        if not kept_columns:
-            return {}
         out = {"columns": np.concatenate(kept_columns), "airflow": np.concatenate(kept_air)}
         out.update((k, np.concatenate([e[k] for e in kept_extra])) for k in kept_extra[0])
         return out
@@ -284,10 +312,22 @@ class LogSampler:
         return run, t - begun
 
     def result(self) -> dict[str, np.ndarray]:
-        """The samples of every row fed (none when no row of the log was valid)."""
-        parts = [p for p in self.parts if "columns" in p]
-        out = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
-        return out if self.last_valid is not None else {k: v[:0] for k, v in out.items()}
+        """The samples of every row fed: arrays of no row, with every key, when none gave a sample (no
+        row fed, or none valid)."""
+        if not self.parts:
+            return self._empty()
+        return {k: np.concatenate([p[k] for p in self.parts]) for k in self.parts[0]}
+
+    def _empty(self) -> dict[str, np.ndarray]:
+        """What result gives for a log without a valid row: the keys and trailing shapes of its parts."""
+        out = {"observed": np.zeros((0, 3)), "cos_yaw": np.zeros(0), "sin_yaw": np.zeros(0), "time": np.zeros(0),
+               "interval_s": np.zeros(0), "columns": np.zeros((0, 3, len(parameters_of(self.frame)))),
+               "airflow": np.zeros((0, 3))}
+        if self.frame == "body":
+            out.update(rotation=np.zeros((0, 3, 3)), rotor=np.zeros(0))
+        if self.segmented:
+            out.update(hold=np.zeros(0, dtype=np.int64), hold_age_s=np.zeros(0))
+        return out
 
 
 def median_step(t: np.ndarray, af: Airframe) -> float:
@@ -326,6 +366,8 @@ def segment_runs(t: np.ndarray, segment: np.ndarray) -> tuple[np.ndarray, np.nda
 
 def merge(parts: list[dict[str, np.ndarray]], frame: str = "heading",
           rate_hz: float = DECIMATED_RATE_HZ) -> DragSamples:
+    """The logs' samples (LogSampler.result each) as one set: blocks numbered across logs. Each sample
+    keeps its log's interval; ``rate_hz``, the rate asked for, only stands in for a part without one."""
     groups, offset = [], 0
     for part in parts:
         block = np.floor((part["time"] - part["time"][0]) / BLOCK_S).astype(int) if len(part["time"]) else np.zeros(0, int)
@@ -333,13 +375,15 @@ def merge(parts: list[dict[str, np.ndarray]], frame: str = "heading",
         offset += int(block.max()) + 1 if len(block) else 0
     cat = {k: np.concatenate([p[k] for p in parts]) for k in ("observed", "columns", "cos_yaw", "sin_yaw", "airflow")}
     logs = np.concatenate([np.full(len(p["time"]), i) for i, p in enumerate(parts)])
+    interval = np.concatenate([p["interval_s"] if "interval_s" in p else np.full(len(p["time"]), 1.0 / rate_hz)
+                               for p in parts])
     body = {k: np.concatenate([p[k] for p in parts]) for k in ("rotation", "rotor")} if frame == "body" else {}
     # Segment runs only when every log has them (holdcv falls back to fixed windows otherwise).
     holds = {k: np.concatenate([p[k] for p in parts]) for k in ("hold", "hold_age_s")} \
         if parts and all("hold" in p for p in parts) else {}
     return DragSamples(cat["observed"], cat["columns"], cat["cos_yaw"], cat["sin_yaw"], cat["airflow"],
                        np.concatenate(groups), logs, frame, body.get("rotation"), body.get("rotor"),
-                       holds.get("hold"), holds.get("hold_age_s"), rate_hz)
+                       holds.get("hold"), holds.get("hold_age_s"), interval)
 
 
 def _normal_equations(samples: DragSamples, weights: np.ndarray | None,

@@ -32,9 +32,15 @@ MIN_WINDOWS_PER_BAND = 20
 MAX_BANDS = 5
 
 
-def _window_ids(group: np.ndarray, samples_per_window: int) -> np.ndarray:
-    """Consecutive runs of at most ``samples_per_window`` samples inside each block (samples are in
-    time order within a block)."""
+def samples_per_window(samples: dragfit.DragSamples, window_s: float) -> np.ndarray:
+    """(N,) how many samples of its log make a window of ``window_s`` (logs are sampled at their own
+    rates: whole rows, not the rate asked for)."""
+    return np.maximum(1, np.round(window_s * samples.rates_hz())).astype(np.int64)
+
+
+def _window_ids(group: np.ndarray, samples_per_window: int | np.ndarray) -> np.ndarray:
+    """Consecutive runs of at most ``samples_per_window`` samples (one figure, or each sample's) inside
+    each block (samples are in time order within a block, a block inside one log)."""
     start = np.r_[True, group[1:] != group[:-1]]
     first = np.maximum.accumulate(np.where(start, np.arange(len(group)), 0))
     position = np.arange(len(group)) - first
@@ -42,7 +48,8 @@ def _window_ids(group: np.ndarray, samples_per_window: int) -> np.ndarray:
     return block * (10 ** 6) + position // samples_per_window
 
 
-def _scored_windows(samples: dragfit.DragSamples, per_window: int) -> tuple[np.ndarray, np.ndarray]:
+def _scored_windows(samples: dragfit.DragSamples,
+                    per_window: int | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Window of every sample and which samples are scored. A log with segments is scored per segment
     (one window each, from HOLD_SETTLE_S after its start: what replay's per-segment errors measure);
     otherwise in consecutive windows of ``per_window`` samples within each block."""
@@ -137,17 +144,20 @@ class _Windows:
 
 
 def _held_out(samples: dragfit.DragSamples, fit_predict: dragfit.FitPredict, test: np.ndarray,
-              per_window: int) -> _Windows:
-    """Hold-mean speed errors, true speeds, half differences and lengths of the ``test`` samples' windows."""
+              per_window: np.ndarray) -> _Windows:
+    """Hold-mean speed errors, true speeds, half differences and lengths of the ``test`` samples' windows
+    (``per_window``: samples_per_window of every sample)."""
     held_out = samples.select(test)
     # A diverged prediction counts as the clip (dragfit.prediction_error), never as inf or NaN.
     predicted = held_out.airflow + dragfit.prediction_error(fit_predict(samples.select(~test), held_out), held_out.airflow)
-    windows, scored = _scored_windows(held_out, per_window)
+    windows, scored = _scored_windows(held_out, per_window[test])
     predicted, held_out, windows = predicted[scored], held_out.select(scored), windows[scored]
-    _, inverse, count = np.unique(windows, return_inverse=True, return_counts=True)
+    _, first, inverse, count = np.unique(windows, return_index=True, return_inverse=True, return_counts=True)
     speed = np.bincount(inverse, weights=np.hypot(held_out.airflow[:, 0], held_out.airflow[:, 1])) / count
+    # A window lies in one log, so its first sample's rate is the window's.
+    length_s = count / held_out.rates_hz()[first]
     return _Windows(window_speed_errors(predicted, held_out.airflow, windows), speed,
-                    _half_differences(predicted, held_out.airflow, inverse, count), count / samples.rate_hz)
+                    _half_differences(predicted, held_out.airflow, inverse, count), length_s)
 
 
 def _split(windows: _Windows, band: np.ndarray) -> tuple[float, float]:
@@ -187,7 +197,7 @@ def hold_cv(samples: dragfit.DragSamples, fit_predict: dragfit.FitPredict,
     if len(np.unique(samples.group)) < 2:
         return None
     fold = _folds(samples.group)
-    per_window = max(1, int(round(window_s * samples.rate_hz)))
+    per_window = samples_per_window(samples, window_s)
     held = _Windows.joined([_held_out(samples, fit_predict, fold == k, per_window)
                             for k in range(min(dragfit.FOLDS, fold.max() + 1))])
     unique, inverse = np.unique(samples.group, return_inverse=True)

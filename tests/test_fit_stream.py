@@ -178,7 +178,7 @@ def test_the_sample_rate_falls_so_that_a_long_calibration_keeps_at_most_max_samp
 def test_a_capped_calibration_is_thinned_evenly_and_streams_byte_for_byte(logs, monkeypatch):
     """With the cap at a quarter of these logs' 10 Hz count, both paths take the same sparser samples
     (2.5 Hz: every 5th row of the 12.5 Hz logs, where 10 Hz keeps every row), and the hold-level CV
-    counts its windows in seconds at that rate (samples.rate_hz)."""
+    counts its windows in seconds at that rate (samples.rates_hz())."""
     af = load_airframe(AIRFRAME)
     paths = [logs["sweep"], logs["vertical"]]
     total_s = sum(read_log(p).rows * dragfit.median_step(read_log(p).time_s, af) for p in paths)
