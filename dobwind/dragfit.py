@@ -49,18 +49,20 @@ BLOCK_S = 20.0          # cross-validation groups: consecutive blocks of flight
 FOLDS = 5
 TOP_SHARE = 0.85        # extrapolation test: blocks at least this share of the fastest block's speed
 HUBER_K = 2.0           # Huber threshold in robust standard deviations
-# Candidate horizontal and vertical parameter sets, smallest first; offsets and kappa are always in.
-# The anisotropy of the quadratic (bluff-body) drag alone comes before that of both coefficients: a
-# vehicle with next to no linear drag cannot hold a linear anisotropy (l0 + l2c cos 2theta < 0 in some
-# direction makes the law decrease near zero airflow, and its inversion diverge there).
-HORIZONTAL_SETS = (("l0",), ("q0",), ("l0", "q0"), ("l0", "q0", "q2c", "q2s"), ("l0", "q0", "l2c", "q2c", "l2s", "q2s"),
-                   ("l0", "q0", "l2c", "q2c", "l2s", "q2s", "q1c"))
+# Candidate horizontal and vertical parameter sets, smallest first (but for the last resort below); offsets
+# and kappa are always in.
+# The anisotropy of the quadratic (bluff-body) drag alone is the last resort, after the sets with both:
+# with next to no linear drag a linear harmonic makes the law decrease near zero airflow (l0 + l2c cos
+# 2theta < 0 in some direction), so those sets are dropped (choose_drag_law) or their CV diverges. Listed
+# last, it never wins the 2 % parsimony tie against a set with linear harmonics the data need.
+HORIZONTAL_SETS = (("l0",), ("q0",), ("l0", "q0"), ("l0", "q0", "l2c", "q2c", "l2s", "q2s"),
+                   ("l0", "q0", "l2c", "q2c", "l2s", "q2s", "q1c"), ("l0", "q0", "q2c", "q2s"))
 VERTICAL_SETS = (("lz",), ("qz",), ("lz", "qz"), ("lz", "qz", "i1"), ("lz", "qz", "i1", "i2"))
-# The body frame: the same shapes, with rotor drag beside (or instead of) the constant linear drag.
-# Rotor drag is isotropic in the rotor plane, so its sets pair it with the quadratic anisotropy first.
-BODY_HORIZONTAL_SETS = (("l0",), ("q0",), ("l0", "q0"), ("lr", "q0"), ("l0", "q0", "q2c", "q2s"), ("lr", "q0", "q2c", "q2s"),
-                        ("l0", "q0", "l2c", "q2c", "l2s", "q2s"), ("lr", "q0", "l2c", "q2c", "l2s", "q2s"),
-                        ("l0", "lr", "q0", "l2c", "q2c", "l2s", "q2s", "q1c"))
+# The body frame: the same shapes, with rotor drag beside (or instead of) the constant linear drag; rotor
+# drag is isotropic in the rotor plane, so the last resort pairs it with the quadratic anisotropy.
+BODY_HORIZONTAL_SETS = (("l0",), ("q0",), ("l0", "q0"), ("lr", "q0"), ("l0", "q0", "l2c", "q2c", "l2s", "q2s"),
+                        ("lr", "q0", "l2c", "q2c", "l2s", "q2s"), ("l0", "lr", "q0", "l2c", "q2c", "l2s", "q2s", "q1c"),
+                        ("l0", "q0", "q2c", "q2s"), ("lr", "q0", "q2c", "q2s"))
 ALWAYS = ("ox", "oy", "kappa")
 
 
@@ -572,7 +574,7 @@ def choose_drag_law(samples: DragSamples) -> DragChoice:
     """Horizontal set first (with the fullest vertical set), then the vertical set; the smallest set
     within 2 % of the best score wins at each stage. A law that does not increase everywhere on the
     calibrated range and beyond (law_decreasing) is never chosen: its set is dropped and the choice made
-    again among the others (the isotropic sets' non-negative coefficients always increase)."""
+    again among the others (an isotropic law with a positive coefficient always passes)."""
     vertical_full = VERTICAL_SETS[-1]
     folds, top = fold_splits(samples), top_split(samples)  # the same splits for every candidate
     scored = []

@@ -155,24 +155,8 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynami
         calibration = _streamed_logs(af, log_paths, frames or ("heading",), dynamic, still_air,
                                      model in ("polynomial", "auto"), block_bytes)
     by_frame, per_log = calibration.by_frame, calibration.per_log
-    families: dict[str, tuple[Airframe, FitReport, Points | None]] = {}
-    scores: dict[str, dict[str, Any]] = {}
-    failures: list[str] = []
     samples = by_frame.get("heading", next(iter(by_frame.values())))
-    for frame in frames:
-        family = FAMILY_OF_FRAME[frame]
-        if len(samples) < 100:
-            failures.append(f"{family} family: only {len(samples)} usable samples (need 100)")
-            continue
-        choice = dragfit.choose_drag_law(by_frame[frame])
-        where = dragfit.decreasing_at(by_frame[frame], choice.theta)
-        if where is not None:  # every set's law decreased (a zero law): the step could not invert it
-            failures.append(f"{family} family: the fitted law decreases at {where}")
-            continue
-        fitted = drag_airframe(af, choice, by_frame[frame])
-        families[family] = (fitted, _drag_report(choice, by_frame[frame], fitted), None)
-        scores[family] = _family_scores((choice.cv_h_mps, choice.cv_v_mps), choice.extrapolation_h_mps,
-                                        holdcv.hold_cv(by_frame[frame], dragfit.drag_fit_predict(choice.active)))
+    families, scores, failures = _drag_families(af, by_frame, frames, len(samples))
     if model in ("polynomial", "auto"):
         try:
             fitted, report, points = fit_polynomial(af, [], terms, dynamic, points_of=calibration.points_of)
@@ -201,6 +185,45 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynami
     # The self-check's replay measured the observer noise; the sigma outputs add it to the residuals (#10).
     new = dataclasses.replace(new, uncertainty=with_observer_noise(new.uncertainty, check.noise_h_mps, check.noise_up_mps))
     return new, report, points
+
+
+Family = tuple[Airframe, FitReport, "Points | None"]
+
+
+def _drag_families(af: Airframe, by_frame: dict[str, dragfit.DragSamples], frames: tuple[str, ...],
+                   samples: int) -> tuple[dict[str, Family], dict[str, dict[str, Any]], list[str]]:
+    """Each drag frame's law chosen and scored: (fitted families, their scores, why a family was not)."""
+    families: dict[str, Family] = {}
+    scores: dict[str, dict[str, Any]] = {}
+    failures: list[str] = []
+    for frame in frames:
+        family = FAMILY_OF_FRAME[frame]
+        if samples < 100:
+            failures.append(f"{family} family: only {samples} usable samples (need 100)")
+            continue
+        choice = dragfit.choose_drag_law(by_frame[frame])
+        reason = _uninvertible(by_frame[frame], choice)
+        if reason is not None:
+            failures.append(f"{family} family: {reason}")
+            continue
+        fitted = drag_airframe(af, choice, by_frame[frame])
+        families[family] = (fitted, _drag_report(choice, by_frame[frame], fitted), None)
+        scores[family] = _family_scores((choice.cv_h_mps, choice.cv_v_mps), choice.extrapolation_h_mps,
+                                        holdcv.hold_cv(by_frame[frame], dragfit.drag_fit_predict(choice.active)))
+    return families, scores, failures
+
+
+def _uninvertible(samples: dragfit.DragSamples, choice: dragfit.DragChoice) -> str | None:
+    """Why the step could not invert the chosen law, or None: a horizontal law that decreases somewhere
+    (every set's did), or no vertical drag at all (lz = qz = 0: the vertical airflow is then undefined)."""
+    where = dragfit.decreasing_at(samples, choice.theta)
+    if where is not None:
+        dropped = "; ".join(choice.dropped)
+        return f"the fitted law decreases at {where}" + (f" (and so did {dropped})" if dropped else "")
+    values = dict(zip(samples.parameters, choice.theta))
+    if not values["lz"] + values["qz"] > 0:
+        return "no vertical drag (lz = qz = 0): the calibration did not move the air vertically enough"
+    return None
 
 
 def _quiet_hover(af: Airframe, check: SelfCheck, hover: HoverNoise,

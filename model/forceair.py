@@ -28,6 +28,7 @@ analysis and flight share one definition. Frames and signs: docs/model.md.
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from dataclasses import dataclass
@@ -351,47 +352,60 @@ def wind_from_deg_sx(north: ca.SX, east: ca.SX) -> ca.SX:
 
 
 # The grid on which a fitted drag law must increase: horizontal directions every 5 degrees, speeds from
-# LAW_CHECK_MIN_MPS up in geometric steps (a linear anisotropy bites next to zero airflow).
+# LAW_CHECK_MIN_MPS up in geometric steps; below it the linear part alone decides (_linear_part).
 LAW_CHECK_DIRECTIONS = 72
 LAW_CHECK_SPEEDS = 48
 LAW_CHECK_MIN_MPS = 0.01
+_QUADRATIC_KEYS = ("q0", "q2c", "q2s", "q1c")
 
 
 @functools.lru_cache(maxsize=None)
 def _law_slope(frame: str) -> VectorFunction:
-    """The forward law's Jacobian with respect to the airflow, on symbolic coefficients: (airflow, rotor,
-    coefficients) -> Jacobian (2 x 2 heading frame, horizontal; 3 x 3 body frame), smoothed as in Newton."""
-    law, a, rotor = symbolic_law(frame), ca.SX.sym("a", 3), ca.SX.sym("rotor")
+    """The horizontal block of the forward law's Jacobian, d(F_x, F_y)/d(a_x, a_y), at level airflow, on
+    symbolic coefficients: (airflow, rotor, coefficients) -> 2 x 2 (column-major), smoothed as in Newton.
+    At a_z = 0 the body frame's 3 x 3 Jacobian is block-triangular, so this block is what the horizontal
+    terms decide; the vertical law (lz, qz >= 0) is checked apart (fitfamily)."""
+    law, a, rotor = symbolic_law(frame), ca.SX.sym("a", 2), ca.SX.sym("rotor")
     if frame == "body":
-        force = ca.vertcat(*body_drag_force(law, a[0], a[1], a[2], rotor, DRAG_SPEED_EPS_MPS))
-        slope = ca.jacobian(force, a)
+        force = ca.vertcat(*body_drag_force(law, a[0], a[1], 0 * a[0], rotor, DRAG_SPEED_EPS_MPS)[:2])
     else:
         s = ca.sqrt(a[0] * a[0] + a[1] * a[1] + DRAG_SPEED_EPS_MPS ** 2)
         force = ca.vertcat(*_horizontal_drag(law, a[0], a[1], s))
-        slope = ca.jacobian(force, a[:2])
-    return VectorFunction(ca.Function("drag_law_slope", [a, rotor, ca.vertcat(*_symbols(law))], [slope]))
+    return VectorFunction(ca.Function("drag_law_slope", [a, rotor, ca.vertcat(*_symbols(law))],
+                                      [ca.jacobian(force, a)]))
+
+
+def _first_bad(law: DragLaw, ux: np.ndarray, uy: np.ndarray, speed: np.ndarray, rotor: float,
+               strict: bool) -> int | None:
+    """Index of the first grid point where the slope along the airflow or the determinant is negative
+    (``strict``: not positive), or None."""
+    j = _law_slope(law.frame)([np.vstack([ux * speed, uy * speed]), np.array([rotor]),
+                               _coefficients(law, law.frame)], ux.size)[0]
+    jac = j.T.reshape(-1, 2, 2).transpose(0, 2, 1)  # column-major nonzeros -> (rows, i, j) = dF_i / da_j
+    radial = ux * (jac[:, 0, 0] * ux + jac[:, 0, 1] * uy) + uy * (jac[:, 1, 0] * ux + jac[:, 1, 1] * uy)
+    det = np.linalg.det(jac)
+    bad = ~((det > 0) & (radial > 0)) if strict else ~((det >= 0) & (radial >= 0))
+    return int(np.flatnonzero(bad)[0]) if bad.any() else None
 
 
 def law_decreasing(law: DragLaw, speed_max_mps: float, rotors: tuple[float, ...] = (1.0,)) -> str | None:
-    """Where the law stops increasing on the grid up to ``speed_max_mps`` (level airflow; the body
-    frame at each rotor term of ``rotors``), or None. Increasing means a positive Jacobian determinant
-    and a positive slope along the airflow: otherwise two airflows give one force there, and the step's
-    Newton inversion can run off (the same force read as far faster air)."""
+    """Where the law's horizontal force stops increasing with the level airflow up to ``speed_max_mps``
+    (the body frame at each rotor term of ``rotors``), or None. Increasing: a positive Jacobian
+    determinant and a positive slope along the airflow; otherwise two airflows give one force there and
+    the step's Newton inversion can run off (the same force read as far faster air). Next to zero only
+    the linear part counts (it decides the slope as s -> 0): it may be zero, never negative."""
     theta = np.linspace(0.0, 2 * math.pi, LAW_CHECK_DIRECTIONS, endpoint=False)
     speed = np.geomspace(LAW_CHECK_MIN_MPS, max(speed_max_mps, 2 * LAW_CHECK_MIN_MPS), LAW_CHECK_SPEEDS)
     t, s = np.meshgrid(theta, speed)
-    ux, uy = np.cos(t).ravel(), np.sin(t).ravel()
-    size = 3 if law.frame == "body" else 2
+    ux, uy, s = np.cos(t).ravel(), np.sin(t).ravel(), s.ravel()
+    linear = dataclasses.replace(law, **{k: 0.0 for k in _QUADRATIC_KEYS})
     for rotor in (rotors if law.frame == "body" else (1.0,)):
-        a = np.vstack([ux * s.ravel(), uy * s.ravel(), np.zeros(ux.size)])
-        j = _law_slope(law.frame)([a, np.array([rotor]), _coefficients(law, law.frame)], ux.size)[0]
-        jac = j.T.reshape(-1, size, size).transpose(0, 2, 1)  # column-major nonzeros -> (rows, i, j)
-        u = np.zeros((ux.size, size))
-        u[:, 0], u[:, 1] = ux, uy
-        radial = np.einsum("ni,nij,nj->n", u, jac, u)
-        bad = ~((np.linalg.det(jac) > 0) & (radial > 0))
-        if bad.any():
-            k = int(np.flatnonzero(bad)[0])
-            where = f"{math.degrees(theta[k % LAW_CHECK_DIRECTIONS]):.0f} deg from x at {s.ravel()[k]:.3g} m/s"
+        where = None
+        k = _first_bad(linear, np.cos(theta), np.sin(theta), np.ones_like(theta), rotor, strict=False)
+        if k is not None:
+            where = f"{math.degrees(theta[k]):.0f} deg from x next to zero airflow (its linear part)"
+        elif (k := _first_bad(law, ux, uy, s, rotor, strict=True)) is not None:
+            where = f"{math.degrees(theta[k % LAW_CHECK_DIRECTIONS]):.0f} deg from x at {s[k]:.3g} m/s"
+        if where is not None:
             return where + (f", rotor term {rotor:.2f}" if law.frame == "body" else "")
     return None
