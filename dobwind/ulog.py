@@ -33,6 +33,12 @@ PX4_WIND_TOPICS = (("wind", "windspeed_north", "windspeed_east"),
                    ("estimator_states", "states[22]", "states[23]"))
 
 
+# Every topic this module reads: pyulog parses only these (a flight log holds a hundred or more topics,
+# and pyulog keeps each whole in memory; sensor and estimator topics at 100-1000 Hz are most of a log).
+TOPICS_READ = ("vehicle_local_position", "vehicle_attitude", "sensor_combined", "esc_status",
+               "vehicle_thrust_setpoint", "vehicle_attitude_setpoint", "hover_thrust_estimate",
+               "vehicle_land_detected") + tuple(name for name, _, _ in PX4_WIND_TOPICS)
+
 UlogFlight = AutopilotFlight  # the name this module's callers used first
 
 
@@ -64,9 +70,9 @@ READS_PER_BYTE = 3    # resynchronising after corruption advances one byte per t
 EXTRA_READS = 1 << 16
 
 
-def _open(path: str) -> tuple[object, str | None]:
-    """pyulog's parse of ``path`` and its first complaint, if it printed one (pyulog prints to stdout,
-    which must stay one JSON object under --json)."""
+def _open(path: str, topics: tuple[str, ...] | None = TOPICS_READ) -> tuple[object, str | None]:
+    """pyulog's parse of ``path`` (only ``topics``; None: all) and its first complaint, if it printed
+    one (pyulog prints to stdout, which must stay one JSON object under --json)."""
     try:
         from pyulog import ULog
     except ImportError:  # pragma: no cover - the ulog extra is part of `make setup`
@@ -74,7 +80,8 @@ def _open(path: str) -> tuple[object, str | None]:
     printed = io.StringIO()
     try:
         with open(path, "rb") as handle, contextlib.redirect_stdout(printed):
-            ulog = ULog(_BudgetedFile(handle, os.fstat(handle.fileno()).st_size))
+            ulog = ULog(_BudgetedFile(handle, os.fstat(handle.fileno()).st_size),
+                        None if topics is None else list(topics))
     except _NoProgress:
         raise InputError(path, None, "not a readable ULog file (corrupt: the parser made no progress)") from None
     except OSError as exc:

@@ -43,7 +43,7 @@ def _rows(cols, keys, names, t0_us=1_000_000, keep=None):
 
 
 def _ulog(path, cols, *, esc=True, thrust=None, hover=None, param=None, gap=None, landed_until=None, wind=False,
-          attitude_setpoint=True, esc_count=4, esc_every=1, land_flags=None, esc_gap=None):
+          attitude_setpoint=True, esc_count=4, esc_every=1, land_flags=None, esc_gap=None, extra=()):
     keep = None if gap is None else ~((cols["t"] > gap[0]) & (cols["t"] < gap[1]))
     topics = [
         Topic("vehicle_local_position", [("uint64_t", "timestamp")] + [("float", f) for f in ("vx", "vy", "vz", "ax", "ay", "az")],
@@ -82,7 +82,7 @@ def _ulog(path, cols, *, esc=True, thrust=None, hover=None, param=None, gap=None
     if wind:
         topics.append(Topic("wind", [("uint64_t", "timestamp"), ("float", "windspeed_north"), ("float", "windspeed_east")],
                             _rows(cols, ["wind_n", "wind_e"], ["windspeed_north", "windspeed_east"])))
-    return write_ulog(path, topics, {"MPC_THR_HOVER": param} if param else None, ESC_REPORT)
+    return write_ulog(path, topics + list(extra), {"MPC_THR_HOVER": param} if param else None, ESC_REPORT)
 
 
 def _csv(path, cols):
@@ -389,3 +389,37 @@ def test_px4_wind_refused_for_csv_logs(tmp_path, capsys):
     assert main(["replay", str(M300), str(_csv(tmp_path / "a.csv", cols)), "--px4-wind", str(tmp_path / "w.csv")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--px4-wind" in err
+
+
+
+def test_only_the_topics_read_are_parsed_and_the_flight_is_the_same(tmp_path, monkeypatch):
+    """pyulog is given ulog.TOPICS_READ: a topic nobody reads is not parsed, and the flight is the same,
+    array for array, as from a parse of every topic (so every topic the module reads is in the list)."""
+    import pyulog
+
+    from dobwind import ulog
+
+    af, cols = _flight()
+    gyro = Topic("sensor_gyro", [("uint64_t", "timestamp"), ("float[3]", "xyz")],
+                 _rows(cols, ["acc_n", "acc_e", "acc_d"], [f"xyz[{i}]" for i in range(3)]))
+    path = _ulog(tmp_path / "f.ulg", cols, wind=True, landed_until=1.0, extra=[gyro])
+    parsed: list[set[str]] = []
+    real_ulog = pyulog.ULog
+
+    def spy(*args, **kwargs):
+        log = real_ulog(*args, **kwargs)
+        parsed.append({d.name for d in log.data_list})
+        return log
+
+    monkeypatch.setattr(pyulog, "ULog", spy)
+    filtered = ulog.read_ulog(str(path), af)
+    monkeypatch.setattr(ulog._open, "__defaults__", (None,))  # every topic
+    whole = ulog.read_ulog(str(path), af)
+    assert "sensor_gyro" in parsed[1] and "sensor_gyro" not in parsed[0]
+    assert parsed[1] - parsed[0] == {"sensor_gyro"}
+    assert set(whole.log.columns) == set(filtered.log.columns)
+    for key in whole.log.columns:
+        np.testing.assert_array_equal(filtered.log.columns[key], whole.log.columns[key])
+    np.testing.assert_array_equal(filtered.no_data, whole.no_data)
+    np.testing.assert_array_equal(filtered.landed, whole.landed)
+    assert filtered.notes == whole.notes and filtered.px4_wind is not None
