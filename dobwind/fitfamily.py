@@ -172,6 +172,8 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynami
     for key in ("hold_cv_speed_mps", "hold_cv_by_speed", "hold_extrapolation_speed_mps"):
         setattr(report, key, scores.get(chosen, {}).get(key))
     report.warnings += failures
+    sparse = holdcv.sparse_windows(report.hold_cv_by_speed, float(np.median(samples.rates_hz()))) if len(samples) else None
+    report.warnings += [sparse] if sparse else []
     for index, count in enumerate(per_log):
         if count == 0:
             report.warnings.append(f"{log_paths[index]}: contributed no usable sample")

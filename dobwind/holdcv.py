@@ -32,6 +32,21 @@ MIN_WINDOWS_PER_BAND = 20
 MAX_BANDS = 5
 
 
+# Fewer samples than this in a scored window and its half differences (the noise term) mean little.
+MIN_SAMPLES_PER_WINDOW = 4
+
+
+def sparse_windows(table: dict | None, rate_hz: float, minimum: int = MIN_SAMPLES_PER_WINDOW) -> str | None:
+    """A warning when the hold-level CV's scored windows (``table``: HoldCV.band_table()) hold fewer
+    than ``minimum`` samples at ``rate_hz``: a very long calibration is sampled sparsely
+    (dragfit.MAX_SAMPLES), and the CV then cannot see the noise a hold averages."""
+    window = (table or {}).get("window_s")
+    if window is None or not window * rate_hz < minimum:
+        return None
+    return (f"the hold-level CV's windows hold {window * rate_hz:.1f} samples ({window:.1f} s at {rate_hz:.3g} Hz, "
+            f"the rate a calibration this long is sampled at): its noise term is not measured, so it may read low")
+
+
 def samples_per_window(samples: dragfit.DragSamples, window_s: float) -> np.ndarray:
     """(N,) how many samples of its log make a window of ``window_s`` (logs are sampled at their own
     rates: whole rows, not the rate asked for)."""

@@ -195,3 +195,27 @@ def test_a_capped_calibration_is_thinned_evenly_and_streams_byte_for_byte(logs, 
     # The held-out holds are scored for as many seconds as at 10 Hz (fewer samples each).
     window, full_window = whole_report.hold_cv_by_speed["window_s"], full.hold_cv_by_speed["window_s"]
     assert window == pytest.approx(full_window, rel=0.25) and full_window > 1.0
+    assert not any("the hold-level CV's windows hold" in w for w in whole_report.warnings + full.warnings)
+
+
+def test_sparse_cv_windows_are_warned_of():
+    """8 h of calibration with 8 s holds: 36,000 samples over 28,800 s is 1.25 Hz, and a hold scored
+    from 5 s after its start holds 3 s, 3.75 samples: under 4, a warning; an hour (10 Hz) is not."""
+    from dobwind.holdcv import sparse_windows
+
+    rate_8h = dragfit.sample_rate_hz(8 * 3600.0)
+    assert rate_8h == pytest.approx(1.25)
+    warning = sparse_windows({"window_s": 3.0}, rate_8h)
+    assert warning is not None and "3.8 samples" in warning and "1.25 Hz" in warning
+    assert sparse_windows({"window_s": 3.0}, dragfit.sample_rate_hz(3600.0)) is None
+    assert sparse_windows({"window_s": 3.2}, 1.25) is None  # exactly 4
+    assert sparse_windows({"window_s": None}, 1.25) is None and sparse_windows(None, 1.25) is None
+
+
+def test_a_fit_sampled_too_sparsely_for_its_cv_says_so(logs, monkeypatch):
+    af = load_airframe(AIRFRAME)
+    paths = [logs["sweep"], logs["vertical"]]
+    total_s = sum(read_log(p).rows * dragfit.median_step(read_log(p).time_s, af) for p in paths)
+    monkeypatch.setattr(dragfit, "MAX_SAMPLES", total_s * dragfit.DECIMATED_RATE_HZ / 40)
+    _, report, _ = fit_airframe(af, paths, model="drag-body", block_bytes=None)
+    assert any("the hold-level CV's windows hold" in w for w in report.warnings), report.warnings
