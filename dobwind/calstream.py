@@ -16,6 +16,7 @@ from typing import Callable, Iterator
 import numpy as np
 
 from dobwind import dragfit
+from dobwind.backends import rolled_reference
 from dobwind.calpoints import PointsReducer
 from dobwind.csvchunks import BLOCK_BYTES
 from dobwind.errors import InputError
@@ -99,7 +100,8 @@ class StepStream:
     on each block: the numbers of one pass)."""
 
     def __init__(self, model: StepModel) -> None:
-        self.model, self.rolled = model, reference.rolled_step(model)
+        # The reference as CasADi's compiled C when a compiler builds it: the VM's numbers (backends).
+        self.model, self.rolled = model, rolled_reference(model)
         self.state: np.ndarray | None = None
         self.previous_t: float | None = None
 

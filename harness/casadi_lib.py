@@ -1,0 +1,63 @@
+"""The Python reference's rolled step run as CasADi's own generated C, compiled once into the library cache.
+
+The reference is a CasADi Function; CasADi's virtual machine evaluates its instructions one at a time
+(0.7 s of an hour's replay at 100 Hz, issue #13). ``CodeGenerator`` prints the same instructions as C
+(a line per instruction, libm for the transcendental ones, as the VM calls), so compiled without
+floating-point contraction or fast-math the numbers are the VM's bit for bit
+(``tests/test_casadi_lib.py`` holds them equal over whole trajectories). This is CasADi's printer, not
+dobwind's: the comparison of dobwind's generated C with the reference stays a comparison of two
+printers. Without a compiler the VM is used.
+"""
+from __future__ import annotations
+
+import hashlib
+import shutil
+import tempfile
+from pathlib import Path
+
+import casadi as ca
+
+from dobwind.harness.build import run, system_compiler
+from dobwind.harness.libcache import cache_dir, publish
+from dobwind.model.errors import CheckFailed
+
+# -ffp-contract=off: a fused multiply-add rounds once where the VM rounds twice (gcc contracts by default
+# on targets with FMA); -fno-fast-math for compilers whose default is not IEEE.
+FLAGS = ("-O2", "-fPIC", "-shared", "-ffp-contract=off", "-fno-fast-math")
+
+
+def generated_source(function: ca.Function) -> str:
+    """CasADi's C for ``function`` (deterministic: the same Function prints the same text)."""
+    generator = ca.CodeGenerator(f"{function.name()}_casadi", {"with_header": False})
+    generator.add(function)
+    return generator.dump()
+
+
+def _key(source: str, command: list[str]) -> str:
+    digest = hashlib.sha256(source.encode() + b"\0" + "\0".join(command).encode() + b"\0")
+    digest.update(ca.__version__.encode())
+    return digest.hexdigest()[:32]
+
+
+def compiled_function(function: ca.Function) -> ca.Function | None:
+    """``function`` as an external Function loaded from its compiled CasADi C (from the cache, built on a
+    miss), or None when no compiler builds it. The library's name is its source's key, so two Functions
+    never share a loaded library."""
+    command = [system_compiler(), *FLAGS]
+    source = generated_source(function)
+    target = cache_dir() / f"libcasadi_{function.name()}_{_key(source, command)}.so"
+    if target.is_file():
+        return ca.external(function.name(), str(target))
+    if shutil.which(command[0]) is None:
+        return None
+    with tempfile.TemporaryDirectory(prefix="dobwind-") as tmp:
+        path = Path(tmp) / "function.c"
+        path.write_text(source)
+        built = Path(tmp) / target.name
+        try:
+            run([*command, str(path), "-o", str(built), "-lm"])
+        except CheckFailed:
+            return None
+        if publish(built, target):
+            return ca.external(function.name(), str(target))
+        return ca.external(function.name(), str(built))  # loaded before the folder goes
