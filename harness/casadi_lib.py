@@ -39,25 +39,31 @@ def _key(source: str, command: list[str]) -> str:
     return digest.hexdigest()[:32]
 
 
+def library_path(function: ca.Function, source: str, command: list[str]) -> Path:
+    """Where the cache keeps ``function``'s library: named by its source and the build command."""
+    return cache_dir() / f"libcasadi_{function.name()}_{_key(source, command)}.so"
+
+
 def compiled_function(function: ca.Function) -> ca.Function | None:
     """``function`` as an external Function loaded from its compiled CasADi C (from the cache, built on a
-    miss), or None when no compiler builds it. The library's name is its source's key, so two Functions
-    never share a loaded library."""
+    miss), or None when it cannot be had: no compiler, a failed build, no room for the build (a full
+    disk), a library that does not load. It is only ever a faster way to the same numbers, so any of
+    these falls back to the VM. The library's name is its source's key: two Functions never share one."""
     command = [system_compiler(), *FLAGS]
     source = generated_source(function)
-    target = cache_dir() / f"libcasadi_{function.name()}_{_key(source, command)}.so"
-    if target.is_file():
-        return ca.external(function.name(), str(target))
-    if shutil.which(command[0]) is None:
-        return None
-    with tempfile.TemporaryDirectory(prefix="dobwind-") as tmp:
-        path = Path(tmp) / "function.c"
-        path.write_text(source)
-        built = Path(tmp) / target.name
-        try:
-            run([*command, str(path), "-o", str(built), "-lm"])
-        except CheckFailed:
-            return None
-        if publish(built, target):
+    target = library_path(function, source, command)
+    try:
+        if target.is_file():
             return ca.external(function.name(), str(target))
-        return ca.external(function.name(), str(built))  # loaded before the folder goes
+        if shutil.which(command[0]) is None:
+            return None
+        with tempfile.TemporaryDirectory(prefix="dobwind-") as tmp:
+            path = Path(tmp) / "function.c"
+            path.write_text(source)
+            built = Path(tmp) / target.name
+            run([*command, str(path), "-o", str(built), "-lm"])
+            if publish(built, target):
+                return ca.external(function.name(), str(target))
+            return ca.external(function.name(), str(built))  # loaded before the folder goes
+    except (OSError, CheckFailed, RuntimeError):  # RuntimeError: CasADi could not load the library
+        return None

@@ -76,3 +76,23 @@ def test_the_python_backend_uses_it_and_gives_the_vms_numbers():
     want = reference.run(model, inputs)
     assert _same(np.concatenate([g.outputs for g in got]), want.outputs)
     assert _same(np.concatenate([g.status for g in got]), want.status)
+
+
+def test_a_library_that_cannot_be_built_or_loaded_falls_back(tmp_path, monkeypatch):
+    """No room to write the source (a full disk) or a cached file that is not a library: None, not a
+    traceback (the backend then runs the VM: same numbers)."""
+    model = build_step(load_airframe(AIRFRAMES[0]))
+    rolled = reference.rolled_step(model)
+
+    def full(*args, **kwargs):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(casadi_lib.Path, "write_text", full)
+    assert casadi_lib.compiled_function(rolled) is None
+    monkeypatch.undo()
+    monkeypatch.setenv("DOBWIND_CACHE", str(tmp_path / "cache2"))
+    command = [casadi_lib.system_compiler(), *casadi_lib.FLAGS]
+    target = casadi_lib.library_path(rolled, casadi_lib.generated_source(rolled), command)
+    target.parent.mkdir(parents=True)
+    target.write_text("not a library")
+    assert casadi_lib.compiled_function(rolled) is None
