@@ -41,10 +41,11 @@ def sparse_windows(table: dict | None, rate_hz: float, minimum: int = MIN_SAMPLE
     than ``minimum`` samples at ``rate_hz``: a very long calibration is sampled sparsely
     (dragfit.MAX_SAMPLES), and the CV then cannot see the noise a hold averages."""
     window = (table or {}).get("window_s")
-    if window is None or not window * rate_hz < minimum:
+    # The window's length is its count over the rate: the product gives the count back to rounding.
+    if window is None or not round(window * rate_hz, 6) < minimum:
         return None
-    return (f"the hold-level CV's windows hold {window * rate_hz:.1f} samples ({window:.1f} s at {rate_hz:.3g} Hz, "
-            f"the rate a calibration this long is sampled at): its noise term is not measured, so it may read low")
+    return (f"the hold-level CV's windows hold {window * rate_hz:.1f} samples ({window:.1f} s at {rate_hz:.3g} Hz; "
+            f"long calibrations are sampled sparsely, MAX_SAMPLES): its noise term is not measured, so it may read low")
 
 
 def samples_per_window(samples: dragfit.DragSamples, window_s: float) -> np.ndarray:
@@ -141,7 +142,7 @@ def _half_differences(predicted: np.ndarray, truth: np.ndarray, inverse: np.ndar
     present = np.unique(half)
     halves[present] = window_speed_errors(predicted, truth, half)
     difference = halves[1::2] - halves[0::2]
-    return np.where(count >= 4, difference, np.nan)
+    return np.where(count >= MIN_SAMPLES_PER_WINDOW, difference, np.nan)
 
 
 @dataclass(frozen=True)

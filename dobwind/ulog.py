@@ -35,6 +35,8 @@ PX4_WIND_TOPICS = (("wind", "windspeed_north", "windspeed_east"),
 
 # Every topic this module reads: pyulog parses only these (a flight log holds a hundred or more topics,
 # and pyulog keeps each whole in memory; sensor and estimator topics at 100-1000 Hz are most of a log).
+# Filtered, pyulog's clock advances only on these topics' messages, so its last_timestamp and dropout
+# times differ from a full parse's: nothing here reads them; a new use must parse in full.
 TOPICS_READ = ("vehicle_local_position", "vehicle_attitude", "sensor_combined", "esc_status",
                "vehicle_thrust_setpoint", "vehicle_attitude_setpoint", "hover_thrust_estimate",
                "vehicle_land_detected") + tuple(name for name, _, _ in PX4_WIND_TOPICS)

@@ -10,8 +10,11 @@ printers. Without a compiler the VM is used.
 """
 from __future__ import annotations
 
+import functools
 import hashlib
+import os
 import shutil
+import subprocess
 import tempfile
 from pathlib import Path
 
@@ -21,9 +24,11 @@ from dobwind.harness.build import run, system_compiler
 from dobwind.harness.libcache import cache_dir, publish
 from dobwind.model.errors import CheckFailed
 
-# -ffp-contract=off: a fused multiply-add rounds once where the VM rounds twice (gcc contracts by default
-# on targets with FMA); -fno-fast-math for compilers whose default is not IEEE.
-FLAGS = ("-O2", "-fPIC", "-shared", "-ffp-contract=off", "-fno-fast-math")
+# -std=c99: CasADi's helpers fall back to other formulas before C99 (fmin/fmax as comparisons, which treat
+# NaN otherwise; expm1 as exp - 1), and some compilers default to gnu89. -ffp-contract=off: a fused
+# multiply-add rounds once where the VM rounds twice (gcc contracts by default on targets with FMA).
+# -fno-fast-math for compilers whose default is not IEEE.
+FLAGS = ("-std=c99", "-O2", "-fPIC", "-shared", "-ffp-contract=off", "-fno-fast-math")
 
 
 def generated_source(function: ca.Function) -> str:
@@ -33,9 +38,24 @@ def generated_source(function: ca.Function) -> str:
     return generator.dump()
 
 
+@functools.lru_cache(maxsize=None)
+def compiler_identity(compiler: str) -> str:
+    """What the compiler named ``compiler`` is: its resolved path, version and target ("" when it cannot
+    say), so that a swapped or upgraded compiler behind the same name misses the cache."""
+    path = shutil.which(compiler)
+    if path is None:
+        return ""
+    try:
+        # -v: version and target on stderr (gcc and clang alike)
+        done = subprocess.run([path, "-v"], capture_output=True, text=True, timeout=30)
+    except (OSError, subprocess.SubprocessError):
+        return os.path.realpath(path)
+    return os.path.realpath(path) + "\0" + done.stdout + done.stderr
+
+
 def _key(source: str, command: list[str]) -> str:
     digest = hashlib.sha256(source.encode() + b"\0" + "\0".join(command).encode() + b"\0")
-    digest.update(ca.__version__.encode())
+    digest.update(compiler_identity(command[0]).encode() + b"\0" + ca.__version__.encode())
     return digest.hexdigest()[:32]
 
 
@@ -54,7 +74,10 @@ def compiled_function(function: ca.Function) -> ca.Function | None:
     target = library_path(function, source, command)
     try:
         if target.is_file():
-            return ca.external(function.name(), str(target))
+            try:
+                return ca.external(function.name(), str(target))
+            except RuntimeError:  # not a loadable library (a damaged cache): built again below
+                target.unlink(missing_ok=True)
         if shutil.which(command[0]) is None:
             return None
         with tempfile.TemporaryDirectory(prefix="dobwind-") as tmp:

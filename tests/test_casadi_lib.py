@@ -78,9 +78,9 @@ def test_the_python_backend_uses_it_and_gives_the_vms_numbers():
     assert _same(np.concatenate([g.status for g in got]), want.status)
 
 
-def test_a_library_that_cannot_be_built_or_loaded_falls_back(tmp_path, monkeypatch):
-    """No room to write the source (a full disk) or a cached file that is not a library: None, not a
-    traceback (the backend then runs the VM: same numbers)."""
+def test_a_library_that_cannot_be_built_falls_back_and_a_damaged_one_is_rebuilt(tmp_path, monkeypatch):
+    """No room to write the source (a full disk): None, not a traceback (the backend then runs the VM:
+    same numbers). A cached file that is not a library is built again, not left to slow every run."""
     model = build_step(load_airframe(AIRFRAMES[0]))
     rolled = reference.rolled_step(model)
 
@@ -95,4 +95,17 @@ def test_a_library_that_cannot_be_built_or_loaded_falls_back(tmp_path, monkeypat
     target = casadi_lib.library_path(rolled, casadi_lib.generated_source(rolled), command)
     target.parent.mkdir(parents=True)
     target.write_text("not a library")
-    assert casadi_lib.compiled_function(rolled) is None
+    rebuilt = casadi_lib.compiled_function(rolled)
+    assert rebuilt is not None and rebuilt.class_name() == "External"
+    assert target.read_bytes() != b"not a library"
+
+
+def test_the_cache_key_names_the_compiler_not_only_its_command(monkeypatch):
+    """A different compiler behind the same name (an upgrade, update-alternatives) is another key."""
+    casadi_lib.compiler_identity.cache_clear()
+    command = [casadi_lib.system_compiler(), *casadi_lib.FLAGS]
+    assert casadi_lib.compiler_identity(command[0]) != ""
+    key = casadi_lib._key("source", command)
+    monkeypatch.setattr(casadi_lib, "compiler_identity", lambda name: "another compiler")
+    assert casadi_lib._key("source", command) != key
+    assert "-std=c99" in casadi_lib.FLAGS and "-ffp-contract=off" in casadi_lib.FLAGS

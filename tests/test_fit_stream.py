@@ -209,6 +209,8 @@ def test_sparse_cv_windows_are_warned_of():
     assert warning is not None and "3.8 samples" in warning and "1.25 Hz" in warning
     assert sparse_windows({"window_s": 3.0}, dragfit.sample_rate_hz(3600.0)) is None
     assert sparse_windows({"window_s": 3.2}, 1.25) is None  # exactly 4
+    rate = 50.0 / 9  # a 50 Hz log at step 9: 4 samples are 0.72 s, whose product with the rate is 3.9999...
+    assert sparse_windows({"window_s": 4 / rate}, rate) is None
     assert sparse_windows({"window_s": None}, 1.25) is None and sparse_windows(None, 1.25) is None
 
 

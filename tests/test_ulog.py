@@ -43,7 +43,7 @@ def _rows(cols, keys, names, t0_us=1_000_000, keep=None):
 
 
 def _ulog(path, cols, *, esc=True, thrust=None, hover=None, param=None, gap=None, landed_until=None, wind=False,
-          attitude_setpoint=True, esc_count=4, esc_every=1, land_flags=None, esc_gap=None, extra=()):
+          attitude_setpoint=True, esc_count=4, esc_every=1, land_flags=None, esc_gap=None, extra=(), sensor=False):
     keep = None if gap is None else ~((cols["t"] > gap[0]) & (cols["t"] < gap[1]))
     topics = [
         Topic("vehicle_local_position", [("uint64_t", "timestamp")] + [("float", f) for f in ("vx", "vy", "vz", "ax", "ay", "az")],
@@ -79,9 +79,16 @@ def _ulog(path, cols, *, esc=True, thrust=None, hover=None, param=None, gap=None
         topics.append(Topic("vehicle_land_detected", [("uint64_t", "timestamp")] + [("bool", f) for f in until],
                             [{"timestamp": int(1_000_000 + s * 1e6), **{f: bool(s < u) for f, u in until.items()}}
                              for s in t]))
-    if wind:
-        topics.append(Topic("wind", [("uint64_t", "timestamp"), ("float", "windspeed_north"), ("float", "windspeed_east")],
+    if wind == "estimator_states":  # PX4's EKF state vector: wind north / east at states[22] / [23]
+        topics.append(Topic("estimator_states", [("uint64_t", "timestamp"), ("float[24]", "states")],
+                            _rows(cols, ["wind_n", "wind_e"], ["states[22]", "states[23]"])))
+    elif wind:  # True: PX4's `wind` topic; or its older name, "wind_estimate"
+        topics.append(Topic(wind if isinstance(wind, str) else "wind",
+                            [("uint64_t", "timestamp"), ("float", "windspeed_north"), ("float", "windspeed_east")],
                             _rows(cols, ["wind_n", "wind_e"], ["windspeed_north", "windspeed_east"])))
+    if sensor:
+        topics.append(Topic("sensor_combined", [("uint64_t", "timestamp"), ("float[3]", "accelerometer_m_s2")],
+                            _rows(cols, ["sf_x", "sf_y", "sf_z"], [f"accelerometer_m_s2[{i}]" for i in range(3)])))
     return write_ulog(path, topics + list(extra), {"MPC_THR_HOVER": param} if param else None, ESC_REPORT)
 
 
@@ -392,17 +399,27 @@ def test_px4_wind_refused_for_csv_logs(tmp_path, capsys):
 
 
 
-def test_only_the_topics_read_are_parsed_and_the_flight_is_the_same(tmp_path, monkeypatch):
+@pytest.mark.parametrize("variant", ["rpm, ned acceleration, wind", "collective, specific force, estimator_states",
+                                     "rpm, ned acceleration, wind_estimate"])
+def test_only_the_topics_read_are_parsed_and_the_flight_is_the_same(tmp_path, monkeypatch, variant):
     """pyulog is given ulog.TOPICS_READ: a topic nobody reads is not parsed, and the flight is the same,
-    array for array, as from a parse of every topic (so every topic the module reads is in the list)."""
+    array for array, as from a parse of every topic (so every topic the module reads is in the list;
+    the two variants between them read every one)."""
     import pyulog
 
     from dobwind import ulog
 
     af, cols = _flight()
+    specific = variant.startswith("collective")
+    if specific:
+        af = parse_airframe(dumps(airframe_dict(thrust={"source": "collective"}, mass=8.0, name="coll",
+                                                **{"observer.force_offset": [0.0, 0.0, 0.0],
+                                                   "observer.acceleration": "specific_force"})), "<sf>")
     gyro = Topic("sensor_gyro", [("uint64_t", "timestamp"), ("float[3]", "xyz")],
                  _rows(cols, ["acc_n", "acc_e", "acc_d"], [f"xyz[{i}]" for i in range(3)]))
-    path = _ulog(tmp_path / "f.ulg", cols, wind=True, landed_until=1.0, extra=[gyro])
+    path = _ulog(tmp_path / "f.ulg", cols, wind=variant.split(", ")[-1], landed_until=1.0,
+                 extra=[gyro], sensor=specific, thrust="thrust_setpoint" if specific else None,
+                 hover=0.5 if specific else None)
     parsed: list[set[str]] = []
     real_ulog = pyulog.ULog
 
