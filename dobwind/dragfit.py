@@ -366,10 +366,9 @@ def segment_runs(t: np.ndarray, segment: np.ndarray) -> tuple[np.ndarray, np.nda
     return np.cumsum(start) - 1, t - t[first]
 
 
-def merge(parts: list[dict[str, np.ndarray]], frame: str = "heading",
-          rate_hz: float = DECIMATED_RATE_HZ) -> DragSamples:
+def merge(parts: list[dict[str, np.ndarray]], frame: str = "heading") -> DragSamples:
     """The logs' samples (LogSampler.result each) as one set: blocks numbered across logs. Each sample
-    keeps its log's interval; ``rate_hz``, the rate asked for, only stands in for a part without one."""
+    keeps its log's interval (LogSampler's step times the log's sample time)."""
     groups, offset = [], 0
     for part in parts:
         block = np.floor((part["time"] - part["time"][0]) / BLOCK_S).astype(int) if len(part["time"]) else np.zeros(0, int)
@@ -377,8 +376,7 @@ def merge(parts: list[dict[str, np.ndarray]], frame: str = "heading",
         offset += int(block.max()) + 1 if len(block) else 0
     cat = {k: np.concatenate([p[k] for p in parts]) for k in ("observed", "columns", "cos_yaw", "sin_yaw", "airflow")}
     logs = np.concatenate([np.full(len(p["time"]), i) for i, p in enumerate(parts)])
-    interval = np.concatenate([p["interval_s"] if "interval_s" in p else np.full(len(p["time"]), 1.0 / rate_hz)
-                               for p in parts])
+    interval = np.concatenate([p["interval_s"] for p in parts])
     body = {k: np.concatenate([p[k] for p in parts]) for k in ("rotation", "rotor")} if frame == "body" else {}
     # Segment runs only when every log has them (holdcv falls back to fixed windows otherwise).
     holds = {k: np.concatenate([p[k] for p in parts]) for k in ("hold", "hold_age_s")} \

@@ -43,7 +43,7 @@ def drag_samples(af: Airframe, logs: list[FlightLog], frames: tuple[str, ...] = 
         for frame in frames:
             parts[frame].append(reducer.result(frame))
     counts = [len(p["time"]) for p in parts[frames[0]]]
-    return {frame: dragfit.merge(parts[frame], frame, rate_hz) for frame in frames}, counts
+    return {frame: dragfit.merge(parts[frame], frame) for frame in frames}, counts
 
 
 def drag_airframe(af: Airframe, choice: dragfit.DragChoice, samples: dragfit.DragSamples) -> Airframe:
@@ -123,8 +123,7 @@ def _streamed_logs(af: Airframe, log_paths: list[str], frames: tuple[str, ...], 
     shapes = [calstream.log_shape(source, af) for source in sources]
     first = calstream.reduce_logs(af, sources, shapes, frames, dynamic, points)
     per_log = [len(part["time"]) for part in first.samples[frames[0]]]
-    rate_hz = calstream.sample_rate_hz(shapes)
-    by_frame = {frame: dragfit.merge(first.samples.pop(frame), frame, rate_hz) for frame in frames}  # one copy kept
+    by_frame = {frame: dragfit.merge(first.samples.pop(frame), frame) for frame in frames}  # one copy kept
     chunks = {af: (first.chunks, first.settle_s)}
 
     def points_of(airframe: Airframe) -> tuple[Points, float]:
