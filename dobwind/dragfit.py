@@ -19,6 +19,7 @@ the user sees), plus the error on the fastest blocks when fitted on the rest (ex
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Callable
@@ -88,6 +89,8 @@ class DragSamples:
     # (N,) the time each sample stands for: its log's decimation step times the log's sample time (the
     # step is rounded to whole rows, so a log's rate is not the one asked for); None: 1/DECIMATED_RATE_HZ.
     interval_s: np.ndarray | None = None
+    # The law's exponent the q0, q2c, q2s columns stand for (with_exponent); 2 as sampled.
+    exponent: float = 2.0
 
     @property
     def parameters(self) -> tuple[str, ...]:
@@ -104,7 +107,7 @@ class DragSamples:
         return DragSamples(self.observed[keep], self.columns[keep], self.cos_yaw[keep], self.sin_yaw[keep],
                            self.airflow[keep], self.group[keep], self.log_index[keep], self.frame,
                            pick(self.rotation), pick(self.rotor), pick(self.hold), pick(self.hold_age_s),
-                           pick(self.interval_s))
+                           pick(self.interval_s), self.exponent)
 
     def __len__(self) -> int:
         return len(self.observed)
@@ -442,11 +445,33 @@ def robust_fit(samples: DragSamples, active: tuple[str, ...], rounds: int = 4) -
     return theta
 
 
-def law_of(theta: np.ndarray, frame: str = "heading") -> DragLaw:
+def law_of(theta: np.ndarray, frame: str = "heading", exponent: float = 2.0) -> DragLaw:
     """The law as the fit sees it (for the body frame, the rotor term on the NOMINAL thrust)."""
     values = dict(zip(parameters_of(frame), (float(v) for v in theta)))
     keys = HORIZONTAL_DRAG_KEYS + VERTICAL_DRAG_KEYS + ((ROTOR_DRAG_KEY,) if frame == "body" else ())
-    return DragLaw(**{k: values[k] for k in keys}, frame=frame)
+    return DragLaw(**{k: values[k] for k in keys}, frame=frame, exponent=exponent)
+
+
+# The columns whose terms grow as s^p: with_exponent rescales them.
+EXPONENT_COLUMNS = ("q0", "q2c", "q2s")
+
+
+def with_exponent(samples: DragSamples, exponent: float) -> DragSamples:
+    """The samples as if sampled for a law of another exponent: the q0, q2c, q2s columns (H applied to
+    s a, s the airflow speed the law uses: horizontal in the heading frame, 3-D in the body frame) times
+    s_f^(p - 2), s_f that speed of the H-filtered airflow. Exact in steady airflow, where H passes the
+    product unchanged; through a change of airflow it is off by the change of s^(p-2) across the
+    observer's settling (a few per cent of a term at p 0.3 from 2), and the fit weighs those samples
+    little. Resampling every log per exponent instead would double the fit's time."""
+    if exponent == samples.exponent:
+        return samples
+    air = samples.airflow
+    speed = np.linalg.norm(air, axis=1) if samples.frame == "body" else np.hypot(air[:, 0], air[:, 1])
+    factor = np.maximum(speed, 1e-9) ** (exponent - samples.exponent)
+    columns = samples.columns.copy()
+    for key in EXPONENT_COLUMNS:
+        columns[:, :, samples.parameters.index(key)] *= factor[:, None]
+    return dataclasses.replace(samples, columns=columns, exponent=exponent)
 
 
 def heading_forces(samples: DragSamples, theta: np.ndarray) -> np.ndarray:
@@ -461,9 +486,9 @@ def predicted_airflow(samples: DragSamples, theta: np.ndarray) -> np.ndarray:
     """The step's inversion applied to the observed force: heading-frame airflow (N, 3)."""
     force = heading_forces(samples, theta)
     if samples.frame != "body":
-        return drag_airflow_numpy(law_of(theta), force[:, 0], force[:, 1], force[:, 2])
+        return drag_airflow_numpy(law_of(theta, exponent=samples.exponent), force[:, 0], force[:, 1], force[:, 2])
     north, east = heading_to_ned(force[:, 0], force[:, 1], samples.cos_yaw, samples.sin_yaw)
-    ned = body_drag_airflow_numpy(law_of(theta, "body"), np.column_stack([north, east, force[:, 2]]),
+    ned = body_drag_airflow_numpy(law_of(theta, "body", samples.exponent), np.column_stack([north, east, force[:, 2]]),
                                   samples.rotation, samples.rotor)
     return np.column_stack(heading_force(ned.T, samples.cos_yaw, samples.sin_yaw, (0.0, 0.0, 0.0)))
 
@@ -619,7 +644,7 @@ def decreasing_at(samples: DragSamples, theta: np.ndarray) -> str | None:
     speed = float(np.max(np.hypot(samples.airflow[:, 0], samples.airflow[:, 1]), initial=0.0))
     rotors = (float(np.min(samples.rotor)), float(np.max(samples.rotor))) \
         if samples.frame == "body" and samples.rotor is not None and len(samples.rotor) else (1.0,)
-    return law_decreasing(law_of(theta, samples.frame), LAW_CHECK_SPEED_SHARE * speed, rotors)
+    return law_decreasing(law_of(theta, samples.frame, samples.exponent), LAW_CHECK_SPEED_SHARE * speed, rotors)
 
 
 def polynomial_fit_predict(horizontal: list[Term], vertical: list[Term],

@@ -104,6 +104,8 @@ class FitReport:
     low_pass: dict = field(default_factory=dict)
     # Drag-law sets whose fitted law decreased somewhere (dragfit.choose_drag_law): never chosen, with where.
     not_increasing: list[str] = field(default_factory=list)
+    # drag families: the hold-level score (m/s) of each exponent tried (dobwind/dragexponent.py)
+    exponent_scores: dict[str, float] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
 
 

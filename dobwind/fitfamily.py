@@ -9,7 +9,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from dobwind import calstream, dragfit, holdcv
+from dobwind import calstream, dragexponent, dragfit, holdcv
 from dobwind.csvchunks import BLOCK_BYTES
 from dobwind.envelope import calibration_envelope, uncertainty_table, with_observer_noise
 from dobwind.errors import CheckFailed
@@ -52,7 +52,7 @@ def drag_airframe(af: Airframe, choice: dragfit.DragChoice, samples: dragfit.Dra
     values = dict(zip(samples.parameters, (float(v) for v in choice.theta)))
     thrust = dataclasses.replace(af.thrust, scale=af.thrust.scale * (1 - values["kappa"]))
     observer = dataclasses.replace(af.observer, force_offset_n=(values["ox"], values["oy"], 0.0))
-    law = dragfit.law_of(choice.theta, samples.frame)
+    law = dragfit.law_of(choice.theta, samples.frame, samples.exponent)
     if law.frame == "body":
         # The fit's rotor term uses the nominal thrust; the step's, the scaled one (a factor 1 - kappa).
         law = dataclasses.replace(law, lr=law.lr / math.sqrt(1 - values["kappa"]))
@@ -193,7 +193,8 @@ Family = tuple[Airframe, FitReport, "Points | None"]
 
 def _drag_families(af: Airframe, by_frame: dict[str, dragfit.DragSamples], frames: tuple[str, ...],
                    samples: int) -> tuple[dict[str, Family], dict[str, dict[str, Any]], list[str]]:
-    """Each drag frame's law chosen and scored: (fitted families, their scores, why a family was not)."""
+    """Each drag frame's law chosen and scored, the body frame's with its exponent (dragexponent):
+    (fitted families, their scores, why a family was not)."""
     families: dict[str, Family] = {}
     scores: dict[str, dict[str, Any]] = {}
     failures: list[str] = []
@@ -207,11 +208,23 @@ def _drag_families(af: Airframe, by_frame: dict[str, dragfit.DragSamples], frame
         if reason is not None:
             failures.append(f"{family} family: {reason}")
             continue
-        fitted = drag_airframe(af, choice, by_frame[frame])
-        families[family] = (fitted, _drag_report(choice, by_frame[frame], fitted), None)
-        scores[family] = _family_scores((choice.cv_h_mps, choice.cv_v_mps), choice.extrapolation_h_mps,
-                                        holdcv.hold_cv(by_frame[frame], dragfit.drag_fit_predict(choice.active)))
+        hold = holdcv.hold_cv(by_frame[frame], dragfit.drag_fit_predict(choice.active))
+        picked = dragexponent.ExponentChoice(2.0, by_frame[frame], choice, hold)
+        if frame == "body":  # the heading frame's exponent would absorb the tilt (dragexponent's note)
+            picked = dragexponent.choose_exponent(by_frame[frame], choice,
+                                                  lambda s, c: _uninvertible(s, c) is None, hold)
+        families[family], scores[family] = _drag_family(af, picked)
     return families, scores, failures
+
+
+def _drag_family(af: Airframe, picked: dragexponent.ExponentChoice) -> tuple[Family, dict[str, Any]]:
+    fitted = drag_airframe(af, picked.choice, picked.samples)
+    report = _drag_report(picked.choice, picked.samples, fitted)
+    report.exponent_scores = {f"{p:g}": s for p, s in sorted(picked.scores.items())}
+    scores = _family_scores((picked.choice.cv_h_mps, picked.choice.cv_v_mps), picked.choice.extrapolation_h_mps,
+                            picked.hold)
+    return (fitted, report, None), {**scores, "exponent": picked.exponent}
+
 
 
 def _uninvertible(samples: dragfit.DragSamples, choice: dragfit.DragChoice) -> str | None:

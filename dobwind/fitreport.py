@@ -48,6 +48,14 @@ def _low_pass_line(report: FitReport) -> list[str]:
             f"per horizontal axis (target {change['target_mps']:g} m/s; --hover-noise)"]
 
 
+def _exponent_line(report: FitReport) -> list[str]:
+    if len(report.exponent_scores) < 2:
+        return []
+    tried = ", ".join(f"{p} {s:.3f}" for p, s in report.exponent_scores.items())
+    exponent = report.drag.get("exponent", 2.0)
+    return [f"  exponent {exponent:g}, chosen by the hold-level score (CV and top holds, m/s) of each tried: {tried}"]
+
+
 def text_report(report: FitReport) -> str:
     def model(terms: list[str], coefs: list[float]) -> str:
         return " + ".join(f"{c:.4g}*{t}" if t != "1" else f"{c:.4g}" for t, c in zip(terms, coefs))
@@ -67,6 +75,7 @@ def text_report(report: FitReport) -> str:
             f"[{', '.join(f'{v:.3f}' for v in report.force_offset_n)}] N",
             f"drag law: {law}",
             *(f"  not chosen: {where}" for where in report.not_increasing),
+            *_exponent_line(report),
             f"  horizontal airflow RMSE {report.horizontal_rmse_mps:.3f} m/s, "
             + _errors(report.horizontal_cv_rmse_mps, report.horizontal_extrapolation_rmse_mps),
             f"  vertical airflow RMSE {report.vertical_rmse_mps:.3f} m/s"])

@@ -15,7 +15,8 @@ from pathlib import Path
 from typing import Any
 
 from dobwind.model.errors import InputError
-from dobwind.model.forceair import DRAG_FRAMES, HORIZONTAL_DRAG_KEYS, ROTOR_DRAG_KEY, VERTICAL_DRAG_KEYS, DragLaw
+from dobwind.model.forceair import (DRAG_FRAMES, EXPONENT_RANGE, HORIZONTAL_DRAG_KEYS, ROTOR_DRAG_KEY, VERTICAL_DRAG_KEYS,
+                                    DragLaw)
 from dobwind.model.ranges import (MAX_TERMS, MAX_FACTOR_POWER, MAX_TERM_DEGREE, MAX_THRUST_COEFFICIENTS,
                                   MIN_SPEED_GAP_MPS, NAME_MAX_CHARS, RANGES, Range, single_precision_ok)
 from dobwind.model.terms import Term, TermError, parse_term, range_problem
@@ -269,7 +270,7 @@ def _force_air(reader: _Reader) -> ForceAirModel:
     return ForceAirModel(tuple(terms), coefficients)
 
 
-DRAG_TABLE_KEYS = HORIZONTAL_DRAG_KEYS + (ROTOR_DRAG_KEY,) + VERTICAL_DRAG_KEYS + ("frame",)
+DRAG_TABLE_KEYS = HORIZONTAL_DRAG_KEYS + (ROTOR_DRAG_KEY,) + VERTICAL_DRAG_KEYS + ("frame", "exponent")
 
 
 def _drag_law(reader: _Reader) -> DragLaw:
@@ -288,8 +289,12 @@ def _drag_law(reader: _Reader) -> DragLaw:
         raise reader.fail("q0", "l0, q0 (and lr) are all 0: the law cannot be inverted")
     if values["lz"] + values["qz"] <= 0 and (values["i1"] or values["i2"]):
         raise reader.fail("qz", "lz and qz are both 0 while inflow terms are set")
+    exponent = reader.number("exponent", default=2.0)
+    low, high = EXPONENT_RANGE
+    if not low <= exponent <= high:
+        raise reader.fail("exponent", f"must be in [{low:g}, {high:g}] (the growth of the quadratic terms), got {exponent!r}")
     reader.done()
-    return DragLaw(**values, frame=frame)
+    return DragLaw(**values, frame=frame, exponent=exponent)
 
 
 def _force_air_tables(fa: _Reader) -> tuple[ForceAirModel, ForceAirModel, DragLaw | None]:

@@ -11,8 +11,8 @@ Two families map the observed external force (heading frame c, offset removed) t
   horizontal airflow (heading frame), s = |v|, theta its angle from the heading, u = v/s and e = u turned
   90 deg (left of the airflow):
 
-      F_h = [l0 s + q0 s^2 + (l2c s + q2c s^2) cos 2theta + q1c s^2 cos theta] u
-          + (l2s s + q2s s^2) sin 2theta e
+      F_h = [l0 s + q0 s^p + (l2c s + q2c s^p) cos 2theta + q1c s^2 cos theta] u
+          + (l2s s + q2s s^p) sin 2theta e
       F_z = lz v_z + qz |v_z| v_z + i1 s + i2 s^2
 
   l0, q0: linear (rotor, momentum) and quadratic (body) drag; the cos 2theta terms make drag along body
@@ -22,6 +22,9 @@ Two families map the observed external force (heading frame c, offset removed) t
   airflow causes (rotors in edgewise flow make more thrust). The horizontal law is inverted by a fixed
   number of Newton steps from the isotropic closed form; the vertical one in closed form given s. Both
   are branch-free.
+
+  p, the law's ``exponent``, is 2 (Newtonian drag) unless the fit finds the bluff-body drag growing
+  faster or slower (a Reynolds-dependent drag coefficient): only then does the step raise s to a power.
 
 Everything symbolic is CasADi SX; the NumPy helpers map the same symbolic expressions, so calibration,
 analysis and flight share one definition. Frames and signs: docs/model.md.
@@ -57,6 +60,12 @@ ROTOR_DRAG_KEY = "lr"
 DRAG_FRAMES = ("heading", "body")
 # Newton steps of the body-frame inversion (3-D, coupled through |a| and the inflow terms).
 BODY_NEWTON_STEPS = 4
+# The isotropic start solves the quadratic law; with another exponent it is further off (up to about 30 %
+# at p = 1.6 or 2.4), and two more steps bring it to float precision (tests/test_drag_exponent.py).
+EXPONENT_EXTRA_STEPS = 2
+# The exponents a law may have: drag coefficients that fall or rise with Reynolds number over the
+# airflow range of small vehicles give effective exponents in about this range.
+EXPONENT_RANGE = (1.5, 2.5)
 
 
 @dataclass(frozen=True)
@@ -76,6 +85,7 @@ class DragLaw:
     lr: float = 0.0          # body frame only: N per m/s at hover thrust, times sqrt(u_f / (m g))
     frame: str = "heading"   # "heading": the law of the level heading-frame airflow; "body": of the
     #                          body-frame airflow at the real attitude (tilt included)
+    exponent: float = 2.0    # p: the quadratic terms q0, q2c, q2s grow as s^p (1.5 to 2.5)
 
     def keys(self) -> tuple[str, ...]:
         extra = (ROTOR_DRAG_KEY,) if self.frame == "body" else ()
@@ -85,7 +95,25 @@ class DragLaw:
         values: dict[str, float | str] = {k: getattr(self, k) for k in self.keys()}
         if self.frame != "heading":
             values["frame"] = self.frame
+        if isinstance(self.exponent, ca.SX) or self.exponent != 2.0:
+            values["exponent"] = self.exponent
         return values
+
+    def newton_steps(self, steps: int) -> int:
+        """``steps`` for a quadratic law; more when the exponent is another (or a symbol)."""
+        return steps if _quadratic(self) else steps + EXPONENT_EXTRA_STEPS
+
+
+def _quadratic(law: DragLaw) -> bool:
+    return not isinstance(law.exponent, ca.SX) and law.exponent == 2.0
+
+
+def speed_power(s, exponent):
+    """s^(p - 1), the factor of the quadratic terms: s itself for p = 2 (no power in the step's C).
+    SX or NumPy; s > 0 (smoothed or floored by the callers)."""
+    if not isinstance(exponent, ca.SX) and exponent == 2.0:
+        return s
+    return s ** (exponent - 1.0)
 
 
 def symbolic_law(frame: str) -> DragLaw:
@@ -93,7 +121,7 @@ def symbolic_law(frame: str) -> DragLaw:
     once on it and take the coefficients as inputs, instead of rebuilding the expression per law."""
     keys = DragLaw(0.0, 0.0, frame=frame).keys()
     symbols: dict = {k: ca.SX.sym(k) for k in keys}
-    return DragLaw(**symbols, frame=frame)
+    return DragLaw(**symbols, frame=frame, exponent=ca.SX.sym("exponent"))
 
 
 def _used(law: DragLaw, keys: tuple[str, ...]) -> list[str]:
@@ -102,9 +130,9 @@ def _used(law: DragLaw, keys: tuple[str, ...]) -> list[str]:
 
 
 def _symbols(law: DragLaw) -> list[ca.SX]:
-    """The law's symbolic coefficients (none for a numeric law): inputs of the Newton steps' inner
-    Functions, which may not have free symbols."""
-    return [v for v in (getattr(law, k) for k in law.keys()) if isinstance(v, ca.SX)]
+    """The law's symbolic coefficients and exponent (none for a numeric law): inputs of the Newton
+    steps' inner Functions, which may not have free symbols."""
+    return [v for v in (*(getattr(law, k) for k in law.keys()), law.exponent) if isinstance(v, ca.SX)]
 
 
 def heading_force(force_ned, cos_yaw, sin_yaw, offset: tuple[float, float, float]):
@@ -154,21 +182,22 @@ def polynomial_airflow(horizontal: tuple[tuple[Term, ...], tuple[float, ...]],
     return scale * m, scale * n, polynomial_expr(*vertical, variables), speed_h, scale
 
 
-def horizontal_drag_basis(vx, vy, s):
+def horizontal_drag_basis(vx, vy, s, exponent=2.0):
     """Heading-frame force per unit of each horizontal coefficient, in HORIZONTAL_DRAG_KEYS order, with
     s the (possibly smoothed) airflow speed. SX or NumPy."""
     cos2 = (vx * vx - vy * vy) / (s * s)
     sin2 = 2 * vx * vy / (s * s)
+    g = speed_power(s, exponent)
     return {
-        "l0": (vx, vy), "q0": (s * vx, s * vy),
-        "l2c": (cos2 * vx, cos2 * vy), "q2c": (s * cos2 * vx, s * cos2 * vy),
+        "l0": (vx, vy), "q0": (g * vx, g * vy),
+        "l2c": (cos2 * vx, cos2 * vy), "q2c": (g * cos2 * vx, g * cos2 * vy),
         "q1c": (vx * vx, vx * vy),
-        "l2s": (-sin2 * vy, sin2 * vx), "q2s": (-s * sin2 * vy, s * sin2 * vx),
+        "l2s": (-sin2 * vy, sin2 * vx), "q2s": (-g * sin2 * vy, g * sin2 * vx),
     }
 
 
 def _horizontal_drag(law: DragLaw, vx, vy, s):
-    basis = horizontal_drag_basis(vx, vy, s)
+    basis = horizontal_drag_basis(vx, vy, s, law.exponent)
     used = _used(law, HORIZONTAL_DRAG_KEYS)
     fx = sum(getattr(law, k) * basis[k][0] for k in used)
     fy = sum(getattr(law, k) * basis[k][1] for k in used)
@@ -206,7 +235,7 @@ def drag_airflow(law: DragLaw, m: ca.SX, n: ca.SX, fz: ca.SX):
     # s = 2 fh / (lin + sqrt(lin^2 + 4 quad fh)), along the force: (m, n) s / fh without dividing by fh.
     scale = 2 / ca.fmax(lin + ca.sqrt(lin * lin + 4 * quad * fh), _DENOMINATOR_FLOOR)
     vx, vy = scale * m, scale * n
-    for _ in range(DRAG_NEWTON_STEPS):
+    for _ in range(law.newton_steps(DRAG_NEWTON_STEPS)):
         vx, vy = _newton_step(law, vx, vy, m, n)
     s = ca.sqrt(vx * vx + vy * vy)
     # lz v + qz |v| v = r, solved for v with the root's sign taken from r (the law is odd in v).
@@ -225,7 +254,8 @@ def _heading_inversion() -> VectorFunction:
 
 def _coefficients(law: DragLaw, frame: str) -> np.ndarray:
     """The law's coefficients in the order of ``symbolic_law(frame)``'s symbols."""
-    return np.array([float(getattr(law, k)) for k in DragLaw(0.0, 0.0, frame=frame).keys()])
+    keys = DragLaw(0.0, 0.0, frame=frame).keys()
+    return np.array([float(getattr(law, k)) for k in keys] + [float(law.exponent)])
 
 
 def drag_airflow_numpy(law: DragLaw, m: np.ndarray, n: np.ndarray, fz: np.ndarray) -> np.ndarray:
@@ -238,14 +268,14 @@ def drag_airflow_numpy(law: DragLaw, m: np.ndarray, n: np.ndarray, fz: np.ndarra
     return _heading_inversion()([*force, _coefficients(law, "heading")], rows)[0].T
 
 
-def body_drag_basis(ax, ay, az, rotor, eps: float = 0.0) -> dict[str, tuple]:
+def body_drag_basis(ax, ay, az, rotor, eps: float = 0.0, exponent=2.0) -> dict[str, tuple]:
     """Body-frame force (x, y, z; FRD, N) per unit of each coefficient of the body-frame law, for the
     body-frame airflow a (m/s) and rotor = sqrt(u_f / (m g)). s = |a| (3-D: quadratic drag grows with
     the whole airspeed), s_h = the in-plane speed, theta its angle from body x. ``eps`` smooths both
     speeds (the inversion's Jacobian); 0 for data. SX or NumPy.
 
-        F_xy = [l0 + lr rotor + q0 s + (l2c + q2c s) cos 2theta] a_xy + q1c a_x a_xy
-               + (l2s + q2s s) sin 2theta (-a_y, a_x)
+        F_xy = [l0 + lr rotor + q0 s^(p-1) + (l2c + q2c s^(p-1)) cos 2theta] a_xy + q1c a_x a_xy
+               + (l2s + q2s s^(p-1)) sin 2theta (-a_y, a_x)
         F_z  = lz a_z + qz s a_z + i1 s_h + i2 s_h^2
     """
     sh2 = ax * ax + ay * ay + eps * eps
@@ -254,11 +284,12 @@ def body_drag_basis(ax, ay, az, rotor, eps: float = 0.0) -> dict[str, tuple]:
     cos2 = (ax * ax - ay * ay) / sh2
     sin2 = 2 * ax * ay / sh2
     zero = 0 * ax
+    g = speed_power(s, exponent)
     return {
-        "l0": (ax, ay, zero), "q0": (s * ax, s * ay, zero),
-        "l2c": (cos2 * ax, cos2 * ay, zero), "q2c": (s * cos2 * ax, s * cos2 * ay, zero),
+        "l0": (ax, ay, zero), "q0": (g * ax, g * ay, zero),
+        "l2c": (cos2 * ax, cos2 * ay, zero), "q2c": (g * cos2 * ax, g * cos2 * ay, zero),
         "q1c": (ax * ax, ax * ay, zero),
-        "l2s": (-sin2 * ay, sin2 * ax, zero), "q2s": (-s * sin2 * ay, s * sin2 * ax, zero),
+        "l2s": (-sin2 * ay, sin2 * ax, zero), "q2s": (-g * sin2 * ay, g * sin2 * ax, zero),
         "lr": (rotor * ax, rotor * ay, zero),
         "lz": (zero, zero, az), "qz": (zero, zero, s * az), "i1": (zero, zero, sh), "i2": (zero, zero, sh2),
     }
@@ -266,7 +297,7 @@ def body_drag_basis(ax, ay, az, rotor, eps: float = 0.0) -> dict[str, tuple]:
 
 def body_drag_force(law: DragLaw, ax, ay, az, rotor, eps: float = 0.0):
     """The body-frame law forward: body-frame force (N) of the body-frame airflow. SX or NumPy."""
-    basis = body_drag_basis(ax, ay, az, rotor, eps)
+    basis = body_drag_basis(ax, ay, az, rotor, eps, law.exponent)
     used = _used(law, law.keys())
     return tuple(sum(getattr(law, k) * basis[k][i] for k in used) for i in range(3))
 
@@ -304,7 +335,7 @@ def body_drag_airflow(law: DragLaw, force_ned: ca.SX, rot: ca.SX, rotor: ca.SX) 
     rz = f_b[2] - law.i1 * sh - law.i2 * sh * sh
     az = 2 * rz / ca.fmax(law.lz + ca.sqrt(law.lz * law.lz + 4 * law.qz * ca.fabs(rz)), _DENOMINATOR_FLOOR)
     a = ca.vertcat(ax, ay, az)
-    for _ in range(BODY_NEWTON_STEPS):
+    for _ in range(law.newton_steps(BODY_NEWTON_STEPS)):
         a = _body_newton_step(law, a, rotor, f_b)
     return rot @ a
 

@@ -25,6 +25,7 @@ _UNARY: dict[int, Callable[[_Value], _Value]] = {
     ca.OP_ASSIGN: lambda x: x, ca.OP_NEG: np.negative, ca.OP_SQRT: np.sqrt, ca.OP_SQ: lambda x: x * x,
     ca.OP_TWICE: lambda x: x + x, ca.OP_FABS: np.abs, ca.OP_SIGN: np.sign, ca.OP_INV: lambda x: 1.0 / x,
     ca.OP_NOT: lambda x: np.logical_not(x).astype(float),
+    ca.OP_EXP: np.exp, ca.OP_LOG: np.log,
 }
 _BINARY: dict[int, Callable[[_Value, _Value], _Value]] = {
     ca.OP_ADD: np.add, ca.OP_SUB: np.subtract, ca.OP_MUL: np.multiply, ca.OP_DIV: np.divide,
@@ -33,6 +34,7 @@ _BINARY: dict[int, Callable[[_Value, _Value], _Value]] = {
     ca.OP_EQ: lambda x, y: np.equal(x, y).astype(float), ca.OP_NE: lambda x, y: np.not_equal(x, y).astype(float),
     ca.OP_AND: lambda x, y: np.logical_and(x, y).astype(float),
     ca.OP_OR: lambda x, y: np.logical_or(x, y).astype(float),
+    ca.OP_POW: np.power, ca.OP_CONSTPOW: np.power,
 }
 
 
