@@ -85,7 +85,9 @@ def vehicle_tables(config: Config, results: list[dict[str, Any]]) -> tuple[list[
                 low_pass = r["fit"].get("low_pass") or {}
                 lowered = (f"; low-pass at zero airflow {low_pass['cutoff_hz'][0]:.3g} -> {low_pass['cutoff_hz'][1]:.3g} Hz"
                            if low_pass else "")
-                lines.append(f"  seed {r['seed']}: fit chose the {r['fit']['model']} family{lowered}")
+                exponent = r["fit"].get("exponent")
+                power = f" (drag exponent {exponent:g})" if exponent not in (None, 2.0) else ""
+                lines.append(f"  seed {r['seed']}: fit chose the {r['fit']['model']} family{power}{lowered}")
             if "error" in r:
                 lines.append(f"  seed {r['seed']}: {r['error']}")
             for warning in (r.get("fit") or {}).get("warnings", []):

@@ -100,6 +100,7 @@ def _fit(job: Job, logs: list[str]) -> tuple[str, dict[str, Any]]:
                     "rmse_mps": report.get("horizontal_rmse_mps"),
                     "extrapolation_rmse_mps": report.get("horizontal_extrapolation_rmse_mps"),
                     "model": report.get("model"), "terms": report.get("horizontal_terms"),
+                    "exponent": (report.get("drag") or {}).get("exponent", 2.0) if report.get("drag") else None,
                     "thrust_scale": report.get("thrust_scale"), "low_pass": report.get("low_pass") or {},
                     "warnings": report.get("warnings", [])}
 

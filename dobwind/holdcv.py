@@ -20,7 +20,7 @@ difference small, so the split leans toward bias: the longer-hold figure errs hi
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -92,6 +92,10 @@ class HoldCV:
     band_bias_mps: tuple[float, ...] = ()          # per band: the RMS error a hold of any length keeps
     band_noise_mps_sqrt_s: tuple[float, ...] = ()  # per band: the noise RMS of a 1 s hold (falls as 1/sqrt(T))
     window_s: float = math.nan                     # median scored length of the held-out windows
+    # Each held-out window's hold-mean speed error, and each top window's, in an order that depends only
+    # on the samples (so two laws' errors on the same samples pair up: dragexponent's test).
+    window_errors_mps: np.ndarray | None = field(default=None, compare=False, repr=False)
+    top_errors_mps: np.ndarray | None = field(default=None, compare=False, repr=False)
 
     def band_table(self) -> dict:
         """The bands as the fit reports them (`hold_cv_by_speed`); ``from_table`` reads them back."""
@@ -219,10 +223,10 @@ def hold_cv(samples: dragfit.DragSamples, fit_predict: dragfit.FitPredict,
     unique, inverse = np.unique(samples.group, return_inverse=True)
     level = np.bincount(inverse, np.hypot(samples.airflow[:, 0], samples.airflow[:, 1])) / np.bincount(inverse)
     top = level[inverse] >= dragfit.TOP_SHARE * level.max()
-    extrapolation = math.nan
+    extrapolation, top_error = math.nan, None
     if not top.all() and (~top).sum() >= 50:
         top_error = _held_out(samples, fit_predict, top, per_window).error_mps
         extrapolation = float(np.sqrt(np.mean(top_error ** 2)))
     centres, rms, bias, noise = _bands(held)
     return HoldCV(float(np.sqrt(np.mean(held.error_mps ** 2))), centres, rms, extrapolation, bias, noise,
-                  float(np.median(held.length_s)))
+                  float(np.median(held.length_s)), held.error_mps, top_error)

@@ -116,12 +116,13 @@ def speed_power(s, exponent):
     return s ** (exponent - 1.0)
 
 
-def symbolic_law(frame: str) -> DragLaw:
+def symbolic_law(frame: str, quadratic: bool = True) -> DragLaw:
     """A law whose coefficients are SX symbols named by their keys: the NumPy inversions below are built
-    once on it and take the coefficients as inputs, instead of rebuilding the expression per law."""
+    once on it and take the coefficients as inputs, instead of rebuilding the expression per law.
+    ``quadratic``: exponent 2, the step's very expression; else the exponent is a symbol too."""
     keys = DragLaw(0.0, 0.0, frame=frame).keys()
     symbols: dict = {k: ca.SX.sym(k) for k in keys}
-    return DragLaw(**symbols, frame=frame, exponent=ca.SX.sym("exponent"))
+    return DragLaw(**symbols, frame=frame, exponent=2.0 if quadratic else ca.SX.sym("exponent"))
 
 
 def _used(law: DragLaw, keys: tuple[str, ...]) -> list[str]:
@@ -245,17 +246,17 @@ def drag_airflow(law: DragLaw, m: ca.SX, n: ca.SX, fz: ca.SX):
 
 
 @functools.lru_cache(maxsize=None)
-def _heading_inversion() -> VectorFunction:
+def _heading_inversion(quadratic: bool) -> VectorFunction:
     """``drag_airflow`` on the symbolic law, built once: (m, n, fz, coefficients) -> airflow."""
-    law, sm, sn, sz = symbolic_law("heading"), ca.SX.sym("m"), ca.SX.sym("n"), ca.SX.sym("fz")
+    law, sm, sn, sz = symbolic_law("heading", quadratic), ca.SX.sym("m"), ca.SX.sym("n"), ca.SX.sym("fz")
     return VectorFunction(ca.Function("drag_airflow", [sm, sn, sz, ca.vertcat(*_symbols(law))],
                                       [ca.vertcat(*drag_airflow(law, sm, sn, sz))]))
 
 
 def _coefficients(law: DragLaw, frame: str) -> np.ndarray:
-    """The law's coefficients in the order of ``symbolic_law(frame)``'s symbols."""
+    """The law's coefficients in the order of ``symbolic_law(frame, _quadratic(law))``'s symbols."""
     keys = DragLaw(0.0, 0.0, frame=frame).keys()
-    return np.array([float(getattr(law, k)) for k in keys] + [float(law.exponent)])
+    return np.array([float(getattr(law, k)) for k in keys] + ([] if _quadratic(law) else [float(law.exponent)]))
 
 
 def drag_airflow_numpy(law: DragLaw, m: np.ndarray, n: np.ndarray, fz: np.ndarray) -> np.ndarray:
@@ -265,7 +266,7 @@ def drag_airflow_numpy(law: DragLaw, m: np.ndarray, n: np.ndarray, fz: np.ndarra
     if rows == 0:
         return np.zeros((0, 3))
     force = [np.asarray(v, float).reshape(1, rows) for v in (m, n, fz)]
-    return _heading_inversion()([*force, _coefficients(law, "heading")], rows)[0].T
+    return _heading_inversion(_quadratic(law))([*force, _coefficients(law, "heading")], rows)[0].T
 
 
 def body_drag_basis(ax, ay, az, rotor, eps: float = 0.0, exponent=2.0) -> dict[str, tuple]:
@@ -341,9 +342,9 @@ def body_drag_airflow(law: DragLaw, force_ned: ca.SX, rot: ca.SX, rotor: ca.SX) 
 
 
 @functools.lru_cache(maxsize=None)
-def _body_inversion() -> VectorFunction:
+def _body_inversion(quadratic: bool) -> VectorFunction:
     """``body_drag_airflow`` on the symbolic law, built once: (force, rot, rotor, coefficients) -> airflow."""
-    law, sf, sr, sq = symbolic_law("body"), ca.SX.sym("f", 3), ca.SX.sym("rot", 9), ca.SX.sym("rotor")
+    law, sf, sr, sq = symbolic_law("body", quadratic), ca.SX.sym("f", 3), ca.SX.sym("rot", 9), ca.SX.sym("rotor")
     return VectorFunction(ca.Function("body_drag_airflow", [sf, sr, sq, ca.vertcat(*_symbols(law))],
                                       [body_drag_airflow(law, sf, ca.reshape(sr, 3, 3), sq)]))
 
@@ -357,7 +358,7 @@ def body_drag_airflow_numpy(law: DragLaw, force_ned: np.ndarray, rot: np.ndarray
     # ca.reshape is column-major: row k of the (9, N) input is rot[:, k % 3, k // 3].
     flat = np.transpose(rot, (2, 1, 0)).reshape(9, rows)
     inputs = [np.asarray(force_ned, float).T, flat, np.asarray(rotor, float).reshape(1, rows), _coefficients(law, "body")]
-    return _body_inversion()(inputs, rows)[0].T
+    return _body_inversion(_quadratic(law))(inputs, rows)[0].T
 
 
 def term_matrix(terms: list[Term], m: np.ndarray, n: np.ndarray, fz: np.ndarray) -> np.ndarray:
@@ -391,12 +392,12 @@ _QUADRATIC_KEYS = ("q0", "q2c", "q2s", "q1c")
 
 
 @functools.lru_cache(maxsize=None)
-def _law_slope(frame: str) -> VectorFunction:
+def _law_slope(frame: str, quadratic: bool) -> VectorFunction:
     """The horizontal block of the forward law's Jacobian, d(F_x, F_y)/d(a_x, a_y), at level airflow, on
     symbolic coefficients: (airflow, rotor, coefficients) -> 2 x 2 (column-major), smoothed as in Newton.
     At a_z = 0 the body frame's 3 x 3 Jacobian is block-triangular, so this block is what the horizontal
     terms decide; the vertical law (lz, qz >= 0) is checked apart (fitfamily)."""
-    law, a, rotor = symbolic_law(frame), ca.SX.sym("a", 2), ca.SX.sym("rotor")
+    law, a, rotor = symbolic_law(frame, quadratic), ca.SX.sym("a", 2), ca.SX.sym("rotor")
     if frame == "body":
         force = ca.vertcat(*body_drag_force(law, a[0], a[1], 0 * a[0], rotor, DRAG_SPEED_EPS_MPS)[:2])
     else:
@@ -410,7 +411,7 @@ def _first_bad(law: DragLaw, ux: np.ndarray, uy: np.ndarray, speed: np.ndarray, 
                strict: bool) -> int | None:
     """Index of the first grid point where the slope along the airflow or the determinant is negative
     (``strict``: not positive), or None."""
-    j = _law_slope(law.frame)([np.vstack([ux * speed, uy * speed]), np.array([rotor]),
+    j = _law_slope(law.frame, _quadratic(law))([np.vstack([ux * speed, uy * speed]), np.array([rotor]),
                                _coefficients(law, law.frame)], ux.size)[0]
     jac = j.T.reshape(-1, 2, 2).transpose(0, 2, 1)  # column-major nonzeros -> (rows, i, j) = dF_i / da_j
     radial = ux * (jac[:, 0, 0] * ux + jac[:, 0, 1] * uy) + uy * (jac[:, 1, 0] * ux + jac[:, 1, 1] * uy)
