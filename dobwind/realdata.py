@@ -88,14 +88,14 @@ def check(data_dir: Path = DEFAULT_DATA) -> dict:
         others = {controller: {name: {**_score(fitted, log_path, NOMINAL_MPS[name], report), "trained_on": False}
                                for name, log_path in winds.items()}
                   for controller, winds in logs.items() if controller != trainer}
-    return {"leave_one_out": loo, "split": split, "training_controller": trainer, "controllers": others,
+    return {"leave_one_out": loo, "split": split, "training_controller": trainer, "other_controllers": others,
             "skipped": skipped}
 
 
 def held_out_error_mps(results: dict) -> tuple[float, int]:
     """Mean |mean |wind| - nominal| over every held-out run of every controller, and how many runs."""
     held = [r for r in results["split"].values() if not r["trained_on"]]
-    held += [r for winds in results.get("controllers", {}).values() for r in winds.values()]
+    held += [r for winds in results.get("other_controllers", {}).values() for r in winds.values()]
     errors = [abs(r["mean_speed_mps"] - r["nominal_mps"]) for r in held]
     return (float(np.mean(errors)) if errors else math.nan), len(errors)
 
@@ -116,7 +116,7 @@ def tables(results: dict) -> list[str]:
                        (f"split: fit on {trainer}'s {', '.join(SPLIT_TRAIN)}; * marks a training run", "split")):
         lines += [f"Neural-Fly runs, {title}; --dynamic --terms auto; the wind blows from 0 deg", HEAD]
         lines += [_row(name, r) for name, r in results[key].items()]
-    others = results.get("controllers", {})
+    others = results.get("other_controllers", {})
     if others:
         lines += ["Other controllers' runs through the same split fit (all held out); the wind blows from 0 deg", HEAD]
         for controller, winds in others.items():
