@@ -125,8 +125,9 @@ def tables(results: dict) -> list[str]:
     for entry in results.get("skipped", []):
         lines.append(f"  skipped {entry['controller']} {entry['wind']}: {entry['reason']}")
     error, count = held_out_error_mps(results)
-    lines.append(f"  held-out runs of all {1 + len(others)} controllers: mean |mean |wind| - nominal| {error:.2f} m/s "
-                 f"over {count} runs")
+    controllers = 1 + len(others)
+    lines.append(f"  held-out runs, {controllers} controller{'s' * (controllers != 1)}: mean |mean |wind| - nominal| "
+                 f"{error:.2f} m/s over {count} runs")
     return lines
 
 

@@ -302,3 +302,19 @@ def test_realdata_summary_over_every_controllers_held_out_runs():
                "other_controllers": {"indi": {"c": score(4.4, 4.2, False), "d": score(13.0, 12.1, False)}}}
     error, count = realdata.held_out_error_mps(results)
     assert count == 3 and error == pytest.approx((0.5 + 0.2 + 0.9) / 3)
+
+
+def test_realdata_tables_list_the_other_controllers_runs_and_the_skipped_ones():
+    def score(speed, trained=False):
+        return {"nominal_mps": 8.5, "mean_speed_mps": speed, "speed_of_mean_mps": speed, "mean_from_deg": 0.0,
+                "mean_up_mps": 0.0, "fit_terms": ["fh"], "fit_cv_rmse_mps": 0.5, "trained_on": trained}
+    results = {"training_controller": "baseline", "leave_one_out": {"70wind": score(8.0)},
+               "split": {"70wind": score(8.4, True), "70p20sint": score(8.0)},
+               "other_controllers": {"L1": {"70wind": score(9.1)}, "indi": {"70wind": score(8.3)}},
+               "skipped": [{"controller": "NF", "wind": "nowind", "reason": "f.csv: column 'R' missing"}]}
+    lines = realdata.tables(results)
+    start = lines.index("  L1:")
+    assert lines[start + 1].split()[:3] == ["70wind", "8.5", "9.10"]
+    assert lines[start + 2] == "  indi:" and lines[start + 3].split()[:3] == ["70wind", "8.5", "8.30"]
+    assert "  skipped NF nowind: f.csv: column 'R' missing" in lines
+    assert lines[-1].endswith(f"3 controllers: mean |mean |wind| - nominal| {(0.5 + 0.6 + 0.2) / 3:.2f} m/s over 3 runs")
