@@ -1,10 +1,10 @@
 """The Neural-Fly wind-tunnel runs: which files are there, and their conversion into dobwind's flight logs.
 
 The public data set flies one figure-8 at five tunnel settings with several controllers, one file per
-run, named ``custom_figure8_<controller>_<wind>.csv`` (some copies gzipped). Every such file is found,
-whichever controller flew it, so runs dropped into the folder later are scored rather than ignored. A
-file that cannot be read is reported in one line naming it and the column at fault, and left out; the
-others go on. Nothing here fits or scores (realdata.py and accuracy_real.py do).
+run, named ``custom_figure8_<controller>_<wind>.csv`` or ``<controller>_<wind>.csv`` (some copies
+gzipped). Every such file is found, whichever controller flew it, so runs dropped into the folder later
+are scored rather than ignored. A file that cannot be read is reported in one line naming it and the
+column at fault, and left out; the others go on. Nothing here fits or scores (realdata.py and accuracy_real.py do).
 """
 from __future__ import annotations
 
@@ -27,6 +27,10 @@ NOMINAL_MPS = {"nowind": 0.0, "35wind": 4.2, "70wind": 8.5, "70p20sint": 8.5, "1
 BASELINE = "baseline"  # the controller the calibration protocol was written for (issue #12)
 FLIP = np.diag([1.0, -1.0, -1.0])  # world (x, y, z up) -> NED, and body FLU -> FRD
 RUN_FILE = re.compile(r"custom_figure8_(?P<controller>.+)_(?P<wind>[^_]+)\.csv(?:\.gz)?")
+# Some commits of the public repository name the same runs without the trajectory prefix
+# (baseline_nowind.csv); a controller name then holds no underscore, so other trajectories' files
+# (custom_random_..._nowind.csv) are not taken for figure-8 runs.
+SHORT_RUN_FILE = re.compile(r"(?P<controller>[^_]+)_(?P<wind>[^_]+)\.csv(?:\.gz)?")
 # The columns the conversion reads, with the numbers each cell holds.
 CELL_SIZES = {"t": 1, "v": 3, "R": 9, "T_sp": 1, "hover_throttle": 1}
 
@@ -40,13 +44,14 @@ def _stderr(line: str) -> None:
 def discover(data_dir: Path, warn: Callable[[str], None] = _stderr) -> Runs:
     """Every run file in ``data_dir``, the baseline controller first, then the others by name.
 
-    A run present both plain and gzipped is read once (the first name in sorted order); a figure-8 file
-    at a wind setting with no known nominal speed cannot be scored. Both are said, not dropped silently.
+    A run present twice (plain and gzipped, or with and without the custom_figure8_ prefix) is read once
+    (the first name in sorted order); a custom_figure8_ file at a wind setting with no known nominal
+    speed cannot be scored. Both are said, not dropped silently.
     """
     found: Runs = {}
-    for path in sorted(data_dir.glob("custom_figure8_*.csv*")) if data_dir.is_dir() else []:
-        match = RUN_FILE.fullmatch(path.name)
-        if match is None:
+    for path in sorted(data_dir.glob("*.csv*")) if data_dir.is_dir() else []:
+        match = RUN_FILE.fullmatch(path.name) or SHORT_RUN_FILE.fullmatch(path.name)
+        if match is None or (match.re is SHORT_RUN_FILE and match["wind"] not in NOMINAL_MPS):
             continue
         controller, wind = match["controller"], match["wind"]
         if wind not in NOMINAL_MPS:

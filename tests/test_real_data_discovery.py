@@ -65,20 +65,26 @@ def test_discovery_finds_every_controller_in_both_forms_and_says_what_it_leaves(
     for name in ("baseline_nowind.csv.gz", "baseline_70wind.csv", "indi_35wind.csv", "indi_100wind.csv.gz",
                  "NF-C_70p20sint.csv", "indi_60wind.csv", "baseline_nowind.csv"):
         write_nf(tmp_path / f"custom_figure8_{name}")
-    write_nf(tmp_path / "custom_random_baseline_nowind.csv")  # another trajectory: not a figure-8 run
+    # The public repository's shorter names for the same kind of run, one of them a second copy.
+    write_nf(tmp_path / "NF-T_nowind.csv")
+    write_nf(tmp_path / "indi_35wind.csv.gz")
+    for name in ("custom_random_baseline_nowind.csv", "sample_log.csv", "NF-T_60wind.csv"):
+        write_nf(tmp_path / name)  # another trajectory, and files that are not runs at all
     (tmp_path / "notes.txt").write_text("x")
     said: list[str] = []
     found = discover(tmp_path, warn=said.append)
     f = lambda name: tmp_path / f"custom_figure8_{name}"
     assert found == {"baseline": {"nowind": f("baseline_nowind.csv"), "70wind": f("baseline_70wind.csv")},
-                     "NF-C": {"70p20sint": f("NF-C_70p20sint.csv")},
+                     "NF-C": {"70p20sint": f("NF-C_70p20sint.csv")}, "NF-T": {"nowind": tmp_path / "NF-T_nowind.csv"},
                      "indi": {"35wind": f("indi_35wind.csv"), "100wind": f("indi_100wind.csv.gz")}}
-    assert list(found) == ["baseline", "NF-C", "indi"]  # the baseline first, then by name
+    assert list(found) == ["baseline", "NF-C", "NF-T", "indi"]  # the baseline first, then by name
     assert list(found["indi"]) == ["35wind", "100wind"]  # wind settings in nominal order
-    unknown, duplicate = sorted(said, key=lambda line: "60wind" not in line)
-    assert len(said) == 2
-    assert "indi_60wind.csv" in unknown and "'60wind'" in unknown
-    assert "baseline_nowind.csv.gz" in duplicate and "custom_figure8_baseline_nowind.csv;" in duplicate
+    assert len(said) == 3
+    (unknown,) = [line for line in said if "60wind" in line]
+    assert "custom_figure8_indi_60wind.csv" in unknown and "'60wind'" in unknown
+    duplicates = sorted(line for line in said if "the same run as" in line)
+    assert "custom_figure8_baseline_nowind.csv.gz" in duplicates[0] and "custom_figure8_baseline_nowind.csv;" in duplicates[0]
+    assert duplicates[1].startswith(f"realdata: {tmp_path / 'indi_35wind.csv.gz'}:") and "custom_figure8_indi_35wind" in duplicates[1]
     # The older entry point keeps its meaning: the baseline's runs by wind setting.
     assert realdata.runs(tmp_path) == found["baseline"]
     assert discover(tmp_path / "absent") == {}
