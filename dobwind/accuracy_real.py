@@ -98,9 +98,13 @@ def _abs(value: float | None) -> str:
     return "-" if value is None else f"{value:.2f}"
 
 
+def _or_nan(value: float | None) -> float:
+    return float("nan") if value is None else value  # a 0.00 m/s estimate is a figure, not a missing one
+
+
 def _run_line(name: str, r: dict[str, Any]) -> str:
     return (f"  {name:10s}{'*' if r['training'] else ' '} nominal {r['nominal_mps']:5.1f}  "
-            f"estimate {r.get('estimate_mps') or float('nan'):6.2f}  error {_fmt(r.get('error_mps'))}"
+            f"estimate {_or_nan(r.get('estimate_mps')):6.2f}  error {_fmt(r.get('error_mps'))}"
             + (f"  {r['error']}" if "error" in r else ""))
 
 
@@ -125,7 +129,7 @@ def _controller_lines(result: dict[str, Any]) -> tuple[list[str], dict[str, bool
         return [], {}
     lines = ["  other controllers' runs through the same split fit (all held out):"]
     for controller, winds in others.items():
-        lines.append(f"  {controller}: {len(winds)} runs, mean |error| {_abs(_mean_abs([r.get('error_mps') for r in winds.values()]))}")
+        lines.append(f"  {controller}: {len(winds)} run{'s' * (len(winds) != 1)}, mean |error| {_abs(_mean_abs([r.get('error_mps') for r in winds.values()]))}")
         lines += ["  " + _run_line(name, r) for name, r in winds.items()]
     errors = held_out_errors(result)
     mean = _mean_abs(errors)

@@ -298,8 +298,17 @@ def test_the_other_controllers_are_listed_grouped():
     start = next(i for i, line in enumerate(lines) if line.strip().startswith("indi:"))
     assert "2 runs, mean |error| 0.30" in lines[start]
     assert [lines[start + 1].split()[0], lines[start + 2].split()[0]] == ["w0", "w1"]
-    assert lines[start + 3].strip().startswith("L1: 1 runs") and lines[start + 4].split()[0] == "w0"
+    assert lines[start + 3].strip().startswith("L1: 1 run,") and lines[start + 4].split()[0] == "w0"
     assert any("all held-out runs of 3 controllers: mean |error| 0.25 m/s over 4 runs" in line for line in lines)
+
+
+def test_a_zero_estimate_is_printed_as_a_figure():
+    result = _result([0.1], {"indi": [0.1]})
+    result["other_controllers"]["indi"]["w0"] = {"nominal_mps": 0.0, "estimate_mps": 0.0, "error_mps": 0.0,
+                                                "training": False}
+    lines, _ = real_lines(result)
+    (line,) = [line for line in lines if line.split()[:1] == ["w0"]]
+    assert "estimate   0.00" in line and "nan" not in line
 
 
 def test_realdata_summary_over_every_controllers_held_out_runs():
