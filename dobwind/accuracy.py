@@ -113,7 +113,8 @@ def report(config: Config, results: list[dict[str, Any]], real: dict[str, Any] |
         lines += ["", *rate_text]
         verdicts.update(rate_verdicts)
     if real is None:
-        lines += ["", f"Real runs: skipped ({config.data_dir} not found)"]
+        # real_runs also gives None when runs are there but no controller has the training set (it says so).
+        lines += ["", f"Real runs: skipped (no Neural-Fly training runs in {config.data_dir})"]
     else:
         real_text, real_verdicts = real_lines(real)
         lines += ["", *real_text]

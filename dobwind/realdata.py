@@ -3,7 +3,8 @@
 Their licence allows personal and educational use only, so nothing here copies or commits them: the
 runs are converted in memory into a temporary folder, calibrated leave-one-out (fit on four runs,
 score the fifth), and only the figures are printed. There is no anemometer series, so each run is
-scored by its mean estimated horizontal speed against the nominal tunnel speed.
+scored by its mean estimated horizontal speed against the nominal tunnel speed. Every controller's
+runs in the folder are scored (neuralfly.py finds them): the other controllers' through the split fit.
 
     python -m dobwind.realdata [DATA_DIR] [--json]
 """
@@ -11,63 +12,33 @@ from __future__ import annotations
 
 import argparse
 import math
-import ast
-import csv
-import gzip
 import os
 import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from dobwind.fitfamily import fit_airframe
 from dobwind.jsonout import dumps
-from dobwind.logs import write_csv
 from dobwind.model.airframe import load_airframe
 from dobwind.model.forceair import wind_from_deg
 from dobwind.model.status import accepted
+from dobwind.neuralfly import BASELINE, FLIP, NOMINAL_MPS, convert, convert_all, discover, training_controller
 from dobwind.replay import WARMUP_S, replay
 from dobwind.resources import shipped_airframe
+
+__all__ = ["AIRFRAME", "DEFAULT_DATA", "FLIP", "NOMINAL_MPS", "check", "convert", "discover", "main", "runs"]
 
 # The licensed data lives beside the checkout, never inside it: found from the working directory (make and
 # pytest run at the checkout's root), or wherever DOBWIND_NEURAL_FLY points.
 DEFAULT_DATA = Path(os.environ.get("DOBWIND_NEURAL_FLY", "../shared/data/neural-fly"))
 AIRFRAME = shipped_airframe("nf_quad")
-NOMINAL_MPS = {"nowind": 0.0, "35wind": 4.2, "70wind": 8.5, "70p20sint": 8.5, "100wind": 12.1}
-FLIP = np.diag([1.0, -1.0, -1.0])  # world (x, y, z up) -> NED, and body FLU -> FRD
 
 
 def runs(data_dir: Path) -> dict[str, Path]:
-    found = {}
-    for suffix in NOMINAL_MPS:
-        path = data_dir / f"custom_figure8_baseline_{suffix}.csv.gz"
-        if path.exists():
-            found[suffix] = path
-    return found
-
-
-def convert(path: Path, nominal_mps: float, mass_kg: float, gravity: float, out: Path) -> Path:
-    """Their columns -> our flight-log CSV (NED, FRD), with the nominal wind (along world -x) as truth."""
-    rows = []
-    with gzip.open(path, "rt") as handle:
-        for record in csv.DictReader(handle):
-            rows.append(record)
-    vec = lambda key: np.array([ast.literal_eval(r[key]) for r in rows], dtype=float)
-    t = np.array([float(r["t"]) for r in rows])
-    vel = vec("v") @ FLIP
-    rot = FLIP @ np.array([ast.literal_eval(r["R"]) for r in rows]) @ FLIP
-    xyzw = Rotation.from_matrix(rot).as_quat()
-    scalar = lambda text: float(np.ravel(ast.literal_eval(text))[0])
-    thrust = mass_kg * gravity * np.array([scalar(r["T_sp"]) / scalar(r["hover_throttle"]) for r in rows])
-    wind = np.tile(np.array([-nominal_mps, 0.0, 0.0]), (len(t), 1))  # world -x is NED -x
-    cols = {"t": t - t[0], "vel_n": vel[:, 0], "vel_e": vel[:, 1], "vel_d": vel[:, 2], "q_w": xyzw[:, 3],
-            "q_x": xyzw[:, 0], "q_y": xyzw[:, 1], "q_z": xyzw[:, 2], "thrust": thrust,
-            "wind_n": wind[:, 0], "wind_e": wind[:, 1], "wind_d": wind[:, 2]}
-    keep = np.r_[True, np.diff(cols["t"]) > 0]
-    write_csv(out, list(cols), np.column_stack([v[keep] for v in cols.values()]), ["%.6f"] + ["%.7g"] * (len(cols) - 1))
-    return out
+    """The baseline controller's runs by wind setting (``discover`` has every controller's)."""
+    return discover(data_dir, warn=lambda _: None).get(BASELINE, {})
 
 
 SPLIT_TRAIN = ("nowind", "35wind", "100wind")  # spans the range, zero wind included
@@ -89,27 +60,75 @@ def _score(fitted, log_path: Path, nominal: float, report) -> dict:
     }
 
 
+def _training_set(logs: dict[str, dict[str, Path]], data_dir: Path) -> str:
+    trainer = training_controller(logs, SPLIT_TRAIN)
+    if trainer is None:
+        count = sum(len(w) for w in logs.values())
+        raise FileNotFoundError(f"no controller's readable Neural-Fly runs cover {', '.join(SPLIT_TRAIN)} in {data_dir} "
+                                f"({count} readable runs found)")
+    return trainer
+
+
 def check(data_dir: Path = DEFAULT_DATA) -> dict:
-    found = runs(data_dir)
-    if len(found) < 3:
-        raise FileNotFoundError(f"Neural-Fly runs not found in {data_dir}")
+    """Leave-one-out and the split on the training controller's runs (the baseline's when present); every
+    other controller's runs are scored through the split fit, all held out (same vehicle, same tunnel)."""
     af = load_airframe(AIRFRAME)
-    results = {}
     with tempfile.TemporaryDirectory(prefix="dobwind-nf-") as tmp:
-        logs = {name: convert(p, NOMINAL_MPS[name], af.mass_kg, af.gravity_mps2, Path(tmp) / f"{name}.csv")
-                for name, p in found.items()}
+        logs, skipped = convert_all(discover(data_dir), af.mass_kg, af.gravity_mps2, Path(tmp))
+        trainer = _training_set(logs, data_dir)
+        own = logs[trainer]
         loo = {}
-        for name, log_path in logs.items():
-            training = [str(p) for other, p in logs.items() if other != name]
+        for name, log_path in own.items():
+            training = [str(p) for other, p in own.items() if other != name]
             fitted, report, _ = fit_airframe(af, training, "auto", dynamic=True)
             loo[name] = _score(fitted, log_path, NOMINAL_MPS[name], report)
-        split = {}
-        train = [str(logs[n]) for n in SPLIT_TRAIN if n in logs]
-        fitted, report, _ = fit_airframe(af, train, "auto", dynamic=True)
-        for name, log_path in logs.items():
-            split[name] = {**_score(fitted, log_path, NOMINAL_MPS[name], report), "trained_on": name in SPLIT_TRAIN}
-        results = {"leave_one_out": loo, "split": split}
-    return results
+        fitted, report, _ = fit_airframe(af, [str(own[n]) for n in SPLIT_TRAIN], "auto", dynamic=True)
+        split = {name: {**_score(fitted, log_path, NOMINAL_MPS[name], report), "trained_on": name in SPLIT_TRAIN}
+                 for name, log_path in own.items()}
+        others = {controller: {name: {**_score(fitted, log_path, NOMINAL_MPS[name], report), "trained_on": False}
+                               for name, log_path in winds.items()}
+                  for controller, winds in logs.items() if controller != trainer}
+    return {"leave_one_out": loo, "split": split, "training_controller": trainer, "other_controllers": others,
+            "skipped": skipped}
+
+
+def held_out_error_mps(results: dict) -> tuple[float, int]:
+    """Mean |mean |wind| - nominal| over every held-out run of every controller, and how many runs."""
+    held = [r for r in results["split"].values() if not r["trained_on"]]
+    held += [r for winds in results.get("other_controllers", {}).values() for r in winds.values()]
+    errors = [abs(r["mean_speed_mps"] - r["nominal_mps"]) for r in held]
+    return (float(np.mean(errors)) if errors else math.nan), len(errors)
+
+
+HEAD = "  run         nominal  mean |wind|  |mean wind|  from deg  up m/s   fitted terms (CV RMSE)"
+
+
+def _row(name: str, r: dict) -> str:
+    mark = "*" if r.get("trained_on") else " "
+    return (f"  {name:9s}{mark}  {r['nominal_mps']:7.1f}  {r['mean_speed_mps']:11.2f}  {r['speed_of_mean_mps']:11.2f}  "
+            f"{r['mean_from_deg']:8.1f}  {r['mean_up_mps']:6.2f}   {', '.join(r['fit_terms'])} ({r['fit_cv_rmse_mps'] or math.nan:.2f})")
+
+
+def tables(results: dict) -> list[str]:
+    trainer = results.get("training_controller", BASELINE)
+    lines = []
+    for title, key in ((f"leave-one-out (fit on the other runs of {trainer})", "leave_one_out"),
+                       (f"split: fit on {trainer}'s {', '.join(SPLIT_TRAIN)}; * marks a training run", "split")):
+        lines += [f"Neural-Fly runs, {title}; --dynamic --terms auto; the wind blows from 0 deg", HEAD]
+        lines += [_row(name, r) for name, r in results[key].items()]
+    others = results.get("other_controllers", {})
+    if others:
+        lines += ["Other controllers' runs through the same split fit (all held out); the wind blows from 0 deg", HEAD]
+        for controller, winds in others.items():
+            lines.append(f"  {controller}:")
+            lines += [_row(name, r) for name, r in winds.items()]
+    for entry in results.get("skipped", []):
+        lines.append(f"  skipped {entry['controller']} {entry['wind']}: {entry['reason']}")
+    error, count = held_out_error_mps(results)
+    controllers = 1 + len(others)
+    lines.append(f"  held-out runs, {controllers} controller{'s' * (controllers != 1)}: mean |mean |wind| - nominal| "
+                 f"{error:.2f} m/s over {count} runs")
+    return lines
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -125,15 +144,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.json:
         print(dumps(results))  # strict JSON, the common style: a NaN figure becomes null, listed
         return 0
-    head = "  run         nominal  mean |wind|  |mean wind|  from deg  up m/s   fitted terms (CV RMSE)"
-    for title, key in (("leave-one-out (fit on the other four runs)", "leave_one_out"),
-                       (f"split: fit on {', '.join(SPLIT_TRAIN)}; * marks a training run", "split")):
-        print(f"Neural-Fly runs, {title}; --dynamic --terms auto; the wind blows from 0 deg")
-        print(head)
-        for name, r in results[key].items():
-            mark = "*" if r.get("trained_on") else " "
-            print(f"  {name:9s}{mark}  {r['nominal_mps']:7.1f}  {r['mean_speed_mps']:11.2f}  {r['speed_of_mean_mps']:11.2f}  "
-                  f"{r['mean_from_deg']:8.1f}  {r['mean_up_mps']:6.2f}   {', '.join(r['fit_terms'])} ({r['fit_cv_rmse_mps'] or math.nan:.2f})")
+    print("\n".join(tables(results)))
     return 0
 
 
