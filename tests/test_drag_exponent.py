@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from dobwind import dragexponent, dragfit
+from dobwind import dragexponent, dragfit, holdcv
 from dobwind.model.airframe import load_airframe, parse_airframe
 from dobwind.model.airframe_toml import dump_airframe
 from dobwind.model.forceair import (DragLaw, body_drag_airflow_numpy, body_drag_force, drag_airflow_numpy, drag_force,
@@ -186,3 +186,38 @@ def test_an_unusable_law_keeps_the_quadratic_one():
     choice = dragfit.choose_drag_law(samples)
     picked = dragexponent.choose_exponent(samples, choice, lambda s, c: False)
     assert picked.exponent == 2.0 and picked.choice is choice
+
+
+def _hold_of(errors: np.ndarray, top: np.ndarray) -> "holdcv.HoldCV":
+    rms = lambda e: float(np.sqrt(np.mean(e ** 2)))
+    return holdcv.HoldCV(rms(errors), (), (), rms(top), window_errors_mps=errors, top_errors_mps=top)
+
+
+def test_a_gain_counts_when_it_is_paired_and_large():
+    """Window by window: the same errors times 0.8 are a real gain; the same spread reshuffled with a
+    lower RMS by chance is not, nor is a consistent gain under EXPONENT_GAIN."""
+    rng = np.random.default_rng(4)
+    errors, top = rng.normal(0, 0.05, 300), rng.normal(0, 0.08, 40)
+    base = _hold_of(errors, top)
+    assert dragexponent.significant_gain(base, _hold_of(0.8 * errors, 0.8 * top))
+    assert not dragexponent.significant_gain(base, _hold_of(0.98 * errors, 0.98 * top))  # under 5 %
+    # Independent errors 8 % smaller in RMS: their paired difference is all noise.
+    scaled = lambda e, like: e * 0.92 * np.sqrt(np.mean(like ** 2) / np.mean(e ** 2))
+    other = _hold_of(scaled(rng.normal(0, 1, 300), errors), scaled(rng.normal(0, 1, 40), top))
+    assert dragexponent.hold_score(other) < 0.95 * dragexponent.hold_score(base)
+    assert not dragexponent.significant_gain(base, other)
+    assert dragexponent.significant_gain(base, other, sigmas=0.0)  # the test, not the gain, refused it
+    assert not dragexponent.significant_gain(base, None) and not dragexponent.significant_gain(None, base)
+
+
+def test_hold_windows_pair_up_between_laws():
+    """hold_cv's per-window errors come in one order for given samples, whatever the law: the same law
+    twice gives the same arrays, another law arrays of the same shape."""
+    samples = _samples(_law(2.0))
+    first = holdcv.hold_cv(samples, dragfit.drag_fit_predict(SET))
+    again = holdcv.hold_cv(samples, dragfit.drag_fit_predict(SET))
+    other = holdcv.hold_cv(samples, dragfit.drag_fit_predict(("q0", "lz", "qz") + dragfit.ALWAYS))
+    np.testing.assert_array_equal(first.window_errors_mps, again.window_errors_mps)
+    assert other.window_errors_mps.shape == first.window_errors_mps.shape
+    assert other.top_errors_mps.shape == first.top_errors_mps.shape
+    assert first.rms_mps == pytest.approx(float(np.sqrt(np.mean(first.window_errors_mps ** 2))))
