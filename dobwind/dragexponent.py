@@ -13,11 +13,12 @@ exponent on every simulated vehicle, whatever its true law (up to 2.4 on quadrat
 then reads 0.2 m/s high at 10 m/s).
 
 The exponent is chosen after the parameter set: from 2 in steps of EXPONENT_STEP while the hold-level
-score improves. The best is kept only if it beats 2 by EXPONENT_GAIN and the gain is significant: the
-held-out windows' squared errors, paired window by window (the same samples, the same folds), must fall
-by EXPONENT_SIGMAS standard errors. On a quadratic law the score wanders by 10-30 % between neighbouring
-exponents (a 0.03 kg vehicle: 0.019 m/s at 2, 0.014 at 1.9, 0.018 at 2.1), and the test keeps s^2 and
-the step no power. The set is then chosen again for the new exponent, and tested the same way.
+score improves. The best is kept only if it beats 2 by EXPONENT_GAIN, on the top holds as well, and
+the gain is significant: the held-out windows' squared errors, paired window by window (the same
+samples, the same folds), must fall by EXPONENT_SIGMAS standard errors of the folds' mean differences.
+Without the test, noise alone moved the choice off 2 on quadratic laws (the score wanders by 10-30 %
+between neighbouring exponents). The set is then chosen again for the new exponent, and tested the
+same way.
 """
 from __future__ import annotations
 
@@ -54,28 +55,29 @@ def hold_score(hold: holdcv.HoldCV | None) -> float:
     return math.nan if hold is None else dragfit.combined(hold.rms_mps, hold.extrapolation_mps)
 
 
-def _squared_parts(hold: holdcv.HoldCV) -> list[np.ndarray]:
-    """The per-window squared errors whose means make the squared score (see dragfit.combined)."""
-    parts = [np.asarray(hold.window_errors_mps) ** 2]
-    if hold.top_errors_mps is not None and math.isfinite(hold.extrapolation_mps):
-        parts.append(np.asarray(hold.top_errors_mps) ** 2)
-    return parts
-
-
 def significant_gain(base: holdcv.HoldCV | None, other: holdcv.HoldCV | None,
                      gain: float = EXPONENT_GAIN, sigmas: float = EXPONENT_SIGMAS) -> bool:
-    """``other`` scores ``gain`` below ``base`` and the fall of the squared score is ``sigmas``
-    standard errors of its paired difference (window by window) or more."""
+    """``other`` scores ``gain`` below ``base``, on the top holds too, and its held-out windows' squared
+    errors fall by ``sigmas`` standard errors or more, paired window by window. The windows of one CV
+    fold share one fitted law, so their differences are not independent: the standard error is that of
+    the folds' mean differences (one value per fold)."""
     if base is None or other is None or base.window_errors_mps is None or other.window_errors_mps is None:
         return False
     if not hold_score(other) < (1 - gain) * hold_score(base):
         return False
-    pairs = list(zip(_squared_parts(base), _squared_parts(other)))
-    if len(pairs) != len(_squared_parts(other)) or any(a.shape != b.shape or a.size < 2 for a, b in pairs):
+    # The gain must include the top holds: the growth rate is what an exponent changes, and a lower one
+    # also cancels the low bias that noise gives a concave inverse at low airflow, which improves the
+    # held-out holds while the top holds get worse (a review: 0.014 -> 0.031 m/s on a quadratic law).
+    if math.isfinite(base.extrapolation_mps) and not other.extrapolation_mps < (1 - gain) * base.extrapolation_mps:
         return False
-    drop = sum(float(np.mean(a - b)) for a, b in pairs) / len(pairs)
-    error = math.sqrt(sum(float(np.var(a - b, ddof=1)) / a.size for a, b in pairs)) / len(pairs)
-    return drop > sigmas * error
+    difference = np.asarray(base.window_errors_mps) ** 2 - np.asarray(other.window_errors_mps) ** 2
+    folds = base.window_folds if base.window_folds is not None else np.zeros(difference.size, int)
+    if difference.shape != np.shape(other.window_errors_mps) or np.shape(folds) != difference.shape:
+        return False
+    means = np.array([difference[folds == k].mean() for k in np.unique(folds)])
+    if means.size < 3:
+        return False
+    return float(means.mean()) > sigmas * float(means.std(ddof=1)) / math.sqrt(means.size)
 
 
 def _hold(samples: dragfit.DragSamples, active: tuple[str, ...]) -> holdcv.HoldCV | None:

@@ -96,6 +96,7 @@ class HoldCV:
     # on the samples (so two laws' errors on the same samples pair up: dragexponent's test).
     window_errors_mps: np.ndarray | None = field(default=None, compare=False, repr=False)
     top_errors_mps: np.ndarray | None = field(default=None, compare=False, repr=False)
+    window_folds: np.ndarray | None = field(default=None, compare=False, repr=False)  # each window's CV fold
 
     def band_table(self) -> dict:
         """The bands as the fit reports them (`hold_cv_by_speed`); ``from_table`` reads them back."""
@@ -218,8 +219,9 @@ def hold_cv(samples: dragfit.DragSamples, fit_predict: dragfit.FitPredict,
         return None
     fold = _folds(samples.group)
     per_window = samples_per_window(samples, window_s)
-    held = _Windows.joined([_held_out(samples, fit_predict, fold == k, per_window)
-                            for k in range(min(dragfit.FOLDS, fold.max() + 1))])
+    parts = [_held_out(samples, fit_predict, fold == k, per_window) for k in range(min(dragfit.FOLDS, fold.max() + 1))]
+    held = _Windows.joined(parts)
+    folds = np.concatenate([np.full(len(p.error_mps), k) for k, p in enumerate(parts)])
     unique, inverse = np.unique(samples.group, return_inverse=True)
     level = np.bincount(inverse, np.hypot(samples.airflow[:, 0], samples.airflow[:, 1])) / np.bincount(inverse)
     top = level[inverse] >= dragfit.TOP_SHARE * level.max()
@@ -229,4 +231,4 @@ def hold_cv(samples: dragfit.DragSamples, fit_predict: dragfit.FitPredict,
         extrapolation = float(np.sqrt(np.mean(top_error ** 2)))
     centres, rms, bias, noise = _bands(held)
     return HoldCV(float(np.sqrt(np.mean(held.error_mps ** 2))), centres, rms, extrapolation, bias, noise,
-                  float(np.median(held.length_s)), held.error_mps, top_error)
+                  float(np.median(held.length_s)), held.error_mps, top_error, folds)
