@@ -70,3 +70,34 @@ def all_modes() -> list[dict[str, Any]]:
         doc["name"] = f"mode_{disc}_{acc}_{src}" + ("_bias" if bias else "")
         out.append(doc)
     return out
+
+
+def observed_force(af: Airframe, rate_hz: float, force, noise_n: float, rng):
+    """A true force (N, 3) as the fit observes it: through H (the observer and a 0.5 Hz low-pass, per
+    axis, dragfit.observer_filter) with white noise of ``noise_n`` newtons added."""
+    import numpy as np
+
+    from dobwind import dragfit
+
+    observed = np.empty_like(force)
+    for axis in range(3):
+        b, a = dragfit.observer_filter(af, 1 / rate_hz, 0.5, axis)
+        observed[:, axis] = dragfit._filtered(b, a, force[:, axis])
+    return observed + rng.normal(0, noise_n, force.shape)
+
+
+def random_body_flight(speed, seed: int):
+    """Airflow at these horizontal speeds (m/s) in random directions with -4..4 m/s vertical, attitudes
+    tilted up to about 40 degrees at any heading, and rotor terms sqrt(0.7..1.6): (a, rot, rotor)."""
+    import math
+
+    import numpy as np
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(seed)
+    n = len(speed)
+    angle = rng.uniform(-math.pi, math.pi, n)
+    a = np.column_stack([speed * np.cos(angle), speed * np.sin(angle), rng.uniform(-4, 4, n)])
+    rot = Rotation.from_euler("ZYX", np.column_stack([rng.uniform(-math.pi, math.pi, n), rng.uniform(-0.7, 0.7, n),
+                                                      rng.uniform(-0.7, 0.7, n)])).as_matrix()
+    return a, rot, np.sqrt(rng.uniform(0.7, 1.6, n))

@@ -13,7 +13,7 @@ from dobwind import dragfit
 from dobwind.model.airframe import load_airframe, parse_airframe
 from dobwind.model.airframe_toml import dump_airframe
 from dobwind.model.forceair import DragLaw, body_drag_airflow_numpy, body_drag_force
-from tests.helpers import M300
+from tests.helpers import M300, observed_force
 
 BODY_LAWS = {
     "rotor drag only, scaled by rotor speed": DragLaw(0.0, 0.0, lr=0.25, lz=0.4, frame="body"),
@@ -142,11 +142,7 @@ def test_filtered_regression_recovers_a_known_body_law():
     kappa = 0.02
     force = np.einsum("nij,nj->ni", rot, np.column_stack(body_drag_force(law, a[:, 0], a[:, 1], a[:, 2], rotor)))
     force = force + kappa * thrust
-    observed = np.empty_like(force)
-    for axis in range(3):
-        b, den = dragfit.observer_filter(af, 1 / rate, 0.5, axis)
-        observed[:, axis] = dragfit._filtered(b, den, force[:, axis])
-    observed += rng.normal(0, 0.02, force.shape)
+    observed = observed_force(af, rate, force, 0.02, rng)
     q = Rotation.from_matrix(rot).as_quat()[:, [3, 0, 1, 2]]
     part = dragfit.log_samples(af, 0.5, t, observed, air, thrust, yaw, np.ones(n, dtype=bool), "body", q)
     samples = dragfit.merge([part], "body")

@@ -10,14 +10,13 @@ import math
 
 import numpy as np
 import pytest
-from scipy.spatial.transform import Rotation
 
 from dobwind import dragexponent, dragfit, holdcv
 from dobwind.model.airframe import load_airframe, parse_airframe
 from dobwind.model.airframe_toml import dump_airframe
 from dobwind.model.forceair import (DragLaw, body_drag_airflow_numpy, body_drag_basis, body_drag_force,
                                     drag_airflow_numpy, drag_force, horizontal_drag_basis, speed_power)
-from tests.helpers import M300
+from tests.helpers import M300, observed_force, random_body_flight
 
 
 def _transcribed_force(law: DragLaw, a: np.ndarray, rotor: np.ndarray) -> np.ndarray:
@@ -40,12 +39,7 @@ LAW = DragLaw(0.05, 0.1, l2c=-0.006, q2c=-0.0125, l2s=0.006, q2s=0.0125, q1c=0.0
 
 
 def _flight(n: int, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    rng = np.random.default_rng(seed)
-    speed, angle = np.geomspace(0.02, 20, n), rng.uniform(-math.pi, math.pi, n)
-    a = np.column_stack([speed * np.cos(angle), speed * np.sin(angle), rng.uniform(-4, 4, n)])
-    rot = Rotation.from_euler("ZYX", np.column_stack([rng.uniform(-math.pi, math.pi, n), rng.uniform(-0.7, 0.7, n),
-                                                      rng.uniform(-0.7, 0.7, n)])).as_matrix()
-    return a, rot, np.sqrt(rng.uniform(0.7, 1.6, n))
+    return random_body_flight(np.geomspace(0.02, 20, n), seed)
 
 
 @pytest.mark.parametrize("exponent", [1.5, 1.8, 2.0, 2.2, 2.5])
@@ -135,11 +129,7 @@ def _samples(law: DragLaw, noise_n: float = 0.05, seed: int = 3, frame: str = "h
     c, s = np.cos(yaw), np.sin(yaw)
     fx, fy, fz = drag_force(law, c * air[:, 0], -s * air[:, 0], air[:, 2])
     force = np.column_stack([c * fx - s * fy, s * fx + c * fy, fz])
-    observed = np.empty_like(force)
-    for axis in range(3):
-        b, a = dragfit.observer_filter(af, 1 / rate, 0.5, axis)
-        observed[:, axis] = dragfit._filtered(b, a, force[:, axis])
-    observed += rng.normal(0, noise_n, force.shape)
+    observed = observed_force(af, rate, force, noise_n, rng)
     thrust = np.column_stack([np.zeros_like(t), np.zeros_like(t), np.full_like(t, 78.0)])
     segment = per(np.arange(holds) % 2).astype(float)  # labelled holds: holdcv scores them settled
     q = np.column_stack([np.cos(yaw / 2), np.zeros_like(t), np.zeros_like(t), np.sin(yaw / 2)])  # level

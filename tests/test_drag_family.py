@@ -11,7 +11,7 @@ from dobwind import dragfit
 from dobwind.model.airframe import load_airframe, parse_airframe
 from dobwind.model.airframe_toml import dump_airframe
 from dobwind.model.forceair import DragLaw, drag_airflow_numpy, drag_force
-from tests.helpers import M300
+from tests.helpers import M300, observed_force
 
 LAWS = {
     "rotor drag, body y 50 % above x (per axis)": DragLaw(0.30, 0.0, l2c=-0.075, l2s=0.075),
@@ -99,11 +99,7 @@ def test_filtered_regression_recovers_a_known_law():
     thrust = np.column_stack([np.zeros_like(t), np.zeros_like(t), np.full_like(t, 78.0)])
     kappa = 0.02
     force = np.column_stack([c * fx - s * fy, s * fx + c * fy, fz]) + kappa * thrust
-    force_observed = np.empty_like(force)
-    for axis in range(3):
-        b, a = dragfit.observer_filter(af, 1 / rate, 0.5, axis)
-        force_observed[:, axis] = dragfit._filtered(b, a, force[:, axis])
-    force_observed += rng.normal(0, 0.02, force.shape)
+    force_observed = observed_force(af, rate, force, 0.02, rng)
     part = dragfit.log_samples(af, 0.5, t, force_observed, air, thrust, yaw, np.ones(len(t), dtype=bool))
     samples = dragfit.merge([part])
     theta = dragfit.robust_fit(samples, ("l0", "q0", "l2c", "q2c", "l2s", "q2s") + dragfit.VERTICAL_SETS[-1] + dragfit.ALWAYS)

@@ -15,7 +15,7 @@ import pytest
 from dobwind import dragfit
 from dobwind.model.airframe import load_airframe
 from dobwind.model.forceair import DragLaw, drag_airflow_numpy, drag_force, law_decreasing
-from tests.helpers import M300
+from tests.helpers import M300, observed_force
 
 
 def _angle(where: str) -> float:
@@ -103,11 +103,7 @@ def _samples(law: DragLaw, noise_n: float, seed: int = 5) -> dragfit.DragSamples
     fx, fy, fz = drag_force(law, air_c[:, 0], air_c[:, 1], air_c[:, 2])
     thrust = np.column_stack([np.zeros_like(t), np.zeros_like(t), np.full_like(t, 78.0)])
     force = np.column_stack([c * fx - s * fy, s * fx + c * fy, fz])
-    observed = np.empty_like(force)
-    for axis in range(3):
-        b, a = dragfit.observer_filter(af, 1 / rate, 0.5, axis)
-        observed[:, axis] = dragfit._filtered(b, a, force[:, axis])
-    observed += rng.normal(0, noise_n, force.shape)
+    observed = observed_force(af, rate, force, noise_n, rng)
     part = dragfit.log_samples(af, 0.5, t, observed, air, thrust, yaw, np.ones(len(t), dtype=bool))
     return dragfit.merge([part])
 
