@@ -35,7 +35,7 @@ EXPONENT_STEP = 0.1
 # Another exponent than 2 must lower the hold-level score by this share: a flat score (a quadratic law,
 # or too little speed range to tell) keeps Newtonian drag.
 EXPONENT_GAIN = 0.05
-# ... and significantly: by this many standard errors of the paired difference.
+# ... and significantly: by this many standard errors of the CV folds' mean paired differences.
 EXPONENT_SIGMAS = 2.0
 # The exponents tried: 1.6 to 2.4, inside the range an airframe file accepts.
 EXPONENT_LIMITS = (max(1.6, EXPONENT_RANGE[0]), min(2.4, EXPONENT_RANGE[1]))
