@@ -246,11 +246,11 @@ def test_rescaled_columns_are_the_exponents_own_in_steady_airflow(frame):
         a = np.einsum("nji,nj->ni", rot, np.column_stack([c * air[:, 0] - s * air[:, 1], s * air[:, 0] + c * air[:, 1],
                                                           air[:, 2]]))
         units = body_drag_basis(a[:, 0], a[:, 1], a[:, 2], np.ones(len(a)), 0.0, 1.7)
-        expected = {k: np.einsum("nij,nj->ni", rot, np.column_stack(units[k])) for k in ("q0", "q2c", "q2s", "l0")}
+        expected = {k: np.einsum("nij,nj->ni", rot, np.column_stack(units[k])) for k in ("q0", "q2c", "q2s", "q1c", "l0")}
     else:
         units = horizontal_drag_basis(air[:, 0], air[:, 1], np.hypot(air[:, 0], air[:, 1]), 1.7)
         expected = {k: np.column_stack([c * fx - s * fy, s * fx + c * fy, np.zeros_like(fx)])
-                    for k, (fx, fy) in units.items() if k in ("q0", "q2c", "q2s", "l0")}
+                    for k, (fx, fy) in units.items() if k in ("q0", "q2c", "q2s", "q1c", "l0")}
     for key, value in expected.items():  # l0: a linear term, left as it was
         got = shifted.columns[steady][:, :, samples.parameters.index(key)]
         np.testing.assert_allclose(got, value, rtol=1e-6, atol=1e-9, err_msg=key)
@@ -267,3 +267,16 @@ def test_a_tie_between_families_goes_to_the_better_hold_means():
     # a family without hold-level figures loses a tie, and nothing scored keeps the first
     assert choose_family(["drag-body", "polynomial"], {"drag-body": body, "polynomial": {"score_mps": 0.2262}}) == "drag-body"
     assert choose_family(["drag", "polynomial"], {}) == "drag"
+
+
+def test_the_set_chosen_again_must_still_beat_the_quadratic_law(monkeypatch):
+    """At the new exponent the set is chosen again; should that law's holds not beat the quadratic
+    law's significantly (here: a set without quadratic drag, forced), the quadratic law is kept."""
+    samples = _samples(_law(2.2))
+    choice = dragfit.choose_drag_law(samples)
+    assert dragexponent.choose_exponent(samples, choice, _always_usable).exponent == 2.2  # the premise
+    linear_only = ("l0", "lz", "qz") + dragfit.ALWAYS
+    monkeypatch.setattr(dragfit, "choose_drag_law",
+                        lambda s: dataclasses.replace(choice, active=linear_only, theta=dragfit.robust_fit(s, linear_only)))
+    picked = dragexponent.choose_exponent(samples, choice, _always_usable)
+    assert picked.exponent == 2.0 and picked.choice is choice
