@@ -267,6 +267,10 @@ def test_a_tie_between_families_goes_to_the_better_hold_means():
     # a family without hold-level figures loses a tie, and nothing scored keeps the first
     assert choose_family(["drag-body", "polynomial"], {"drag-body": body, "polynomial": {"score_mps": 0.2262}}) == "drag-body"
     assert choose_family(["drag", "polynomial"], {}) == "drag"
+    # tied on the hold level as well (within FAMILY_TIE): the per-sample choice stays
+    close = {**body, "score_mps": 0.2255, "hold_cv_speed_mps": 0.0755, "hold_extrapolation_speed_mps": 0.0535}
+    assert choose_family(["drag", "drag-body"], {"drag": drag, "drag-body": close}) == "drag-body"
+    assert choose_family(["drag-body", "drag"], {"drag": {**drag, "score_mps": 0.2254}, "drag-body": close}) == "drag"
 
 
 def test_the_set_chosen_again_must_still_beat_the_quadratic_law(monkeypatch):
