@@ -15,7 +15,7 @@ from typing import Any
 
 from dobwind.accuracy_run import run_child
 from dobwind.model.airframe import load_airframe
-from dobwind.neuralfly import BASELINE, convert_all, discover, training_controller
+from dobwind.tunnelruns import BASELINE, convert_all, discover, training_controller
 from dobwind.realdata import AIRFRAME, NOMINAL_MPS
 
 BASELINE_TRAIN = ("nowind", "70wind", "100wind")

@@ -4,7 +4,7 @@ Their licence allows personal and educational use only, so nothing here copies o
 runs are converted in memory into a temporary folder, calibrated leave-one-out (fit on four runs,
 score the fifth), and only the figures are printed. There is no anemometer series, so each run is
 scored by its mean estimated horizontal speed against the nominal tunnel speed. Every controller's
-runs in the folder are scored (neuralfly.py finds them): the other controllers' through the split fit.
+runs in the folder are scored (tunnelruns.py finds them): the other controllers' through the split fit.
 
     python -m dobwind.realdata [DATA_DIR] [--json]
 """
@@ -24,7 +24,7 @@ from dobwind.jsonout import dumps
 from dobwind.model.airframe import load_airframe
 from dobwind.model.forceair import wind_from_deg
 from dobwind.model.status import accepted
-from dobwind.neuralfly import BASELINE, FLIP, NOMINAL_MPS, convert, convert_all, discover, training_controller
+from dobwind.tunnelruns import BASELINE, FLIP, NOMINAL_MPS, convert, convert_all, discover, training_controller
 from dobwind.replay import WARMUP_S, replay
 from dobwind.resources import shipped_airframe
 
