@@ -202,9 +202,10 @@ def _hold_level(scores: dict[str, Any]) -> float:
 
 def choose_family(names: list[str], scores: dict[str, dict[str, Any]]) -> str:
     """The family with the lowest per-sample score (CV and extrapolation of the airflow); among those
-    within FAMILY_TIE of it, the lowest hold-level score when it is FAMILY_TIE below the first's. The per-sample score carries each sample's
-    noise, so two frames of one vehicle often tie on it (0.226 m/s each on a 1.8-exponent vehicle)
-    while their hold means, which replay's per-hold errors follow, differ (0.066 against 0.060 m/s)."""
+    within FAMILY_TIE of it, the lowest hold-level score when it is FAMILY_TIE below the first's. The
+    per-sample score carries each sample's noise, so two frames of one vehicle often tie on it (0.226
+    m/s each on a 1.8-exponent vehicle) while their hold means, which replay's per-hold errors follow,
+    differ (0.066 against 0.060 m/s)."""
     per_sample = {k: scores.get(k, {}).get("score_mps") or math.inf for k in names}
     best = min(names, key=lambda k: per_sample[k])
     if not math.isfinite(per_sample[best]):
@@ -251,7 +252,6 @@ def _drag_family(af: Airframe, picked: dragexponent.ExponentChoice) -> tuple[Fam
     scores = _family_scores((picked.choice.cv_h_mps, picked.choice.cv_v_mps), picked.choice.extrapolation_h_mps,
                             picked.hold)
     return (fitted, report, None), {**scores, "exponent": picked.exponent}
-
 
 
 def _uninvertible(samples: dragfit.DragSamples, choice: dragfit.DragChoice) -> str | None:
