@@ -106,13 +106,18 @@ class DragLaw:
 
 
 def _quadratic(law: DragLaw) -> bool:
-    return not isinstance(law.exponent, ca.SX) and law.exponent == 2.0
+    return _is_two(law.exponent)
+
+
+def _is_two(exponent) -> bool:
+    """A numeric exponent of exactly 2: the quadratic law, printed without any power."""
+    return not isinstance(exponent, ca.SX) and exponent == 2.0
 
 
 def speed_power(s, exponent):
     """s^(p - 1), the factor of the quadratic terms: s itself for p = 2 (no power in the step's C).
     SX or NumPy; s > 0 (smoothed or floored by the callers)."""
-    if not isinstance(exponent, ca.SX) and exponent == 2.0:
+    if _is_two(exponent):
         return s
     return s ** (exponent - 1.0)
 
@@ -121,7 +126,7 @@ def _front_back(x, y, s, exponent):
     """The q1c term's basis, x (x, y) s^(p-2): of degree p like the other quadratic terms. Were it s^2
     under a lower p, it would outgrow them beyond the calibration: the force against the airflow would
     peak and fall, and the inversion run off (a review found a p = 1.6 law reading -5e6 m/s)."""
-    if not isinstance(exponent, ca.SX) and exponent == 2.0:
+    if _is_two(exponent):
         return x * x, x * y
     k = s ** (exponent - 2.0)
     return k * x * x, k * x * y
