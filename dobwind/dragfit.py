@@ -30,7 +30,7 @@ from scipy.signal import lfilter, lfilter_zi
 from dobwind.model.airframe import Airframe
 from dobwind.model.attitude import rotation_matrices
 from dobwind.model.discretization import first_order
-from dobwind.model.forceair import (HORIZONTAL_DRAG_KEYS, ROTOR_DRAG_KEY, VERTICAL_DRAG_KEYS, DragLaw,
+from dobwind.model.forceair import (FOURFOLD_KEYS, HORIZONTAL_DRAG_KEYS, ROTOR_DRAG_KEY, VERTICAL_DRAG_KEYS, DragLaw,
                                     along_force_scale, body_drag_airflow_numpy, body_drag_basis, drag_airflow_numpy,
                                     heading_force, heading_to_ned, horizontal_drag_basis, law_decreasing,
                                     term_matrix)
@@ -453,11 +453,11 @@ def law_of(theta: np.ndarray, frame: str = "heading", exponent: float = 2.0) -> 
 
 
 # The columns whose terms grow as s^p: with_exponent rescales them.
-EXPONENT_COLUMNS = ("q0", "q2c", "q2s", "q1c")
+EXPONENT_COLUMNS = ("q0", "q2c", "q2s", "q1c") + FOURFOLD_KEYS
 
 
 def with_exponent(samples: DragSamples, exponent: float) -> DragSamples:
-    """The samples as if sampled for a law of another exponent: the q0, q2c, q2s, q1c columns (H applied to
+    """The samples as if sampled for a law of another exponent: the quadratic columns (H applied to
     s a, s the airflow speed the law uses: horizontal in the heading frame, 3-D in the body frame) times
     s_f^(p - 2), s_f that speed of the H-filtered airflow. Exact in steady airflow, where H passes the
     product unchanged; through a change of airflow it is off while the observer settles (at p = 1.7 a
@@ -616,6 +616,9 @@ def choose_drag_law(samples: DragSamples) -> DragChoice:
             break
         dropped.append(f"{'+'.join(horizontal)}: the law decreases at {where}")
         scored = [(s, h) for s, h in scored if h != horizontal]
+    if where is None:
+        horizontal, theta = _with_fourfold(samples, horizontal, theta, dict((h, s) for s, h in scored)[horizontal],
+                                           folds, top)
     scored_v = []
     for v in VERTICAL_SETS:
         scored_v.append((grouped_cv(samples, drag_fit_predict(horizontal + v + ALWAYS), folds)[1], v))
@@ -633,6 +636,27 @@ def choose_drag_law(samples: DragSamples) -> DragChoice:
     rmse_h, rmse_v = airflow_errors(samples, theta)
     return DragChoice(theta, active, cv_h, cv_v, top_error(drag_fit_predict(active), top), rmse_h, rmse_v,
                       tuple(dropped))
+
+
+# The four-fold harmonics must lower the set's score by this share to be added (the parsimony rule).
+FOURFOLD_GAIN = 0.98
+
+
+def _with_fourfold(samples: DragSamples, horizontal: tuple[str, ...], theta: np.ndarray, score: float,
+                   folds: tuple[Split, ...], top: Split | None) -> tuple[tuple[str, ...], np.ndarray]:
+    """The chosen horizontal set, with q4c and q4s added when they lower its score by 2 % and the law
+    still increases. Tried on the chosen set only, not as more candidates: each candidate costs a
+    grouped CV, and the four-fold shape (per-axis drag, a cross frame) rides on any body law."""
+    if "q0" not in horizontal:
+        return horizontal, theta
+    wider = horizontal + FOURFOLD_KEYS
+    fit_predict = drag_fit_predict(wider + VERTICAL_SETS[-1] + ALWAYS)
+    if combined(grouped_cv(samples, fit_predict, folds)[0], top_error(fit_predict, top)) > FOURFOLD_GAIN * score:
+        return horizontal, theta
+    wider_theta = robust_fit(samples, wider + VERTICAL_SETS[-1] + ALWAYS)
+    if decreasing_at(samples, wider_theta) is not None:
+        return horizontal, theta
+    return wider, wider_theta
 
 
 # law_decreasing checks the fitted law up to this multiple of the fastest sample's horizontal airflow:

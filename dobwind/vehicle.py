@@ -16,6 +16,11 @@ unknown keys are an error):
     exponent = 2.0              #   |a| the total airspeed relative to the body; 2 is Newtonian drag
                                 #   (1 < exponent <= 3; 1.8 is a transitional-Reynolds law)
     [drag]
+    speed = "airflow"           # what each axis's quadratic part grows with: "airflow" (|a|, the total
+                                #   airspeed: one drag along the airflow, shared out by axis) or "axis"
+                                #   (|a_axis|: each axis drags on its own airflow component alone, like
+                                #   flat plates or a simulator's per-face drag; force and airflow then
+                                #   differ in direction even with equal coefficients)
     reynolds_gain = 0.0         # the quadratic part's Cd is (1 + gain * exp(-|a| / reynolds_speed)):
     reynolds_speed = 3.0        #   m/s; higher drag coefficient at low Reynolds number, smoothly
 
@@ -87,6 +92,7 @@ class VehicleSpec:
     drag: tuple[AxisDrag, AxisDrag, AxisDrag] = (AxisDrag(), AxisDrag(), AxisDrag())
     reynolds_gain: float = 0.0
     reynolds_speed_mps: float = 3.0
+    per_axis_speed: bool = False   # [drag] speed = "axis"
     rotor_drag: float = 0.0
     shape_cos1: float = 0.0
     shape_cos2: float = 0.0
@@ -149,11 +155,12 @@ def parse_vehicle(text: str, source: str) -> VehicleSpec:
     rate = top.number("rate", default=50.0, positive=True)
     drag = top.table_of("drag", required=False)
     axes = (AxisDrag(), AxisDrag(), AxisDrag())
-    reynolds_gain, reynolds_speed = 0.0, 3.0
+    reynolds_gain, reynolds_speed, per_axis = 0.0, 3.0, False
     if drag is not None:
         axes = tuple(_axis(drag.table_of(a, required=False)) for a in "xyz")  # type: ignore[assignment]
         reynolds_gain = _non_negative(drag, "reynolds_gain")
         reynolds_speed = drag.number("reynolds_speed", default=3.0, positive=True)
+        per_axis = _speed_kind(drag) == "axis"
         drag.done()
     rotor = top.table_of("rotor_drag", required=False)
     rotor_drag = 0.0
@@ -176,8 +183,12 @@ def parse_vehicle(text: str, source: str) -> VehicleSpec:
     thrust.done()
     sensors = _sensors(top.table_of("sensors", required=False))
     top.done()
-    return VehicleSpec(mass, gravity, rate, axes, reynolds_gain, reynolds_speed, rotor_drag, cos1, cos2,  # type: ignore[arg-type]
-                       deflection, scale, thrust_shape, inflow, imbalance, sensors)
+    return VehicleSpec(mass, gravity, rate, axes, reynolds_gain, reynolds_speed, per_axis,  # type: ignore[arg-type]
+                       rotor_drag, cos1, cos2, deflection, scale, thrust_shape, inflow, imbalance, sensors)
+
+
+def _speed_kind(drag: _Reader) -> str:
+    return drag.string("speed", choices=("airflow", "axis"), default="airflow")
 
 
 def load_vehicle(path: str | Path) -> VehicleSpec:
@@ -198,8 +209,10 @@ def body_force(spec: VehicleSpec, air_body: np.ndarray, thrust_to_weight: np.nda
     cd = 1.0 + spec.reynolds_gain * np.exp(-speed / spec.reynolds_speed_mps)
     parts = []
     for i, axis in enumerate(spec.drag):
-        # |a|^(p-1) a_i: the axis's share of a drag that grows like |a|^p along the airflow.
-        grow = np.power(np.maximum(speed, 1e-12), axis.exponent - 1.0)
+        # |a|^(p-1) a_i: the axis's share of a drag that grows like |a|^p along the airflow; or, per
+        # axis, |a_i|^(p-1) a_i: the axis alone, as if it were a plate facing that component.
+        own = np.abs(air_body[:, i]) if spec.per_axis_speed else speed
+        grow = np.power(np.maximum(own, 1e-12), axis.exponent - 1.0)
         parts.append(axis.linear * air_body[:, i] + axis.quadratic * cd * grow * air_body[:, i])
     body = np.column_stack(parts)
     theta = np.arctan2(air_body[:, 1], air_body[:, 0])

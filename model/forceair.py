@@ -11,13 +11,17 @@ Two families map the observed external force (heading frame c, offset removed) t
   horizontal airflow (heading frame), s = |v|, theta its angle from the heading, u = v/s and e = u turned
   90 deg (left of the airflow):
 
-      F_h = [l0 s + q0 s^p + (l2c s + q2c s^p) cos 2theta + q1c s^p cos theta] u
-          + (l2s s + q2s s^p) sin 2theta e
+      F_h = [l0 s + q0 s^p + (l2c s + q2c s^p) cos 2theta + q1c s^p cos theta + q4c s^p cos 4theta] u
+          + [(l2s s + q2s s^p) sin 2theta + q4s s^p sin 4theta] e
       F_z = lz v_z + qz |v_z| v_z + i1 s + i2 s^2
 
   l0, q0: linear (rotor, momentum) and quadratic (body) drag; the cos 2theta terms make drag along body
   x differ from body y, the cos theta term front from back, and the sin 2theta terms turn the force off
-  the airflow. Per-axis drag (PX4's EKF2_BCOEF_X/_Y, EKF2_MCOEF) is the case l2s = -l2c, q2s = -q2c; a
+  the airflow. The cos 4theta and sin 4theta terms carry the four-fold shape of drag that each body
+  axis makes on its own airflow component (|a_x| a_x, |a_y| a_y: flat plates, a simulator's per-face
+  drag): even with equal coefficients its force leans up to 12 deg off the airflow at 30 and 60 deg,
+  which the 2theta terms cannot hold (they vanish there by symmetry); the 4theta pair leaves under
+  1.5 deg at a body-y / body-x ratio of 1.5 (tests/test_fourfold.py). Per-axis LINEAR drag (PX4's EKF2_BCOEF_X/_Y, EKF2_MCOEF) is the case l2s = -l2c, q2s = -q2c; a
   drag MAGNITUDE that depends on direction is l2s = q2s = 0. i1, i2: the vertical force that horizontal
   airflow causes (rotors in edgewise flow make more thrust). The horizontal law is inverted by a fixed
   number of Newton steps from the isotropic closed form; the vertical one in closed form given s. Both
@@ -53,7 +57,9 @@ DRAG_NEWTON_STEPS = 3
 # law is strictly increasing, so this only guards zero force on a zero law.
 _DENOMINATOR_FLOOR = 1e-9
 
-HORIZONTAL_DRAG_KEYS = ("l0", "q0", "l2c", "q2c", "q1c", "l2s", "q2s")
+HORIZONTAL_DRAG_KEYS = ("l0", "q0", "l2c", "q2c", "q1c", "l2s", "q2s", "q4c", "q4s")
+# The four-fold harmonics: written to the airframe file, and given symbols, only when a law has them.
+FOURFOLD_KEYS = ("q4c", "q4s")
 VERTICAL_DRAG_KEYS = ("lz", "qz", "i1", "i2")
 # The body-frame law's one extra coefficient: rotor (momentum) drag, which grows with rotor speed.
 ROTOR_DRAG_KEY = "lr"
@@ -67,6 +73,9 @@ EXPONENT_EXTRA_STEPS = 2
 # The exponents a law may have: drag coefficients that fall or rise with Reynolds number over the
 # airflow range of small vehicles give effective exponents in about this range.
 EXPONENT_RANGE = (1.5, 2.5)
+# One more Newton step when the law has the four-fold harmonics: the isotropic start is then up to
+# about 12 deg and 15 % off (tests/test_fourfold.py measures the convergence).
+FOURFOLD_EXTRA_STEPS = 1
 
 
 @dataclass(frozen=True)
@@ -86,14 +95,17 @@ class DragLaw:
     lr: float = 0.0          # body frame only: N per m/s at hover thrust, times sqrt(u_f / (m g))
     frame: str = "heading"   # "heading": the law of the level heading-frame airflow; "body": of the
     #                          body-frame airflow at the real attitude (tilt included)
-    exponent: float = 2.0    # p: the quadratic terms q0, q2c, q2s, q1c grow as s^p (1.5 to 2.5)
+    exponent: float = 2.0    # p: the quadratic terms q0, q2c, q2s, q1c, q4c, q4s grow as s^p (1.5 to 2.5)
+    q4c: float = 0.0         # the four-fold harmonics (last: positional construction stays as it was)
+    q4s: float = 0.0
 
     def keys(self) -> tuple[str, ...]:
         extra = (ROTOR_DRAG_KEY,) if self.frame == "body" else ()
         return HORIZONTAL_DRAG_KEYS + extra + VERTICAL_DRAG_KEYS
 
     def as_dict(self) -> dict[str, float | str]:
-        values: dict[str, float | str] = {k: getattr(self, k) for k in self.keys()}
+        values: dict[str, float | str] = {k: getattr(self, k) for k in self.keys()
+                                          if k not in FOURFOLD_KEYS or _fourfold(self)}
         if self.frame != "heading":
             values["frame"] = self.frame
         if isinstance(self.exponent, ca.SX) or self.exponent != 2.0:
@@ -102,11 +114,17 @@ class DragLaw:
 
     def newton_steps(self, steps: int) -> int:
         """``steps`` for a quadratic law; more when the exponent is another (or a symbol)."""
-        return steps if _quadratic(self) else steps + EXPONENT_EXTRA_STEPS
+        extra = (0 if _quadratic(self) else EXPONENT_EXTRA_STEPS) + (FOURFOLD_EXTRA_STEPS if _fourfold(self) else 0)
+        return steps + extra
 
 
 def _quadratic(law: DragLaw) -> bool:
     return _is_two(law.exponent)
+
+
+def _fourfold(law: DragLaw) -> bool:
+    """The law has a four-fold harmonic (a symbol counts: the symbolic variant with them)."""
+    return any(isinstance(getattr(law, k), ca.SX) or getattr(law, k) != 0.0 for k in FOURFOLD_KEYS)
 
 
 def _is_two(exponent) -> bool:
@@ -132,13 +150,24 @@ def _front_back(x, y, s, exponent):
     return k * x * x, k * x * y
 
 
-def symbolic_law(frame: str, quadratic: bool = True) -> DragLaw:
+def symbolic_law(frame: str, quadratic: bool = True, fourfold: bool = False) -> DragLaw:
     """A law whose coefficients are SX symbols named by their keys: the NumPy inversions below are built
     once on it and take the coefficients as inputs, instead of rebuilding the expression per law.
-    ``quadratic``: exponent 2, the step's very expression; else the exponent is a symbol too."""
-    keys = DragLaw(0.0, 0.0, frame=frame).keys()
-    symbols: dict = {k: ca.SX.sym(k) for k in keys}
+    ``quadratic``: exponent 2, the step's very expression; else the exponent is a symbol too.
+    ``fourfold``: the q4c, q4s terms are symbols; else they are absent (exact zeros), as in the step
+    of a law without them."""
+    symbols: dict = {k: ca.SX.sym(k) for k in _symbolic_keys(frame, fourfold)}
     return DragLaw(**symbols, frame=frame, exponent=2.0 if quadratic else ca.SX.sym("exponent"))
+
+
+def _symbolic_keys(frame: str, fourfold: bool) -> tuple[str, ...]:
+    keys = DragLaw(0.0, 0.0, frame=frame).keys()
+    return keys if fourfold else tuple(k for k in keys if k not in FOURFOLD_KEYS)
+
+
+def _variant(law: DragLaw) -> tuple[bool, bool]:
+    """Which symbolic inversion stands for ``law``: (quadratic, fourfold)."""
+    return _quadratic(law), _fourfold(law)
 
 
 def _used(law: DragLaw, keys: tuple[str, ...]) -> list[str]:
@@ -204,12 +233,14 @@ def horizontal_drag_basis(vx, vy, s, exponent=2.0):
     s the (possibly smoothed) airflow speed. SX or NumPy."""
     cos2 = (vx * vx - vy * vy) / (s * s)
     sin2 = 2 * vx * vy / (s * s)
+    cos4, sin4 = cos2 * cos2 - sin2 * sin2, 2 * sin2 * cos2
     g = speed_power(s, exponent)
     return {
         "l0": (vx, vy), "q0": (g * vx, g * vy),
         "l2c": (cos2 * vx, cos2 * vy), "q2c": (g * cos2 * vx, g * cos2 * vy),
         "q1c": _front_back(vx, vy, s, exponent),
         "l2s": (-sin2 * vy, sin2 * vx), "q2s": (-g * sin2 * vy, g * sin2 * vx),
+        "q4c": (g * cos4 * vx, g * cos4 * vy), "q4s": (-g * sin4 * vy, g * sin4 * vx),
     }
 
 
@@ -262,16 +293,16 @@ def drag_airflow(law: DragLaw, m: ca.SX, n: ca.SX, fz: ca.SX):
 
 
 @functools.lru_cache(maxsize=None)
-def _heading_inversion(quadratic: bool) -> VectorFunction:
+def _heading_inversion(quadratic: bool, fourfold: bool) -> VectorFunction:
     """``drag_airflow`` on the symbolic law, built once: (m, n, fz, coefficients) -> airflow."""
-    law, sm, sn, sz = symbolic_law("heading", quadratic), ca.SX.sym("m"), ca.SX.sym("n"), ca.SX.sym("fz")
+    law, sm, sn, sz = symbolic_law("heading", quadratic, fourfold), ca.SX.sym("m"), ca.SX.sym("n"), ca.SX.sym("fz")
     return VectorFunction(ca.Function("drag_airflow", [sm, sn, sz, ca.vertcat(*_symbols(law))],
                                       [ca.vertcat(*drag_airflow(law, sm, sn, sz))]))
 
 
 def _coefficients(law: DragLaw, frame: str) -> np.ndarray:
-    """The law's coefficients in the order of ``symbolic_law(frame, _quadratic(law))``'s symbols."""
-    keys = DragLaw(0.0, 0.0, frame=frame).keys()
+    """The law's coefficients in the order of ``symbolic_law(frame, *_variant(law))``'s symbols."""
+    keys = _symbolic_keys(frame, _fourfold(law))
     return np.array([float(getattr(law, k)) for k in keys] + ([] if _quadratic(law) else [float(law.exponent)]))
 
 
@@ -282,7 +313,7 @@ def drag_airflow_numpy(law: DragLaw, m: np.ndarray, n: np.ndarray, fz: np.ndarra
     if rows == 0:
         return np.zeros((0, 3))
     force = [np.asarray(v, float).reshape(1, rows) for v in (m, n, fz)]
-    return _heading_inversion(_quadratic(law))([*force, _coefficients(law, "heading")], rows)[0].T
+    return _heading_inversion(*_variant(law))([*force, _coefficients(law, "heading")], rows)[0].T
 
 
 def body_drag_basis(ax, ay, az, rotor, eps: float = 0.0, exponent=2.0) -> dict[str, tuple]:
@@ -293,6 +324,7 @@ def body_drag_basis(ax, ay, az, rotor, eps: float = 0.0, exponent=2.0) -> dict[s
 
         F_xy = [l0 + lr rotor + q0 s^(p-1) + (l2c + q2c s^(p-1)) cos 2theta] a_xy + q1c s^(p-2) a_x a_xy
                + (l2s + q2s s^(p-1)) sin 2theta (-a_y, a_x)
+               + q4c s^(p-1) cos 4theta a_xy + q4s s^(p-1) sin 4theta (-a_y, a_x)
         F_z  = lz a_z + qz s a_z + i1 s_h + i2 s_h^2
     """
     sh2 = ax * ax + ay * ay + eps * eps
@@ -300,6 +332,7 @@ def body_drag_basis(ax, ay, az, rotor, eps: float = 0.0, exponent=2.0) -> dict[s
     sh = sh2 ** 0.5
     cos2 = (ax * ax - ay * ay) / sh2
     sin2 = 2 * ax * ay / sh2
+    cos4, sin4 = cos2 * cos2 - sin2 * sin2, 2 * sin2 * cos2
     zero = 0 * ax
     g = speed_power(s, exponent)
     return {
@@ -307,6 +340,7 @@ def body_drag_basis(ax, ay, az, rotor, eps: float = 0.0, exponent=2.0) -> dict[s
         "l2c": (cos2 * ax, cos2 * ay, zero), "q2c": (g * cos2 * ax, g * cos2 * ay, zero),
         "q1c": (*_front_back(ax, ay, s, exponent), zero),
         "l2s": (-sin2 * ay, sin2 * ax, zero), "q2s": (-g * sin2 * ay, g * sin2 * ax, zero),
+        "q4c": (g * cos4 * ax, g * cos4 * ay, zero), "q4s": (-g * sin4 * ay, g * sin4 * ax, zero),
         "lr": (rotor * ax, rotor * ay, zero),
         "lz": (zero, zero, az), "qz": (zero, zero, s * az), "i1": (zero, zero, sh), "i2": (zero, zero, sh2),
     }
@@ -358,9 +392,9 @@ def body_drag_airflow(law: DragLaw, force_ned: ca.SX, rot: ca.SX, rotor: ca.SX) 
 
 
 @functools.lru_cache(maxsize=None)
-def _body_inversion(quadratic: bool) -> VectorFunction:
+def _body_inversion(quadratic: bool, fourfold: bool) -> VectorFunction:
     """``body_drag_airflow`` on the symbolic law, built once: (force, rot, rotor, coefficients) -> airflow."""
-    law, sf, sr, sq = symbolic_law("body", quadratic), ca.SX.sym("f", 3), ca.SX.sym("rot", 9), ca.SX.sym("rotor")
+    law, sf, sr, sq = symbolic_law("body", quadratic, fourfold), ca.SX.sym("f", 3), ca.SX.sym("rot", 9), ca.SX.sym("rotor")
     return VectorFunction(ca.Function("body_drag_airflow", [sf, sr, sq, ca.vertcat(*_symbols(law))],
                                       [body_drag_airflow(law, sf, ca.reshape(sr, 3, 3), sq)]))
 
@@ -374,7 +408,7 @@ def body_drag_airflow_numpy(law: DragLaw, force_ned: np.ndarray, rot: np.ndarray
     # ca.reshape is column-major: row k of the (9, N) input is rot[:, k % 3, k // 3].
     flat = np.transpose(rot, (2, 1, 0)).reshape(9, rows)
     inputs = [np.asarray(force_ned, float).T, flat, np.asarray(rotor, float).reshape(1, rows), _coefficients(law, "body")]
-    return _body_inversion(_quadratic(law))(inputs, rows)[0].T
+    return _body_inversion(*_variant(law))(inputs, rows)[0].T
 
 
 def term_matrix(terms: list[Term], m: np.ndarray, n: np.ndarray, fz: np.ndarray) -> np.ndarray:
@@ -404,16 +438,16 @@ def wind_from_deg_sx(north: ca.SX, east: ca.SX) -> ca.SX:
 LAW_CHECK_DIRECTIONS = 72
 LAW_CHECK_SPEEDS = 48
 LAW_CHECK_MIN_MPS = 0.01
-_QUADRATIC_KEYS = ("q0", "q2c", "q2s", "q1c")
+_QUADRATIC_KEYS = ("q0", "q2c", "q2s", "q1c", "q4c", "q4s")
 
 
 @functools.lru_cache(maxsize=None)
-def _law_slope(frame: str, quadratic: bool) -> VectorFunction:
+def _law_slope(frame: str, quadratic: bool, fourfold: bool) -> VectorFunction:
     """The horizontal block of the forward law's Jacobian, d(F_x, F_y)/d(a_x, a_y), at level airflow, on
     symbolic coefficients: (airflow, rotor, coefficients) -> 2 x 2 (column-major), smoothed as in Newton.
     At a_z = 0 the body frame's 3 x 3 Jacobian is block-triangular, so this block is what the horizontal
     terms decide; the vertical law (lz, qz >= 0) is checked apart (fitfamily)."""
-    law, a, rotor = symbolic_law(frame, quadratic), ca.SX.sym("a", 2), ca.SX.sym("rotor")
+    law, a, rotor = symbolic_law(frame, quadratic, fourfold), ca.SX.sym("a", 2), ca.SX.sym("rotor")
     if frame == "body":
         force = ca.vertcat(*body_drag_force(law, a[0], a[1], 0 * a[0], rotor, DRAG_SPEED_EPS_MPS)[:2])
     else:
@@ -427,7 +461,7 @@ def _first_bad(law: DragLaw, ux: np.ndarray, uy: np.ndarray, speed: np.ndarray, 
                strict: bool) -> int | None:
     """Index of the first grid point where the slope along the airflow or the determinant is negative
     (``strict``: not positive), or None."""
-    j = _law_slope(law.frame, _quadratic(law))([np.vstack([ux * speed, uy * speed]), np.array([rotor]),
+    j = _law_slope(law.frame, *_variant(law))([np.vstack([ux * speed, uy * speed]), np.array([rotor]),
                                _coefficients(law, law.frame)], ux.size)[0]
     jac = j.T.reshape(-1, 2, 2).transpose(0, 2, 1)  # column-major nonzeros -> (rows, i, j) = dF_i / da_j
     radial = ux * (jac[:, 0, 0] * ux + jac[:, 0, 1] * uy) + uy * (jac[:, 1, 0] * ux + jac[:, 1, 1] * uy)

@@ -101,3 +101,33 @@ def random_body_flight(speed, seed: int):
     rot = Rotation.from_euler("ZYX", np.column_stack([rng.uniform(-math.pi, math.pi, n), rng.uniform(-0.7, 0.7, n),
                                                       rng.uniform(-0.7, 0.7, n)])).as_matrix()
     return a, rot, np.sqrt(rng.uniform(0.7, 1.6, n))
+
+
+def hold_samples(force_of, noise_n: float = 0.05, seed: int = 3, frame: str = "heading"):
+    """Drag samples as the fit makes them (H applied to the force, noise added): 20 s holds at random
+    headings, 0-9 m/s, level, 40 min; ``force_of(vx, vy, vz)`` the true heading-frame force (N) of the
+    heading-frame airflow, ``frame`` the law frame the samples are for."""
+    import math
+
+    import numpy as np
+
+    from dobwind import dragfit
+    from dobwind.model.airframe import load_airframe
+
+    af = load_airframe(M300)
+    rate, seconds, hold = 50.0, 2400.0, 20
+    rng = np.random.default_rng(seed)
+    holds = int(seconds / hold)
+    per = lambda x: np.repeat(x, int(rate * hold))
+    t = np.arange(int(rate * seconds)) / rate
+    yaw = per(rng.uniform(-math.pi, math.pi, holds))
+    air = np.column_stack([per(rng.uniform(0, 9, holds)), np.zeros_like(t), per(rng.uniform(-2, 2, holds))])
+    c, s = np.cos(yaw), np.sin(yaw)
+    fx, fy, fz = force_of(c * air[:, 0], -s * air[:, 0], air[:, 2])
+    force = np.column_stack([c * fx - s * fy, s * fx + c * fy, fz])
+    observed = observed_force(af, rate, force, noise_n, rng)
+    thrust = np.column_stack([np.zeros_like(t), np.zeros_like(t), np.full_like(t, 78.0)])
+    segment = per(np.arange(holds) % 2).astype(float)  # labelled holds: holdcv scores them settled
+    q = np.column_stack([np.cos(yaw / 2), np.zeros_like(t), np.zeros_like(t), np.sin(yaw / 2)])  # level
+    return dragfit.merge([dragfit.log_samples(af, 0.5, t, observed, air, thrust, yaw, np.ones(len(t), dtype=bool),
+                                              frame, q, segment=segment)], frame)

@@ -16,7 +16,7 @@ from dobwind.model.airframe import load_airframe, parse_airframe
 from dobwind.model.airframe_toml import dump_airframe
 from dobwind.model.forceair import (DragLaw, body_drag_airflow_numpy, body_drag_basis, body_drag_force,
                                     drag_airflow_numpy, drag_force, horizontal_drag_basis, speed_power)
-from tests.helpers import M300, observed_force, random_body_flight
+from tests.helpers import M300, hold_samples, random_body_flight
 
 
 def _transcribed_force(law: DragLaw, a: np.ndarray, rotor: np.ndarray) -> np.ndarray:
@@ -116,25 +116,7 @@ def test_generated_c_of_an_exponent_law_matches_the_reference(exponent):
 
 
 def _samples(law: DragLaw, noise_n: float = 0.05, seed: int = 3, frame: str = "heading") -> dragfit.DragSamples:
-    """Samples as the fit makes them (H applied to the heading-frame law's force): 20 s holds at random
-    headings, 0-9 m/s, level; ``frame`` the law frame they are sampled for."""
-    af = load_airframe(M300)
-    rate, seconds, hold = 50.0, 2400.0, 20
-    rng = np.random.default_rng(seed)
-    holds = int(seconds / hold)
-    per = lambda x: np.repeat(x, int(rate * hold))
-    t = np.arange(int(rate * seconds)) / rate
-    yaw = per(rng.uniform(-math.pi, math.pi, holds))
-    air = np.column_stack([per(rng.uniform(0, 9, holds)), np.zeros_like(t), per(rng.uniform(-2, 2, holds))])
-    c, s = np.cos(yaw), np.sin(yaw)
-    fx, fy, fz = drag_force(law, c * air[:, 0], -s * air[:, 0], air[:, 2])
-    force = np.column_stack([c * fx - s * fy, s * fx + c * fy, fz])
-    observed = observed_force(af, rate, force, noise_n, rng)
-    thrust = np.column_stack([np.zeros_like(t), np.zeros_like(t), np.full_like(t, 78.0)])
-    segment = per(np.arange(holds) % 2).astype(float)  # labelled holds: holdcv scores them settled
-    q = np.column_stack([np.cos(yaw / 2), np.zeros_like(t), np.zeros_like(t), np.sin(yaw / 2)])  # level
-    return dragfit.merge([dragfit.log_samples(af, 0.5, t, observed, air, thrust, yaw, np.ones(len(t), dtype=bool),
-                                              frame, q, segment=segment)], frame)
+    return hold_samples(lambda vx, vy, vz: drag_force(law, vx, vy, vz), noise_n, seed, frame)
 
 
 SET = ("l0", "q0", "lz", "qz") + dragfit.ALWAYS
