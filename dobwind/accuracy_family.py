@@ -6,7 +6,9 @@ benchmark's folder layout. The ranges are physical, not tuned to pass:
 - mass log-uniform 0.03-25 kg; frontal area 0.045 m^2 x mass^(2/3), Cd 0.6-1.3 (quadratic drag);
 - rotor (momentum) drag 0.02-0.2 1/s x mass (PX4's EKF2_MCOEF range), plus 0-30 % of it as linear
   body drag; body-y / body-x drag 0.8-1.5; drag exponent 2 (half the draws), 1.8 or 2.2; in 30 % of
-  the draws a Reynolds-dependent coefficient;
+  the draws a Reynolds-dependent coefficient; in 40 % the quadratic drag of each body axis grows with
+  that axis's own airflow component (`[drag] speed = "axis"`: per-face drag, whose force leans off the
+  airflow), drawn from a second generator so that every other quantity of a draw stays as it was;
 - shape harmonics up to 6 % (cos1) and 8 % (cos2), force deflection up to 2.5 deg;
 - thrust curve scale 0.92-1.08, shape error +-8 % per unit T/W, inflow loss up to 5 % per m/s;
 - rate 50-500 Hz; collective thrust or rpm (4, 6 or 8 rotors, hover at 45-65 % of max rpm);
@@ -27,6 +29,7 @@ from dobwind.model.airframe_toml import dumps
 GRAVITY_MPS2 = 9.80665
 GAIN_PER_KG = 6.2          # kg/s per kg of nominal mass: 0.5 Hz observer bandwidth
 RATES_HZ = (50.0, 100.0, 200.0, 250.0, 500.0)
+PER_AXIS_SHARE = 0.4       # of the draws with per-axis drag speed
 
 
 def _drag(rng: np.random.Generator, mass: float) -> dict[str, Any]:
@@ -81,6 +84,7 @@ def write_random_vehicles(folder: Path, seed: int, count: int) -> tuple[str, ...
     """``count`` vehicles drawn with ``seed`` into ``folder`` (NAME.vehicle.toml, NAME.airframe.toml);
     their names, rand<seed>_<i>."""
     rng = np.random.default_rng(seed)
+    kinds = np.random.default_rng((seed, 1))   # added later: the first generator's draws are unchanged
     folder.mkdir(parents=True, exist_ok=True)
     names = []
     for i in range(count):
@@ -88,6 +92,8 @@ def write_random_vehicles(folder: Path, seed: int, count: int) -> tuple[str, ...
         mass = float(np.exp(rng.uniform(np.log(0.03), np.log(25.0))))
         rate = float(rng.choice(RATES_HZ))
         vehicle, airframe = _vehicle(rng, mass, rate), _airframe(rng, name, mass, rate)
+        if kinds.uniform() < PER_AXIS_SHARE:
+            vehicle["drag"]["speed"] = "axis"
         write_text_atomically(folder / f"{name}.vehicle.toml", lambda h, v=vehicle: h.write(dumps(v)))
         write_text_atomically(folder / f"{name}.airframe.toml", lambda h, a=airframe: h.write(dumps(a)))
         names.append(name)

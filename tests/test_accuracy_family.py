@@ -21,7 +21,7 @@ def test_vehicles_load_and_are_reproducible_by_seed(tmp_path):
     write_random_vehicles(tmp_path / "c", 6, 1)
     assert (tmp_path / "c" / "rand6_0.vehicle.toml").read_text() != (tmp_path / "a" / "rand5_0.vehicle.toml").read_text()
 
-    masses, sources, modes, rates = [], set(), set(), set()
+    masses, sources, modes, rates, per_axis = [], set(), set(), set(), []
     for name in names:
         spec = load_vehicle(tmp_path / "a" / f"{name}.vehicle.toml")
         af = load_airframe(tmp_path / "a" / f"{name}.airframe.toml")   # the loader's own range checks
@@ -39,9 +39,11 @@ def test_vehicles_load_and_are_reproducible_by_seed(tmp_path):
         sources.add(af.thrust.source)
         modes.add(af.observer.acceleration)
         rates.add(spec.rate_hz)
+        per_axis.append(spec.per_axis_speed)
     assert min(masses) < 0.3 and max(masses) > 5.0          # log-uniform over 0.03-25 kg
     assert sources == {"rpm", "collective"} and modes == {"velocity", "ned", "specific_force"}
     assert rates == {50.0, 100.0, 200.0, 250.0, 500.0}
+    assert 8 <= sum(per_axis) <= 24                          # 40 % of 40 draws: per-axis drag speed
 
 
 def test_the_benchmark_runs_the_drawn_vehicles_from_the_output_folder(tmp_path):

@@ -228,11 +228,11 @@ def test_rescaled_columns_are_the_exponents_own_in_steady_airflow(frame):
         a = np.einsum("nji,nj->ni", rot, np.column_stack([c * air[:, 0] - s * air[:, 1], s * air[:, 0] + c * air[:, 1],
                                                           air[:, 2]]))
         units = body_drag_basis(a[:, 0], a[:, 1], a[:, 2], np.ones(len(a)), 0.0, 1.7)
-        expected = {k: np.einsum("nij,nj->ni", rot, np.column_stack(units[k])) for k in ("q0", "q2c", "q2s", "q1c", "l0")}
+        expected = {k: np.einsum("nij,nj->ni", rot, np.column_stack(units[k])) for k in ("q0", "q2c", "q2s", "q1c", "q4c", "q4s", "l0")}
     else:
         units = horizontal_drag_basis(air[:, 0], air[:, 1], np.hypot(air[:, 0], air[:, 1]), 1.7)
         expected = {k: np.column_stack([c * fx - s * fy, s * fx + c * fy, np.zeros_like(fx)])
-                    for k, (fx, fy) in units.items() if k in ("q0", "q2c", "q2s", "q1c", "l0")}
+                    for k, (fx, fy) in units.items() if k in ("q0", "q2c", "q2s", "q1c", "q4c", "q4s", "l0")}
     for key, value in expected.items():  # l0: a linear term, left as it was
         got = shifted.columns[steady][:, :, samples.parameters.index(key)]
         np.testing.assert_allclose(got, value, rtol=1e-6, atol=1e-9, err_msg=key)
