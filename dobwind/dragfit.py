@@ -30,10 +30,10 @@ from scipy.signal import lfilter, lfilter_zi
 from dobwind.model.airframe import Airframe
 from dobwind.model.attitude import rotation_matrices
 from dobwind.model.discretization import first_order
-from dobwind.model.forceair import (FOURFOLD_KEYS, HORIZONTAL_DRAG_KEYS, ROTOR_DRAG_KEY, VERTICAL_DRAG_KEYS, DragLaw,
-                                    along_force_scale, body_drag_airflow_numpy, body_drag_basis, drag_airflow_numpy,
-                                    heading_force, heading_to_ned, horizontal_drag_basis, law_decreasing,
-                                    term_matrix)
+from dobwind.model.forceair import (FOURFOLD_KEYS, HORIZONTAL_DRAG_KEYS, QUADRATIC_KEYS, ROTOR_DRAG_KEY,
+                                    VERTICAL_DRAG_KEYS, DragLaw, along_force_scale, body_drag_airflow_numpy,
+                                    body_drag_basis, drag_airflow_numpy, heading_force, heading_to_ned,
+                                    horizontal_drag_basis, law_decreasing, term_matrix)
 from dobwind.model.terms import Term
 
 PARAMETERS = HORIZONTAL_DRAG_KEYS + ("ox", "oy") + VERTICAL_DRAG_KEYS + ("kappa",)
@@ -452,10 +452,6 @@ def law_of(theta: np.ndarray, frame: str = "heading", exponent: float = 2.0) -> 
     return DragLaw(**{k: values[k] for k in keys}, frame=frame, exponent=float(exponent))
 
 
-# The columns whose terms grow as s^p: with_exponent rescales them.
-EXPONENT_COLUMNS = ("q0", "q2c", "q2s", "q1c") + FOURFOLD_KEYS
-
-
 def with_exponent(samples: DragSamples, exponent: float) -> DragSamples:
     """The samples as if sampled for a law of another exponent: the quadratic columns (H applied to
     s a, s the airflow speed the law uses: horizontal in the heading frame, 3-D in the body frame) times
@@ -470,7 +466,7 @@ def with_exponent(samples: DragSamples, exponent: float) -> DragSamples:
     speed = np.linalg.norm(air, axis=1) if samples.frame == "body" else np.hypot(air[:, 0], air[:, 1])
     factor = np.maximum(speed, 1e-9) ** (exponent - samples.exponent)
     columns = samples.columns.copy()
-    for key in EXPONENT_COLUMNS:
+    for key in QUADRATIC_KEYS:   # the columns whose terms grow as s^p
         columns[:, :, samples.parameters.index(key)] *= factor[:, None]
     return dataclasses.replace(samples, columns=columns, exponent=exponent)
 

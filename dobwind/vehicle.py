@@ -160,7 +160,7 @@ def parse_vehicle(text: str, source: str) -> VehicleSpec:
         axes = tuple(_axis(drag.table_of(a, required=False)) for a in "xyz")  # type: ignore[assignment]
         reynolds_gain = _non_negative(drag, "reynolds_gain")
         reynolds_speed = drag.number("reynolds_speed", default=3.0, positive=True)
-        per_axis = _speed_kind(drag) == "axis"
+        per_axis = drag.string("speed", choices=("airflow", "axis"), default="airflow") == "axis"
         drag.done()
     rotor = top.table_of("rotor_drag", required=False)
     rotor_drag = 0.0
@@ -185,10 +185,6 @@ def parse_vehicle(text: str, source: str) -> VehicleSpec:
     top.done()
     return VehicleSpec(mass, gravity, rate, axes, reynolds_gain, reynolds_speed, per_axis,  # type: ignore[arg-type]
                        rotor_drag, cos1, cos2, deflection, scale, thrust_shape, inflow, imbalance, sensors)
-
-
-def _speed_kind(drag: _Reader) -> str:
-    return drag.string("speed", choices=("airflow", "axis"), default="airflow")
 
 
 def load_vehicle(path: str | Path) -> VehicleSpec:

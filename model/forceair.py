@@ -20,8 +20,10 @@ Two families map the observed external force (heading frame c, offset removed) t
   the airflow. The cos 4theta and sin 4theta terms carry the four-fold shape of drag that each body
   axis makes on its own airflow component (|a_x| a_x, |a_y| a_y: flat plates, a simulator's per-face
   drag): even with equal coefficients its force leans up to 12 deg off the airflow at 30 and 60 deg,
-  which the 2theta terms cannot hold (they vanish there by symmetry); the 4theta pair leaves under
-  1.5 deg at a body-y / body-x ratio of 1.5 (tests/test_fourfold.py). Per-axis LINEAR drag (PX4's EKF2_BCOEF_X/_Y, EKF2_MCOEF) is the case l2s = -l2c, q2s = -q2c; a
+  which the 2theta terms cannot hold (they vanish there by symmetry); with the 4theta pair the airflow
+  is read within 1 deg at 60 deg and 3.5 deg next to the axes, at a body-y / body-x ratio up to 1.5
+  (tests/test_fourfold.py). Per-axis LINEAR drag (PX4's EKF2_BCOEF_X/_Y, EKF2_MCOEF) is the case
+  l2s = -l2c, q2s = -q2c; a
   drag MAGNITUDE that depends on direction is l2s = q2s = 0. i1, i2: the vertical force that horizontal
   airflow causes (rotors in edgewise flow make more thrust). The horizontal law is inverted by a fixed
   number of Newton steps from the isotropic closed form; the vertical one in closed form given s. Both
@@ -438,7 +440,9 @@ def wind_from_deg_sx(north: ca.SX, east: ca.SX) -> ca.SX:
 LAW_CHECK_DIRECTIONS = 72
 LAW_CHECK_SPEEDS = 48
 LAW_CHECK_MIN_MPS = 0.01
-_QUADRATIC_KEYS = ("q0", "q2c", "q2s", "q1c", "q4c", "q4s")
+# The terms that grow as s^p (the bluff-body drag): the linear part is the law without them, and the
+# fit rescales their columns for another exponent (dragfit.with_exponent).
+QUADRATIC_KEYS = ("q0", "q2c", "q2s", "q1c") + FOURFOLD_KEYS
 
 
 @functools.lru_cache(maxsize=None)
@@ -480,7 +484,7 @@ def law_decreasing(law: DragLaw, speed_max_mps: float, rotors: tuple[float, ...]
     speed = np.geomspace(LAW_CHECK_MIN_MPS, max(speed_max_mps, 2 * LAW_CHECK_MIN_MPS), LAW_CHECK_SPEEDS)
     t, s = np.meshgrid(theta, speed)
     ux, uy, s = np.cos(t).ravel(), np.sin(t).ravel(), s.ravel()
-    linear = dataclasses.replace(law, **{k: 0.0 for k in _QUADRATIC_KEYS})
+    linear = dataclasses.replace(law, **{k: 0.0 for k in QUADRATIC_KEYS})
     for rotor in (rotors if law.frame == "body" else (1.0,)):
         where = None
         k = _first_bad(linear, np.cos(theta), np.sin(theta), np.ones_like(theta), rotor, strict=False)
