@@ -26,9 +26,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Callable
 
-import numpy as np
-
 from dobwind import dragfit, holdcv
+from dobwind.holdcv import hold_score
 from dobwind.model.forceair import EXPONENT_RANGE
 
 EXPONENT_STEP = 0.1
@@ -48,36 +47,6 @@ class ExponentChoice:
     choice: dragfit.DragChoice            # the law's set and coefficients for it
     hold: holdcv.HoldCV | None            # its hold-level CV (the family's scores)
     scores: dict[float, float] = field(default_factory=dict)  # hold-level score of each exponent tried
-
-
-def hold_score(hold: holdcv.HoldCV | None) -> float:
-    """The hold-level counterpart of DragChoice.score: held-out hold means and the top holds."""
-    return math.nan if hold is None else dragfit.combined(hold.rms_mps, hold.extrapolation_mps)
-
-
-def significant_gain(base: holdcv.HoldCV | None, other: holdcv.HoldCV | None,
-                     gain: float = EXPONENT_GAIN, sigmas: float = EXPONENT_SIGMAS) -> bool:
-    """``other`` scores ``gain`` below ``base``, on the top holds too, and its held-out windows' squared
-    errors fall by ``sigmas`` standard errors or more, paired window by window. The windows of one CV
-    fold share one fitted law, so their differences are not independent: the standard error is that of
-    the folds' mean differences (one value per fold)."""
-    if base is None or other is None or base.window_errors_mps is None or other.window_errors_mps is None:
-        return False
-    if not hold_score(other) < (1 - gain) * hold_score(base):
-        return False
-    # The gain must include the top holds: the growth rate is what an exponent changes, and a lower one
-    # also cancels the low bias that noise gives a concave inverse at low airflow, which improves the
-    # held-out holds while the top holds get worse (a review: 0.014 -> 0.031 m/s on a quadratic law).
-    if math.isfinite(base.extrapolation_mps) and not other.extrapolation_mps < (1 - gain) * base.extrapolation_mps:
-        return False
-    difference = np.asarray(base.window_errors_mps) ** 2 - np.asarray(other.window_errors_mps) ** 2
-    folds = base.window_folds if base.window_folds is not None else np.zeros(difference.size, int)
-    if difference.shape != np.shape(other.window_errors_mps) or np.shape(folds) != difference.shape:
-        return False
-    means = np.array([difference[folds == k].mean() for k in np.unique(folds)])
-    if means.size < 3:
-        return False
-    return float(means.mean()) > sigmas * float(means.std(ddof=1)) / math.sqrt(means.size)
 
 
 def _hold(samples: dragfit.DragSamples, active: tuple[str, ...]) -> holdcv.HoldCV | None:
@@ -119,13 +88,13 @@ def choose_exponent(samples: dragfit.DragSamples, choice: dragfit.DragChoice,
     if best == 2.0:
         return kept
     shifted = dragfit.with_exponent(samples, best)
-    if not significant_gain(hold, holds[best]):
+    if not holdcv.significant_gain(hold, holds[best], EXPONENT_GAIN, EXPONENT_SIGMAS):
         return kept
-    again = dragfit.choose_drag_law(shifted)
+    again = dragfit.choose_drag_law(shifted, holdcv.prefer_on_holds)
     if not usable(shifted, again):
         return kept
     hold_again = _hold(shifted, again.active)
     # The set chosen again must still beat the quadratic law (its windows are the same).
-    if not significant_gain(hold, hold_again):
+    if not holdcv.significant_gain(hold, hold_again, EXPONENT_GAIN, EXPONENT_SIGMAS):
         return kept
     return ExponentChoice(best, shifted, again, hold_again, scores)

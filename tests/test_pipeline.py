@@ -12,6 +12,7 @@ from dobwind.cli import main
 from dobwind.codegen.tolerance import TOLERANCE
 from dobwind.fit import (VERTICAL_CANDIDATES, Points, _extrapolation_rmse, _term_matrix, fit_polynomial,
                          read_calibration_logs, select_terms)
+from dobwind.fitfamily import FAMILY_TIE
 from dobwind.logs import ESTIMATE_COLUMNS, read_log, required_columns
 from dobwind.model.airframe import load_airframe
 from dobwind.model.status import REJECTED_MASK, STATUS_BITS, accepted
@@ -145,7 +146,7 @@ def test_fit_report_json(logs, tmp_path, capsys):
     chosen = json.loads(capsys.readouterr().out)
     assert set(chosen["families"]) == {"drag", "drag-body", "polynomial"} and chosen["model"] in chosen["families"]
     best = min(f["score_mps"] for f in chosen["families"].values())
-    assert chosen["families"][chosen["model"]]["score_mps"] == best
+    assert chosen["families"][chosen["model"]]["score_mps"] <= best * (1 + FAMILY_TIE)  # a tie: fitfamily.choose_family
     assert chosen["self_check"]["passed"] and chosen["written"]
     first = out.read_text()
     # The paper's printed terms on this sweep: the fit's own CV looks tolerable per chunk, but the
