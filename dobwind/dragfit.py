@@ -55,7 +55,8 @@ HUBER_K = 2.0           # Huber threshold in robust standard deviations
 # The anisotropy of the quadratic (bluff-body) drag alone is the last resort, after the sets with both:
 # with next to no linear drag a linear harmonic makes the law decrease near zero airflow (l0 + l2c cos
 # 2theta < 0 in some direction), so those sets are dropped (choose_drag_law) or their CV diverges. Listed
-# last, it never wins the 2 % parsimony tie against a set with linear harmonics the data need.
+# last, it never wins the 2 % parsimony tie against a set with linear harmonics the data need, unless it
+# predicts the held-out hold means significantly better (holdcv.prefer_on_holds).
 HORIZONTAL_SETS = (("l0",), ("q0",), ("l0", "q0"), ("l0", "q0", "l2c", "q2c", "l2s", "q2s"),
                    ("l0", "q0", "l2c", "q2c", "l2s", "q2s", "q1c"), ("l0", "q0", "q2c", "q2s"))
 VERTICAL_SETS = (("lz",), ("qz",), ("lz", "qz"), ("lz", "qz", "i1"), ("lz", "qz", "i1", "i2"))
@@ -594,14 +595,10 @@ def combined(cv: float, extra: float) -> float:
 Prefer = Callable[[DragSamples, tuple[tuple[str, ...], ...]], int]
 
 
-def _smallest(samples: DragSamples, tied: tuple[tuple[str, ...], ...]) -> int:
-    return 0
-
-
-def choose_drag_law(samples: DragSamples, prefer: Prefer = _smallest) -> DragChoice:
+def choose_drag_law(samples: DragSamples, prefer: Prefer) -> DragChoice:
     """Horizontal set first (with the fullest vertical set), then the vertical set; at each stage the
-    sets within 2 % of the best score tie, and the smallest wins (horizontally: unless ``prefer``, the
-    fit's holdcv.prefer_on_holds, picks another). A law that does not increase everywhere on the
+    sets within 2 % of the best score tie, and the smallest wins (horizontally: the one ``prefer``
+    picks; the fit passes holdcv.prefer_on_holds). A law that does not increase everywhere on the
     calibrated range and beyond (law_decreasing) is never chosen: its set is dropped and the choice made
     again among the others (an isotropic law with a positive coefficient always passes). When the
     four-fold harmonics help the chosen set (_fourfold_helps), the horizontal set is chosen again with
@@ -613,7 +610,9 @@ def choose_drag_law(samples: DragSamples, prefer: Prefer = _smallest) -> DragCho
     if where is None and _fourfold_helps(samples, horizontal, score, folds, top):
         wider = tuple(h + FOURFOLD_KEYS for h in candidates if "q0" in h)
         found = _choose_horizontal(samples, wider, folds, top, prefer)
-        if found[2] is None:  # an increasing law with the harmonics; else the set without them stays
+        # An increasing law with the harmonics that still buys the 2 %: the set tried first may have been
+        # dropped for decreasing, and the next one need not beat the set without them.
+        if found[2] is None and found[3] <= FOURFOLD_GAIN * score:
             horizontal, theta, dropped = found[0], found[1], dropped + found[4]
     scored_v = []
     for v in VERTICAL_SETS:

@@ -66,7 +66,8 @@ def text_report(report: FitReport) -> str:
     families = [f"family {name}: " + ", ".join(f"{k} {'n/a' if v is None else f'{v:.3f}'}" for k, v in scores.items()
                                               if v is None or isinstance(v, float))
                 for name, scores in report.families.items()]
-    chosen = ([f"model: {report.model} (chosen by grouped CV and extrapolation of the airflow; a tie within 2 % goes to drag-body, else to the better hold-level score)"] + families
+    chosen = ([f"model: {report.model} (chosen by grouped CV and extrapolation of the airflow; a tie within 2 % "
+               "goes to drag-body, else to a hold-level score 2 % better)"] + families
               + _hold_line(report) + _low_pass_line(report))
     if report.drag:  # either drag family (heading or body frame)
         law = ", ".join(f"{k} {v:.4g}" for k, v in report.drag.items())

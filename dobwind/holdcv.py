@@ -263,6 +263,8 @@ def significant_gain(base: HoldCV | None, other: HoldCV | None,
     # The gain must include the top holds: the growth rate is what an exponent changes, and a lower one
     # also cancels the low bias that noise gives a concave inverse at low airflow, which improves the
     # held-out holds while the top holds get worse (a review: 0.014 -> 0.031 m/s on a quadratic law).
+    # For a larger parameter set the same holds: extra terms that only fit the slow holds' noise do not
+    # carry to the top holds.
     if math.isfinite(base.extrapolation_mps) and not other.extrapolation_mps < (1 - gain) * base.extrapolation_mps:
         return False
     difference = np.asarray(base.window_errors_mps) ** 2 - np.asarray(other.window_errors_mps) ** 2
@@ -278,10 +280,10 @@ def significant_gain(base: HoldCV | None, other: HoldCV | None,
 def prefer_on_holds(samples: dragfit.DragSamples, tied: tuple[tuple[str, ...], ...]) -> int:
     """Of parameter sets whose per-sample scores tie (dragfit.choose_drag_law: within 2 %, in the order
     of preference, the smallest first), the index of the one to fit: the first, unless another predicts
-    the held-out holds significantly better (significant_gain), and then the best of those. The per-sample score is dominated by noise
-    and by the transients after each change of airflow, which any set fits alike; a term whose worth
-    shows only in hold means (a front/back asymmetry under per-axis drag: 0.10 against 0.03 m/s) is
-    otherwise cut by the parsimony rule."""
+    the held-out holds significantly better (significant_gain), and then the best of those. The
+    per-sample score is dominated by noise and by the transients after each change of airflow, which
+    any set fits alike; a term whose worth shows only in hold means (a front/back asymmetry under
+    per-axis drag: 0.10 against 0.03 m/s) is otherwise cut by the parsimony rule."""
     base = hold_cv(samples, dragfit.drag_fit_predict(tied[0]))
     best, best_score = 0, math.inf
     for index, active in enumerate(tied[1:], start=1):

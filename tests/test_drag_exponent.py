@@ -149,7 +149,7 @@ def _always_usable(samples: dragfit.DragSamples, choice: dragfit.DragChoice) -> 
 @pytest.mark.parametrize("truth", [1.8, 2.0, 2.2])
 def test_the_exponent_chosen_is_the_laws(truth):
     samples = _samples(_law(truth))
-    choice = dragfit.choose_drag_law(samples)
+    choice = dragfit.choose_drag_law(samples, holdcv.prefer_on_holds)
     picked = dragexponent.choose_exponent(samples, choice, _always_usable)
     assert picked.exponent == pytest.approx(truth, abs=1e-9)  # on the 0.1 grid, two steps from 2
     assert picked.samples.exponent == picked.exponent and 2.0 in picked.scores
@@ -161,7 +161,7 @@ def test_the_exponent_chosen_is_the_laws(truth):
 
 def test_an_unusable_law_keeps_the_quadratic_one():
     samples = _samples(_law(2.2))
-    choice = dragfit.choose_drag_law(samples)
+    choice = dragfit.choose_drag_law(samples, holdcv.prefer_on_holds)
     picked = dragexponent.choose_exponent(samples, choice, lambda s, c: False)
     assert picked.exponent == 2.0 and picked.choice is choice
 
@@ -270,7 +270,7 @@ def test_the_set_chosen_again_must_still_beat_the_quadratic_law(monkeypatch):
     """At the new exponent the set is chosen again; should that law's holds not beat the quadratic
     law's significantly (here: a set without quadratic drag, forced), the quadratic law is kept."""
     samples = _samples(_law(2.2))
-    choice = dragfit.choose_drag_law(samples)
+    choice = dragfit.choose_drag_law(samples, holdcv.prefer_on_holds)
     assert dragexponent.choose_exponent(samples, choice, _always_usable).exponent == 2.2  # the premise
     linear_only = ("l0", "lz", "qz") + dragfit.ALWAYS
     monkeypatch.setattr(dragfit, "choose_drag_law",

@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from dobwind import dragfit
+from dobwind import dragfit, holdcv
 from dobwind.model.airframe import load_airframe
 from dobwind.model.forceair import DragLaw, drag_airflow_numpy, drag_force, law_decreasing
 from tests.helpers import M300, observed_force
@@ -120,7 +120,7 @@ def quadratic_only() -> dragfit.DragSamples:
 def test_quadratic_anisotropy_without_linear_drag_is_found(quadratic_only):
     """Without the quadratic-anisotropy set, the fit could only choose an isotropic law here (the full
     set's linear harmonics decrease): the direction of the air would be 'along the force', 5-11 deg off."""
-    choice = dragfit.choose_drag_law(quadratic_only)
+    choice = dragfit.choose_drag_law(quadratic_only, holdcv.prefer_on_holds)
     assert "q2c" in choice.active and "l2c" not in choice.active
     assert dragfit.decreasing_at(quadratic_only, choice.theta) is None
     got = dict(zip(quadratic_only.parameters, choice.theta))
@@ -135,7 +135,7 @@ def test_a_set_whose_law_decreases_is_dropped_and_the_choice_made_again(quadrati
     monkeypatch.setattr(dragfit, "HORIZONTAL_SETS", (("q0",), full))
     theta = dragfit.robust_fit(quadratic_only, full + dragfit.VERTICAL_SETS[-1] + dragfit.ALWAYS)
     assert dragfit.decreasing_at(quadratic_only, theta) is not None  # the premise
-    choice = dragfit.choose_drag_law(quadratic_only)
+    choice = dragfit.choose_drag_law(quadratic_only, holdcv.prefer_on_holds)
     assert choice.active[:1] == ("q0",) and "l2c" not in choice.active
     assert len(choice.dropped) == 1 and choice.dropped[0].startswith("+".join(full) + ": the law decreases at ")
     assert dragfit.decreasing_at(quadratic_only, choice.theta) is None
@@ -157,7 +157,7 @@ def test_linear_anisotropy_the_data_need_is_kept():
     anisotropy fits it nearly as well on noisy samples (within the 2 % tie) but reads the air's direction
     3-5 deg off at low airflow, so it is only a last resort: the set with linear harmonics is chosen."""
     samples = _samples(DragLaw(0.3, 0.03, l2c=0.03, l2s=-0.03, lz=0.2, qz=0.1), 0.1, seed=7)
-    choice = dragfit.choose_drag_law(samples)
+    choice = dragfit.choose_drag_law(samples, holdcv.prefer_on_holds)
     assert "l2c" in choice.active and "l2s" in choice.active
     got = dict(zip(samples.parameters, choice.theta))
     assert got["l2c"] == pytest.approx(0.03, abs=0.01) and got["l2s"] == pytest.approx(-0.03, abs=0.01)
@@ -179,7 +179,7 @@ def test_no_vertical_drag_is_refused(quadratic_only):
     """lz = qz = 0 leaves the vertical inversion 2 r / max(0, 1e-9): the family is refused."""
     from dobwind import fitfamily
 
-    choice = dragfit.choose_drag_law(quadratic_only)
+    choice = dragfit.choose_drag_law(quadratic_only, holdcv.prefer_on_holds)
     theta = choice.theta.copy()
     for key in ("lz", "qz"):
         theta[quadratic_only.parameters.index(key)] = 0.0
