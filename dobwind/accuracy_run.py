@@ -102,7 +102,7 @@ def _fit(job: Job, logs: list[str]) -> tuple[str, dict[str, Any]]:
                     "model": report.get("model"), "terms": report.get("horizontal_terms"),
                     "exponent": (report.get("drag") or {}).get("exponent", 2.0) if report.get("drag") else None,
                     "thrust_scale": report.get("thrust_scale"), "low_pass": report.get("low_pass") or {},
-                    "warnings": report.get("warnings", [])}
+                    "acceleration_route": report.get("acceleration_route") or {}, "warnings": report.get("warnings", [])}
 
 
 def _rms(values: list[float]) -> float:

@@ -9,7 +9,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from dobwind import calstream, dragexponent, dragfit, holdcv
+from dobwind import accelroute, calstream, dragexponent, dragfit, holdcv
 from dobwind.csvchunks import BLOCK_BYTES
 from dobwind.envelope import calibration_envelope, uncertainty_table, with_observer_noise
 from dobwind.errors import CheckFailed
@@ -182,6 +182,10 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynami
     new, check, report.low_pass, quiet_warnings = _quiet_hover(
         new, check, hover, lambda af_: calibration.check(af_, cv, speed_range, limits))
     report.warnings += quiet_warnings
+    # Still noisy at the low-pass chosen: would the velocity route be quieter (accelroute.py)?
+    report.acceleration_route, route_warnings = accelroute.route_check(
+        new, check, hover, lambda af_: calibration.check(af_, cv, speed_range, limits))
+    report.warnings += route_warnings
     report.self_check = dataclasses.asdict(check)
     # The self-check's replay measured the observer noise; the sigma outputs add it to the residuals (#10).
     new = dataclasses.replace(new, uncertainty=with_observer_noise(new.uncertainty, check.noise_h_mps, check.noise_up_mps))

@@ -48,6 +48,19 @@ def _low_pass_line(report: FitReport) -> list[str]:
             f"per horizontal axis (target {change['target_mps']:g} m/s; --hover-noise)"]
 
 
+def _route_line(report: FitReport) -> list[str]:
+    """The noise at low airflow through the airframe's acceleration and through the velocity route
+    (dobwind/accelroute.py), when the fit compared them."""
+    route = report.acceleration_route
+    if not route:
+        return []
+    quieter = route["velocity_still_noise_mps"]
+    return [f"noise at low airflow {route['still_noise_mps']:.3f} m/s per axis with acceleration = "
+            f"\"{route['acceleration']}\"; with the acceleration derived from the velocity "
+            + ("(no low-airflow segment)" if quieter is None else f"{quieter:.3f} m/s")
+            + ("" if route["velocity_passed"] else ", self-check failed")]
+
+
 def _exponent_line(report: FitReport) -> list[str]:
     if len(report.exponent_scores) < 2:
         return []
@@ -68,7 +81,7 @@ def text_report(report: FitReport) -> str:
                 for name, scores in report.families.items()]
     chosen = ([f"model: {report.model} (chosen by grouped CV and extrapolation of the airflow; a tie within 2 % "
                "goes to drag-body, else to a hold-level score 2 % better)"] + families
-              + _hold_line(report) + _low_pass_line(report))
+              + _hold_line(report) + _low_pass_line(report) + _route_line(report))
     if report.drag:  # either drag family (heading or body frame)
         law = ", ".join(f"{k} {v:.4g}" for k, v in report.drag.items())
         return "\n".join(chosen + [
