@@ -87,7 +87,10 @@ def vehicle_tables(config: Config, results: list[dict[str, Any]]) -> tuple[list[
                            if low_pass else "")
                 exponent = r["fit"].get("exponent")
                 power = f" (drag exponent {exponent:g})" if exponent not in (None, 2.0) else ""
-                lines.append(f"  seed {r['seed']}: fit chose the {r['fit']['model']} family{power}{lowered}")
+                route = r["fit"].get("acceleration_route") or {}
+                blend = (f"; acceleration blended with the velocity (noise at low airflow {route['still_noise_mps'][0]:.3f}"
+                         f" -> {route['still_noise_mps'][1]:.3f} m/s)" if route.get("kept") else "")
+                lines.append(f"  seed {r['seed']}: fit chose the {r['fit']['model']} family{power}{lowered}{blend}")
             if "error" in r:
                 lines.append(f"  seed {r['seed']}: {r['error']}")
             for warning in (r.get("fit") or {}).get("warnings", []):

@@ -102,9 +102,10 @@ class FitReport:
     # The low-pass's first cutoff when the fit lowered it for the noise at low airflow (hovernoise.py):
     # {"cutoff_hz": [before, after], "still_noise_mps": [before, after], "target_mps": ...}; else empty.
     low_pass: dict = field(default_factory=dict)
-    # When the noise at low airflow stayed above the target with an acceleration input: that noise and
-    # the velocity route's on the same logs (accelroute.py): {"acceleration", "still_noise_mps",
-    # "velocity_still_noise_mps", "velocity_passed", "velocity_reasons"}; else empty.
+    # When the noise at low airflow stayed above the target with an acceleration input, the fit with that
+    # input blended with the velocity's derivative (accelroute.py): {"acceleration", "bias_time_s": [the
+    # airframe's, the blend's], "still_noise_mps": [airframe's, blend's], "blend_passed" (None: the
+    # blended fit failed), "blend_reasons", "kept"}; else empty.
     acceleration_route: dict = field(default_factory=dict)
     # Drag-law sets whose fitted law decreased somewhere (dragfit.choose_drag_law): never chosen, with where.
     not_increasing: list[str] = field(default_factory=list)

@@ -139,14 +139,52 @@ def _streamed_logs(af: Airframe, log_paths: list[str], frames: tuple[str, ...], 
         new, sources, shapes, per_log, cv, speed, limits))
 
 
+@dataclass(frozen=True)
+class FitOptions:
+    """The fit's choices besides the airframe and the logs (the command line's options)."""
+    terms: str = "auto"
+    dynamic: bool = False
+    model: str = "auto"
+    still_air: bool = False
+    limits: Thresholds = Thresholds()
+    block_bytes: int | None = BLOCK_BYTES
+    hover: HoverNoise = HoverNoise()
+
+
 def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynamic: bool = False,
                  model: str = "auto", still_air: bool = False, limits: Thresholds = Thresholds(),
                  block_bytes: int | None = BLOCK_BYTES,
                  hover: HoverNoise = HoverNoise()) -> tuple[Airframe, FitReport, Points | None]:
     """Both families fitted and scored, the better one chosen, then the self-check (report.self_check;
     the caller refuses to write a model that failed it unless forced), and the low-pass at zero airflow
-    lowered when the noise there is above ``hover.target_mps`` (dobwind/hovernoise.py). The logs are
-    read ``block_bytes`` at a time (None: each whole, in memory; the same airframe)."""
+    lowered when the noise there is above ``hover.target_mps`` (dobwind/hovernoise.py). When it stays
+    above with an acceleration input, the fit runs again with that input blended with the velocity's
+    derivative and keeps the better (dobwind/accelroute.py). The logs are read ``block_bytes`` at a time
+    (None: each whole, in memory; the same airframe)."""
+    options = FitOptions(terms, dynamic, model, still_air, limits, block_bytes, hover)
+    new, report, points, check = _fit_once(af, log_paths, options)
+    if accelroute.needs_blend_check(new, check, hover):
+        try:
+            other = _fit_once(accelroute.blended(af), log_paths, options)
+        except CheckFailed as exc:
+            report.acceleration_route = accelroute.blend_record(af, check, None, False, str(exc))
+        else:
+            kept = accelroute.keeps_blend(check, other[3])
+            record = accelroute.blend_record(af, check, other[3], kept)
+            new, report, points, check = other if kept else (new, report, points, check)
+            report.acceleration_route = record
+    report.self_check = dataclasses.asdict(check)
+    # The self-check's replay measured the observer noise; the sigma outputs add it to the residuals (#10).
+    new = dataclasses.replace(new, uncertainty=with_observer_noise(new.uncertainty, check.noise_h_mps, check.noise_up_mps))
+    return new, report, points
+
+
+def _fit_once(af: Airframe, log_paths: list[str],
+              options: FitOptions) -> tuple[Airframe, FitReport, Points | None, SelfCheck]:
+    """One fit of ``af``'s route: the families, the choice, the self-check and the low-pass at zero
+    airflow; the airframe, its report, its points and its last self-check."""
+    terms, dynamic, model, still_air = options.terms, options.dynamic, options.model, options.still_air
+    limits, block_bytes, hover = options.limits, options.block_bytes, options.hover
     frames = DRAG_FRAMES_OF[model]
     if block_bytes is None:
         calibration = _whole_logs(af, log_paths, frames or ("heading",), dynamic, still_air)
@@ -182,14 +220,7 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynami
     new, check, report.low_pass, quiet_warnings = _quiet_hover(
         new, check, hover, lambda af_: calibration.check(af_, cv, speed_range, limits))
     report.warnings += quiet_warnings
-    # Still noisy at the low-pass chosen: would the velocity route be quieter (accelroute.py)?
-    report.acceleration_route, route_warnings = accelroute.route_check(
-        new, check, hover, lambda af_: calibration.check(af_, cv, speed_range, limits))
-    report.warnings += route_warnings
-    report.self_check = dataclasses.asdict(check)
-    # The self-check's replay measured the observer noise; the sigma outputs add it to the residuals (#10).
-    new = dataclasses.replace(new, uncertainty=with_observer_noise(new.uncertainty, check.noise_h_mps, check.noise_up_mps))
-    return new, report, points
+    return new, report, points, check
 
 
 Family = tuple[Airframe, FitReport, "Points | None"]

@@ -49,16 +49,22 @@ def _low_pass_line(report: FitReport) -> list[str]:
 
 
 def _route_line(report: FitReport) -> list[str]:
-    """The noise at low airflow through the airframe's acceleration and through the velocity route
-    (dobwind/accelroute.py), when the fit compared them."""
+    """The noise at low airflow with the airframe's acceleration input and with it blended with the
+    velocity's derivative (dobwind/accelroute.py), when the fit compared them."""
     route = report.acceleration_route
     if not route:
         return []
-    quieter = route["velocity_still_noise_mps"]
-    return [f"noise at low airflow {route['still_noise_mps']:.3f} m/s per axis with acceleration = "
-            f"\"{route['acceleration']}\"; with the acceleration derived from the velocity "
-            + ("(no low-airflow segment)" if quieter is None else f"{quieter:.3f} m/s")
-            + ("" if route["velocity_passed"] else ", self-check failed")]
+    before, after = route["still_noise_mps"]
+    was, blend = route["bias_time_s"]
+    if route["blend_passed"] is None:
+        outcome = f"the blended fit failed ({route['blend_reasons'][0]})"
+    else:
+        outcome = (("no low-airflow segment" if after is None else f"{after:.3f} m/s")
+                   + ("" if route["blend_passed"] else ", self-check failed"))
+    head = "blended" if route["kept"] else "not blended"
+    return [f"acceleration {head}: noise at low airflow {before:.3f} m/s per axis with acceleration = "
+            f"\"{route['acceleration']}\" (acceleration_bias_time {was:g} s); with acceleration_bias_time "
+            f"{blend:g} s, the low frequencies from the velocity, {outcome}"]
 
 
 def _exponent_line(report: FitReport) -> list[str]:

@@ -1,8 +1,8 @@
-"""The fit's check of the acceleration route (dobwind/accelroute.py): when the noise at low airflow stays
-above the target with an acceleration input, the calibration logs are replayed through the velocity
-route, and the fit recommends it only when it is clearly quieter and checks as well. End to end, on a
-simulated vehicle with a noisy acceleration input: the recommendation appears, the written airframe
-keeps its route, and following the advice makes an unseen still-air flight read less wind."""
+"""The fit's blend of an acceleration input with the velocity's derivative (dobwind/accelroute.py): when
+the noise at low airflow stays above the target with an acceleration input, the fit runs again with a
+short velocity-aided bias time, and keeps that fit only when it is clearly quieter and checks as well.
+End to end, on a simulated vehicle with a noisy acceleration input: the blend is kept, the written
+airframe keeps its input, and an unseen still-air flight reads less wind than without the blend."""
 from __future__ import annotations
 
 import dataclasses
@@ -10,8 +10,10 @@ import json
 
 import pytest
 
-from dobwind.accelroute import QUIETER_SHARE, route_check, velocity_route
+from dobwind import fitfamily
+from dobwind.accelroute import BLEND_TIME_S, QUIETER_SHARE, blend_record, blended, keeps_blend, needs_blend_check
 from dobwind.cli import main
+from dobwind.errors import CheckFailed
 from dobwind.hovernoise import HoverNoise
 from dobwind.model.airframe import load_airframe
 from dobwind.model.airframe_toml import dumps
@@ -23,59 +25,74 @@ def _check(passed: bool, still: float | None) -> SelfCheck:
     return SelfCheck(passed, [] if passed else ["a reason"], 0.05, 8.0, 0.5, 0.5, 10.0, [], 0.05, 0.04, still)
 
 
-def test_the_velocity_route_changes_the_acceleration_only():
-    af = make_airframe(**{"observer.acceleration": "specific_force", "observer.acceleration_bias_time": 5.0})
-    routed = velocity_route(af)
-    assert routed.observer.acceleration == "velocity" and routed.observer.acceleration_bias_time_s == 0.0
+def test_the_blend_changes_the_bias_time_only():
+    af = make_airframe(**{"observer.acceleration": "specific_force", "observer.acceleration_bias_time": 20.0})
+    mixed = blended(af)
+    assert mixed.observer.acceleration == "specific_force" and mixed.observer.acceleration_bias_time_s == BLEND_TIME_S
     for name in ("sample_time_s", "gains", "discretization", "force_offset_n"):
-        assert getattr(routed.observer, name) == getattr(af.observer, name)
+        assert getattr(mixed.observer, name) == getattr(af.observer, name)
     others = [f.name for f in dataclasses.fields(af) if f.name != "observer"]
-    assert others and all(getattr(routed, name) == getattr(af, name) for name in others)
+    assert others and all(getattr(mixed, name) == getattr(af, name) for name in others)
 
 
-@pytest.mark.parametrize("mode", ["ned", "specific_force"])
-def test_a_clearly_quieter_velocity_route_is_recommended(mode):
-    af = make_airframe(**{"observer.acceleration": mode})
-    seen = []
-
-    def recheck(other):
-        seen.append(other.observer.acceleration)
-        return _check(True, 0.05)
-
-    found, warnings = route_check(af, _check(True, 0.2), HoverNoise(), recheck)
-    assert seen == ["velocity"]
-    assert found == {"acceleration": mode, "still_noise_mps": 0.2, "velocity_still_noise_mps": 0.05,
-                     "velocity_passed": True, "velocity_reasons": []}
-    assert len(warnings) == 1 and "leaves 0.200 m/s" in warnings[0] and "give 0.050 m/s" in warnings[0]
-    assert 'set [observer] acceleration = "velocity"' in warnings[0]
+@pytest.mark.parametrize("mode,bias_time", [("ned", 0.0), ("specific_force", 0.0), ("ned", 20.0),
+                                            ("specific_force", 2 * BLEND_TIME_S)])
+def test_a_noisy_acceleration_input_is_checked(mode, bias_time):
+    af = make_airframe(**{"observer.acceleration": mode, "observer.acceleration_bias_time": bias_time})
+    assert needs_blend_check(af, _check(True, 0.2), HoverNoise())
 
 
-def test_no_recommendation_unless_quieter_by_the_share_and_checking_as_well():
-    af = make_airframe(**{"observer.acceleration": "specific_force"})
-    just_above = QUIETER_SHARE * 0.2 * 1.01
-    found, warnings = route_check(af, _check(True, 0.2), HoverNoise(), lambda other: _check(True, just_above))
-    assert found["velocity_still_noise_mps"] == just_above and warnings == []
-    # Quieter, but its self-check fails where the airframe's passed.
-    found, warnings = route_check(af, _check(True, 0.2), HoverNoise(), lambda other: _check(False, 0.05))
-    assert found["velocity_passed"] is False and warnings == []
-    # Both fail: the quieter route is still worth saying.
-    _, warnings = route_check(af, _check(False, 0.2), HoverNoise(), lambda other: _check(False, 0.05))
-    assert len(warnings) == 1
-    # No low-airflow segment through the velocity route: nothing to compare.
-    found, warnings = route_check(af, _check(True, 0.2), HoverNoise(), lambda other: _check(True, None))
-    assert found["velocity_still_noise_mps"] is None and warnings == []
-
-
-@pytest.mark.parametrize("case", ["velocity airframe", "within target", "no figure", "target 0"])
-def test_no_extra_replay_when_there_is_nothing_to_gain(case):
-    af = make_airframe(**{"observer.acceleration": "velocity" if case == "velocity airframe" else "ned"})
+@pytest.mark.parametrize("case", ["velocity airframe", "already blended", "blended faster", "within target",
+                                  "no figure", "target 0"])
+def test_no_second_fit_when_there_is_nothing_to_gain(case):
+    fields = {"observer.acceleration": "velocity" if case == "velocity airframe" else "ned"}
+    if case in ("already blended", "blended faster"):
+        fields["observer.acceleration_bias_time"] = BLEND_TIME_S * (1.0 if case == "already blended" else 0.5)
+    af = make_airframe(**fields)
     noise = {"within target": 0.07, "no figure": None}.get(case, 0.3)
     hover = HoverNoise(target_mps=0.0) if case == "target 0" else HoverNoise()
+    assert not needs_blend_check(af, _check(True, noise), hover)
 
-    def recheck(other):
-        raise AssertionError("the logs were replayed again")
 
-    assert route_check(af, _check(True, noise), hover, recheck) == ({}, [])
+def test_the_blend_is_kept_only_when_clearly_quieter_and_checking_as_well():
+    assert keeps_blend(_check(True, 0.2), _check(True, 0.05))
+    assert not keeps_blend(_check(True, 0.2), _check(True, QUIETER_SHARE * 0.2 * 1.01))
+    assert keeps_blend(_check(True, 0.2), _check(True, QUIETER_SHARE * 0.2 * 0.99))
+    assert not keeps_blend(_check(True, 0.2), _check(False, 0.05))   # fails where the airframe's passed
+    assert keeps_blend(_check(False, 0.2), _check(False, 0.05))      # both fail: the quieter is still better
+    assert not keeps_blend(_check(True, 0.2), _check(True, None))    # nothing to compare
+
+
+class _Stub:
+    """_fit_once replaced: the first call is the airframe's fit, the second the blended one."""
+
+    def __init__(self, first: SelfCheck, second: SelfCheck | Exception):
+        self.first, self.second, self.seen = first, second, []
+
+    def __call__(self, af, log_paths, options):
+        self.seen.append(af.observer.acceleration_bias_time_s)
+        result = self.first if len(self.seen) == 1 else self.second
+        if isinstance(result, Exception):
+            raise result
+        return af, fitfamily.FitReport(model="drag"), None, result
+
+
+@pytest.mark.parametrize("second,kept", [(_check(True, 0.05), True), (_check(True, 0.19), False),
+                                         (CheckFailed("no model could be fitted"), False)])
+def test_fit_airframe_keeps_the_better_fit(monkeypatch, second, kept):
+    stub = _Stub(_check(True, 0.2), second)
+    monkeypatch.setattr(fitfamily, "_fit_once", stub)
+    af = make_airframe(**{"observer.acceleration": "ned"})
+    new, report, _ = fitfamily.fit_airframe(af, ["a.csv"])
+    assert stub.seen == [0.0, BLEND_TIME_S]
+    assert new.observer.acceleration_bias_time_s == (BLEND_TIME_S if kept else 0.0)
+    route = report.acceleration_route
+    assert route["kept"] is kept and route["bias_time_s"] == [0.0, BLEND_TIME_S]
+    assert report.self_check["still_noise_mps"] == (0.05 if kept else 0.2)
+    if isinstance(second, Exception):
+        assert route == blend_record(af, _check(True, 0.2), None, False, "no model could be fitted")
+    else:
+        assert route["still_noise_mps"] == [0.2, second.still_noise_mps]
 
 
 # A heavy, slow vehicle whose acceleration input is noisy: the low-pass reaches its floor.
@@ -113,27 +130,37 @@ def _still_air_wind(airframe, noisy, capsys) -> float:
     return json.loads(capsys.readouterr().out)["mean_estimated_wind"]["horizontal_mps"]
 
 
-def test_fit_recommends_the_velocity_route_and_following_it_reads_less_still_air(noisy, tmp_path, capsys):
+def test_fit_blends_the_noisy_input_and_an_unseen_still_air_flight_reads_less(noisy, tmp_path, capsys):
     capsys.readouterr()
     out = tmp_path / "fit.toml"
     assert main(["fit", noisy["airframe"], noisy["sweep"], noisy["vertical"], "-o", str(out), "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
     route = report["acceleration_route"]
-    assert route["acceleration"] == "ned" and route["still_noise_mps"] == report["self_check"]["still_noise_mps"]
-    assert route["still_noise_mps"] > 0.07 and route["velocity_passed"]
-    assert route["velocity_still_noise_mps"] < QUIETER_SHARE * route["still_noise_mps"]
-    assert any('acceleration = "velocity"' in w for w in report["warnings"])
+    before, after = route["still_noise_mps"]
+    assert route["kept"] and route["blend_passed"] and route["acceleration"] == "ned"
+    assert before > 0.07 and after < QUIETER_SHARE * before and report["self_check"]["still_noise_mps"] == after
     written = load_airframe(out)
-    assert written.observer.acceleration == "ned"   # the route is the user's interface: never switched
-    # Following the advice on the written airframe (its law and low-pass unchanged).
-    followed = tmp_path / "velocity.toml"
-    followed.write_text(out.read_text().replace('acceleration = "ned"', 'acceleration = "velocity"'))
-    assert load_airframe(followed).observer.acceleration == "velocity"
-    assert _still_air_wind(followed, noisy, capsys) < 0.5 * _still_air_wind(out, noisy, capsys)
+    # The input the autopilot fills is unchanged; only the bias estimate's time constant is set.
+    assert written.observer.acceleration == "ned" and written.observer.acceleration_bias_time_s == BLEND_TIME_S
+    # The same airframe without the blend (its law and low-pass unchanged) reads more still air.
+    unblended = tmp_path / "unblended.toml"
+    text = out.read_text()
+    assert text.count(f"acceleration_bias_time = {BLEND_TIME_S}") == 1
+    unblended.write_text(text.replace(f"acceleration_bias_time = {BLEND_TIME_S}\n", ""))
+    assert load_airframe(unblended).observer.acceleration_bias_time_s == 0.0
+    assert _still_air_wind(out, noisy, capsys) < 0.5 * _still_air_wind(unblended, noisy, capsys)
 
 
-def test_the_text_report_shows_both_routes(noisy, tmp_path, capsys):
+def test_the_text_report_shows_both_noise_figures(noisy, tmp_path, capsys):
     capsys.readouterr()
     assert main(["fit", noisy["airframe"], noisy["sweep"], noisy["vertical"], "-o", str(tmp_path / "t.toml")]) == 0
     text = capsys.readouterr()
-    assert 'with acceleration = "ned"; with the acceleration derived from the velocity ' in text.out
+    assert ('acceleration blended: noise at low airflow ' in text.out
+            and f'with acceleration_bias_time {BLEND_TIME_S:g} s, the low frequencies from the velocity' in text.out)
+
+
+def test_hover_noise_0_keeps_the_observer(noisy, tmp_path, capsys):
+    out = tmp_path / "kept.toml"
+    assert main(["fit", noisy["airframe"], noisy["sweep"], noisy["vertical"], "-o", str(out),
+                 "--hover-noise", "0", "--force"]) == 0
+    assert load_airframe(out).observer.acceleration_bias_time_s == 0.0
