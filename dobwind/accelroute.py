@@ -19,7 +19,7 @@ README), and a 25 kg one 0.207 against 0.114 m/s.
 
 So when the noise at low airflow is still above the target after the low-pass was lowered, the fit is
 run once more on the airframe with T = BLEND_TIME_S, and the blend is kept when it is clearly quieter
-and its self-check passes wherever the airframe's did. ``--hover-noise 0`` keeps the airframe as
+and its self-check passes. ``--hover-noise 0`` keeps the airframe as
 written, as it keeps its low-pass.
 """
 from __future__ import annotations
@@ -62,11 +62,13 @@ def needs_blend_check(af: Airframe, check: SelfCheck, hover: HoverNoise) -> bool
 
 def keeps_blend(check: SelfCheck, again: SelfCheck) -> bool:
     """The blended fit (``again``) is kept over the airframe's (``check``): clearly quieter at low
-    airflow, and its self-check passes wherever the airframe's did."""
+    airflow, and its self-check passes. A blend that fails is never kept, even over a first fit that
+    failed too: a self-check fails for reasons the blend does not touch (a log with no usable sample),
+    and the observer the user wrote is not changed on a fit that cannot be trusted."""
     noise, quieter = check.still_noise_mps, again.still_noise_mps
     if noise is None or quieter is None or quieter >= QUIETER_SHARE * noise:
         return False
-    return again.passed or not check.passed
+    return again.passed
 
 
 def blend_record(af: Airframe, check: SelfCheck, again: SelfCheck | None, kept: bool,

@@ -59,7 +59,8 @@ def test_the_blend_is_kept_only_when_clearly_quieter_and_checking_as_well():
     assert not keeps_blend(_check(True, 0.2), _check(True, QUIETER_SHARE * 0.2 * 1.01))
     assert keeps_blend(_check(True, 0.2), _check(True, QUIETER_SHARE * 0.2 * 0.99))
     assert not keeps_blend(_check(True, 0.2), _check(False, 0.05))   # fails where the airframe's passed
-    assert keeps_blend(_check(False, 0.2), _check(False, 0.05))      # both fail: the quieter is still better
+    assert keeps_blend(_check(False, 0.2), _check(True, 0.05))       # the blend mends a failing first fit
+    assert not keeps_blend(_check(False, 0.2), _check(False, 0.05))  # both fail: the airframe's observer stays
     assert not keeps_blend(_check(True, 0.2), _check(True, None))    # nothing to compare
 
 
