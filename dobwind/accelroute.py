@@ -14,12 +14,12 @@ low-pass at fc, a high-pass at fh = 1 / (2 pi T) leaves fc / (fc + fh) of the wh
 at the 0.05 Hz floor and T = 0.5 s (fh = 0.32 Hz), 14 %, so 37 % of its RMS. The input struct the
 autopilot fills does not change (the velocity is an input of every route); only the state gains the
 bias. On a heavy, slow vehicle with a noisy accelerometer that is the difference between meeting the
-still-air goal and not (a 6.8 kg hexacopter of the random family: still air 0.305 against 0.139 m/s,
+still-air goal and not (a 6.9 kg hexacopter of the random family: still air 0.305 against 0.139 m/s,
 README), and a 25 kg one 0.207 against 0.114 m/s.
 
 So when the noise at low airflow is still above the target after the low-pass was lowered, the fit is
-run once more on the airframe with T = BLEND_TIME_S, and the blend is kept when it is clearly quieter
-and its self-check passes. ``--hover-noise 0`` keeps the airframe as
+run once more on the airframe with T = BLEND_TIME_S, and the blend is kept when its self-check passes
+and it is clearly quieter, or passes where the first fit failed. ``--hover-noise 0`` keeps the airframe as
 written, as it keeps its low-pass.
 """
 from __future__ import annotations
@@ -34,8 +34,9 @@ from dobwind.selfcheck import SelfCheck
 # The routes with an acceleration input (the others derive it from the velocity).
 INPUT_ROUTES = ("ned", "specific_force")
 # The blend's time constant, s: crossover at 0.32 Hz, six times the low-pass floor (hovernoise.py), so the
-# accelerometer's noise below it is mostly replaced; well below the observer's bandwidth (about 1 Hz),
-# so the accelerometer still carries what the observer follows quickly.
+# accelerometer's noise below it is mostly replaced. The two paths sum to the true acceleration at every
+# frequency, so the crossover need not sit below the observer's bandwidth (0.5 Hz on the m300); what a
+# shorter T costs is more of the velocity derivative's noise, whose spectrum rises with frequency.
 BLEND_TIME_S = 0.5
 # The blend is kept when its noise at low airflow is below this share of the airframe's. Both figures
 # come from the same logs, so most of their scatter is shared and a paired difference of 10 % is real;
@@ -61,14 +62,17 @@ def needs_blend_check(af: Airframe, check: SelfCheck, hover: HoverNoise) -> bool
 
 
 def keeps_blend(check: SelfCheck, again: SelfCheck) -> bool:
-    """The blended fit (``again``) is kept over the airframe's (``check``): clearly quieter at low
-    airflow, and its self-check passes. A blend that fails is never kept, even over a first fit that
+    """The blended fit (``again``) is kept over the airframe's (``check``) when its self-check passes and
+    it is clearly quieter at low airflow, or when it passes where the airframe's failed (a fit that can
+    be trusted beats one that cannot). A blend that fails is never kept, even over a first fit that
     failed too: a self-check fails for reasons the blend does not touch (a log with no usable sample),
     and the observer the user wrote is not changed on a fit that cannot be trusted."""
-    noise, quieter = check.still_noise_mps, again.still_noise_mps
-    if noise is None or quieter is None or quieter >= QUIETER_SHARE * noise:
+    if not again.passed:
         return False
-    return again.passed
+    if not check.passed:
+        return True
+    noise, quieter = check.still_noise_mps, again.still_noise_mps
+    return noise is not None and quieter is not None and quieter < QUIETER_SHARE * noise
 
 
 def blend_record(af: Airframe, check: SelfCheck, again: SelfCheck | None, kept: bool,

@@ -438,8 +438,8 @@ def _add_fit(command: _Command) -> None:
                    help="the wind estimate's noise per horizontal axis at low airflow that the fit aims for: when "
                    "the self-check measures more, the low-pass's cutoff at zero airflow is lowered (never below "
                    f"{hover.floor_hz:g} Hz, never raised), and when it stays above, an acceleration input is blended "
-                   "with the velocity's derivative at low frequency (acceleration_bias_time) if that is clearly "
-                   f"quieter; 0 keeps the airframe's schedule and observer ({opt.HOVER_NOISE.text()}; "
+                   "with the velocity's derivative at low frequency (acceleration_bias_time 0.5 s) if that fit is "
+                   f"clearly quieter and passes its self-check; 0 keeps the airframe's schedule and observer ({opt.HOVER_NOISE.text()}; "
                    f"default {hover.target_mps:g})")
     p.add_argument("--json", action="store_true", help=JSON_HELP)
     p.set_defaults(func=cmd_fit)

@@ -14,6 +14,7 @@ from dobwind import fitfamily
 from dobwind.accelroute import BLEND_TIME_S, QUIETER_SHARE, blend_record, blended, keeps_blend, needs_blend_check
 from dobwind.cli import main
 from dobwind.errors import CheckFailed
+from dobwind.fitreport import _route_line
 from dobwind.hovernoise import HoverNoise
 from dobwind.model.airframe import load_airframe
 from dobwind.model.airframe_toml import dumps
@@ -21,8 +22,8 @@ from dobwind.selfcheck import SelfCheck
 from tests.helpers import make_airframe
 
 
-def _check(passed: bool, still: float | None) -> SelfCheck:
-    return SelfCheck(passed, [] if passed else ["a reason"], 0.05, 8.0, 0.5, 0.5, 10.0, [], 0.05, 0.04, still)
+def _check(passed: bool, still: float | None, noise_h: float = 0.05) -> SelfCheck:
+    return SelfCheck(passed, [] if passed else ["a reason"], 0.05, 8.0, 0.5, 0.5, 10.0, [], noise_h, 0.04, still)
 
 
 def test_the_blend_changes_the_bias_time_only():
@@ -62,6 +63,8 @@ def test_the_blend_is_kept_only_when_clearly_quieter_and_checking_as_well():
     assert keeps_blend(_check(False, 0.2), _check(True, 0.05))       # the blend mends a failing first fit
     assert not keeps_blend(_check(False, 0.2), _check(False, 0.05))  # both fail: the airframe's observer stays
     assert not keeps_blend(_check(True, 0.2), _check(True, None))    # nothing to compare
+    # A blend that passes where the airframe's failed is kept however little quieter, even unmeasured.
+    assert keeps_blend(_check(False, 0.2), _check(True, 0.199)) and keeps_blend(_check(False, 0.2), _check(True, None))
 
 
 class _Stub:
@@ -75,25 +78,51 @@ class _Stub:
         result = self.first if len(self.seen) == 1 else self.second
         if isinstance(result, Exception):
             raise result
-        return af, fitfamily.FitReport(model="drag"), None, result
+        which = "first" if len(self.seen) == 1 else "blend"
+        return af, fitfamily.FitReport(model=which), {"fit": which}, result
 
 
-@pytest.mark.parametrize("second,kept", [(_check(True, 0.05), True), (_check(True, 0.19), False),
+@pytest.mark.parametrize("second,kept", [(_check(True, 0.05, 0.03), True), (_check(True, 0.19, 0.03), False),
                                          (CheckFailed("no model could be fitted"), False)])
 def test_fit_airframe_keeps_the_better_fit(monkeypatch, second, kept):
-    stub = _Stub(_check(True, 0.2), second)
+    stub = _Stub(_check(True, 0.2, 0.3), second)
     monkeypatch.setattr(fitfamily, "_fit_once", stub)
+    noise_used = []
+    monkeypatch.setattr(fitfamily, "with_observer_noise", lambda unc, h, up: noise_used.append((h, up)) or unc)
     af = make_airframe(**{"observer.acceleration": "ned"})
-    new, report, _ = fitfamily.fit_airframe(af, ["a.csv"])
+    new, report, points = fitfamily.fit_airframe(af, ["a.csv"])
     assert stub.seen == [0.0, BLEND_TIME_S]
+    which = "blend" if kept else "first"
+    # Airframe, report, points and self-check all come from the fit kept.
     assert new.observer.acceleration_bias_time_s == (BLEND_TIME_S if kept else 0.0)
+    assert report.model == which and points == {"fit": which}
+    assert report.self_check["still_noise_mps"] == (0.05 if kept else 0.2)
+    assert report.self_check["noise_h_mps"] == (0.03 if kept else 0.3)
+    # The sigma outputs take the observer noise of the fit kept, once.
+    assert noise_used == [(0.03 if kept else 0.3, 0.04)]
     route = report.acceleration_route
     assert route["kept"] is kept and route["bias_time_s"] == [0.0, BLEND_TIME_S]
-    assert report.self_check["still_noise_mps"] == (0.05 if kept else 0.2)
     if isinstance(second, Exception):
-        assert route == blend_record(af, _check(True, 0.2), None, False, "no model could be fitted")
+        assert route["still_noise_mps"] == [0.2, None] and route["blend_passed"] is None
+        assert route["blend_reasons"] == ["no model could be fitted"]
     else:
-        assert route["still_noise_mps"] == [0.2, second.still_noise_mps]
+        assert route["still_noise_mps"] == [0.2, second.still_noise_mps] and route["blend_passed"] is True
+
+
+def _report_with(route: dict) -> str:
+    return "\n".join(_route_line(fitfamily.FitReport(model="drag", acceleration_route=route)))
+
+
+def test_the_text_report_says_which_fit_was_kept():
+    af = make_airframe(**{"observer.acceleration": "specific_force"})
+    kept = _report_with(blend_record(af, _check(True, 0.2), _check(True, 0.05), True))
+    assert kept.startswith("acceleration blended: noise at low airflow 0.200 m/s per axis with acceleration = "
+                           '"specific_force" (acceleration_bias_time 0 s)') and kept.endswith("velocity, 0.050 m/s")
+    failing = _report_with(blend_record(af, _check(True, 0.2), _check(False, 0.05), False))
+    assert failing.startswith("acceleration not blended:") and failing.endswith("0.050 m/s, self-check failed")
+    crashed = _report_with(blend_record(af, _check(True, 0.2), None, False, "no model could be fitted"))
+    assert crashed.endswith("the blended fit failed (no model could be fitted)")
+    assert _report_with({}) == ""
 
 
 # A heavy, slow vehicle whose acceleration input is noisy: the low-pass reaches its floor.
