@@ -131,3 +131,30 @@ def hold_samples(force_of, noise_n: float = 0.05, seed: int = 3, frame: str = "h
     q = np.column_stack([np.cos(yaw / 2), np.zeros_like(t), np.zeros_like(t), np.sin(yaw / 2)])  # level
     return dragfit.merge([dragfit.log_samples(af, 0.5, t, observed, air, thrust, yaw, np.ones(len(t), dtype=bool),
                                               frame, q, segment=segment)], frame)
+
+
+# A heavy, slow vehicle's airframe (6 kg, 20 Hz, NED acceleration input, a law steep near zero force):
+# the tests of the fit's handling of noise at low airflow simulate their vehicles against it.
+NOISY_AIRFRAME = {
+    "name": "noisy", "mass": 6.0, "thrust": {"source": "collective"},
+    "observer": {"sample_time": 0.05, "gains": [36.0, 36.0, 36.0], "discretization": "paper", "acceleration": "ned"},
+    "force_air": {"horizontal": {"terms": ["fh^0.5"], "coefficients": [4.0]},
+                  "vertical": {"terms": ["fz"], "coefficients": [0.5]}},
+    "filter": {"speeds": [0.0, 3.0, 10.0], "cutoffs": [0.2, 0.35, 0.5]},
+}
+
+
+def noisy_flights(folder: Path, vehicle: dict[str, Any]) -> dict[str, str]:
+    """A sweep (6 s holds), a vertical climb (8 s holds) and a still-air flight of ``vehicle`` simulated
+    with NOISY_AIRFRAME into ``folder``: their paths by name, and the airframe's ("airframe")."""
+    from dobwind.cli import main   # the applications layer, only for the tests that fly
+    (folder / "v.toml").write_text(dumps(vehicle))
+    (folder / "a.toml").write_text(dumps(NOISY_AIRFRAME))
+    paths = {"airframe": str(folder / "a.toml")}
+    for name, seed, hold in (("sweep", 1, "6"), ("vertical", 2, "8"), ("still-air", 4, None)):
+        path = folder / f"{name}.csv"
+        args = ["simulate", name, "--airframe", paths["airframe"], "--vehicle", str(folder / "v.toml"),
+                "--seed", str(seed), "-o", str(path)] + (["--hold", hold] if hold else [])
+        assert main(args) == 0
+        paths[name] = str(path)
+    return paths

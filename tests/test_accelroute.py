@@ -17,9 +17,8 @@ from dobwind.errors import CheckFailed
 from dobwind.fitreport import _route_line
 from dobwind.hovernoise import HoverNoise
 from dobwind.model.airframe import load_airframe
-from dobwind.model.airframe_toml import dumps
 from dobwind.selfcheck import SelfCheck
-from tests.helpers import make_airframe
+from tests.helpers import make_airframe, noisy_flights
 
 
 def _check(passed: bool, still: float | None, noise_h: float = 0.05) -> SelfCheck:
@@ -130,28 +129,11 @@ NOISY_VEHICLE = {"mass": 6.0, "rate": 20.0, "drag": {"x": {"linear": 0.3, "quadr
                                                       "y": {"linear": 0.3, "quadratic": 0.05},
                                                       "z": {"linear": 0.8}},
                  "thrust": {"scale": 1.02}, "sensors": {"acc_noise": 0.2, "vel_noise": 0.03}}
-NOISY_AIRFRAME = {
-    "name": "noisy", "mass": 6.0, "thrust": {"source": "collective"},
-    "observer": {"sample_time": 0.05, "gains": [36.0, 36.0, 36.0], "discretization": "paper", "acceleration": "ned"},
-    "force_air": {"horizontal": {"terms": ["fh^0.5"], "coefficients": [4.0]},
-                  "vertical": {"terms": ["fz"], "coefficients": [0.5]}},
-    "filter": {"speeds": [0.0, 3.0, 10.0], "cutoffs": [0.2, 0.35, 0.5]},
-}
 
 
 @pytest.fixture(scope="module")
 def noisy(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("noisy_route")
-    (folder / "v.toml").write_text(dumps(NOISY_VEHICLE))
-    (folder / "a.toml").write_text(dumps(NOISY_AIRFRAME))
-    paths = {"airframe": str(folder / "a.toml")}
-    for name, seed, hold in (("sweep", 1, "6"), ("vertical", 2, "8"), ("still-air", 4, None)):
-        path = folder / f"{name}.csv"
-        args = ["simulate", name, "--airframe", paths["airframe"], "--vehicle", str(folder / "v.toml"),
-                "--seed", str(seed), "-o", str(path)] + (["--hold", hold] if hold else [])
-        assert main(args) == 0
-        paths[name] = str(path)
-    return paths
+    return noisy_flights(tmp_path_factory.mktemp("noisy_route"), NOISY_VEHICLE)
 
 
 def _still_air_wind(airframe, noisy, capsys) -> float:

@@ -13,7 +13,7 @@ from scipy.signal import lfilter
 from dobwind.cli import main
 from dobwind.hovernoise import HoverNoise, quieter_schedule
 from dobwind.model.airframe import FilterSchedule, load_airframe
-from dobwind.model.airframe_toml import dumps
+from tests.helpers import noisy_flights
 
 SCHEDULE = FilterSchedule((0.0, 3.0, 10.0), (0.2, 0.35, 0.5))
 
@@ -67,28 +67,11 @@ NOISY_VEHICLE = {"mass": 6.0, "rate": 20.0, "drag": {"x": {"linear": 0.4, "quadr
                                                       "y": {"linear": 0.4, "quadratic": 0.05},
                                                       "z": {"linear": 0.8}},
                  "thrust": {"scale": 1.02}, "sensors": {"acc_noise": 0.12}}
-NOISY_AIRFRAME = {
-    "name": "noisy", "mass": 6.0, "thrust": {"source": "collective"},
-    "observer": {"sample_time": 0.05, "gains": [36.0, 36.0, 36.0], "discretization": "paper", "acceleration": "ned"},
-    "force_air": {"horizontal": {"terms": ["fh^0.5"], "coefficients": [4.0]},
-                  "vertical": {"terms": ["fz"], "coefficients": [0.5]}},
-    "filter": {"speeds": [0.0, 3.0, 10.0], "cutoffs": [0.2, 0.35, 0.5]},
-}
 
 
 @pytest.fixture(scope="module")
 def noisy(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("noisy")
-    (folder / "v.toml").write_text(dumps(NOISY_VEHICLE))
-    (folder / "a.toml").write_text(dumps(NOISY_AIRFRAME))
-    paths = {"airframe": str(folder / "a.toml")}
-    for name, seed, hold in (("sweep", 1, "6"), ("vertical", 2, "8"), ("still-air", 4, None)):
-        path = folder / f"{name}.csv"
-        args = ["simulate", name, "--airframe", paths["airframe"], "--vehicle", str(folder / "v.toml"),
-                "--seed", str(seed), "-o", str(path)] + (["--hold", hold] if hold else [])
-        assert main(args) == 0
-        paths[name] = str(path)
-    return paths
+    return noisy_flights(tmp_path_factory.mktemp("noisy"), NOISY_VEHICLE)
 
 
 def _fit(noisy, out, capsys, *options):
