@@ -141,14 +141,15 @@ def _streamed_logs(af: Airframe, log_paths: list[str], frames: tuple[str, ...], 
 
 @dataclass(frozen=True)
 class FitOptions:
-    """The fit's choices besides the airframe and the logs (the command line's options)."""
-    terms: str = "auto"
-    dynamic: bool = False
-    model: str = "auto"
-    still_air: bool = False
-    limits: Thresholds = Thresholds()
-    block_bytes: int | None = BLOCK_BYTES
-    hover: HoverNoise = HoverNoise()
+    """The fit's choices besides the airframe and the logs, passed to both of fit_airframe's fits (its
+    signature holds the defaults)."""
+    terms: str
+    dynamic: bool
+    model: str
+    still_air: bool
+    limits: Thresholds
+    block_bytes: int | None
+    hover: HoverNoise
 
 
 def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynamic: bool = False,
@@ -169,9 +170,11 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynami
         except CheckFailed as exc:
             report.acceleration_route = accelroute.blend_record(af, check, None, False, str(exc))
         else:
-            kept = accelroute.keeps_blend(check, other[3])
-            record = accelroute.blend_record(af, check, other[3], kept)
-            new, report, points, check = other if kept else (new, report, points, check)
+            blend_check = other[3]
+            kept = accelroute.keeps_blend(check, blend_check)
+            record = accelroute.blend_record(af, check, blend_check, kept)
+            if kept:
+                new, report, points, check = other
             report.acceleration_route = record
     report.self_check = dataclasses.asdict(check)
     # The self-check's replay measured the observer noise; the sigma outputs add it to the residuals (#10).
