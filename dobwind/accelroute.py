@@ -75,6 +75,13 @@ def keeps_blend(check: SelfCheck, again: SelfCheck) -> bool:
     return noise is not None and quieter is not None and quieter < QUIETER_SHARE * noise
 
 
+def failed_blend_warning(reason: str) -> str:
+    """The warning when the blended fit itself could not be made: the user asked for less noise than the
+    first fit reached, and only the report line would otherwise say why nothing more was done."""
+    return (f"the acceleration blend (acceleration_bias_time {BLEND_TIME_S:g} s) could not be fitted ({reason}); "
+            "the airframe's acceleration input is kept as written")
+
+
 def blend_record(af: Airframe, check: SelfCheck, again: SelfCheck | None, kept: bool,
                  failure: str = "") -> dict[str, Any]:
     """What the report keeps of the comparison (``again`` None: the blended fit itself failed)."""

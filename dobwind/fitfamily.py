@@ -169,6 +169,7 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynami
             other = _fit_once(accelroute.blended(af), log_paths, options)
         except CheckFailed as exc:
             report.acceleration_route = accelroute.blend_record(af, check, None, False, str(exc))
+            report.warnings.append(accelroute.failed_blend_warning(str(exc)))
         else:
             blend_check = other[3]
             kept = accelroute.keeps_blend(check, blend_check)

@@ -44,7 +44,11 @@ def _low_pass_line(report: FitReport) -> list[str]:
     if not change:
         return []
     (f0, f1), (n0, n1) = change["cutoff_hz"], change["still_noise_mps"]
-    return [f"low-pass at zero airflow lowered {f0:.3g} -> {f1:.3g} Hz: noise at low airflow {n0:.3f} -> {n1:.3f} m/s "
+    # After a kept blend the record is the blended fit's own: its first figure is the blend's noise before
+    # its low-pass was lowered, not the airframe route's figure on the blend line below.
+    route = report.acceleration_route or {}
+    whose = " (of the blended fit)" if route.get("kept") else ""
+    return [f"low-pass at zero airflow{whose} lowered {f0:.3g} -> {f1:.3g} Hz: noise at low airflow {n0:.3f} -> {n1:.3f} m/s "
             f"per horizontal axis (target {change['target_mps']:g} m/s; --hover-noise)"]
 
 

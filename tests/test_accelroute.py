@@ -14,7 +14,7 @@ from dobwind import fitfamily
 from dobwind.accelroute import BLEND_TIME_S, QUIETER_SHARE, blend_record, blended, keeps_blend, needs_blend_check
 from dobwind.cli import main
 from dobwind.errors import CheckFailed
-from dobwind.fitreport import _route_line
+from dobwind.fitreport import _low_pass_line, _route_line
 from dobwind.hovernoise import HoverNoise
 from dobwind.model.airframe import load_airframe
 from dobwind.selfcheck import SelfCheck
@@ -101,10 +101,15 @@ def test_fit_airframe_keeps_the_better_fit(monkeypatch, second, kept):
     assert noise_used == [(0.03 if kept else 0.3, 0.04)]
     route = report.acceleration_route
     assert route["kept"] is kept and route["bias_time_s"] == [0.0, BLEND_TIME_S]
+    blend_warnings = [w for w in report.warnings if w.startswith("the acceleration blend")]
     if isinstance(second, Exception):
         assert route["still_noise_mps"] == [0.2, None] and route["blend_passed"] is None
         assert route["blend_reasons"] == ["no model could be fitted"]
+        # The user asked for less noise and got the first fit: one warning says why.
+        assert blend_warnings == [f"the acceleration blend (acceleration_bias_time {BLEND_TIME_S:g} s) could not be "
+                                  "fitted (no model could be fitted); the airframe's acceleration input is kept as written"]
     else:
+        assert blend_warnings == []
         assert route["still_noise_mps"] == [0.2, second.still_noise_mps] and route["blend_passed"] is True
 
 
@@ -122,6 +127,16 @@ def test_the_text_report_says_which_fit_was_kept():
     crashed = _report_with(blend_record(af, _check(True, 0.2), None, False, "no model could be fitted"))
     assert crashed.endswith("the blended fit failed (no model could be fitted)")
     assert _report_with({}) == ""
+
+
+@pytest.mark.parametrize("kept", [True, False])
+def test_the_low_pass_line_names_the_blended_fit_when_it_was_kept(kept):
+    af = make_airframe(**{"observer.acceleration": "ned"})
+    route = blend_record(af, _check(True, 0.2), _check(True, 0.05 if kept else 0.19), kept)
+    change = {"cutoff_hz": [0.2, 0.05], "still_noise_mps": [0.158, 0.079], "target_mps": 0.07}
+    line = _low_pass_line(fitfamily.FitReport(model="drag", acceleration_route=route, low_pass=change))
+    assert line == [f"low-pass at zero airflow{' (of the blended fit)' if kept else ''} lowered 0.2 -> 0.05 Hz: noise "
+                    "at low airflow 0.158 -> 0.079 m/s per horizontal axis (target 0.07 m/s; --hover-noise)"]
 
 
 # A heavy, slow vehicle whose acceleration input is noisy: the low-pass reaches its floor.
