@@ -11,6 +11,7 @@ runs in the folder are scored (tunnelruns.py finds them): the other controllers'
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import os
 import sys
@@ -19,10 +20,12 @@ from pathlib import Path
 
 import numpy as np
 
-from dobwind.fitfamily import fit_airframe
+from dobwind import runconsistency
+from dobwind.fit import read_calibration_logs
+from dobwind.fitfamily import drag_samples, fit_airframe
 from dobwind.jsonout import dumps
 from dobwind.model.airframe import load_airframe
-from dobwind.model.forceair import wind_from_deg
+from dobwind.model.forceair import heading_force, wind_from_deg
 from dobwind.model.status import accepted
 from dobwind.tunnelruns import BASELINE, FLIP, NOMINAL_MPS, convert, convert_all, discover, training_controller
 from dobwind.replay import WARMUP_S, replay
@@ -131,20 +134,45 @@ def tables(results: dict) -> list[str]:
     return lines
 
 
+def consistency(data_dir: Path = DEFAULT_DATA) -> dict:
+    """The training controller's runs checked against a drag law's convexity (runconsistency.py): no fit."""
+    af = load_airframe(AIRFRAME)
+    with tempfile.TemporaryDirectory(prefix="dobwind-nf-") as tmp:
+        logs, _ = convert_all(discover(data_dir), af.mass_kg, af.gravity_mps2, Path(tmp))
+        trainer = _training_set(logs, data_dir)
+        names = list(logs[trainer])
+        samples = drag_samples(af, read_calibration_logs(af, [str(logs[trainer][n]) for n in names]))[0]["heading"]
+    force = np.column_stack(heading_force(samples.observed.T, samples.cos_yaw, samples.sin_yaw, (0.0, 0.0, 0.0))[:2])
+    per_run = [samples.log_index == i for i in range(len(names))]
+    runs, offset = runconsistency.check_runs(names, [force[k] for k in per_run], [samples.airflow[k] for k in per_run])
+    return {"training_controller": trainer, "runs": runs, "offset_n": offset}
+
+
+def consistency_lines(result: dict) -> list[str]:
+    return ([f"Neural-Fly runs of {result['training_controller']} against any convex drag law through zero "
+             "(no fit; dobwind/runconsistency.py): a logged speed below its bound F/F' cannot be reproduced"]
+            + runconsistency.lines(result["runs"], result["offset_n"]))
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m dobwind.realdata")
     parser.add_argument("data", nargs="?", default=str(DEFAULT_DATA))
     parser.add_argument("--json", action="store_true")
+    parser.add_argument("--consistency", action="store_true",
+                        help="only check the runs' logged speeds against their forces (no fit)")
     args = parser.parse_args(argv)
     try:
-        results = check(Path(args.data))
+        found = consistency(Path(args.data))
+        results = {} if args.consistency else check(Path(args.data))
     except FileNotFoundError as exc:
         sys.stderr.write(f"realdata: {exc}\n")
         return 2
     if args.json:
-        print(dumps(results))  # strict JSON, the common style: a NaN figure becomes null, listed
+        # strict JSON, the common style: a NaN figure becomes null, listed
+        runs_ = [{**dataclasses.asdict(r), "below_bound": r.below_bound} for r in found["runs"]]
+        print(dumps({**results, "consistency": {**found, "runs": runs_}}))
         return 0
-    print("\n".join(tables(results)))
+    print("\n".join(([] if args.consistency else tables(results)) + consistency_lines(found)))
     return 0
 
 

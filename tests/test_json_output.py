@@ -138,8 +138,14 @@ def test_the_real_data_check_prints_strict_json(monkeypatch, capsys):
     """`make realdata --json` is not a subcommand, but its output is read by tools too."""
     from dobwind import realdata
 
+    from dobwind.runconsistency import RunForce
+
     monkeypatch.setattr(realdata, "check", lambda *a, **k: {"split": {"run": {"speed_mps": math.nan}}})
+    run = RunForce("35wind", 4.2, 4.2, 0.0, math.inf)
+    monkeypatch.setattr(realdata, "consistency", lambda *a, **k: {"training_controller": "baseline", "runs": [run],
+                                                                   "offset_n": [1.0, 0.5]})
     assert realdata.main(["--json"]) == 0
     text = capsys.readouterr().out
     report = strict_loads(text)
     assert report["split"]["run"]["speed_mps"] is None and text == json.dumps(report, indent=2) + "\n"
+    assert report["consistency"]["runs"][0]["bound_mps"] is None and report["consistency"]["runs"][0]["below_bound"]

@@ -24,3 +24,20 @@ def test_neural_fly_held_out_speed(results):
     held_out = results["split"]["70wind"]
     assert not held_out["trained_on"]
     assert held_out["mean_speed_mps"] == pytest.approx(held_out["nominal_mps"], rel=0.25)
+
+
+def test_neural_fly_runs_against_a_convex_law(capsys):
+    """The no-fit consistency check (runconsistency.py) through the module's command line: the offset is
+    the ~1 N x bias the data's README mentions, and the runs the fit reproduces (70wind, 100wind within
+    0.3 m/s in the README) sit above their bounds."""
+    if len(realdata.runs(realdata.DEFAULT_DATA)) < 5:
+        pytest.skip("the Neural-Fly runs are not beside this checkout")
+    assert realdata.main(["--consistency"]) == 0
+    text = capsys.readouterr().out
+    found = realdata.consistency()
+    assert 0.5 < found["offset_n"][0] < 1.5
+    by_name = {r.name: r for r in found["runs"]}
+    assert set(by_name) == {"35wind", "70wind", "70p20sint", "100wind"}
+    assert not by_name["70wind"].below_bound and not by_name["100wind"].below_bound
+    assert all(r.slope_n_per_mps > 0 for r in by_name.values())
+    assert text.splitlines()[1].startswith("  force offset from the zero-airflow run:")

@@ -1,0 +1,101 @@
+"""Whether calibration runs' logged airflow agrees with their forces, before any law is fitted.
+
+A tunnel run logs a nominal speed, not an anemometer's reading at the vehicle. When a fit cannot
+reproduce its own runs, the question is whether ANY law of the drag family could. Every law that family
+can fit is convex in the airflow speed along a direction and zero at zero airflow (l s + q s^p with
+l, q >= 0 and p >= 1, inverted in the step). For such a law F'(s) >= F(s) / s, so a run's mean force F
+along its mean airflow and its slope F' within the run (the vehicle's own manoeuvres sweep the airflow
+about the mean) bound the run's airflow speed from below:
+
+    s >= F / F'
+
+and F / s cannot decrease from one run to a faster one. Both need no fit, only the force offset, which
+is taken from a run at zero mean airflow (a figure-8 about zero airflow averages its drag out). A run
+whose logged speed is below its bound, or a pair out of order, cannot be reproduced by a drag law with
+that offset: the fit has to trade it off against the others.
+
+The force and the airflow are the drag fit's own samples (dobwind/dragfit.py): both already passed
+through the observer's and the low-pass's response, so the slope is not biased by the observer's lag.
+The slope is regressed on the horizontal and the vertical airflow together, since a figure-8 in a
+vertical plane moves both and the vertical airflow also moves the horizontal force.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+# A run whose mean airflow is below this is a zero-airflow run (the offset's source), m/s.
+ZERO_AIRFLOW_MPS = 1.0
+# A logged speed this share below its bound is flagged; the slope's scatter is a few per cent.
+TOLERANCE = 0.1
+
+
+@dataclass(frozen=True)
+class RunForce:
+    """One run's figures: logged mean airflow speed (m/s), mean force along it (N, offset removed),
+    its slope within the run (N per m/s), and the lower bound on the speed that implies (m/s)."""
+    name: str
+    speed_mps: float
+    force_n: float
+    slope_n_per_mps: float
+    bound_mps: float
+
+    @property
+    def below_bound(self) -> bool:
+        return self.bound_mps > (1 + TOLERANCE) * self.speed_mps
+
+
+def zero_airflow_offset(force_h: np.ndarray, airflow: np.ndarray) -> np.ndarray | None:
+    """The heading-frame horizontal force offset (2,) from the samples of one run, when its mean
+    horizontal airflow is under ZERO_AIRFLOW_MPS; else None."""
+    if np.hypot(*airflow[:, :2].mean(axis=0)) >= ZERO_AIRFLOW_MPS:
+        return None
+    return force_h.mean(axis=0)
+
+
+def run_force(name: str, force_h: np.ndarray, airflow: np.ndarray, offset: np.ndarray) -> RunForce | None:
+    """The run's mean force along its mean airflow and the slope of that force on the airflow along it
+    (heading frame: force_h (N, 2) in N, airflow (N, 3) in m/s); None at zero mean airflow."""
+    mean = airflow[:, :2].mean(axis=0)
+    speed = float(np.hypot(*mean))
+    if speed < ZERO_AIRFLOW_MPS or len(airflow) < 10:
+        return None
+    along = mean / speed
+    force = (force_h - offset) @ along
+    design = np.column_stack([airflow[:, :2] @ along, airflow[:, 2], np.ones(len(airflow))])
+    slope = float(np.linalg.lstsq(design, force, rcond=None)[0][0])
+    mean_force = float(force.mean())
+    bound = mean_force / slope if slope > 0 else math.inf
+    return RunForce(name, speed, mean_force, slope, bound)
+
+
+def out_of_order(runs: list[RunForce]) -> list[tuple[str, str]]:
+    """Pairs (slower, faster) whose force per m/s decreases with the speed (a convex law's cannot)."""
+    ordered = sorted(runs, key=lambda r: r.speed_mps)
+    return [(a.name, b.name) for a, b in zip(ordered, ordered[1:])
+            if b.speed_mps > a.speed_mps and b.force_n / b.speed_mps < (1 - TOLERANCE / 2) * a.force_n / a.speed_mps]
+
+
+def check_runs(names: list[str], force_h: list[np.ndarray], airflow: list[np.ndarray]) -> tuple[list[RunForce], np.ndarray | None]:
+    """Every run's figures with the offset of the first zero-airflow run ([] and None without one)."""
+    offset = next((o for o in (zero_airflow_offset(f, a) for f, a in zip(force_h, airflow)) if o is not None), None)
+    if offset is None:
+        return [], None
+    runs = [run_force(n, f, a, offset) for n, f, a in zip(names, force_h, airflow)]
+    return [r for r in runs if r is not None], offset
+
+
+def lines(runs: list[RunForce], offset: np.ndarray | None) -> list[str]:
+    """The table the realdata check prints."""
+    if offset is None:
+        return ["  no run at zero mean airflow: no force offset, no bound"]
+    out = [f"  force offset from the zero-airflow run: [{offset[0]:.2f}, {offset[1]:.2f}] N",
+           "  run          logged m/s  mean force N  N per m/s  slope N/(m/s)  bound m/s"]
+    for r in runs:
+        flag = "  BELOW its bound" if r.below_bound else ""
+        out.append(f"  {r.name:12s} {r.speed_mps:10.2f}  {r.force_n:12.2f}  {r.force_n / r.speed_mps:9.2f}  "
+                   f"{r.slope_n_per_mps:13.2f}  {r.bound_mps:9.2f}{flag}")
+    out += [f"  {a} -> {b}: force per m/s falls with the speed" for a, b in out_of_order(runs)]
+    return out
