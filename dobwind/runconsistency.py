@@ -1,9 +1,12 @@
 """Whether calibration runs' logged airflow agrees with their forces, before any law is fitted.
 
-A tunnel run logs a nominal speed, not an anemometer's reading at the vehicle. When a fit cannot
-reproduce its own runs, the question is whether ANY law of the drag family could. Every law that family
-can fit is convex in the airflow speed along a direction and zero at zero airflow (l s + q s^p with
-l, q >= 0 and p >= 1, inverted in the step). For such a law F'(s) >= F(s) / s, so a run's mean force F
+A tunnel run may log a nominal speed rather than an anemometer's reading at the vehicle. When a fit
+cannot reproduce its own runs, the question is whether ANY law of the drag family could. Along the
+tunnel's fixed direction such a law is l s + q s^p with p >= 1 (the direction harmonics are constants
+there); with l, q >= 0, as the fit keeps its isotropic terms, it is convex in the airflow speed and
+zero at zero airflow. (A body-frame law adds the tilt, which grows with the airflow; the paper's
+polynomial, speed as a function of force, need not invert a convex law at all.) For such a law
+F'(s) >= F(s) / s, so a run's mean force F
 along its mean airflow and its slope F' within the run (the vehicle's own manoeuvres sweep the airflow
 about the mean) bound the run's airflow speed from below:
 
