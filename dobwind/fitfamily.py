@@ -215,6 +215,8 @@ def _fit_once(af: Airframe, log_paths: list[str],
     report.warnings += failures
     sparse = holdcv.sparse_windows(report.hold_cv_by_speed, float(np.median(samples.rates_hz()))) if len(samples) else None
     report.warnings += [sparse] if sparse else []
+    vertical = vertical_warning(report.vertical_cv_rmse_mps, samples.airflow[:, 2] if len(samples) else np.zeros(0))
+    report.warnings += [vertical] if vertical else []
     for index, count in enumerate(per_log):
         if count == 0:
             report.warnings.append(f"{log_paths[index]}: contributed no usable sample")
@@ -225,6 +227,20 @@ def _fit_once(af: Airframe, log_paths: list[str],
         new, check, hover, lambda af_: calibration.check(af_, cv, speed_range, limits))
     report.warnings += quiet_warnings
     return new, report, points, check
+
+
+def vertical_warning(cv_v_mps: float | None, air_z_mps: np.ndarray) -> str | None:
+    """A warning when the chosen vertical law predicts held-out vertical airflow no better than zero does.
+    The logs then do not identify it (level flight, or a thrust model whose error swamps the vertical
+    drag), and the step, which inverts that law, turns the thrust error into vertical wind."""
+    if cv_v_mps is None or not len(air_z_mps):
+        return None
+    zero_mps = float(np.sqrt(np.mean(np.square(air_z_mps))))
+    if cv_v_mps < zero_mps:
+        return None
+    return (f"the vertical law predicts held-out vertical airflow no better than zero does (grouped CV {cv_v_mps:.3f} "
+            f"m/s, RMS of the true vertical airflow {zero_mps:.3f} m/s): these logs do not identify it and the "
+            "vertical wind is unreliable (fly climbs and descents; check the thrust model)")
 
 
 Family = tuple[Airframe, FitReport, "Points | None"]

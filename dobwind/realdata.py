@@ -6,7 +6,7 @@ score the fifth), and only the figures are printed. There is no anemometer serie
 scored by its mean estimated horizontal speed against the nominal tunnel speed. Every controller's
 runs in the folder are scored (tunnelruns.py finds them): the other controllers' through the split fit.
 
-    python -m dobwind.realdata [DATA_DIR] [--json]
+    python -m dobwind.realdata [DATA_DIR] [--json] [--consistency]
 """
 from __future__ import annotations
 
@@ -31,7 +31,8 @@ from dobwind.tunnelruns import BASELINE, FLIP, NOMINAL_MPS, convert, convert_all
 from dobwind.replay import WARMUP_S, replay
 from dobwind.resources import shipped_airframe
 
-__all__ = ["AIRFRAME", "DEFAULT_DATA", "FLIP", "NOMINAL_MPS", "check", "convert", "discover", "main", "runs"]
+__all__ = ["AIRFRAME", "DEFAULT_DATA", "FLIP", "NOMINAL_MPS", "check", "consistency", "convert", "discover", "main",
+           "runs"]
 
 # The licensed data lives beside the checkout, never inside it: found from the working directory (make and
 # pytest run at the checkout's root), or wherever DOBWIND_NEURAL_FLY points.
@@ -77,20 +78,23 @@ def check(data_dir: Path = DEFAULT_DATA) -> dict:
     other controller's runs are scored through the split fit, all held out (same vehicle, same tunnel)."""
     af = load_airframe(AIRFRAME)
     with tempfile.TemporaryDirectory(prefix="dobwind-nf-") as tmp:
-        logs, skipped = convert_all(discover(data_dir), af.mass_kg, af.gravity_mps2, Path(tmp))
-        trainer = _training_set(logs, data_dir)
-        own = logs[trainer]
-        loo = {}
-        for name, log_path in own.items():
-            training = [str(p) for other, p in own.items() if other != name]
-            fitted, report, _ = fit_airframe(af, training, "auto", dynamic=True)
-            loo[name] = _score(fitted, log_path, NOMINAL_MPS[name], report)
-        fitted, report, _ = fit_airframe(af, [str(own[n]) for n in SPLIT_TRAIN], "auto", dynamic=True)
-        split = {name: {**_score(fitted, log_path, NOMINAL_MPS[name], report), "trained_on": name in SPLIT_TRAIN}
-                 for name, log_path in own.items()}
-        others = {controller: {name: {**_score(fitted, log_path, NOMINAL_MPS[name], report), "trained_on": False}
-                               for name, log_path in winds.items()}
-                  for controller, winds in logs.items() if controller != trainer}
+        return _check_converted(af, *convert_all(discover(data_dir), af.mass_kg, af.gravity_mps2, Path(tmp)), data_dir)
+
+
+def _check_converted(af, logs: dict[str, dict[str, Path]], skipped: list, data_dir: Path) -> dict:
+    trainer = _training_set(logs, data_dir)
+    own = logs[trainer]
+    loo = {}
+    for name, log_path in own.items():
+        training = [str(p) for other, p in own.items() if other != name]
+        fitted, report, _ = fit_airframe(af, training, "auto", dynamic=True)
+        loo[name] = _score(fitted, log_path, NOMINAL_MPS[name], report)
+    fitted, report, _ = fit_airframe(af, [str(own[n]) for n in SPLIT_TRAIN], "auto", dynamic=True)
+    split = {name: {**_score(fitted, log_path, NOMINAL_MPS[name], report), "trained_on": name in SPLIT_TRAIN}
+             for name, log_path in own.items()}
+    others = {controller: {name: {**_score(fitted, log_path, NOMINAL_MPS[name], report), "trained_on": False}
+                           for name, log_path in winds.items()}
+              for controller, winds in logs.items() if controller != trainer}
     return {"leave_one_out": loo, "split": split, "training_controller": trainer, "other_controllers": others,
             "skipped": skipped}
 
@@ -139,13 +143,26 @@ def consistency(data_dir: Path = DEFAULT_DATA) -> dict:
     af = load_airframe(AIRFRAME)
     with tempfile.TemporaryDirectory(prefix="dobwind-nf-") as tmp:
         logs, _ = convert_all(discover(data_dir), af.mass_kg, af.gravity_mps2, Path(tmp))
-        trainer = _training_set(logs, data_dir)
-        names = list(logs[trainer])
-        samples = drag_samples(af, read_calibration_logs(af, [str(logs[trainer][n]) for n in names]))[0]["heading"]
+        return _consistency_converted(af, logs, data_dir)
+
+
+def _consistency_converted(af, logs: dict[str, dict[str, Path]], data_dir: Path) -> dict:
+    trainer = _training_set(logs, data_dir)
+    names = list(logs[trainer])
+    samples = drag_samples(af, read_calibration_logs(af, [str(logs[trainer][n]) for n in names]))[0]["heading"]
     force = np.column_stack(heading_force(samples.observed.T, samples.cos_yaw, samples.sin_yaw, (0.0, 0.0, 0.0))[:2])
     per_run = [samples.log_index == i for i in range(len(names))]
     runs, offset = runconsistency.check_runs(names, [force[k] for k in per_run], [samples.airflow[k] for k in per_run])
     return {"training_controller": trainer, "runs": runs, "offset_n": offset}
+
+
+def _both(data_dir: Path, fits: bool) -> tuple[dict, dict]:
+    """The fit tables' results ({} without ``fits``) and the consistency check, the runs converted once."""
+    af = load_airframe(AIRFRAME)
+    with tempfile.TemporaryDirectory(prefix="dobwind-nf-") as tmp:
+        logs, skipped = convert_all(discover(data_dir), af.mass_kg, af.gravity_mps2, Path(tmp))
+        found = _consistency_converted(af, logs, data_dir)
+        return (_check_converted(af, logs, skipped, data_dir) if fits else {}), found
 
 
 def consistency_lines(result: dict) -> list[str]:
@@ -162,8 +179,7 @@ def main(argv: list[str] | None = None) -> int:
                         help="only check the runs' logged speeds against their forces (no fit)")
     args = parser.parse_args(argv)
     try:
-        found = consistency(Path(args.data))
-        results = {} if args.consistency else check(Path(args.data))
+        results, found = _both(Path(args.data), not args.consistency)
     except FileNotFoundError as exc:
         sys.stderr.write(f"realdata: {exc}\n")
         return 2

@@ -196,6 +196,8 @@ def test_a_capped_calibration_is_thinned_evenly_and_streams_byte_for_byte(logs, 
     window, full_window = whole_report.hold_cv_by_speed["window_s"], full.hold_cv_by_speed["window_s"]
     assert window == pytest.approx(full_window, rel=0.25) and full_window > 1.0
     assert not any("the hold-level CV's windows hold" in w for w in whole_report.warnings + full.warnings)
+    # A sweep with a vertical log identifies the vertical law: no warning that it does not.
+    assert not any("the vertical law predicts" in w for w in whole_report.warnings + full.warnings)
 
 
 def test_sparse_cv_windows_are_warned_of():

@@ -140,10 +140,9 @@ def test_the_real_data_check_prints_strict_json(monkeypatch, capsys):
 
     from dobwind.runconsistency import RunForce
 
-    monkeypatch.setattr(realdata, "check", lambda *a, **k: {"split": {"run": {"speed_mps": math.nan}}})
     run = RunForce("35wind", 4.2, 4.2, 0.0, math.inf)
-    monkeypatch.setattr(realdata, "consistency", lambda *a, **k: {"training_controller": "baseline", "runs": [run],
-                                                                   "offset_n": [1.0, 0.5]})
+    found = {"training_controller": "baseline", "runs": [run], "offset_n": [1.0, 0.5]}
+    monkeypatch.setattr(realdata, "_both", lambda *a, **k: ({"split": {"run": {"speed_mps": math.nan}}}, found))
     assert realdata.main(["--json"]) == 0
     text = capsys.readouterr().out
     report = strict_loads(text)

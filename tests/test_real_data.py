@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from dobwind import realdata
+from dobwind import realdata, runconsistency
 
 
 @pytest.fixture(scope="module")
@@ -18,6 +18,13 @@ def test_neural_fly_wind_direction(results):
     for name, r in results["split"].items():
         if r["nominal_mps"] > 0:
             assert abs((r["mean_from_deg"] + 180) % 360 - 180) < 15.0, name
+
+
+def test_neural_fly_split_fit_warns_that_its_vertical_law_is_not_identified(results):
+    """Level figure-8s move the air vertically by about 0.7 m/s RMS, and the collective thrust's error
+    swamps the vertical drag: the fit says its vertical wind is unreliable rather than pass it silently."""
+    warnings = results["split"]["nowind"]["warnings"]
+    assert any(w.startswith("the vertical law predicts held-out vertical airflow no better than zero") for w in warnings)
 
 
 def test_neural_fly_held_out_speed(results):
@@ -39,5 +46,9 @@ def test_neural_fly_runs_against_a_convex_law(capsys):
     by_name = {r.name: r for r in found["runs"]}
     assert set(by_name) == {"35wind", "70wind", "70p20sint", "100wind"}
     assert not by_name["70wind"].below_bound and not by_name["100wind"].below_bound
+    # The README's finding: 35wind is logged below its bound, and its force per m/s is above 70wind's.
+    assert by_name["35wind"].below_bound
+    assert ("35wind", "70wind") in runconsistency.out_of_order(found["runs"])
+    assert "35wind -> 70wind: force per m/s falls with the speed" in text
     assert all(r.slope_n_per_mps > 0 for r in by_name.values())
     assert text.splitlines()[1].startswith("  force offset from the zero-airflow run:")
