@@ -11,12 +11,14 @@ runs in the folder are scored (tunnelruns.py finds them): the other controllers'
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import math
 import os
 import sys
 import tempfile
 from pathlib import Path
+from typing import Iterator
 
 import numpy as np
 
@@ -24,7 +26,7 @@ from dobwind import runconsistency
 from dobwind.fit import read_calibration_logs
 from dobwind.fitfamily import drag_samples, fit_airframe
 from dobwind.jsonout import dumps
-from dobwind.model.airframe import load_airframe
+from dobwind.model.airframe import Airframe, load_airframe
 from dobwind.model.forceair import heading_force, wind_from_deg
 from dobwind.model.status import accepted
 from dobwind.tunnelruns import BASELINE, FLIP, NOMINAL_MPS, convert, convert_all, discover, training_controller
@@ -73,15 +75,24 @@ def _training_set(logs: dict[str, dict[str, Path]], data_dir: Path) -> str:
     return trainer
 
 
+@contextlib.contextmanager
+def _converted(data_dir: Path) -> Iterator[tuple[Airframe, dict[str, dict[str, Path]], list]]:
+    """The airframe, every controller's runs converted into a temporary folder (gone on exit), and the
+    runs skipped."""
+    af = load_airframe(AIRFRAME)
+    with tempfile.TemporaryDirectory(prefix="dobwind-nf-") as tmp:
+        logs, skipped = convert_all(discover(data_dir), af.mass_kg, af.gravity_mps2, Path(tmp))
+        yield af, logs, skipped
+
+
 def check(data_dir: Path = DEFAULT_DATA) -> dict:
     """Leave-one-out and the split on the training controller's runs (the baseline's when present); every
     other controller's runs are scored through the split fit, all held out (same vehicle, same tunnel)."""
-    af = load_airframe(AIRFRAME)
-    with tempfile.TemporaryDirectory(prefix="dobwind-nf-") as tmp:
-        return _check_converted(af, *convert_all(discover(data_dir), af.mass_kg, af.gravity_mps2, Path(tmp)), data_dir)
+    with _converted(data_dir) as (af, logs, skipped):
+        return _check_converted(af, logs, skipped, data_dir)
 
 
-def _check_converted(af, logs: dict[str, dict[str, Path]], skipped: list, data_dir: Path) -> dict:
+def _check_converted(af: Airframe, logs: dict[str, dict[str, Path]], skipped: list, data_dir: Path) -> dict:
     trainer = _training_set(logs, data_dir)
     own = logs[trainer]
     loo = {}
@@ -140,13 +151,11 @@ def tables(results: dict) -> list[str]:
 
 def consistency(data_dir: Path = DEFAULT_DATA) -> dict:
     """The training controller's runs checked against a drag law's convexity (runconsistency.py): no fit."""
-    af = load_airframe(AIRFRAME)
-    with tempfile.TemporaryDirectory(prefix="dobwind-nf-") as tmp:
-        logs, _ = convert_all(discover(data_dir), af.mass_kg, af.gravity_mps2, Path(tmp))
+    with _converted(data_dir) as (af, logs, _):
         return _consistency_converted(af, logs, data_dir)
 
 
-def _consistency_converted(af, logs: dict[str, dict[str, Path]], data_dir: Path) -> dict:
+def _consistency_converted(af: Airframe, logs: dict[str, dict[str, Path]], data_dir: Path) -> dict:
     trainer = _training_set(logs, data_dir)
     names = list(logs[trainer])
     samples = drag_samples(af, read_calibration_logs(af, [str(logs[trainer][n]) for n in names]))[0]["heading"]
@@ -158,9 +167,7 @@ def _consistency_converted(af, logs: dict[str, dict[str, Path]], data_dir: Path)
 
 def _both(data_dir: Path, fits: bool) -> tuple[dict, dict]:
     """The fit tables' results ({} without ``fits``) and the consistency check, the runs converted once."""
-    af = load_airframe(AIRFRAME)
-    with tempfile.TemporaryDirectory(prefix="dobwind-nf-") as tmp:
-        logs, skipped = convert_all(discover(data_dir), af.mass_kg, af.gravity_mps2, Path(tmp))
+    with _converted(data_dir) as (af, logs, skipped):
         found = _consistency_converted(af, logs, data_dir)
         return (_check_converted(af, logs, skipped, data_dir) if fits else {}), found
 

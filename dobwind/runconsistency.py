@@ -103,14 +103,14 @@ def out_of_order(runs: list[RunForce]) -> list[tuple[str, str]]:
     run against the slower run of the highest force per m/s, so that a fall spread over several runs is
     found too; runs of the same speed are not compared."""
     pairs = []
-    for run in runs:
+    for run in sorted(runs, key=lambda r: r.speed_mps):
         slower = [r for r in runs if r.speed_mps < run.speed_mps]
         if not slower:
             continue
         top = max(slower, key=lambda r: (r.force_n / r.speed_mps, -r.speed_mps, r.name))
         if run.force_n / run.speed_mps < (1 - TOLERANCE / 2) * top.force_n / top.speed_mps:
             pairs.append((top.name, run.name))
-    return sorted(pairs, key=lambda p: next(r.speed_mps for r in runs if r.name == p[1]))
+    return pairs
 
 
 def check_runs(names: list[str], force_h: list[np.ndarray], airflow: list[np.ndarray]) -> tuple[list[RunForce], np.ndarray | None]:
