@@ -147,8 +147,8 @@ class _Segments:
     """Scored rows per segment label, a segment's rows dropped once it is scored: when its label
     changes (a label seen again after that makes the caller score the log with every segment kept)."""
 
-    def __init__(self, settle_s: float, keep_all: bool) -> None:
-        self.settle, self.keep_all = settle_s, keep_all
+    def __init__(self, settle_s: float, keep_all: bool, still_tau_s: float = 0.0) -> None:
+        self.settle, self.keep_all, self.still_tau = settle_s, keep_all, still_tau_s
         self.start: dict[int, float] = {}
         self.rows: dict[int, list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
         self.done: dict[int, _Scored] = {}
@@ -168,7 +168,7 @@ class _Segments:
             self.current = label
             begun = self.start.setdefault(label, float(t[lo]))
             use = np.flatnonzero(usable[lo:hi] & (t[lo:hi] >= begun + self.settle)) + lo
-            self.rows.setdefault(label, []).append((wind[use], truth[use], airflow_h[use]))
+            self.rows.setdefault(label, []).append((wind[use], truth[use], airflow_h[use], t[use]))
 
     def finish(self) -> list[_Scored]:
         """Per scored segment in label order: its row, and its speed and vertical error scatter."""
@@ -180,14 +180,32 @@ class _Segments:
         pieces = self.rows.pop(label, None)
         if pieces is None:
             return
-        wind, truth, airflow_h = (np.concatenate([p[i] for p in pieces]) for i in (0, 1, 2))
+        wind, truth, airflow_h, t = (np.concatenate([p[i] for p in pieces]) for i in (0, 1, 2, 3))
         if len(wind) >= MIN_SEGMENT_POINTS:
             errors_h = np.hypot(wind[:, 0], wind[:, 1]) - np.hypot(truth[:, 0], truth[:, 1])
             errors_up = truth[:, 2] - wind[:, 2]  # NED down: up is its negative
             row = _segment_row(label, wind, truth)
-            still = ([segment_scatter(wind[:, 0] - truth[:, 0]), segment_scatter(wind[:, 1] - truth[:, 1])]
+            share = within_share(float(t[-1] - t[0]), self.still_tau)
+            still = ([_scaled(segment_scatter(wind[:, 0] - truth[:, 0]), share),
+                      _scaled(segment_scatter(wind[:, 1] - truth[:, 1]), share)]
                      if max(float(np.mean(airflow_h)), row["true_speed_mps"]) < STILL_AIRFLOW_MPS else [])
             self.done[label] = (row, segment_scatter(errors_h), segment_scatter(errors_up), still)
+
+
+def within_share(duration_s: float, tau_s: float) -> float:
+    """The share of a noise's variance that a segment's scatter about its own mean keeps, for noise
+    correlated over ``tau_s`` (white noise through a first-order low-pass: tau = 1 / (2 pi cutoff)) and a
+    segment ``duration_s`` long: 1 - (2 tau / T) (1 - (tau / T) (1 - exp(-T / tau))), the expected
+    sample variance of such a process. The rest went into the segment's mean, which the scatter does not
+    see but a wind reading does."""
+    if tau_s <= 0 or duration_s <= 0:
+        return 1.0
+    r = tau_s / duration_s
+    return max(1.0 - 2 * r * (1 - r * (1 - math.exp(-1 / r))), 0.05)
+
+
+def _scaled(scatter: tuple[float, int], share: float) -> tuple[float, int]:
+    return scatter[0] / share, scatter[1]
 
 
 def _median_speed(model: StepModel, step: CStep | None, source: LogSource) -> float:
@@ -207,7 +225,9 @@ def check_source(af: Airframe, source: LogSource, shape: LogShape, fit_samples: 
     step = _compiled(model)
     cutoff = float(np.interp(_median_speed(model, step, source), af.filter.speeds_mps, af.filter.cutoffs_hz))
     filters = [dragfit._BlockFilter(*dragfit.observer_filter(af, shape.dt_s, cutoff, axis)) for axis in range(3)]
-    run, segments, t0 = _WindRun(model, step), _Segments(settle, keep_all), None
+    # The noise at low airflow passes the schedule's first cutoff: its correlation time is 1 / (2 pi f).
+    still_tau = 1 / (2 * math.pi * af.filter.cutoffs_hz[0]) if af.filter.cutoffs_hz[0] > 0 else 0.0
+    run, segments, t0 = _WindRun(model, step), _Segments(settle, keep_all, still_tau), None
     for log in source.blocks():
         wind, status = run.run(log)
         true_wind = log.true_wind

@@ -94,10 +94,14 @@ def test_fit_lowers_the_zero_airflow_cutoff_of_a_noisy_vehicle_and_still_air_rea
     assert before > 0.1   # the vehicle is noisy enough for the rule to act
 
     lowered = _fit(noisy, tmp_path / "low.toml", capsys)
-    change = lowered["low_pass"]
+    change, route = lowered["low_pass"], lowered["acceleration_route"]
     written = load_airframe(tmp_path / "low.toml").filter
     assert change["cutoff_hz"][0] == 0.2 and written.cutoffs_hz == (change["cutoff_hz"][1], 0.35, 0.5)
-    assert change["still_noise_mps"][0] == pytest.approx(before, rel=1e-12)
+    # Counted with the noise a short hover's own mean takes up (selfcheck.within_share), the first fit's
+    # floor leaves this vehicle above the target, so the fit blends its accelerometer with the velocity
+    # and keeps that fit (accelroute): quieter at the airframe's 0.2 Hz already, and lowered from there.
+    assert route["kept"] and route["bias_time_s"] == [0.0, 0.5]
+    assert route["still_noise_mps"][0] < before and change["still_noise_mps"][0] < before
     after = lowered["self_check"]["still_noise_mps"]
     assert after == change["still_noise_mps"][1]
     # The target is met, or the floor stopped the cutoff.
@@ -111,7 +115,7 @@ def test_the_text_report_says_what_the_fit_did_to_the_low_pass(noisy, tmp_path, 
     capsys.readouterr()
     assert main(["fit", noisy["airframe"], noisy["sweep"], noisy["vertical"], "-o", str(tmp_path / "t.toml")]) == 0
     out = capsys.readouterr().out
-    assert "low-pass at zero airflow lowered 0.2 -> " in out and "target 0.07 m/s" in out
+    assert "low-pass at zero airflow (of the blended fit) lowered 0.2 -> " in out and "target 0.07 m/s" in out
     assert "at low airflow (segments under 1 m/s): " in out
 
 
