@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 
-.PHONY: setup test demo regen bench bench-replay clean realdata accuracy mutants
+.PHONY: setup test test-fast demo regen bench bench-replay clean realdata accuracy mutants
 
 setup: $(STAMP)
 
@@ -16,6 +16,10 @@ $(STAMP): pyproject.toml
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
+
+# The quick part of the suite (markers in tests/conftest.py): every package, no slow fit and no fuzz case.
+test-fast: $(STAMP)
+	$(BIN)/python -m pytest -q -m "not slow and not fuzz"
 
 demo: $(STAMP)
 	$(BIN)/dobwind demo -o out/demo

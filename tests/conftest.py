@@ -1,0 +1,203 @@
+"""Markers for the suite, so that a change can be checked by the part it touches (`make test-fast`).
+
+- ``slow``: the tests that took over 2 s each in a full run on a loaded two-core machine (measured with
+  ``pytest --durations=0``; the table below is that measurement, refreshed by hand when it drifts);
+- ``fuzz``: the seeded command-line fuzz cases (``test_cli_fuzz*.py``);
+- ``needs_cc``, ``needs_arm``, ``needs_browser``: what a test module runs besides Python, read from its source
+  (a compiler, the arm-none-eabi toolchain, headless chromium), so ``-m "not needs_arm"`` works on a machine
+  without the cross compiler.
+``make test`` runs everything; ``make test-fast`` runs ``-m "not slow and not fuzz"``.
+"""
+from __future__ import annotations
+
+from functools import lru_cache
+from pathlib import Path
+
+import pytest
+
+SLOW: dict[str, tuple[str, ...]] = {
+    "test_accelroute.py": (
+        "test_fit_blends_the_noisy_input_and_an_unseen_still_air_flight_reads_less",
+        "test_hover_noise_0_keeps_the_observer",
+        "test_the_text_report_shows_both_noise_figures",
+    ),
+    "test_accuracy.py": (
+        "test_a_failed_fit_is_a_result_not_a_crash",
+        "test_rate_study_fits_each_rate_and_measures_the_spread_of_one_tunnel",
+        "test_whole_benchmark_on_a_tiny_vehicle",
+    ),
+    "test_airframe_ranges.py": (
+        "test_a_corner_of_the_ranges_checks_generates_compiling_c_and_analyses",
+    ),
+    "test_analysis.py": (
+        "test_gain_design_round_trip",
+        "test_m300_design_near_the_papers_gain",
+    ),
+    "test_body_drag.py": (
+        "test_columns_built_in_blocks_equal_one_pass",
+        "test_generated_c_of_a_body_drag_airframe_matches_the_reference",
+    ),
+    "test_cformat.py": (
+        "test_every_decade_at_random",
+    ),
+    "test_cli_fuzz_generated.py": (
+        "test_a_generated_case_ends_cleanly_within_its_time_limit",
+    ),
+    "test_dataflash.py": (
+        "test_fit_on_dataflash_equals_fit_on_the_equivalent_csv",
+        "test_the_primary_core_is_followed_across_a_lane_switch",
+    ),
+    "test_drag_exponent.py": (
+        "test_an_unusable_law_keeps_the_quadratic_one",
+        "test_generated_c_of_an_exponent_law_matches_the_reference",
+        "test_the_exponent_chosen_is_the_laws",
+        "test_the_set_chosen_again_must_still_beat_the_quadratic_law",
+    ),
+    "test_fit_input.py": (
+        "test_a_log_too_short_to_calibrate_beside_a_good_one_is_handled",
+    ),
+    "test_fit_stream.py": (
+        "test_a_capped_calibration_is_thinned_evenly_and_streams_byte_for_byte",
+        "test_a_fit_sampled_too_sparsely_for_its_cv_says_so",
+        "test_the_log_sampler_over_blocks_is_one_pass_with_segments_and_invalid_rows",
+        "test_the_self_check_over_blocks_is_one_pass",
+        "test_the_streamed_fit_writes_the_whole_log_fits_airframe_byte_for_byte",
+    ),
+    "test_fourfold.py": (
+        "test_generated_c_with_the_harmonics_matches_the_reference",
+        "test_the_fit_adds_the_harmonics_for_per_axis_drag",
+        "test_the_fit_leaves_them_out_for_drag_along_the_airflow",
+        "test_the_hold_level_tie_break_keeps_the_smallest_set_without_a_significant_gain",
+        "test_with_the_harmonics_the_set_is_chosen_again",
+    ),
+    "test_harness.py": (
+        "test_every_mode_matches_the_reference_in_double",
+        "test_verify_command_passes_on_the_reference_airframe",
+    ),
+    "test_help.py": (
+        "test_analyze_bandwidth_writes_the_designed_airframe_and_analyses_it",
+    ),
+    "test_hovernoise.py": (
+        "test_fit_lowers_the_zero_airflow_cutoff_of_a_noisy_vehicle_and_still_air_reads_less",
+        "test_the_text_report_says_what_the_fit_did_to_the_low_pass",
+    ),
+    "test_install.py": (
+        "test_wheel_installs_and_runs_outside_the_checkout",
+    ),
+    "test_json_output.py": (
+        "test_analyze_bandwidth_json",
+        "test_verify_json_with_a_non_finite_figure",
+    ),
+    "test_json_style.py": (
+        "test_check_analyze_replay_share_one_style",
+    ),
+    "test_kernels.py": (
+        "test_the_frozen_coefficients_are_a_near_minimax_fit",
+    ),
+    "test_law_increasing.py": (
+        "test_linear_anisotropy_the_data_need_is_kept",
+        "test_no_vertical_drag_is_refused",
+        "test_quadratic_anisotropy_without_linear_drag_is_found",
+    ),
+    "test_model.py": (
+        "test_moving_through_still_air_estimates_zero_wind",
+    ),
+    "test_mutants.py": (
+        "test_a_c_mutant_is_caught_by_verify_and_the_self_test",
+        "test_the_named_model_mutants_are_caught_by_the_suite",
+    ),
+    "test_outputs.py": (
+        "test_a_full_disk_changes_nothing",
+        "test_a_signal_mid_write_leaves_the_previous_output",
+        "test_the_next_run_removes_what_a_killed_run_left_and_nothing_else",
+    ),
+    "test_pipeline.py": (
+        "test_fit_recovers_the_thrust_scale_and_a_good_model",
+        "test_fit_report_json",
+        "test_replay_backends_agree_and_output_has_every_row",
+    ),
+    "test_quality.py": (
+        "test_a_gap_recovers_in_the_generated_c",
+        "test_backends_agree_on_every_status_bit_at_max_dt",
+        "test_quality_bits_and_sigma_agree_in_c",
+        "test_sigma_with_observer_noise_agrees_in_c",
+    ),
+    "test_real_data.py": (
+        "test_neural_fly_runs_against_a_convex_law",
+        "test_neural_fly_wind_direction",
+    ),
+    "test_report.py": (
+        "test_report_is_self_contained_and_complete",
+        "test_report_opens_in_headless_chromium_without_errors",
+    ),
+    "test_rosbag.py": (
+        "test_bag_replay_equals_the_equivalent_csv",
+        "test_px4_1_16_topic_names_with_v1_are_found",
+        "test_px4_bag_with_vehicle_local_position_instead_of_odometry",
+        "test_topic_names_are_overridable",
+    ),
+    "test_sampler_robust.py": (
+        "test_fit_of_a_log_whose_first_rows_are_invalid",
+        "test_fit_with_a_log_without_a_valid_row",
+        "test_invalid_leading_rows_are_as_if_absent_whole_and_streamed",
+        "test_the_streamed_fit_of_a_log_with_invalid_first_rows_is_the_whole_log_fit",
+    ),
+    "test_selfcheck.py": (
+        "test_a_good_fit_passes_and_its_replay_matches_replay",
+        "test_a_log_that_contributes_nothing_fails_and_nothing_is_written",
+        "test_fit_records_the_observer_noise_of_its_own_replay",
+    ),
+    "test_selftest.py": (
+        "test_a_nan_wind_direction_fails_the_selftest",
+        "test_the_unpatched_selftest_passes",
+    ),
+    "test_simulate_stream.py": (
+        "test_blocks_join_to_the_single_pass_log",
+    ),
+    "test_stream.py": (
+        "test_library_cache_reuses_one_build_and_survives_concurrent_misses",
+        "test_streamed_replay_is_the_single_pass_bit_for_bit",
+    ),
+    "test_structure.py": (
+        "test_no_function_over_60_lines",
+    ),
+}
+FUZZ_FILES = ("test_cli_fuzz.py", "test_cli_fuzz_generated.py")
+# What in a test module's source says it runs a tool besides Python.
+NEEDS: dict[str, tuple[str, ...]] = {
+    "needs_arm": (
+    ),
+    "needs_browser": (
+    ),
+    "needs_cc": ("compile", "build_shared_library", "_compiler(", "CStep", "backend=\"c\"", "--backend\", \"c"),
+}
+MARKERS = {
+    "slow": "over 2 s on a loaded two-core machine (skipped by make test-fast)",
+    "fuzz": "a seeded command-line fuzz case (skipped by make test-fast)",
+    "needs_cc": "builds C with the host compiler",
+    "needs_arm": "builds C with arm-none-eabi-gcc",
+    "needs_browser": "opens a page in headless chromium",
+}
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    for name, text in MARKERS.items():
+        config.addinivalue_line("markers", f"{name}: {text}")
+
+
+@lru_cache(maxsize=None)
+def _needs(path: Path) -> tuple[str, ...]:
+    text = path.read_text(encoding="utf-8")
+    return tuple(marker for marker, words in NEEDS.items() if any(word in text for word in words))
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    for item in items:
+        path = Path(str(item.path))
+        name = item.name.split("[", 1)[0]
+        if name in SLOW.get(path.name, ()):
+            item.add_marker(pytest.mark.slow)
+        if path.name in FUZZ_FILES:
+            item.add_marker(pytest.mark.fuzz)
+        for marker in _needs(path):
+            item.add_marker(getattr(pytest.mark, marker))
