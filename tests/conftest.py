@@ -165,10 +165,8 @@ SLOW: dict[str, tuple[str, ...]] = {
 FUZZ_FILES = ("test_cli_fuzz.py", "test_cli_fuzz_generated.py")
 # What in a test module's source says it runs a tool besides Python.
 NEEDS: dict[str, tuple[str, ...]] = {
-    "needs_arm": (
-    ),
-    "needs_browser": (
-    ),
+    "needs_arm": ("arm-none-eabi",),
+    "needs_browser": ("chromium",),
     "needs_cc": ("compile", "build_shared_library", "_compiler(", "CStep", "backend=\"c\"", "--backend\", \"c"),
 }
 MARKERS = {
