@@ -45,7 +45,7 @@ class GapPolicy:
     topic is judged by its own typical (median) interval: a gap is a silence longer than ``intervals``
     of them, never shorter than the airframe's max_dt (a fast topic keeps today's tolerance) and never
     longer than ``ceiling_s`` (velocity interpolated across longer silences hides a manoeuvre)."""
-    intervals: float = 3.0
+    intervals: float = 4.0  # up to three lost messages in a row: real logs drop a few (SD-card writes)
     ceiling_s: float = 0.5
 
     def tolerance(self, t_src: np.ndarray, max_dt_s: float) -> float:
