@@ -270,7 +270,7 @@ def _replay_ulog(args: argparse.Namespace, af) -> int:
     summary = autopilot_summary(af.name, str(args.log), args.backend, model, flight, traj)
     with OutputFiles(_replay_targets(args)) as out:
         if args.output is not None:
-            write_output(out.stage(args.output), log, traj)
+            write_output(out.stage(args.output), log, traj, flight.t0_s)
         if args.px4_wind is not None:
             from dobwind.autopilot import px4_wind_rows, write_px4_wind
 

@@ -72,6 +72,7 @@ def replay_stream(af: Airframe, log_path: str, backend: str = "python", precisio
     kept: list[tuple[np.ndarray, ...]] = []
     previous_t: float | None = None
     truth = None
+    estimated = False  # an accepted row was written: later rows keep the step's held estimate
     for chunk in iter_log(log_path, required_columns(af), block_bytes, progress):
         log = chunk.log
         traj = runner.run(step_inputs(model, log, previous_t))
@@ -82,7 +83,8 @@ def replay_stream(af: Airframe, log_path: str, backend: str = "python", precisio
         counts["rows"] += log.rows
         counts["rejected_rows"] += int((~accepted(traj.status)).sum())
         if writer is not None:
-            writer.write(estimate_rows(log.time_s, traj.outputs, traj.status))
+            writer.write(estimate_rows(log.time_s, traj.outputs, traj.status, estimated))
+        estimated = estimated or bool(accepted(traj.status).any())
         if keep_series:
             kept.append((log.time_s, wind, truth))
     series = None
@@ -154,8 +156,9 @@ def text_report(metrics: dict) -> str:
     return "\n".join(lines)
 
 
-def write_output(path: str, log: FlightLog, traj: Trajectory) -> None:
-    write_estimates(path, log.time_s, traj.outputs, traj.status)
+def write_output(path: str, log: FlightLog, traj: Trajectory, t0_s: float = 0.0) -> None:
+    """The estimate CSV; ``t0_s`` puts `t` on the log's own clock (AutopilotFlight.t0_s)."""
+    write_estimates(path, log.time_s, traj.outputs, traj.status, t0_s)
 
 
 replay_autopilot = replay_ulog  # every autopilot format goes through the same path

@@ -85,7 +85,7 @@ def uniform_clock(path: str, spans: list[np.ndarray], rate_hz: float) -> np.ndar
     stop = min(float(t[-1]) for t in spans)
     if not stop > start:
         raise InputError(path, None, "the needed topics do not overlap in time")
-    n = int(np.floor((stop - start) * rate_hz + 1e-6)) + 1
+    n = int(np.floor((stop - start) * rate_hz + 1e-3)) + 1  # a last instant within a microsecond of stop counts
     clock = np.round((start + np.arange(n) / rate_hz) * 1e6) * 1e-6
     clock = clock[clock <= stop]
     if len(clock) < 2:
