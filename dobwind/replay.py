@@ -107,7 +107,28 @@ def replay_ulog(af: Airframe, path: str, backend: str = "python", precision: str
     # Rows that were not fed carry only replay's reasons, not the step's reaction to their NaN inputs.
     skipped = np.where(flight.no_data, STATUS_NO_DATA, 0) | np.where(flight.landed, STATUS_LANDED, 0)
     status = np.where(skipped != 0, skipped, traj.status)
+    flight, status = _plausibility(af, model, path, flight, traj.outputs, status)
     return model, flight, Trajectory(traj.states, traj.outputs, status)
+
+
+def _plausibility(af: Airframe, model: StepModel, path: str, flight, outputs: np.ndarray, status: np.ndarray):
+    """Replay's plausibility checks (dobwind.plausibility): SUSPECT on the rows concerned, a warning
+    (stderr) and a note per finding."""
+    import dataclasses
+
+    from dobwind.plausibility import FlightSeries, check_flight, mark
+
+    log = flight.log
+    series = FlightSeries(log.time_s, log.stack("vel_n", "vel_e", "vel_d"), outputs[:, model.outputs.slice("force_ned")],
+                          outputs[:, model.outputs.slice("wind_ned")], status)
+    findings = check_flight(af, series)
+    if not findings:
+        return flight, status
+    return dataclasses.replace(
+        flight, findings=tuple(findings),
+        notes=flight.notes + tuple(f"plausibility ({f.check}): {f.message}: status SUSPECT on {int(f.rows.sum())} "
+                                   "rows" for f in findings),
+        warnings=flight.warnings + tuple(f"{path}: {f.message}" for f in findings)), mark(status, findings)
 
 
 def autopilot_summary(name: str, log_path: str, backend: str, model: StepModel, flight, traj: Trajectory) -> dict:
@@ -125,6 +146,7 @@ def autopilot_summary(name: str, log_path: str, backend: str, model: StepModel, 
                "status_counts": {describe(int(s)): int((traj.status == s).sum()) for s in np.unique(traj.status)},
                "mean_wind_speed_h_mps": float(np.mean(np.hypot(wind[valid, 0], wind[valid, 1]))) if valid.any() else None,
                "outputs_finite": bool(np.all(np.isfinite(traj.outputs)))}
+    summary["plausibility"] = [f.as_dict() for f in flight.findings]
     if flight.px4_wind is not None:
         summary["px4"] = compare_with_px4(log.time_s, wind, valid, flight.px4_wind)
     return summary

@@ -30,6 +30,7 @@ class AutopilotFlight:
     notes: tuple[str, ...]
     t0_s: float = 0.0                       # the log's own clock at row 0 (log.time_s starts at 0)
     warnings: tuple[str, ...] = ()          # said on stderr too: the user must not miss them
+    findings: tuple = ()                    # replay's plausibility findings (dobwind.plausibility.Finding)
 
     @property
     def px4_wind(self) -> tuple[str, np.ndarray, np.ndarray] | None:  # the name the ULog path had first

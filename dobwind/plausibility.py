@@ -1,0 +1,159 @@
+"""Replay's plausibility checks: what a wrong airframe betrays in a flight (the SUSPECT status bit).
+
+An airframe that is not this vehicle (wrong mass, wrong rotor coefficients, a hover throttle scaled
+wrongly) still gives an estimate: a confident number of metres per second. These checks look at the
+replayed flight as a whole and say so instead, on stderr and in the notes, and set STATUS_SUSPECT
+(model/status.py) on the rows concerned, or on every row when the finding is about the whole flight.
+
+- hover force balance: at near-hover (slow, level flight), the external force the observer finds
+  must be small against the weight. ``1 + (f_d - offset_d) / (m g)`` is the thrust the airframe
+  computes as a fraction of the weight (hover in NED: 0 = m g - T + f_d); its median beyond
+  ``hover_thrust_tolerance`` of 1 means the thrust model, the mass or the hover throttle is not this
+  vehicle's. Whole flight.
+- sustained vertical wind: the mean settled (not SETTLING) vertical wind over ``vertical_window_s``
+  beyond ``vertical_wind_mps``. Thermals and rotor wash near obstacles reach 1-2 m/s for seconds; metres per
+  second sustained over many seconds at multirotor heights is a vertical force the airframe misreads.
+  The rows of those windows.
+- horizontal force beyond the calibrated envelope: the step's EXTRAPOLATED bit on more than
+  ``extrapolated_share`` of the airborne estimates means the fit never saw forces like this flight's.
+  The extrapolated rows.
+- wind speed beyond any plausible figure: horizontal wind above ``wind_speed_max_mps`` (no multirotor
+  holds position in such a wind; such a number is the airframe's, not the air's). Those rows.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from dobwind.model.airframe import Airframe
+from dobwind.model.status import STATUS_BITS, STATUS_SUSPECT, accepted
+
+EXTRAPOLATED = next(bit.value for bit in STATUS_BITS if bit.name == "EXTRAPOLATED")
+SETTLING = next(bit.value for bit in STATUS_BITS if bit.name == "SETTLING")
+
+
+@dataclass(frozen=True)
+class PlausibilityLimits:
+    hover_thrust_tolerance: float = 0.25   # |T / (m g) - 1| at near-hover beyond this: the airframe is not this vehicle
+    hover_speed_mps: float = 1.0           # near-hover: horizontal ground speed below this ...
+    hover_climb_mps: float = 0.5           # ... and vertical speed below this
+    hover_min_s: float = 3.0               # the balance is judged only over at least this much near-hover time
+    vertical_wind_mps: float = 2.0         # sustained mean |vertical wind| beyond this ...
+    vertical_window_s: float = 10.0        # ... over this long a window
+    extrapolated_share: float = 0.5        # share of airborne estimates outside the calibrated envelope
+    wind_speed_max_mps: float = 30.0       # horizontal wind beyond this is not air
+
+
+DEFAULT_LIMITS = PlausibilityLimits()
+
+
+@dataclass(frozen=True)
+class Finding:
+    check: str           # hover_thrust, vertical_wind, envelope, wind_speed
+    message: str         # what is wrong, in a sentence (stderr, notes)
+    value: float         # the measured figure (ratio, m/s, share)
+    limit: float         # the threshold it crossed
+    rows: np.ndarray     # rows that get SUSPECT
+
+    def as_dict(self) -> dict:
+        return {"check": self.check, "message": self.message, "value": self.value, "limit": self.limit,
+                "rows": int(self.rows.sum())}
+
+
+@dataclass(frozen=True)
+class FlightSeries:
+    """What the checks read, one row per replayed instant."""
+    t: np.ndarray
+    vel: np.ndarray       # ground velocity NED (NaN where not fed)
+    force: np.ndarray     # the step's filtered external force NED
+    wind: np.ndarray      # wind NED
+    status: np.ndarray    # after replay's own bits (NO_DATA, LANDED)
+
+
+def check_flight(af: Airframe, s: FlightSeries, limits: PlausibilityLimits = DEFAULT_LIMITS) -> list[Finding]:
+    ok = accepted(s.status)
+    if not ok.any():
+        return []
+    found = [_hover_balance(af, s, ok, limits), _vertical_wind(s, ok, limits), _envelope(s, ok, limits),
+             _wind_speed(s, ok, limits)]
+    return [f for f in found if f is not None]
+
+
+def _dt(t: np.ndarray) -> float:
+    return float(np.median(np.diff(t))) if len(t) > 1 else 1.0
+
+
+def _hover_balance(af: Airframe, s: FlightSeries, ok: np.ndarray, limits: PlausibilityLimits) -> Finding | None:
+    with np.errstate(invalid="ignore"):
+        hover = (ok & (np.hypot(s.vel[:, 0], s.vel[:, 1]) < limits.hover_speed_mps)
+                 & (np.abs(s.vel[:, 2]) < limits.hover_climb_mps))
+    if hover.sum() * _dt(s.t) < limits.hover_min_s:
+        return None
+    weight = af.mass_kg * af.gravity_mps2
+    ratio = 1.0 + float(np.median(s.force[hover, 2] - af.observer.force_offset_n[2])) / weight
+    if abs(ratio - 1.0) <= limits.hover_thrust_tolerance:
+        return None
+    return Finding("hover_thrust", f"the airframe's thrust is {ratio:.2f}x the weight at hover (median over "
+                   f"{hover.sum() * _dt(s.t):.0f} s of near-hover; tolerance +-{limits.hover_thrust_tolerance:g}): "
+                   "the airframe does not fit this vehicle (mass, thrust model or hover throttle)",
+                   ratio, limits.hover_thrust_tolerance, np.ones(len(s.t), dtype=bool))
+
+
+def _window_mean(t: np.ndarray, x: np.ndarray, valid: np.ndarray, window_s: float) -> np.ndarray:
+    """Mean of x over the valid rows within +-window/2 of each row (NaN where none)."""
+    xs = np.where(valid, x, 0.0)
+    csum, cnt = np.r_[0.0, np.cumsum(xs)], np.r_[0, np.cumsum(valid)]
+    lo = np.searchsorted(t, t - window_s / 2, side="left")
+    hi = np.searchsorted(t, t + window_s / 2, side="right")
+    n = cnt[hi] - cnt[lo]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(n > 0, (csum[hi] - csum[lo]) / np.maximum(n, 1), np.nan)
+
+
+def _vertical_wind(s: FlightSeries, ok: np.ndarray, limits: PlausibilityLimits) -> Finding | None:
+    if s.t[-1] - s.t[0] < limits.vertical_window_s:
+        return None
+    up = -s.wind[:, 2]
+    # Settled estimates only: a take-off transient while the filters catch up is not a sustained wind.
+    settled = ok & ((s.status.astype(np.int64) & SETTLING) == 0) & np.isfinite(up)
+    mean = _window_mean(s.t, up, settled, limits.vertical_window_s)
+    with np.errstate(invalid="ignore"):
+        rows = settled & (np.abs(mean) > limits.vertical_wind_mps)
+    if not rows.any():
+        return None
+    worst = float(np.nanmax(np.abs(mean[rows])))
+    direction = "updraft" if np.nanmean(mean[rows]) > 0 else "downdraft"
+    return Finding("vertical_wind", f"a sustained {direction} of up to {worst:.1f} m/s (mean over "
+                   f"{limits.vertical_window_s:g} s; limit {limits.vertical_wind_mps:g} m/s) on {rows.sum()} rows: "
+                   "a vertical force the airframe misreads", worst, limits.vertical_wind_mps, rows)
+
+
+def _envelope(s: FlightSeries, ok: np.ndarray, limits: PlausibilityLimits) -> Finding | None:
+    outside = ok & ((s.status.astype(np.int64) & EXTRAPOLATED) != 0)
+    share = float(outside.sum() / ok.sum())
+    if share <= limits.extrapolated_share:
+        return None
+    return Finding("envelope", f"{100 * share:.0f} % of the airborne estimates are outside the calibrated envelope "
+                   f"(EXTRAPOLATED; limit {100 * limits.extrapolated_share:.0f} %): the fit never saw forces like "
+                   "this flight's", share, limits.extrapolated_share, outside)
+
+
+def _wind_speed(s: FlightSeries, ok: np.ndarray, limits: PlausibilityLimits) -> Finding | None:
+    speed = np.hypot(s.wind[:, 0], s.wind[:, 1])
+    with np.errstate(invalid="ignore"):
+        rows = ok & (speed > limits.wind_speed_max_mps)
+    if not rows.any():
+        return None
+    worst = float(np.max(speed[rows]))
+    return Finding("wind_speed", f"a horizontal wind of up to {worst:.0f} m/s on {rows.sum()} rows (limit "
+                   f"{limits.wind_speed_max_mps:g} m/s): no multirotor flies in that, the airframe does not fit",
+                   worst, limits.wind_speed_max_mps, rows)
+
+
+def mark(status: np.ndarray, findings: list[Finding]) -> np.ndarray:
+    """status with STATUS_SUSPECT on every row a finding names."""
+    rows = np.zeros(len(status), dtype=bool)
+    for f in findings:
+        rows |= f.rows
+    return np.where(rows, status | STATUS_SUSPECT, status)
