@@ -279,7 +279,10 @@ def _replay_ulog(args: argparse.Namespace, af) -> int:
         if args.plot is not None:
             from dobwind.plots import replay_plot
 
-            others = [] if flight.px4_wind is None else [(f"PX4 ({flight.px4_wind[0]})", flight.px4_wind[1], flight.px4_wind[2])]
+            from dobwind.resample import active_reference
+
+            ref = None if flight.px4_wind is None else active_reference(f"PX4 ({flight.px4_wind[0]})", flight.px4_wind)
+            others = [] if ref is None else [ref]
             replay_plot(log.time_s, np.where(valid[:, None], wind, np.nan), None,
                         f"{af.name}: wind estimated over {os.path.basename(args.log)}",
                         str(out.stage(args.plot)), others)
@@ -292,13 +295,10 @@ def _replay_ulog(args: argparse.Namespace, af) -> int:
         print(f"  note: {note}")
     if summary["mean_wind_speed_h_mps"] is not None:
         print(f"mean horizontal wind {summary['mean_wind_speed_h_mps']:.2f} m/s")
-    px4 = summary.get("px4")
-    label = px4["topic"] if px4 and " " in px4["topic"] else f"PX4 {px4['topic']}" if px4 else ""  # ArduPilot/ROS name themselves
-    if px4 and px4.get("overlap_rows"):
-        print(f"{label}: mean vector difference {px4['mean_vector_difference_mps']:.2f} m/s, mean speed "
-              f"difference (ours - PX4) {px4['mean_speed_difference_mps']:+.2f} m/s over {px4['overlap_rows']} instants")
-    elif px4:
-        print(f"{label}: no overlap with valid estimates")
+    from dobwind.replay import autopilot_wind_lines
+
+    for line in autopilot_wind_lines(summary.get("px4")):
+        print(line)
     return 0
 
 

@@ -148,8 +148,26 @@ def autopilot_summary(name: str, log_path: str, backend: str, model: StepModel, 
                "outputs_finite": bool(np.all(np.isfinite(traj.outputs)))}
     summary["plausibility"] = [f.as_dict() for f in flight.findings]
     if flight.px4_wind is not None:
-        summary["px4"] = compare_with_px4(log.time_s, wind, valid, flight.px4_wind)
+        summary["px4"] = compare_with_px4(log.time_s, wind, valid, flight.px4_wind, flight.autopilot_wind_variance)
     return summary
+
+
+def autopilot_wind_lines(px4: dict | None) -> list[str]:
+    """The text lines comparing with the autopilot's own wind (compare_with_px4's dict)."""
+    if not px4:
+        return []
+    label = px4["topic"] if " " in px4["topic"] else f"PX4 {px4['topic']}"  # ArduPilot/ROS name themselves
+    if px4.get("active") is False:
+        return [f"{label}: all zero, the autopilot was not estimating wind (no comparison)"]
+    if not px4.get("overlap_rows"):
+        return [f"{label}: no overlap with valid estimates"]
+    lines = [f"{label}: mean vector difference {px4['mean_vector_difference_mps']:.2f} m/s (difference of the means "
+             f"{px4['difference_of_means_mps']:.2f} m/s), mean speed difference (ours - theirs) "
+             f"{px4['mean_speed_difference_mps']:+.2f} m/s over {px4['overlap_rows']} instants"]
+    if "sigma_h_mps" in px4:
+        lines.append(f"  its own variances there: north {px4['variance_north_m2s2']:.3g}, east {px4['variance_east_m2s2']:.3g} "
+                     f"m²/s² (horizontal 1-sigma {px4['sigma_h_mps']:.2f} m/s)")
+    return lines
 
 
 def text_report(metrics: dict) -> str:

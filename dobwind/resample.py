@@ -31,6 +31,7 @@ class AutopilotFlight:
     t0_s: float = 0.0                       # the log's own clock at row 0 (log.time_s starts at 0)
     warnings: tuple[str, ...] = ()          # said on stderr too: the user must not miss them
     findings: tuple = ()                    # replay's plausibility findings (dobwind.plausibility.Finding)
+    autopilot_wind_variance: np.ndarray | None = None  # (north, east) variances, m²/s², per autopilot_wind row
 
     @property
     def px4_wind(self) -> tuple[str, np.ndarray, np.ndarray] | None:  # the name the ULog path had first
@@ -92,6 +93,21 @@ def uniform_clock(path: str, spans: list[np.ndarray], rate_hz: float) -> np.ndar
     if len(clock) < 2:
         raise InputError(path, None, "fewer than two instants to resample onto")
     return clock
+
+
+def wind_active(wind: np.ndarray) -> np.ndarray:
+    """Samples where the autopilot actually estimates wind. PX4 publishes its wind topics with exactly
+    zero north and east while the EKF does not fuse drag or airspeed (the states stay at their initial
+    0), so an all-zero sample is "inactive", not a calm: no estimate ever lands on exactly 0.0 in both."""
+    return (wind[:, 0] != 0.0) | (wind[:, 1] != 0.0)
+
+
+def active_reference(label: str, wind: tuple[str, np.ndarray, np.ndarray] | None):
+    """(label, t, wind NED) of the autopilot's wind for a plot, NaN where it is inactive (drawn only
+    where the autopilot estimates); None when it never is."""
+    if wind is None or not wind_active(wind[2]).any():
+        return None
+    return label, wind[1], np.where(wind_active(wind[2])[:, None], wind[2], np.nan)
 
 
 def gaps(t_src: np.ndarray, t_dst: np.ndarray, max_gap: float) -> np.ndarray:
