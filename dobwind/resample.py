@@ -107,7 +107,10 @@ def active_reference(label: str, wind: tuple[str, np.ndarray, np.ndarray] | None
     where the autopilot estimates); None when it never is."""
     if wind is None or not wind_active(wind[2]).any():
         return None
-    return label, wind[1], np.where(wind_active(wind[2])[:, None], wind[2], np.nan)
+    shown = np.where(wind_active(wind[2])[:, None], wind[2], np.nan)
+    if np.all(wind[2][:, 2] == 0.0):  # PX4 and ArduPilot estimate no vertical wind: no line at a fake 0
+        shown[:, 2] = np.nan
+    return label, wind[1], shown
 
 
 def gaps(t_src: np.ndarray, t_dst: np.ndarray, max_gap: float) -> np.ndarray:
