@@ -455,7 +455,7 @@ def _add_replay(command: _Command) -> None:
     p.add_argument("--precision", choices=("single", "double"), default="single", help="C backend precision")
     p.add_argument("--rate", type=opt.ULOG_RATE,
                    help=f"autopilot logs only: resample at this rate, Hz ({opt.ULOG_RATE.text()}) (default: none, "
-                   "the attitude's clock)")
+                   "the airframe's observer rate, 1/observer.sample_time)")
     p.add_argument("--px4-wind", help="autopilot logs: also write the estimate as PX4's wind message holds it "
                    "(timestamp, north/east wind and their variances) to this CSV (default: none)")
     p.add_argument("--topic", action="append", metavar="ROLE=NAME",
