@@ -277,15 +277,10 @@ def _replay_ulog(args: argparse.Namespace, af) -> int:
             sigma = traj.outputs[:, model.outputs.slice("wind_sigma_h")][:, 0]
             write_px4_wind(out.stage(args.px4_wind), px4_wind_rows(flight, wind, sigma, traj.status, valid))
         if args.plot is not None:
-            from dobwind.plots import replay_plot
+            from dobwind.replay import autopilot_plot
 
-            from dobwind.resample import active_reference
-
-            ref = None if flight.px4_wind is None else active_reference(f"PX4 ({flight.px4_wind[0]})", flight.px4_wind)
-            others = [] if ref is None else [ref]
-            replay_plot(log.time_s, np.where(valid[:, None], wind, np.nan), None,
-                        f"{af.name}: wind estimated over {os.path.basename(args.log)}",
-                        str(out.stage(args.plot)), others)
+            autopilot_plot(str(out.stage(args.plot)), f"{af.name}: wind estimated over {os.path.basename(args.log)}",
+                           flight, wind, traj.status)
     if args.json:
         _print_json(summary)
         return 0

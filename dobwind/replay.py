@@ -152,6 +152,20 @@ def autopilot_summary(name: str, log_path: str, backend: str, model: StepModel, 
     return summary
 
 
+def autopilot_plot(path: str, title: str, flight, wind: np.ndarray, status: np.ndarray) -> None:
+    """replay --plot for an autopilot log: on the log's own clock, status shading, the autopilot's wind
+    only where it is active."""
+    from dobwind.plots import replay_plot
+    from dobwind.resample import active_reference
+
+    ref = None
+    if flight.autopilot_wind is not None:
+        source, t_ref, w_ref = flight.autopilot_wind
+        ref = active_reference(source if " " in source else f"PX4 ({source})", (source, t_ref + flight.t0_s, w_ref))
+    replay_plot(flight.log.time_s + flight.t0_s, np.where(accepted(status)[:, None], wind, np.nan), None, title, path,
+                [] if ref is None else [ref], status=status)
+
+
 def autopilot_wind_lines(px4: dict | None) -> list[str]:
     """The text lines comparing with the autopilot's own wind (compare_with_px4's dict)."""
     if not px4:
