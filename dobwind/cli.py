@@ -204,12 +204,17 @@ def cmd_replay(args: argparse.Namespace) -> int:
         raise InputError(args.log, "--px4-wind", "only applies to autopilot logs (.ulg, .bin, ROS 2 bags)")
     result = _replay_csv(args, af)
     metrics = result.metrics
+    for finding in result.findings:
+        sys.stderr.write(f"dobwind replay: warning: {args.log}: {finding.message}\n")
     if args.json:
-        _print_json({"airframe": af.name, "log": str(args.log), "backend": args.backend, **metrics})
+        _print_json({"airframe": af.name, "log": str(args.log), "backend": args.backend, **metrics,
+                     "plausibility": [f.as_dict() for f in result.findings]})
     elif result.scored:
         print(text_report(metrics))
     else:
         print(f"rows {metrics['rows']}, rejected {metrics['rejected_rows']} (no true wind in the log to score against)")
+    for finding in [] if args.json else result.findings:
+        print(f"  note: plausibility ({finding.check}): {finding.message} (a streamed CSV log: not marked SUSPECT)")
     return 0
 
 

@@ -52,6 +52,7 @@ class Streamed:
     metrics: dict                 # replay's metrics (rows and rejected rows when the log has no true wind)
     scored: bool                  # the log had true wind
     series: WindSeries | None     # time, estimate, truth and status of every row, when asked for (plots)
+    findings: tuple = ()          # plausibility findings (dobwind.plausibility), warnings only: rows are written
 
 
 @dataclass(frozen=True)
@@ -73,9 +74,15 @@ def replay_stream(af: Airframe, log_path: str, backend: str = "python", precisio
     previous_t: float | None = None
     truth = None
     estimated = False  # an accepted row was written: later rows keep the step's held estimate
+    from dobwind.plausibility import FlightSeries, StreamedChecks
+
+    checks = StreamedChecks(af)
     for chunk in iter_log(log_path, required_columns(af), block_bytes, progress):
         log = chunk.log
         traj = runner.run(step_inputs(model, log, previous_t))
+        checks.add(FlightSeries(log.time_s, log.stack("vel_n", "vel_e", "vel_d"),
+                                traj.outputs[:, model.outputs.slice("force_ned")],
+                                traj.outputs[:, model.outputs.slice("wind_ned")], traj.status))
         previous_t = float(log.time_s[-1])
         wind, truth = traj.outputs[:, model.outputs.slice("wind_ned")], log.true_wind
         if truth is not None:
@@ -91,7 +98,8 @@ def replay_stream(af: Airframe, log_path: str, backend: str = "python", precisio
     if keep_series:
         series = WindSeries(np.concatenate([k[0] for k in kept]), np.concatenate([k[1] for k in kept]),
                             None if truth is None else np.concatenate([k[2] for k in kept]))
-    return Streamed(model, scorer.result() if truth is not None else counts, truth is not None, series)
+    return Streamed(model, scorer.result() if truth is not None else counts, truth is not None, series,
+                    tuple(checks.findings()))
 
 
 def replay_ulog(af: Airframe, path: str, backend: str = "python", precision: str = "single",

@@ -256,3 +256,42 @@ def test_report_on_a_dataflash_log(tmp_path, capsys):
     assert main(["report", str(M300), str(path), "-o", str(out)]) == 0
     page = out.read_text()
     assert "ArduPilot XKF2" in page and "data:image/png;base64," in page and "mean_vector_difference_mps" in page
+
+
+def test_csv_replay_warns_about_a_wrong_airframe_without_marking_rows(tmp_path, capsys):
+    """A streamed CSV log: the same checks (streamed form), a warning and a note, no rows rewritten."""
+    from dobwind.logs import write_csv
+    from dobwind.simulate import column_order
+
+    _, cols = _flight()
+    names = column_order(cols)
+    log = tmp_path / "f.csv"
+    write_csv(log, names, np.column_stack([cols[n] for n in names]), ["%.9g"] * len(names))
+    assert main(["replay", str(M300), str(log), "--json"]) == 0
+    captured = capsys.readouterr()
+    assert json.loads(captured.out)["plausibility"] == [] and captured.err == ""
+    heavy = _airframe(tmp_path, **{"mass = 8.0": "mass = 12.0"})
+    out = tmp_path / "est.csv"
+    assert main(["replay", str(heavy), str(log), "--json", "-o", str(out)]) == 0
+    captured = capsys.readouterr()
+    found = {f["check"]: f for f in json.loads(captured.out)["plausibility"]}
+    assert found["hover_thrust"]["value"] == pytest.approx(8.0 / 12.0, abs=0.05)
+    assert f"{log}: the airframe's thrust is 0.6" in captured.err
+    assert not np.any(np.genfromtxt(out, delimiter=",", names=True)["status"].astype(int) & STATUS_SUSPECT)
+
+
+def test_streamed_checks_agree_with_the_whole_flight_checks():
+    from dobwind.plausibility import StreamedChecks
+
+    af = load_airframe(M300)
+    weight = af.mass_kg * af.gravity_mps2
+    whole = _series(n=6000, force_d=0.4 * weight, wind_up=3.5, wind_n=35.0)
+    streamed = StreamedChecks(af)
+    for start in range(0, 6000, 1700):  # chunks that do not line up with the 10 s windows
+        part = slice(start, start + 1700)
+        streamed.add(FlightSeries(whole.t[part], whole.vel[part], whole.force[part], whole.wind[part], whole.status[part]))
+    a = {f.check: f for f in check_flight(af, whole)}
+    b = {f.check: f for f in streamed.findings()}
+    assert set(a) == set(b) == {"hover_thrust", "vertical_wind", "wind_speed"}
+    assert b["hover_thrust"].value == pytest.approx(a["hover_thrust"].value, abs=StreamedChecks.RATIO_BIN)
+    assert b["vertical_wind"].value == pytest.approx(3.5) and b["wind_speed"].as_dict()["rows"] == 6000
