@@ -156,10 +156,12 @@ def _vertical_panel(ax, series: list[Series]) -> None:
 
 
 def replay_plot(t: np.ndarray, wind: np.ndarray, truth: np.ndarray | None, title: str, path: str,
-                others: list[tuple[str, np.ndarray, np.ndarray]] = (), status: np.ndarray | None = None) -> None:
+                others: list[tuple[str, np.ndarray, np.ndarray]] = (), status: np.ndarray | None = None,
+                band: tuple[str, np.ndarray, np.ndarray, np.ndarray] | None = None) -> None:
     """Speed, direction (from) and vertical wind (up) over time; truth and other estimates if given.
     ``others``: (label, time, wind NED) for other estimators; a NaN vertical column means "no vertical".
-    ``status``: per row of t, shades the rows without an estimate (grey) and the untrusted ones (amber)."""
+    ``status``: per row of t, shades the rows without an estimate (grey) and the untrusted ones (amber).
+    ``band``: (label, t, low, high) drawn behind the speed panel (an autopilot's own 1-sigma)."""
     series = _series(t, wind, truth, list(others))
     directions = _directions(series)
     if directions:
@@ -170,6 +172,8 @@ def replay_plot(t: np.ndarray, wind: np.ndarray, truth: np.ndarray | None, title
         title += f"\n(no direction panel: the wind stays below {MIN_DIRECTION_SPEED_MPS:g} m/s)"
     _speed_panel(axes[0], series)
     _vertical_panel(axes[-1], series)
+    if band is not None:
+        axes[0].fill_between(band[1], band[2], band[3], color=STYLES[2][0], alpha=0.2, lw=0, label=band[0])
     if status is not None:
         for i, ax in enumerate(axes):
             _shade_status(ax, t, status, legend=i == 0)

@@ -164,14 +164,24 @@ def autopilot_plot(path: str, title: str, flight, wind: np.ndarray, status: np.n
     """replay --plot for an autopilot log: on the log's own clock, status shading, the autopilot's wind
     only where it is active."""
     from dobwind.plots import replay_plot
-    from dobwind.resample import active_reference
 
-    ref = None
-    if flight.autopilot_wind is not None:
-        source, t_ref, w_ref = flight.autopilot_wind
-        ref = active_reference(source if " " in source else f"PX4 ({source})", (source, t_ref + flight.t0_s, w_ref))
+    ref, band = reference_lines(flight)
     replay_plot(flight.log.time_s + flight.t0_s, np.where(accepted(status)[:, None], wind, np.nan), None, title, path,
-                [] if ref is None else [ref], status=status)
+                [] if ref is None else [ref], status=status, band=band)
+
+
+def reference_lines(flight):
+    """The autopilot's wind for a figure, on the log's clock and only where active, and the band of its
+    own 1-sigma (PX4's variances), each None when there is nothing to draw."""
+    from dobwind.resample import active_reference, speed_band
+
+    if flight.autopilot_wind is None:
+        return None, None
+    source, t_ref, w_ref = flight.autopilot_wind
+    label = source if " " in source else f"PX4 ({source})"
+    ref = active_reference(label, (source, t_ref + flight.t0_s, w_ref))
+    band = speed_band(flight.autopilot_wind, flight.autopilot_wind_variance, flight.t0_s)
+    return ref, None if band is None else (f"{label} +-1 sigma (its variances)", *band)
 
 
 def autopilot_wind_lines(px4: dict | None) -> list[str]:

@@ -40,6 +40,7 @@ class Flight:
     truth: np.ndarray | None    # the log's true wind
     reference: tuple[str, np.ndarray, np.ndarray] | None  # (label, time, NED wind): the autopilot's estimate
     notes: tuple[str, ...]
+    band: tuple | None = None   # (label, time, low, high): the autopilot's own 1-sigma around its speed
 
 
 def _png(path: Path, caption: str) -> Figure:
@@ -127,7 +128,7 @@ def build_figures(af: Airframe, flight: Flight, work: Path) -> tuple[list[Figure
     replay_png = work / "replay.png"
     what = "true wind" if flight.truth is not None else (flight.reference[0] if flight.reference else "no reference")
     replay_plot(flight.time_s, flight.wind, flight.truth, f"{af.name}: estimated wind over {flight.log_name}",
-                str(replay_png), others, status=flight.status)
+                str(replay_png), others, status=flight.status, band=flight.band)
     figures = [_png(replay_png, f"Estimated wind against {what}: horizontal speed, direction (from), vertical (up), on "
                                 "the log's own clock; grey: no estimate, amber: estimated but not trusted")]
     report, systems = analyze(af, ANALYSIS_FREQUENCIES_HZ)
@@ -164,24 +165,20 @@ def load_flight(af: Airframe, log_path: str, backend: str, precision: str) -> tu
 def _autopilot_flight(af: Airframe, log_path: str, name: str, backend: str, precision: str) -> tuple[Flight, None, dict | None]:
     """Any autopilot log (ULog, DataFlash, ROS 2 bag) on its own clock (seconds since boot, TimeUS,
     the bag's clock), the autopilot's wind only where it is active, and the comparison with it."""
-    from dobwind.replay import replay_ulog
-    from dobwind.resample import active_reference
+    from dobwind.replay import reference_lines, replay_ulog
     from dobwind.ulog import compare_with_px4
 
     model, ap, traj = replay_ulog(af, log_path, backend, precision)
     log = ap.log
     wind = traj.outputs[:, model.outputs.slice("wind_ned")]
     valid = accepted(traj.status)
-    reference, comparison = None, None
+    reference, band = reference_lines(ap)
+    comparison = None
     if ap.autopilot_wind is not None:
-        source, t_ref, w_ref = ap.autopilot_wind
-        label = source if " " in source else f"PX4 ({source})"
-        active = active_reference(label, (source, t_ref + ap.t0_s, w_ref))
-        reference = active
         comparison = compare_with_px4(log.time_s, wind, valid, ap.autopilot_wind, ap.autopilot_wind_variance)
     t = log.time_s + ap.t0_s
     flight = Flight(name, log.rows, float(log.time_s[-1] - log.time_s[0]), t, np.where(valid[:, None], wind, np.nan),
-                    traj.status, None, reference, tuple(ap.notes))
+                    traj.status, None, reference, tuple(ap.notes), band)
     return flight, None, comparison
 
 

@@ -113,6 +113,20 @@ def active_reference(label: str, wind: tuple[str, np.ndarray, np.ndarray] | None
     return label, wind[1], shown
 
 
+def speed_band(wind: tuple[str, np.ndarray, np.ndarray] | None, variance: np.ndarray | None,
+               t0_s: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """(t, speed - sigma, speed + sigma) of the autopilot's horizontal wind speed where it is active, the
+    sigma of the speed from its north/east variances (the variance along the wind's direction); None
+    without variances."""
+    if wind is None or variance is None or not wind_active(wind[2]).any():
+        return None
+    on = wind_active(wind[2])
+    n, e = wind[2][on, 0], wind[2][on, 1]
+    speed = np.hypot(n, e)
+    sigma = np.sqrt((variance[on, 0] * n * n + variance[on, 1] * e * e) / np.maximum(speed * speed, 1e-12))
+    return wind[1][on] + t0_s, np.maximum(speed - sigma, 0.0), speed + sigma
+
+
 def gaps(t_src: np.ndarray, t_dst: np.ndarray, max_gap: float) -> np.ndarray:
     """True where t_dst is outside the stream's span or between samples farther apart than max_gap."""
     idx = np.searchsorted(t_src, t_dst, side="right")

@@ -295,3 +295,16 @@ def test_streamed_checks_agree_with_the_whole_flight_checks():
     assert set(a) == set(b) == {"hover_thrust", "vertical_wind", "wind_speed"}
     assert b["hover_thrust"].value == pytest.approx(a["hover_thrust"].value, abs=StreamedChecks.RATIO_BIN)
     assert b["vertical_wind"].value == pytest.approx(4.5) and b["wind_speed"].as_dict()["rows"] == 6000
+
+
+def test_the_autopilots_speed_band_is_its_variance_along_the_wind():
+    from dobwind.resample import speed_band
+
+    t = np.arange(4.0)
+    wind = np.array([[3.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, -2.0, 0.0], [3.0, 4.0, 0.0]])
+    var = np.array([[0.04, 0.09]] * 4)
+    tb, lo, hi = speed_band(("wind", t, wind), var, 10.0)
+    np.testing.assert_array_equal(tb, [10.0, 12.0, 13.0])  # the inactive (all-zero) sample is left out
+    np.testing.assert_allclose(hi - [3.0, 2.0, 5.0], [0.2, 0.3, np.sqrt((0.04 * 9 + 0.09 * 16) / 25)])
+    np.testing.assert_allclose([3.0, 2.0, 5.0] - lo, hi - [3.0, 2.0, 5.0])
+    assert speed_band(("wind", t, wind), None) is None
