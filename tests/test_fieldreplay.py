@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from dobwind.cli import main
-from dobwind.model.airframe import load_airframe, parse_airframe
+from dobwind.model.airframe import load_airframe
 from dobwind.model.status import STATUS_LANDED, STATUS_NO_DATA, STATUS_SUSPECT, accepted
 from dobwind.plausibility import FlightSeries, PlausibilityLimits, check_flight, mark
 from dobwind.replay import replay_ulog
