@@ -308,3 +308,54 @@ def test_the_autopilots_speed_band_is_its_variance_along_the_wind():
     np.testing.assert_allclose(hi - [3.0, 2.0, 5.0], [0.2, 0.3, np.sqrt((0.04 * 9 + 0.09 * 16) / 25)])
     np.testing.assert_allclose([3.0, 2.0, 5.0] - lo, hi - [3.0, 2.0, 5.0])
     assert speed_band(("wind", t, wind), None) is None
+
+
+# --- the real logs (optional: skip without ../shared/data) ---------------------------------------------------
+
+FIELD = M300.parents[1].parent / "shared" / "data"
+
+
+def _real(name: str):
+    path = FIELD / name
+    if not path.exists():
+        pytest.skip(f"{name} is not beside this checkout")
+    return str(path)
+
+
+def test_the_m300_airframe_on_the_px4_sitl_x500_is_suspect(capsys):
+    """The issue's example: 8-32 m/s of updraft from an airframe that is not this vehicle."""
+    log = _real("px4-ulog/sample_px4_events.ulg")
+    assert main(["replay", str(M300), log, "--json"]) == 0
+    captured = capsys.readouterr()
+    summary = json.loads(captured.out)
+    checks = {f["check"] for f in summary["plausibility"]}
+    assert "hover_thrust" in checks and "does not fit this vehicle" in captured.err
+    assert all("SUSPECT" in k for k in summary["status_counts"])
+
+
+def test_px4_drag_fusion_log_is_compared_with_its_variances_and_slow_topics_are_fed(capsys):
+    log = _real("field/px4_quad_dragfusion_esc.ulg")
+    nf_quad = M300.parent / "nf_quad.toml"
+    assert main(["replay", str(nf_quad), log, "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    px4 = summary["px4"]
+    assert px4["topic"] == "wind_estimate" and px4["active"] and px4["overlap_rows"] > 1000
+    assert 0 < px4["variance_north_m2s2"] < 1 and px4["sigma_h_mps"] > 0
+    no_data = sum(v for k, v in summary["status_counts"].items() if "NO_DATA" in k)
+    assert no_data < 0.1 * summary["rows"]  # was 1053 of 1095 rows on vehicle_local_position's 8-10 Hz
+
+
+def test_dataflash_with_the_ekf_at_10_hz_is_fed_everywhere(tmp_path):
+    """ArduPilot logs its EKF (XKF1) at 10 Hz by default: the same policy as ULog, every row fed."""
+    pytest.importorskip("pymavlink")
+    from dobwind.replay import replay_autopilot
+    from tests.dataflash_writer import write_dataflash
+    from tests.test_dataflash import MESSAGES, _flight as df_flight, _rows as df_rows
+
+    af, cols = df_flight()  # 50 Hz, uniform
+    rows = [(n, v) for n, v in df_rows(af, cols) if n != "XKF1" or (v["TimeUS"] - 1_000_000) % 100_000 == 0]
+    model, flight, traj = replay_autopilot(af, str(write_dataflash(tmp_path / "slow.bin", MESSAGES, rows)))
+    t = flight.log.time_s
+    assert not (traj.status & STATUS_NO_DATA).any()
+    assert np.all(traj.status[t > model.settling_time_s + 0.05] == 0)
+    assert any("XKF1 10.0 Hz" in n for n in flight.notes)
