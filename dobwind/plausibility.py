@@ -110,6 +110,8 @@ def _dt(t: np.ndarray) -> float:
 
 
 def _hover_balance(af: Airframe, s: FlightSeries, ok: np.ndarray, limits: PlausibilityLimits) -> Finding | None:
+    # SETTLING rows count: a short hop has little settled hover, and the observer's start from zero force
+    # only pulls the median towards a balance of 1 (fewer findings, never a false one).
     with np.errstate(invalid="ignore"):
         hover = (ok & (np.hypot(s.vel[:, 0], s.vel[:, 1]) < limits.hover_speed_mps)
                  & (np.abs(s.vel[:, 2]) < limits.hover_climb_mps))
