@@ -149,7 +149,8 @@ def autopilot_summary(name: str, log_path: str, backend: str, model: StepModel, 
     wind = traj.outputs[:, model.outputs.slice("wind_ned")]
     valid = accepted(traj.status)  # quality-flagged samples are estimates too; status_counts shows the flags
     summary = {"airframe": name, "log": log_path, "backend": backend, "rows": log.rows,
-               "valid_rows": int(valid.sum()), "duration_s": float(log.time_s[-1]), "notes": list(flight.notes),
+               "valid_rows": int(valid.sum()), "duration_s": float(log.time_s[-1]), "log_t0_s": flight.t0_s,
+               "notes": list(flight.notes),
                "warnings": list(flight.warnings),
                "status_counts": {describe(int(s)): int((traj.status == s).sum()) for s in np.unique(traj.status)},
                "mean_wind_speed_h_mps": float(np.mean(np.hypot(wind[valid, 0], wind[valid, 1]))) if valid.any() else None,

@@ -1,7 +1,8 @@
 """`dobwind report AIRFRAME LOG -o report.html`: one self-contained HTML page for a flight.
 
 The airframe's summary, the estimate against the log's true wind (or against the autopilot's own wind
-estimate in a ULog), the error tables, the status counts by flag, and the analysis figures. Figures are
+estimate, where it is active, in a ULog, DataFlash log or ROS 2 bag, on the log's own clock), the error
+tables, the status counts by flag, and the analysis figures. Figures are
 PNGs inlined as base64 data URIs and the style is inline, so the file opens anywhere with no server and
 no network (in the spirit of PX4 Flight Review, which needs both)."""
 from __future__ import annotations
