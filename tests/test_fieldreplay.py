@@ -359,3 +359,17 @@ def test_dataflash_with_the_ekf_at_10_hz_is_fed_everywhere(tmp_path):
     assert not (traj.status & STATUS_NO_DATA).any()
     assert np.all(traj.status[t > model.settling_time_s + 0.05] == 0)
     assert any("XKF1 10.0 Hz" in n for n in flight.notes)
+
+
+def test_report_reads_a_ros2_bag_on_its_own_clock(tmp_path):
+    """report's replay of a bag (the figures are the same code as for the .bin above): the bag's clock,
+    the autopilot's wind as reference, the comparison."""
+    pytest.importorskip("rosbags")
+    from dobwind.report import load_flight
+    from tests.test_rosbag import _flight as bag_flight, _px4_bag
+
+    af, cols = bag_flight()
+    bag = _px4_bag(tmp_path / "bag", af, cols, "mcap")
+    flight, metrics, comparison = load_flight(af, str(bag), "python", "single")
+    assert metrics is None and flight.time_s[0] > 1.0  # the bag's clock, not 0
+    assert flight.reference[0] == "ROS 2 /fmu/out/wind" and comparison["overlap_rows"] > 0.9 * flight.rows
