@@ -89,7 +89,7 @@ def uniform_clock(path: str, spans: list[np.ndarray], rate_hz: float) -> np.ndar
         raise InputError(path, None, "the needed topics do not overlap in time")
     n = int(np.floor((stop - start) * rate_hz + 1e-3)) + 1  # a last instant within a microsecond of stop counts
     clock = np.round((start + np.arange(n) / rate_hz) * 1e6) * 1e-6
-    clock = clock[clock <= stop]
+    clock = clock[(clock >= start) & (clock <= stop)]  # a ROS 2 stamp (ns) is not whole us: rounding may step out
     if len(clock) < 2:
         raise InputError(path, None, "fewer than two instants to resample onto")
     return clock
