@@ -204,12 +204,17 @@ def cmd_replay(args: argparse.Namespace) -> int:
         raise InputError(args.log, "--px4-wind", "only applies to autopilot logs (.ulg, .bin, ROS 2 bags)")
     result = _replay_csv(args, af)
     metrics = result.metrics
+    for finding in result.findings:
+        sys.stderr.write(f"dobwind replay: warning: {args.log}: {finding.message}\n")
     if args.json:
-        _print_json({"airframe": af.name, "log": str(args.log), "backend": args.backend, **metrics})
+        _print_json({"airframe": af.name, "log": str(args.log), "backend": args.backend, **metrics,
+                     "plausibility": [f.as_dict() for f in result.findings]})
     elif result.scored:
         print(text_report(metrics))
     else:
         print(f"rows {metrics['rows']}, rejected {metrics['rejected_rows']} (no true wind in the log to score against)")
+    for finding in [] if args.json else result.findings:
+        print(f"  note: plausibility ({finding.check}): {finding.message} (a streamed CSV log: not marked SUSPECT)")
     return 0
 
 
@@ -270,19 +275,17 @@ def _replay_ulog(args: argparse.Namespace, af) -> int:
     summary = autopilot_summary(af.name, str(args.log), args.backend, model, flight, traj)
     with OutputFiles(_replay_targets(args)) as out:
         if args.output is not None:
-            write_output(out.stage(args.output), log, traj)
+            write_output(out.stage(args.output), log, traj, flight.t0_s)
         if args.px4_wind is not None:
             from dobwind.autopilot import px4_wind_rows, write_px4_wind
 
             sigma = traj.outputs[:, model.outputs.slice("wind_sigma_h")][:, 0]
             write_px4_wind(out.stage(args.px4_wind), px4_wind_rows(flight, wind, sigma, traj.status, valid))
         if args.plot is not None:
-            from dobwind.plots import replay_plot
+            from dobwind.replay import autopilot_plot
 
-            others = [] if flight.px4_wind is None else [(f"PX4 ({flight.px4_wind[0]})", flight.px4_wind[1], flight.px4_wind[2])]
-            replay_plot(log.time_s, np.where(valid[:, None], wind, np.nan), None,
-                        f"{af.name}: wind estimated over {os.path.basename(args.log)}",
-                        str(out.stage(args.plot)), others)
+            autopilot_plot(str(out.stage(args.plot)), f"{af.name}: wind estimated over {os.path.basename(args.log)}",
+                           flight, wind, traj.status)
     if args.json:
         _print_json(summary)
         return 0
@@ -292,13 +295,10 @@ def _replay_ulog(args: argparse.Namespace, af) -> int:
         print(f"  note: {note}")
     if summary["mean_wind_speed_h_mps"] is not None:
         print(f"mean horizontal wind {summary['mean_wind_speed_h_mps']:.2f} m/s")
-    px4 = summary.get("px4")
-    label = px4["topic"] if px4 and " " in px4["topic"] else f"PX4 {px4['topic']}" if px4 else ""  # ArduPilot/ROS name themselves
-    if px4 and px4.get("overlap_rows"):
-        print(f"{label}: mean vector difference {px4['mean_vector_difference_mps']:.2f} m/s, mean speed "
-              f"difference (ours - PX4) {px4['mean_speed_difference_mps']:+.2f} m/s over {px4['overlap_rows']} instants")
-    elif px4:
-        print(f"{label}: no overlap with valid estimates")
+    from dobwind.replay import autopilot_wind_lines
+
+    for line in autopilot_wind_lines(summary.get("px4")):
+        print(line)
     return 0
 
 
@@ -455,7 +455,7 @@ def _add_replay(command: _Command) -> None:
     p.add_argument("--precision", choices=("single", "double"), default="single", help="C backend precision")
     p.add_argument("--rate", type=opt.ULOG_RATE,
                    help=f"autopilot logs only: resample at this rate, Hz ({opt.ULOG_RATE.text()}) (default: none, "
-                   "the attitude's clock)")
+                   "the airframe's observer rate, 1/observer.sample_time)")
     p.add_argument("--px4-wind", help="autopilot logs: also write the estimate as PX4's wind message holds it "
                    "(timestamp, north/east wind and their variances) to this CSV (default: none)")
     p.add_argument("--topic", action="append", metavar="ROLE=NAME",

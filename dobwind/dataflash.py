@@ -20,8 +20,9 @@ Messages (EKF3 names; EKF2 logs use the older names in brackets):
 - ArduPilot's wind, for comparison: XKF2.VWN/VWE, primary core [NKF2].
 On the ground: EV events (LAND_COMPLETE 18, LAND_COMPLETE_MAYBE 17 and DISARMED 11 start it,
 NOT_LANDED 28 ends it; a log starts on the ground); without EV messages, rows where CTUN.ThO is 0
-(motors at idle or stopped). Rows are resampled onto XKQ's clock as the ULog reader does (gaps beyond
-max_dt: NO_DATA; ESCs at 0 rpm while airborne: NO_DATA, named).
+(motors at idle or stopped). Rows are resampled onto a uniform clock at the observer's rate as the ULog
+reader does (gaps beyond each message's own tolerance, resample.GapPolicy: NO_DATA; ESCs at 0 rpm while
+airborne: NO_DATA, named).
 """
 from __future__ import annotations
 
@@ -34,7 +35,7 @@ from dobwind.errors import InputError
 from dobwind.logs import FlightLog
 from dobwind.model.airframe import Airframe
 from dobwind.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, hold,
-                              interp, quaternions, source_gaps)
+                              interp, quaternions, source_gaps, topic_tolerances, uniform_clock)
 
 # (role, candidates as (message, instance field or None, instance value)), first found wins.
 VELOCITY = (("XKF1", "C", 0), ("NKF1", None, 0))
@@ -176,17 +177,16 @@ def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None) -> Aut
         ctun = _require(path, _stream(msgs, (("CTUN", None, 0),), ["ThO", "ThH"]), "collective thrust", "CTUN (ThO, ThH)")[1]
         used["CTUN"] = ctun
     streams = list(used.values()) + escs
-    start, stop = max(s["t"][0] for s in streams), min(s["t"][-1] for s in streams)
-    if not stop > start:
-        raise InputError(path, None, "the needed messages do not overlap in time")
-    clock = np.arange(start, stop, 1.0 / rate_hz) if rate_hz else att["t"][(att["t"] >= start) & (att["t"] <= stop)]
-    if len(clock) < 2:
-        raise InputError(path, None, "fewer than two instants to resample onto")
-    no_data, culprits = source_gaps({**{name: (s["t"], af.limits.max_dt_s) for name, s in used.items()},
-                                     **{f"ESC {k}": (s["t"], ROTOR_MAX_GAP_S) for k, s in enumerate(escs)}}, clock)
+    clock = uniform_clock(path, [s["t"] for s in streams], rate_hz or 1.0 / af.observer.sample_time_s)
+    esc_names = {f"ESC {k}": s["t"] for k, s in enumerate(escs)}
+    tolerances, slow = topic_tolerances({**{name: s["t"] for name, s in used.items()}, **esc_names},
+                                        af.limits.max_dt_s, {name: ROTOR_MAX_GAP_S for name in esc_names})
+    notes += slow
+    no_data, culprits = source_gaps(tolerances, clock)
     if no_data.any():
-        notes.append(count_note(no_data, f"with a message gap longer than max_dt ({af.limits.max_dt_s:g} s; "
-                                         f"ESC: {ROTOR_MAX_GAP_S:g} s; by message: {culprits})", "NO_DATA"))
+        notes.append(count_note(no_data, f"with a message gap (longer than max_dt {af.limits.max_dt_s:g} s or, for a "
+                                         f"slow message, than its own tolerance; ESC: {ROTOR_MAX_GAP_S:g} s; by "
+                                         f"message: {culprits})", "NO_DATA"))
     cols = _columns(af, vel, att, imu, psc, escs, ctun, msgs, clock, notes)
     landed = _ground(msgs, clock, notes)
     if escs:

@@ -212,12 +212,23 @@ def write_columns(path: str | Path, header: list[str], columns: dict[str, np.nda
     write_atomically(path, write)
 
 
-def estimate_rows(t: np.ndarray, outputs: np.ndarray, status: np.ndarray) -> np.ndarray:
-    """The estimate file's rows (section 3's column order) from the step's outputs."""
+def estimate_rows(t: np.ndarray, outputs: np.ndarray, status: np.ndarray, estimated_before: bool = False) -> np.ndarray:
+    """The estimate file's rows (section 3's column order) from the step's outputs. Rows before the
+    first accepted sample hold no estimate: NaN values and sigma -1 (unknown), not the step's initial
+    zeros, which read as a calm, perfectly known wind. ``estimated_before``: an earlier chunk of the
+    same log already had an accepted sample."""
     if outputs.shape[1] != len(ESTIMATE_COLUMNS) - 2:
         raise ValueError(f"{outputs.shape[1]} output columns for {len(ESTIMATE_COLUMNS) - 2} named ones")
     k = _OUTPUTS_BEFORE_STATUS
-    return np.column_stack([t, outputs[:, :k], status, outputs[:, k:]])
+    rows = np.column_stack([t, outputs[:, :k], status, outputs[:, k:]])
+    if not estimated_before:
+        from dobwind.model.status import accepted
+
+        ok = accepted(status)
+        first = int(np.argmax(ok)) if ok.any() else len(rows)
+        rows[:first, 1:k + 1] = np.nan
+        rows[:first, k + 2:] = -1.0
+    return rows
 
 
 def estimate_writer(handle: TextIO) -> CsvWriter:
@@ -226,8 +237,10 @@ def estimate_writer(handle: TextIO) -> CsvWriter:
     return CsvWriter(handle, list(ESTIMATE_COLUMNS), formats)
 
 
-def write_estimates(path: str | Path, t: np.ndarray, outputs: np.ndarray, status: np.ndarray) -> None:
-    rows = estimate_rows(t, outputs, status)
+def write_estimates(path: str | Path, t: np.ndarray, outputs: np.ndarray, status: np.ndarray,
+                    t0_s: float = 0.0) -> None:
+    """``t0_s``: the log's own clock at t = 0 (autopilot logs), so that `t` lines up with the log's tools."""
+    rows = estimate_rows(t + t0_s, outputs, status)
     write_atomically(path, lambda handle: estimate_writer(handle).write(rows))
 
 

@@ -72,6 +72,20 @@ def _align_turns(direction: np.ndarray, reference: np.ndarray) -> np.ndarray:
     return direction - 360.0 * np.round(np.median(direction[both] - reference[both]) / 360.0)
 
 
+def _shade_status(ax, t: np.ndarray, status: np.ndarray, legend: bool) -> None:
+    """Grey behind rows with no estimate (rejected, NO_DATA, LANDED), amber behind accepted rows that
+    are not trusted (SETTLING, EXTRAPOLATED, SUSPECT ...): the reader sees at once which stretch of the
+    line to believe."""
+    from dobwind.model.status import accepted
+
+    ok = accepted(status)
+    band = ax.get_xaxis_transform()
+    for mask, colour, label in ((~ok, "0.6", "no estimate"), (ok & (status != 0), "#E69F00", "not trusted (status bits)")):
+        if mask.any():
+            ax.fill_between(t, 0, 1, where=mask, transform=band, color=colour, alpha=0.18, lw=0, step="mid",
+                            label=label if legend else None)
+
+
 def _series(t: np.ndarray, wind: np.ndarray, truth: np.ndarray | None,
             others: list[tuple[str, np.ndarray, np.ndarray]]) -> list[Series]:
     named = ([("true wind", t, truth)] if truth is not None else []) + [("dobwind", t, wind)] + list(others)
@@ -142,9 +156,12 @@ def _vertical_panel(ax, series: list[Series]) -> None:
 
 
 def replay_plot(t: np.ndarray, wind: np.ndarray, truth: np.ndarray | None, title: str, path: str,
-                others: list[tuple[str, np.ndarray, np.ndarray]] = ()) -> None:
+                others: list[tuple[str, np.ndarray, np.ndarray]] = (), status: np.ndarray | None = None,
+                band: tuple[str, np.ndarray, np.ndarray, np.ndarray] | None = None) -> None:
     """Speed, direction (from) and vertical wind (up) over time; truth and other estimates if given.
-    ``others``: (label, time, wind NED) for other estimators; a NaN vertical column means "no vertical"."""
+    ``others``: (label, time, wind NED) for other estimators; a NaN vertical column means "no vertical".
+    ``status``: per row of t, shades the rows without an estimate (grey) and the untrusted ones (amber).
+    ``band``: (label, t, low, high) drawn behind the speed panel (an autopilot's own 1-sigma)."""
     series = _series(t, wind, truth, list(others))
     directions = _directions(series)
     if directions:
@@ -155,6 +172,11 @@ def replay_plot(t: np.ndarray, wind: np.ndarray, truth: np.ndarray | None, title
         title += f"\n(no direction panel: the wind stays below {MIN_DIRECTION_SPEED_MPS:g} m/s)"
     _speed_panel(axes[0], series)
     _vertical_panel(axes[-1], series)
+    if band is not None:
+        axes[0].fill_between(band[1], band[2], band[3], color=STYLES[2][0], alpha=0.2, lw=0, label=band[0])
+    if status is not None:
+        for i, ax in enumerate(axes):
+            _shade_status(ax, t, status, legend=i == 0)
     axes[-1].set_xlabel("time (s)")
     axes[0].set_title(title)
     for ax in axes:

@@ -52,6 +52,7 @@ class Streamed:
     metrics: dict                 # replay's metrics (rows and rejected rows when the log has no true wind)
     scored: bool                  # the log had true wind
     series: WindSeries | None     # time, estimate, truth and status of every row, when asked for (plots)
+    findings: tuple = ()          # plausibility findings (dobwind.plausibility), warnings only: rows are written
 
 
 @dataclass(frozen=True)
@@ -72,9 +73,16 @@ def replay_stream(af: Airframe, log_path: str, backend: str = "python", precisio
     kept: list[tuple[np.ndarray, ...]] = []
     previous_t: float | None = None
     truth = None
+    estimated = False  # an accepted row was written: later rows keep the step's held estimate
+    from dobwind.plausibility import FlightSeries, StreamedChecks
+
+    checks = StreamedChecks(af)
     for chunk in iter_log(log_path, required_columns(af), block_bytes, progress):
         log = chunk.log
         traj = runner.run(step_inputs(model, log, previous_t))
+        checks.add(FlightSeries(log.time_s, log.stack("vel_n", "vel_e", "vel_d"),
+                                traj.outputs[:, model.outputs.slice("force_ned")],
+                                traj.outputs[:, model.outputs.slice("wind_ned")], traj.status))
         previous_t = float(log.time_s[-1])
         wind, truth = traj.outputs[:, model.outputs.slice("wind_ned")], log.true_wind
         if truth is not None:
@@ -82,14 +90,16 @@ def replay_stream(af: Airframe, log_path: str, backend: str = "python", precisio
         counts["rows"] += log.rows
         counts["rejected_rows"] += int((~accepted(traj.status)).sum())
         if writer is not None:
-            writer.write(estimate_rows(log.time_s, traj.outputs, traj.status))
+            writer.write(estimate_rows(log.time_s, traj.outputs, traj.status, estimated))
+        estimated = estimated or bool(accepted(traj.status).any())
         if keep_series:
             kept.append((log.time_s, wind, truth))
     series = None
     if keep_series:
         series = WindSeries(np.concatenate([k[0] for k in kept]), np.concatenate([k[1] for k in kept]),
                             None if truth is None else np.concatenate([k[2] for k in kept]))
-    return Streamed(model, scorer.result() if truth is not None else counts, truth is not None, series)
+    return Streamed(model, scorer.result() if truth is not None else counts, truth is not None, series,
+                    tuple(checks.findings()))
 
 
 def replay_ulog(af: Airframe, path: str, backend: str = "python", precision: str = "single",
@@ -105,7 +115,28 @@ def replay_ulog(af: Airframe, path: str, backend: str = "python", precision: str
     # Rows that were not fed carry only replay's reasons, not the step's reaction to their NaN inputs.
     skipped = np.where(flight.no_data, STATUS_NO_DATA, 0) | np.where(flight.landed, STATUS_LANDED, 0)
     status = np.where(skipped != 0, skipped, traj.status)
+    flight, status = _plausibility(af, model, path, flight, traj.outputs, status)
     return model, flight, Trajectory(traj.states, traj.outputs, status)
+
+
+def _plausibility(af: Airframe, model: StepModel, path: str, flight, outputs: np.ndarray, status: np.ndarray):
+    """Replay's plausibility checks (dobwind.plausibility): SUSPECT on the rows concerned, a warning
+    (stderr) and a note per finding."""
+    import dataclasses
+
+    from dobwind.plausibility import FlightSeries, check_flight, mark
+
+    log = flight.log
+    series = FlightSeries(log.time_s, log.stack("vel_n", "vel_e", "vel_d"), outputs[:, model.outputs.slice("force_ned")],
+                          outputs[:, model.outputs.slice("wind_ned")], status)
+    findings = check_flight(af, series)
+    if not findings:
+        return flight, status
+    return dataclasses.replace(
+        flight, findings=tuple(findings),
+        notes=flight.notes + tuple(f"plausibility ({f.check}): {f.message}: status SUSPECT on {int(f.rows.sum())} "
+                                   "rows" for f in findings),
+        warnings=flight.warnings + tuple(f"{path}: {f.message}" for f in findings)), mark(status, findings)
 
 
 def autopilot_summary(name: str, log_path: str, backend: str, model: StepModel, flight, traj: Trajectory) -> dict:
@@ -118,14 +149,58 @@ def autopilot_summary(name: str, log_path: str, backend: str, model: StepModel, 
     wind = traj.outputs[:, model.outputs.slice("wind_ned")]
     valid = accepted(traj.status)  # quality-flagged samples are estimates too; status_counts shows the flags
     summary = {"airframe": name, "log": log_path, "backend": backend, "rows": log.rows,
-               "valid_rows": int(valid.sum()), "duration_s": float(log.time_s[-1]), "notes": list(flight.notes),
+               "valid_rows": int(valid.sum()), "duration_s": float(log.time_s[-1]), "log_t0_s": flight.t0_s,
+               "notes": list(flight.notes),
                "warnings": list(flight.warnings),
                "status_counts": {describe(int(s)): int((traj.status == s).sum()) for s in np.unique(traj.status)},
                "mean_wind_speed_h_mps": float(np.mean(np.hypot(wind[valid, 0], wind[valid, 1]))) if valid.any() else None,
                "outputs_finite": bool(np.all(np.isfinite(traj.outputs)))}
+    summary["plausibility"] = [f.as_dict() for f in flight.findings]
     if flight.px4_wind is not None:
-        summary["px4"] = compare_with_px4(log.time_s, wind, valid, flight.px4_wind)
+        summary["px4"] = compare_with_px4(log.time_s, wind, valid, flight.px4_wind, flight.autopilot_wind_variance)
     return summary
+
+
+def autopilot_plot(path: str, title: str, flight, wind: np.ndarray, status: np.ndarray) -> None:
+    """replay --plot for an autopilot log: on the log's own clock, status shading, the autopilot's wind
+    only where it is active."""
+    from dobwind.plots import replay_plot
+
+    ref, band = reference_lines(flight)
+    replay_plot(flight.log.time_s + flight.t0_s, np.where(accepted(status)[:, None], wind, np.nan), None, title, path,
+                [] if ref is None else [ref], status=status, band=band)
+
+
+def reference_lines(flight):
+    """The autopilot's wind for a figure, on the log's clock and only where active, and the band of its
+    own 1-sigma (PX4's variances), each None when there is nothing to draw."""
+    from dobwind.resample import active_reference, speed_band
+
+    if flight.autopilot_wind is None:
+        return None, None
+    source, t_ref, w_ref = flight.autopilot_wind
+    label = source if " " in source else f"PX4 ({source})"
+    ref = active_reference(label, (source, t_ref + flight.t0_s, w_ref))
+    band = speed_band(flight.autopilot_wind, flight.autopilot_wind_variance, flight.t0_s)
+    return ref, None if band is None else (f"{label} +-1 sigma (its variances)", *band)
+
+
+def autopilot_wind_lines(px4: dict | None) -> list[str]:
+    """The text lines comparing with the autopilot's own wind (compare_with_px4's dict)."""
+    if not px4:
+        return []
+    label = px4["topic"] if " " in px4["topic"] else f"PX4 {px4['topic']}"  # ArduPilot/ROS name themselves
+    if px4.get("active") is False:
+        return [f"{label}: all zero, the autopilot was not estimating wind (no comparison)"]
+    if not px4.get("overlap_rows"):
+        return [f"{label}: no overlap with valid estimates"]
+    lines = [f"{label}: mean vector difference {px4['mean_vector_difference_mps']:.2f} m/s (difference of the means "
+             f"{px4['difference_of_means_mps']:.2f} m/s), mean speed difference (ours - theirs) "
+             f"{px4['mean_speed_difference_mps']:+.2f} m/s over {px4['overlap_rows']} instants"]
+    if "sigma_h_mps" in px4:
+        lines.append(f"  its own variances there: north {px4['variance_north_m2s2']:.3g}, east {px4['variance_east_m2s2']:.3g} "
+                     f"m²/s² (horizontal 1-sigma {px4['sigma_h_mps']:.2f} m/s)")
+    return lines
 
 
 def text_report(metrics: dict) -> str:
@@ -154,8 +229,9 @@ def text_report(metrics: dict) -> str:
     return "\n".join(lines)
 
 
-def write_output(path: str, log: FlightLog, traj: Trajectory) -> None:
-    write_estimates(path, log.time_s, traj.outputs, traj.status)
+def write_output(path: str, log: FlightLog, traj: Trajectory, t0_s: float = 0.0) -> None:
+    """The estimate CSV; ``t0_s`` puts `t` on the log's own clock (AutopilotFlight.t0_s)."""
+    write_estimates(path, log.time_s, traj.outputs, traj.status, t0_s)
 
 
 replay_autopilot = replay_ulog  # every autopilot format goes through the same path

@@ -1,7 +1,8 @@
 """`dobwind report AIRFRAME LOG -o report.html`: one self-contained HTML page for a flight.
 
 The airframe's summary, the estimate against the log's true wind (or against the autopilot's own wind
-estimate in a ULog), the error tables, the status counts by flag, and the analysis figures. Figures are
+estimate, where it is active, in a ULog, DataFlash log or ROS 2 bag, on the log's own clock), the error
+tables, the status counts by flag, and the analysis figures. Figures are
 PNGs inlined as base64 data URIs and the style is inline, so the file opens anywhere with no server and
 no network (in the spirit of PX4 Flight Review, which needs both)."""
 from __future__ import annotations
@@ -17,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from dobwind.model.airframe import Airframe
-from dobwind.model.status import STATUS_BITS, STATUS_LANDED, STATUS_NO_DATA, accepted
+from dobwind.model.status import STATUS_BITS, STATUS_LANDED, STATUS_NO_DATA, STATUS_SUSPECT, accepted
 
 ANALYSIS_FREQUENCIES_HZ = [0.1, 0.5, 1.0]
 
@@ -40,6 +41,7 @@ class Flight:
     truth: np.ndarray | None    # the log's true wind
     reference: tuple[str, np.ndarray, np.ndarray] | None  # (label, time, NED wind): the autopilot's estimate
     notes: tuple[str, ...]
+    band: tuple | None = None   # (label, time, low, high): the autopilot's own 1-sigma around its speed
 
 
 def _png(path: Path, caption: str) -> Figure:
@@ -68,7 +70,9 @@ def status_rows(status: np.ndarray) -> list[tuple[str, str, int, str]]:
     for bit in STATUS_BITS:
         rows.append((bit.name, "rejects" if bit.rejects else "quality", int(np.sum((status & bit.value) != 0)), bit.doc))
     for name, value, doc in (("NO_DATA", STATUS_NO_DATA, "replay: a topic had no data for this row"),
-                             ("LANDED", STATUS_LANDED, "replay: on the ground, not fed to the estimator")):
+                             ("LANDED", STATUS_LANDED, "replay: on the ground, not fed to the estimator"),
+                             ("SUSPECT", STATUS_SUSPECT, "replay: a plausibility check says the airframe does not "
+                                                         "fit this flight (see the notes)")):
         count = int(np.sum((status & value) != 0))
         if count:
             rows.append((name, "replay", count, doc))
@@ -125,8 +129,9 @@ def build_figures(af: Airframe, flight: Flight, work: Path) -> tuple[list[Figure
     replay_png = work / "replay.png"
     what = "true wind" if flight.truth is not None else (flight.reference[0] if flight.reference else "no reference")
     replay_plot(flight.time_s, flight.wind, flight.truth, f"{af.name}: estimated wind over {flight.log_name}",
-                str(replay_png), others)
-    figures = [_png(replay_png, f"Estimated wind against {what}: horizontal speed, direction (from), vertical (up)")]
+                str(replay_png), others, status=flight.status, band=flight.band)
+    figures = [_png(replay_png, f"Estimated wind against {what}: horizontal speed, direction (from), vertical (up), on "
+                                "the log's own clock; grey: no estimate, amber: estimated but not trusted")]
     report, systems = analyze(af, ANALYSIS_FREQUENCIES_HZ)
     captions = {"bode.png": "Observer and scheduled low-pass, frozen at each schedule breakpoint (axis x)",
                 "discretizations.png": "The observer alone under the four discretizations, same gains",
@@ -142,23 +147,13 @@ def scratch() -> tempfile.TemporaryDirectory:
 
 def load_flight(af: Airframe, log_path: str, backend: str, precision: str) -> tuple[Flight, dict | None, dict | None]:
     """Replays the log: (the flight, score() against the truth or None, the autopilot comparison or None)."""
-    from dobwind.replay import replay, replay_ulog, score
+    from dobwind.replay import replay, score
+
+    from dobwind.autopilot import is_autopilot_log
 
     name = Path(log_path).name
-    if log_path.lower().endswith(".ulg"):
-        from dobwind.ulog import compare_with_px4
-
-        model, ulog, traj = replay_ulog(af, log_path, backend, precision)
-        log, reference = ulog.log, None
-        wind = traj.outputs[:, model.outputs.slice("wind_ned")]
-        valid = accepted(traj.status)
-        comparison = None
-        if ulog.px4_wind is not None:
-            reference = (f"PX4 ({ulog.px4_wind[0]})", ulog.px4_wind[1], ulog.px4_wind[2])
-            comparison = compare_with_px4(log.time_s, wind, valid, ulog.px4_wind)
-        flight = Flight(name, log.rows, float(log.time_s[-1] - log.time_s[0]), log.time_s,
-                        np.where(valid[:, None], wind, np.nan), traj.status, None, reference, tuple(ulog.notes))
-        return flight, None, comparison
+    if is_autopilot_log(log_path):
+        return _autopilot_flight(af, log_path, name, backend, precision)
     model, log, traj = replay(af, log_path, backend, precision)
     wind = traj.outputs[:, model.outputs.slice("wind_ned")]
     valid = accepted(traj.status)
@@ -166,6 +161,26 @@ def load_flight(af: Airframe, log_path: str, backend: str, precision: str) -> tu
     flight = Flight(name, log.rows, float(log.time_s[-1] - log.time_s[0]), log.time_s,
                     np.where(valid[:, None], wind, np.nan), traj.status, log.true_wind, None, ())
     return flight, metrics, None
+
+
+def _autopilot_flight(af: Airframe, log_path: str, name: str, backend: str, precision: str) -> tuple[Flight, None, dict | None]:
+    """Any autopilot log (ULog, DataFlash, ROS 2 bag) on its own clock (seconds since boot, TimeUS,
+    the bag's clock), the autopilot's wind only where it is active, and the comparison with it."""
+    from dobwind.replay import reference_lines, replay_ulog
+    from dobwind.ulog import compare_with_px4
+
+    model, ap, traj = replay_ulog(af, log_path, backend, precision)
+    log = ap.log
+    wind = traj.outputs[:, model.outputs.slice("wind_ned")]
+    valid = accepted(traj.status)
+    reference, band = reference_lines(ap)
+    comparison = None
+    if ap.autopilot_wind is not None:
+        comparison = compare_with_px4(log.time_s, wind, valid, ap.autopilot_wind, ap.autopilot_wind_variance)
+    t = log.time_s + ap.t0_s
+    flight = Flight(name, log.rows, float(log.time_s[-1] - log.time_s[0]), t, np.where(valid[:, None], wind, np.nan),
+                    traj.status, None, reference, tuple(ap.notes), band)
+    return flight, None, comparison
 
 
 def flight_report(af: Airframe, airframe_path: str, log_path: str, backend: str = "python",
@@ -178,7 +193,9 @@ def flight_report(af: Airframe, airframe_path: str, log_path: str, backend: str 
     if metrics and "per_sample" in metrics:
         summary = f"speed error mean {metrics['per_sample']['speed_mean']:.3f} m/s over {metrics['scored_rows']} samples"
     elif comparison and comparison.get("overlap_rows"):
-        summary = f"mean vector difference to PX4 {comparison['mean_vector_difference_mps']:.3f} m/s"
+        summary = f"mean vector difference to {comparison['topic']} {comparison['mean_vector_difference_mps']:.3f} m/s"
+    elif comparison and comparison.get("active") is False:
+        summary = f"{comparison['topic']} is all zero (the autopilot was not estimating wind): no reference"
     else:
         summary = "no reference wind to score against"
     return page, f"{len(figures)} figures; {summary}"

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from dobwind.errors import InputError
 from dobwind.logs import FlightLog
 
 # Rotor speeds come from ESC telemetry, which autopilots often publish far slower than the attitude
@@ -29,10 +30,101 @@ class AutopilotFlight:
     notes: tuple[str, ...]
     t0_s: float = 0.0                       # the log's own clock at row 0 (log.time_s starts at 0)
     warnings: tuple[str, ...] = ()          # said on stderr too: the user must not miss them
+    findings: tuple = ()                    # replay's plausibility findings (dobwind.plausibility.Finding)
+    autopilot_wind_variance: np.ndarray | None = None  # (north, east) variances, m²/s², per autopilot_wind row
 
     @property
     def px4_wind(self) -> tuple[str, np.ndarray, np.ndarray] | None:  # the name the ULog path had first
         return self.autopilot_wind
+
+
+@dataclass(frozen=True)
+class GapPolicy:
+    """When a topic's silence is a gap (rows NO_DATA) rather than its normal interval.
+
+    PX4 logs vehicle_local_position at 8-10 Hz and ArduPilot its EKF at 10 Hz next to a 50-250 Hz
+    attitude: a fixed tolerance of max_dt (0.1 s) turns every other row of such a log into a gap. So each
+    topic is judged by its own typical (median) interval: a gap is a silence longer than ``intervals``
+    of them, never shorter than the airframe's max_dt (a fast topic keeps today's tolerance) and never
+    longer than ``ceiling_s`` (velocity interpolated across longer silences hides a manoeuvre)."""
+    intervals: float = 4.0  # up to three lost messages in a row: real logs drop a few (SD-card writes)
+    ceiling_s: float = 0.5
+
+    def tolerance(self, t_src: np.ndarray, max_dt_s: float) -> float:
+        typical = float(np.median(np.diff(t_src))) if len(t_src) > 1 else max_dt_s
+        return float(min(max(max_dt_s, self.intervals * typical), max(self.ceiling_s, max_dt_s)))
+
+
+DEFAULT_GAP_POLICY = GapPolicy()
+
+
+def topic_tolerances(streams: dict[str, np.ndarray], max_dt_s: float, fixed: dict[str, float] | None = None,
+                     policy: GapPolicy = DEFAULT_GAP_POLICY) -> tuple[dict[str, tuple[np.ndarray, float]], list[str]]:
+    """({name: (its times, its gap tolerance)} for ``source_gaps``, notes naming the slow topics).
+    ``fixed`` tolerances win (esc_status: ROTOR_MAX_GAP_S)."""
+    out: dict[str, tuple[np.ndarray, float]] = {}
+    slow = []
+    for name, t_src in streams.items():
+        if fixed and name in fixed:
+            out[name] = (t_src, fixed[name])
+            continue
+        tol = policy.tolerance(t_src, max_dt_s)
+        out[name] = (t_src, tol)
+        if tol > max_dt_s:
+            rate = 1.0 / float(np.median(np.diff(t_src)))
+            slow.append(f"{name} {rate:.1f} Hz")
+    notes = [f"slow topics interpolated, a gap only beyond {policy.intervals:g} of their median intervals "
+             f"(at most {policy.ceiling_s:g} s): " + ", ".join(slow)] if slow else []
+    return out, notes
+
+
+def uniform_clock(path: str, spans: list[np.ndarray], rate_hz: float) -> np.ndarray:
+    """Instants at ``rate_hz`` over the span every stream covers, on whole microseconds (the clock of
+    ULog and DataFlash timestamps, so an instant that is a sample's time compares equal to it). A
+    uniform clock keeps dt constant: the attitude's own clock jitters by a few percent, and each
+    jitter beyond max_dt was a rejected sample that restarted the settling time."""
+    start = max(float(t[0]) for t in spans)
+    stop = min(float(t[-1]) for t in spans)
+    if not stop > start:
+        raise InputError(path, None, "the needed topics do not overlap in time")
+    n = int(np.floor((stop - start) * rate_hz + 1e-3)) + 1  # a last instant within a microsecond of stop counts
+    clock = np.round((start + np.arange(n) / rate_hz) * 1e6) * 1e-6
+    clock = clock[(clock >= start) & (clock <= stop)]  # a ROS 2 stamp (ns) is not whole us: rounding may step out
+    if len(clock) < 2:
+        raise InputError(path, None, "fewer than two instants to resample onto")
+    return clock
+
+
+def wind_active(wind: np.ndarray) -> np.ndarray:
+    """Samples where the autopilot actually estimates wind. PX4 publishes its wind topics with exactly
+    zero north and east while the EKF does not fuse drag or airspeed (the states stay at their initial
+    0), so an all-zero sample is "inactive", not a calm: no estimate ever lands on exactly 0.0 in both."""
+    return (wind[:, 0] != 0.0) | (wind[:, 1] != 0.0)
+
+
+def active_reference(label: str, wind: tuple[str, np.ndarray, np.ndarray] | None):
+    """(label, t, wind NED) of the autopilot's wind for a plot, NaN where it is inactive (drawn only
+    where the autopilot estimates); None when it never is."""
+    if wind is None or not wind_active(wind[2]).any():
+        return None
+    shown = np.where(wind_active(wind[2])[:, None], wind[2], np.nan)
+    if np.all(wind[2][:, 2] == 0.0):  # PX4 and ArduPilot estimate no vertical wind: no line at a fake 0
+        shown[:, 2] = np.nan
+    return label, wind[1], shown
+
+
+def speed_band(wind: tuple[str, np.ndarray, np.ndarray] | None, variance: np.ndarray | None,
+               t0_s: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """(t, speed - sigma, speed + sigma) of the autopilot's horizontal wind speed where it is active, the
+    sigma of the speed from its north/east variances (the variance along the wind's direction); None
+    without variances."""
+    if wind is None or variance is None or not wind_active(wind[2]).any():
+        return None
+    on = wind_active(wind[2])
+    n, e = wind[2][on, 0], wind[2][on, 1]
+    speed = np.hypot(n, e)
+    sigma = np.sqrt((variance[on, 0] * n * n + variance[on, 1] * e * e) / np.maximum(speed * speed, 1e-12))
+    return wind[1][on] + t0_s, np.maximum(speed - sigma, 0.0), speed + sigma
 
 
 def gaps(t_src: np.ndarray, t_dst: np.ndarray, max_gap: float) -> np.ndarray:

@@ -16,7 +16,8 @@ Two setups, told apart by their topics (every name can be replaced: `replay --to
   esc /mavros/esc_status/status, wind /mavros/wind_estimation (ENU).
 NED acceleration (observer.acceleration = "ned") is the IMU's specific force rotated to NED plus
 gravity. Message types come from the bag's own definitions when it stores them (MCAP, rosbag2 v8+),
-else from the small .msg files in dobwind/msgs/. Resampling, NO_DATA and LANDED as for ULog.
+else from the small .msg files in dobwind/msgs/. Resampling (a uniform clock at the observer's rate,
+each topic's own gap tolerance), NO_DATA and LANDED as for ULog.
 """
 from __future__ import annotations
 
@@ -27,7 +28,8 @@ import numpy as np
 from dobwind.errors import InputError
 from dobwind.logs import FlightLog
 from dobwind.model.airframe import Airframe
-from dobwind.resample import ROTOR_MAX_GAP_S, AutopilotFlight, blank, count_note, quaternions, source_gaps
+from dobwind.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, count_note, quaternions, source_gaps,
+                              topic_tolerances, uniform_clock)
 
 PX4_TOPICS = {"velocity": "/fmu/out/vehicle_odometry", "attitude": "/fmu/out/vehicle_attitude",
               "imu": "/fmu/out/sensor_combined", "esc": "/fmu/out/esc_status",
@@ -243,15 +245,16 @@ def _assemble(path: str, af: Airframe, s: dict, rate_hz: float | None, notes: li
               wind_topic: str = "wind") -> AutopilotFlight:
     rpm = af.thrust.source == "rpm"
     used = {r: s[r] for r in ("velocity", "attitude", "imu") + (("esc",) if rpm else ("thrust", "hover")) if s[r]}
-    start = max(x["t"][0] for x in used.values())
-    stop = min(x["t"][-1] for r, x in used.items() if r != "hover")  # the hover estimate is held past its last
     att_t = s["attitude"]["t"]
-    clock = np.arange(start, stop, 1.0 / rate_hz) if rate_hz else att_t[(att_t >= start) & (att_t <= stop)]
-    if not stop > start or len(clock) < 2:
-        raise InputError(path, None, "the needed topics do not overlap in time")
-    # ESC reports are slow (ROTOR_MAX_GAP_S); the hover estimate, a slowly learned constant, is held.
-    no_data, culprits = source_gaps({role: (x["t"], ROTOR_MAX_GAP_S if role == "esc" else af.limits.max_dt_s)
-                                     for role, x in used.items() if role != "hover"}, clock)
+    # The hover estimate, a slowly learned constant, is held past its last message and has no gaps.
+    timed = {role: x["t"] for role, x in used.items() if role != "hover"}
+    hover_start = [used["hover"]["t"][:1]] if "hover" in used else []
+    clock = uniform_clock(path, list(timed.values()) + [np.r_[t0, np.inf] for t0 in hover_start],
+                          rate_hz or 1.0 / af.observer.sample_time_s)
+    # ESC reports are slow (ROTOR_MAX_GAP_S).
+    tolerances, slow = topic_tolerances(timed, af.limits.max_dt_s, {"esc": ROTOR_MAX_GAP_S})
+    notes += slow
+    no_data, culprits = source_gaps(tolerances, clock)
     gappy = no_data.copy()
     q = quaternions(att_t, s["attitude"]["v"], clock)
     sf = np.column_stack([np.interp(clock, s["imu"]["t"], s["imu"]["v"][:, i]) for i in range(3)])
@@ -271,8 +274,9 @@ def _assemble(path: str, af: Airframe, s: dict, rate_hz: float | None, notes: li
         cols["thrust"] = _collective(af, s["thrust"], s["hover"], clock)
         notes.append("collective thrust from vehicle_thrust_setpoint.xyz[2] / hover_thrust_estimate.hover_thrust times m g")
     if gappy.any():
-        notes.append(count_note(gappy, f"with a topic gap longer than max_dt ({af.limits.max_dt_s:g} s; esc: "
-                                       f"{ROTOR_MAX_GAP_S:g} s; by role: {culprits})", "NO_DATA"))
+        notes.append(count_note(gappy, f"with a topic gap (longer than max_dt {af.limits.max_dt_s:g} s or, for a slow "
+                                       f"topic, than its own tolerance; esc: {ROTOR_MAX_GAP_S:g} s; by role: "
+                                       f"{culprits})", "NO_DATA"))
     wind = s["wind"]
     ap_wind = None if wind is None else (f"ROS 2 {wind_topic}", wind["t"] - clock[0], wind["v"])
     return AutopilotFlight(FlightLog(path, blank(cols, no_data | landed)), no_data, landed, ap_wind, tuple(notes),

@@ -6,10 +6,11 @@ motor) for rpm airframes, vehicle_thrust_setpoint (xyz[2]) or the older vehicle_
 collective airframes, sensor_combined (accelerometer) for specific force, and
 vehicle_attitude_setpoint (yaw_body) for the heading frame, else the vehicle's own yaw.
 
-Everything is resampled onto one clock (the attitude's, or a uniform --rate) inside the span all
-needed topics cover: continuous signals are interpolated (quaternions sign-aligned, then normalised),
-setpoints are held. Where a topic has a gap longer than the airframe's max_dt around an instant
-(esc_status: ROTOR_MAX_GAP_S, its reports are often 4 Hz), that row has no data: its inputs are NaN and
+Everything is resampled onto one uniform clock (the airframe's observer rate, 1/sample_time, or
+--rate) inside the span all needed topics cover: continuous signals are interpolated (quaternions
+sign-aligned, then normalised), setpoints are held. Where a topic has a gap around an instant (longer
+than resample.GapPolicy allows that topic: a few of its own median intervals, at least max_dt;
+esc_status: ROTOR_MAX_GAP_S, its reports are often 4 Hz), that row has no data: its inputs are NaN and
 replay marks it with the NO_DATA status bit. So are airborne rows whose ESCs are offline or read 0 rpm.
 Rows that vehicle_land_detected marks landed, maybe landed or in ground contact get LANDED. A file that
 ends inside a message is replayed up to there, with a warning.
@@ -26,7 +27,7 @@ from dobwind.errors import InputError
 from dobwind.logs import FlightLog
 from dobwind.model.airframe import Airframe
 from dobwind.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, hold,
-                              interp, quaternions, source_gaps)
+                              interp, quaternions, source_gaps, topic_tolerances, uniform_clock, wind_active)
 
 PX4_WIND_TOPICS = (("wind", "windspeed_north", "windspeed_east"),
                    ("wind_estimate", "windspeed_north", "windspeed_east"),
@@ -212,10 +213,12 @@ def read_ulog(path: str, af: Airframe, rate_hz: float | None = None) -> UlogFlig
     used = {n: d for n, d in topics.items() if d is not None}
     if thrust_src:
         used[thrust_src[0]] = thrust_src[1]
-    clock = _clock(path, used, topics["vehicle_attitude"]["t"], rate_hz)
+    clock = uniform_clock(path, [d["t"] for d in used.values()], rate_hz or 1.0 / af.observer.sample_time_s)
     max_gap = af.limits.max_dt_s
-    no_data, culprits = source_gaps({name: (d["t"], ROTOR_MAX_GAP_S if name == "esc_status" else max_gap)
-                                     for name, d in used.items()}, clock)
+    tolerances, slow = topic_tolerances({name: d["t"] for name, d in used.items()}, max_gap,
+                                        {"esc_status": ROTOR_MAX_GAP_S})
+    notes += slow
+    no_data, culprits = source_gaps(tolerances, clock)
     cols = _columns(af, topics, thrust_src, hover_topic, hover_param, yaw_src, clock, notes)
     landed = _ground(ulog, clock, notes)
     gappy = no_data.copy()
@@ -224,36 +227,30 @@ def read_ulog(path: str, af: Airframe, rate_hz: float | None = None) -> UlogFlig
         no_data |= dead
         if note:
             notes.append(note)
-    px4 = _px4_wind(ulog, clock)
+    px4, px4_var = _px4_wind(ulog, clock)
     if gappy.any():
-        notes.append(count_note(gappy, f"with a topic gap longer than max_dt ({max_gap:g} s; esc_status: "
-                                       f"{ROTOR_MAX_GAP_S:g} s; by topic: {culprits})", "NO_DATA"))
+        notes.append(count_note(gappy, f"with a topic gap (longer than max_dt {max_gap:g} s or, for a slow topic, "
+                                       f"than its own tolerance; esc_status: {ROTOR_MAX_GAP_S:g} s; by topic: "
+                                       f"{culprits})", "NO_DATA"))
     warnings = (f"{path}: {cut} ({clock[-1] - clock[0]:.2f} s readable)",) if cut else ()
     return UlogFlight(FlightLog(path, blank(cols, no_data | landed)), no_data, landed, px4, tuple(notes),
-                      float(clock[0]), warnings)
-
-
-def _clock(path: str, used: dict, attitude_t: np.ndarray, rate_hz: float | None) -> np.ndarray:
-    """The instants every topic is resampled onto: the attitude's own clock, or ``rate_hz``, over the
-    span all needed topics cover."""
-    start = max(d["t"][0] for d in used.values())
-    stop = min(d["t"][-1] for d in used.values())
-    if not stop > start:
-        raise InputError(path, None, "the needed topics do not overlap in time")
-    clock = (np.arange(start, stop, 1.0 / rate_hz) if rate_hz
-             else attitude_t[(attitude_t >= start) & (attitude_t <= stop)])
-    if len(clock) < 2:
-        raise InputError(path, None, "fewer than two instants to resample onto")
-    return clock
+                      float(clock[0]), warnings, autopilot_wind_variance=px4_var)
 
 
 def _px4_wind(ulog, clock: np.ndarray):
-    """PX4's own wind estimate, (topic, time from the clock's start, NED wind with zero down), or None."""
+    """PX4's own wind estimate, (topic, time from the clock's start, NED wind with zero down), and its
+    (north, east) variances when the topic has them; or (None, None). The first topic that is ever
+    active wins (an all-zero topic is PX4 not estimating), else the first found (replay says inactive)."""
+    found = []
     for name, north, east in PX4_WIND_TOPICS:
-        src = _topic(ulog, name, [north, east])
+        src = _topic(ulog, name, [north, east], ("variance_north", "variance_east"))
         if src is not None:
-            return name, src["t"] - clock[0], np.column_stack([src[north], src[east], np.zeros(len(src["t"]))])
-    return None
+            wind = np.column_stack([src[north], src[east], np.zeros(len(src["t"]))])
+            var = (np.column_stack([src["variance_north"], src["variance_east"]])
+                   if "variance_north" in src and "variance_east" in src else None)
+            found.append(((name, src["t"] - clock[0], wind), var))
+    active = [f for f in found if wind_active(f[0][2]).any()]
+    return (active or found or [(None, None)])[0]
 
 
 def _columns(af: Airframe, topics: dict, thrust_src, hover_topic, hover_param, yaw_src, clock: np.ndarray,
@@ -286,14 +283,31 @@ def _columns(af: Airframe, topics: dict, thrust_src, hover_topic, hover_param, y
     return cols
 
 
-def compare_with_px4(t: np.ndarray, wind: np.ndarray, valid: np.ndarray, px4: tuple[str, np.ndarray, np.ndarray]) -> dict:
-    """Mean differences between our horizontal wind and PX4's, where both exist."""
+def compare_with_px4(t: np.ndarray, wind: np.ndarray, valid: np.ndarray, px4: tuple[str, np.ndarray, np.ndarray],
+                     variance: np.ndarray | None = None) -> dict:
+    """Differences between our horizontal wind and the autopilot's, over our valid rows where the
+    autopilot was estimating (both samples around the row active; see resample.wind_active), with the
+    autopilot's own variances over those rows when it logs them (PX4 wind: variance_north/east)."""
     name, tp, wp = px4
-    inside = valid & (t >= tp[0]) & (t <= tp[-1])
+    active = wind_active(wp)
+    if not active.any():
+        return {"topic": name, "active": False, "overlap_rows": 0}
+    inside = valid & (t >= tp[0]) & (t <= tp[-1]) & ~bracketing(tp, ~active, t)
+    out: dict = {"topic": name, "active": True, "active_share": float(active.mean()), "overlap_rows": int(inside.sum())}
     if not inside.any():
-        return {"topic": name, "overlap_rows": 0}
+        return out
     theirs = np.column_stack([np.interp(t[inside], tp, wp[:, i]) for i in range(2)])
     ours = wind[inside, :2]
-    return {"topic": name, "overlap_rows": int(inside.sum()),
-            "mean_vector_difference_mps": float(np.mean(np.linalg.norm(ours - theirs, axis=1))),
-            "mean_speed_difference_mps": float(np.mean(np.linalg.norm(ours, axis=1) - np.linalg.norm(theirs, axis=1)))}
+    diff = ours - theirs
+    # The mean of |ours - theirs| row by row, and |mean ours - mean theirs| (a steady wind's offset).
+    out.update(mean_vector_difference_mps=float(np.mean(np.linalg.norm(diff, axis=1))),
+               difference_of_means_mps=float(np.linalg.norm(diff.mean(axis=0))),
+               mean_difference_ne_mps=[float(v) for v in diff.mean(axis=0)],
+               mean_speed_difference_mps=float(np.mean(np.linalg.norm(ours, axis=1) - np.linalg.norm(theirs, axis=1))),
+               mean_wind_ours_ne_mps=[float(v) for v in ours.mean(axis=0)],
+               mean_wind_theirs_ne_mps=[float(v) for v in theirs.mean(axis=0)])
+    if variance is not None:
+        var = np.column_stack([np.interp(t[inside], tp, variance[:, i]) for i in range(2)])
+        out.update(variance_north_m2s2=float(np.mean(var[:, 0])), variance_east_m2s2=float(np.mean(var[:, 1])),
+                   sigma_h_mps=float(np.sqrt(np.mean(var[:, 0] + var[:, 1]))))
+    return out

@@ -41,6 +41,10 @@ REJECTED_MASK = sum(bit.value for bit in STATUS_BITS if bit.rejects)
 # there, or the vehicle was on the ground (the ground's reaction is not wind).
 STATUS_NO_DATA = 1 << 8
 STATUS_LANDED = 1 << 9
+# Set by replay on rows (or, for a whole-flight finding, every row) where a plausibility check says the
+# airframe does not fit this flight (dobwind/plausibility.py): a quality flag, the estimate is still
+# written, but it is not trusted. Not in NOT_ACCEPTED_MASK.
+STATUS_SUSPECT = 1 << 13
 # Bits under which a row's estimate was not updated: the step's rejections and replay's own reasons.
 NOT_ACCEPTED_MASK = REJECTED_MASK | STATUS_NO_DATA | STATUS_LANDED
 
@@ -74,4 +78,6 @@ def describe(status: int) -> str:
         names.append("NO_DATA")
     if status & STATUS_LANDED:
         names.append("LANDED")
+    if status & STATUS_SUSPECT:
+        names.append("SUSPECT")
     return "|".join(names) if names else "OK"

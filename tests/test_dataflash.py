@@ -38,8 +38,10 @@ def f32(x):
 
 
 def _flight(rate=50.0):
+    """On a uniform clock (replay resamples onto one); tests comparing row for row replay at ``rate``."""
     af = load_airframe(M300)
-    return af, simulate(af, "tunnel", seed=3, hold_s=4.0, rate_hz=rate)
+    cols = simulate(af, "tunnel", seed=3, hold_s=4.0, rate_hz=rate)
+    return af, {**cols, "t": np.arange(len(cols["t"])) / rate}
 
 
 def _rows(af, cols, *, landed_until=None, drop=(), old=False, esc_zero=None):
@@ -98,7 +100,7 @@ def _equivalent_csv(path, af, cols):
 @pytest.mark.parametrize("old", [False, True])
 def test_dataflash_replay_equals_the_equivalent_csv(tmp_path, old):
     af, cols = _flight()
-    model, flight, traj = replay_autopilot(af, str(_bin(tmp_path / "f.bin", af, cols, old=old)))
+    model, flight, traj = replay_autopilot(af, str(_bin(tmp_path / "f.bin", af, cols, old=old)), rate_hz=50.0)
     _, log, ref = replay(af, str(_equivalent_csv(tmp_path / "f.csv", af, cols)))
     assert flight.log.rows == log.rows and np.all(accepted(traj.status))
     np.testing.assert_array_equal(traj.status, ref.status)
@@ -126,7 +128,7 @@ def test_the_primary_core_is_followed_across_a_lane_switch(tmp_path):
     af, cols = _flight()
     messages = dict(MESSAGES, XKF4=("QBB", ["TimeUS", "C", "PI"]))
     rows = _switch_primary(_rows(af, cols), 9_000_000, with_xkf4=True)
-    model, flight, traj = replay_autopilot(af, str(write_dataflash(tmp_path / "s.bin", messages, rows)))
+    model, flight, traj = replay_autopilot(af, str(write_dataflash(tmp_path / "s.bin", messages, rows)), rate_hz=50.0)
     _, log, ref = replay(af, str(_equivalent_csv(tmp_path / "s.csv", af, cols)))
     assert flight.log.rows == log.rows and np.all(accepted(traj.status))
     assert np.max(np.abs(traj.outputs - ref.outputs)) <= 1e-5
@@ -134,7 +136,7 @@ def test_the_primary_core_is_followed_across_a_lane_switch(tmp_path):
     assert any("1 switch(es) among cores 0, 1" in n for n in flight.notes)
     # The same log without XKF4 reads core 0 throughout: after the switch that is the nonsense core.
     blind = _switch_primary(_rows(af, cols), 9_000_000, with_xkf4=False)
-    _, flight0, _ = replay_autopilot(af, str(write_dataflash(tmp_path / "b.bin", MESSAGES, blind)))
+    _, flight0, _ = replay_autopilot(af, str(write_dataflash(tmp_path / "b.bin", MESSAGES, blind)), rate_hz=50.0)
     late = flight0.log.time_s > 8.5
     assert np.max(np.abs(flight0.log.columns["vel_n"][late] - f32(cols["vel_n"])[late])) > 1.0
 
@@ -142,7 +144,7 @@ def test_the_primary_core_is_followed_across_a_lane_switch(tmp_path):
 def test_collective_thrust_from_ctun_and_the_landing_events(tmp_path):
     af = parse_airframe(dumps(airframe_dict(thrust={"source": "collective"}, mass=8.0, name="coll")), "<c>")
     _, cols = _flight()
-    model, flight, traj = replay_autopilot(af, str(_bin(tmp_path / "c.bin", af, cols, landed_until=3.0)))
+    model, flight, traj = replay_autopilot(af, str(_bin(tmp_path / "c.bin", af, cols, landed_until=3.0)), rate_hz=50.0)
     t = flight.log.time_s
     live = t > 3.1
     np.testing.assert_allclose(flight.log.columns["thrust"][live], cols["thrust"][live], rtol=1e-5)
@@ -190,13 +192,18 @@ def test_garbage_exits_2_without_traceback(tmp_path, capsys):
 
 
 def test_fit_on_dataflash_equals_fit_on_the_equivalent_csv(tmp_path, capsys):
-    af = load_airframe(M300)
+    # A 25 Hz observer on a 25 Hz log with a uniform clock: the DataFlash replay resamples onto the
+    # observer's rate, and row-for-row equality with the CSV needs the same instants.
+    m300_25 = tmp_path / "m300_25.toml"
+    m300_25.write_text(M300.read_text().replace("sample_time = 0.01", "sample_time = 0.04", 1))
+    af = load_airframe(m300_25)
     cols = simulate(af, "still-air", seed=4, hold_s=2.0, rate_hz=25.0)
-    cols = {**cols, "wind_n": np.zeros_like(cols["t"]), "wind_e": np.zeros_like(cols["t"])}
+    cols = {**cols, "t": np.arange(len(cols["t"])) / 25.0, "wind_n": np.zeros_like(cols["t"]),
+            "wind_e": np.zeros_like(cols["t"])}
     fitted = []
     for log in (_bin(tmp_path / "still.bin", af, cols), _equivalent_csv(tmp_path / "still.csv", af, cols)):
         out = tmp_path / f"{log.suffix[1:]}.toml"
-        code = main(["fit", str(M300), str(log), "--still-air", "-o", str(out), "--model", "polynomial",
+        code = main(["fit", str(m300_25), str(log), "--still-air", "-o", str(out), "--model", "polynomial",
                      "--terms", "airframe", "--dynamic", "--json", "--force"])  # equality, not quality
         assert code == 0, capsys.readouterr().err
         fitted.append(load_airframe(out))

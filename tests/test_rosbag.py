@@ -25,8 +25,10 @@ FLU_FRD = np.diag([1.0, -1.0, -1.0])
 
 
 def _flight():
+    """On a uniform clock (replay resamples onto one); tests comparing row for row replay at 50 Hz."""
     af = load_airframe(M300)
-    return af, simulate(af, "tunnel", seed=5, hold_s=4.0, rate_hz=50.0)
+    cols = simulate(af, "tunnel", seed=5, hold_s=4.0, rate_hz=50.0)
+    return af, {**cols, "t": np.arange(len(cols["t"])) / 50.0}
 
 
 def _matrices(cols):
@@ -150,7 +152,7 @@ def test_bag_replay_equals_the_equivalent_csv(tmp_path, setup, storage):
     af, cols = _flight()
     bag = tmp_path / f"{setup}_bag"
     (_px4_bag if setup == "px4" else _mavros_bag)(bag, af, cols, storage)
-    model, flight, traj = replay_autopilot(af, str(bag))
+    model, flight, traj = replay_autopilot(af, str(bag), rate_hz=50.0)
     _, log, ref = replay(af, str(_equivalent_csv(tmp_path / "same.csv", af, cols, single=setup == "px4")))
     assert flight.log.rows == log.rows and np.all(accepted(traj.status))
     np.testing.assert_array_equal(traj.status, ref.status)
@@ -235,7 +237,7 @@ def test_px4_bag_collective_thrust_equals_the_equivalent_csv(tmp_path, capsys):
     af = parse_airframe(dumps(airframe_dict(thrust={"source": "collective"}, mass=8.0, name="coll")), "<c>")
     _, cols = _flight()
     bag = _px4_bag(tmp_path / "coll", af, cols, "mcap", esc=False, hover=0.45)
-    model, flight, traj = replay_autopilot(af, str(bag))
+    model, flight, traj = replay_autopilot(af, str(bag), rate_hz=50.0)
     csv = _equivalent_csv(tmp_path / "coll.csv", af, cols, single=True, hover=0.45)
     _, log, ref = replay(af, str(csv))
     np.testing.assert_allclose(flight.log.columns["thrust"], log.columns["thrust"], rtol=1e-6)

@@ -40,7 +40,7 @@ def _pack(fields: list[tuple[str, str]], formats: dict[str, list[tuple[str, str]
 def write_ulog(path: Path, topics: list[Topic], parameters: dict[str, float] | None = None,
                nested: dict[str, list[tuple[str, str]]] | None = None, truncate_at: int | None = None) -> Path:
     nested = nested or {}
-    blob = b"ULog\x01\x12\x35" + bytes([1]) + struct.pack("<Q", 0)
+    blob = bytearray(b"ULog\x01\x12\x35" + bytes([1]) + struct.pack("<Q", 0))  # appends in place: linear time
     for name, flds in nested.items():
         blob += _message("F", f"{name}:{''.join(f'{t} {n};' for t, n in flds)}".encode())
     for topic in topics:
