@@ -5,7 +5,7 @@ esc_status at 4 Hz, vehicle_attitude_setpoint at 10 Hz; then times `dobwind repl
 interpreter and, with ``--before PYTHON``, another one (an earlier checkout's virtual environment),
 interleaved over the rounds so the machine's load falls on both alike. Median wall seconds.
 
-    .venv/bin/python -m harness.bench_slow_ulog --minutes 60 --before /work/main/.venv/bin/python
+    .venv/bin/python tools/bench_slow_ulog.py --minutes 60 --before /work/main/.venv/bin/python
 """
 from __future__ import annotations
 

@@ -2,7 +2,7 @@
 plausibility findings, the mean horizontal wind, the first `t` and the wall time of `dobwind replay`
 (docs/field-logs.md).
 
-    .venv/bin/python -m dobwind.harness.field_table AIRFRAME.toml LOG [LOG ...]
+    .venv/bin/python tools/field_table.py AIRFRAME.toml LOG [LOG ...]
 """
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """Which interpolant of a 10 Hz velocity gives the observer the force it would get from 50 Hz velocity
-(docs/field-logs.md, slow topics). `.venv/bin/python -m dobwind.harness.slow_topic_interp` (from the checkout):
+(docs/field-logs.md, slow topics). `.venv/bin/python tools/slow_topic_interp.py` (from the checkout):
 the wind of nf_quad over two simulated outdoor flights with velocity decimated to 10 Hz and interpolated back to 50 Hz, against the
 same flight at 50 Hz (RMS and mean difference) and against the true wind."""
 from __future__ import annotations
