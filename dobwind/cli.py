@@ -348,6 +348,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_simulate(command)
     _add_report(command)
     _add_demo(command)
+    _add_inspect(command)
+    _add_init(command)
     return parser
 
 
@@ -500,6 +502,42 @@ def _add_demo(command: _Command) -> None:
     p = command("demo", "the whole pipeline on the reference airframe")
     p.add_argument("-o", "--output", default="out/demo", help="folder for logs, fitted airframe, plots and C")
     p.set_defaults(func=cmd_demo)
+
+
+def _add_inspect(command: _Command) -> None:
+    p = command("inspect", "what an autopilot or CSV log holds for the estimator: streams and rates, airborne "
+                "time, the autopilot's wind, parameters, vehicle, and the inputs replay would use")
+    p.add_argument("log", help="flight log: PX4 ULog (.ulg), ArduPilot DataFlash (.bin), ROS 2 bag (.mcap, "
+                   ".db3 or its folder) or CSV (docs/formats.md)")
+    p.add_argument("--json", action="store_true", help=JSON_HELP)
+    p.set_defaults(func=cmd_inspect)
+
+
+def cmd_inspect(args: argparse.Namespace) -> int:
+    from dobwind.loginspect import inspect_log, text_report
+
+    summary = inspect_log(args.log)
+    if args.json:
+        _print_json(summary.as_dict())
+    else:
+        print(text_report(summary))
+    return 0
+
+
+def _add_init(command: _Command) -> None:
+    p = command("init", "a starter airframe (an uncalibrated prior) for the vehicle that flew a log")
+    p.add_argument("log", help="flight log: PX4 ULog (.ulg), ArduPilot DataFlash (.bin), ROS 2 bag or CSV")
+    p.add_argument("--mass", type=float, required=True, help="the vehicle's take-off mass, kg (required)")
+    p.add_argument("-o", "--output", required=True, help="the airframe TOML to write (required; never the log)")
+    p.add_argument("--name", default=None, help="airframe name, [a-z][a-z0-9_]* (default: from the output file name)")
+    p.add_argument("--json", action="store_true", help=JSON_HELP)
+    p.set_defaults(func=cmd_init)
+
+
+def cmd_init(args: argparse.Namespace) -> int:
+    from dobwind.initframe import run_init
+
+    return run_init(args.log, args.mass, args.output, args.name, args.json)
 
 
 def cmd_report(args: argparse.Namespace) -> int:
