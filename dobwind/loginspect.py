@@ -139,11 +139,11 @@ def intervals(t: np.ndarray, airborne: np.ndarray, end_s: float) -> tuple[tuple[
 
 
 def inside(t: np.ndarray, spans: tuple[tuple[float, float], ...]) -> np.ndarray:
-    """True where t lies in one of the spans."""
+    """True where t lies in one of the spans [start, end): at the end the state has changed."""
     t = np.asarray(t, dtype=float)
     mask = np.zeros(len(t), dtype=bool)
     for a, b in spans:
-        mask |= (t >= a) & (t <= b)
+        mask |= (t >= a) & (t < b)
     return mask
 
 
@@ -152,17 +152,17 @@ def total(spans: tuple[tuple[float, float], ...]) -> float:
 
 
 def wind_activity(source: str | None, t: np.ndarray | None, north: np.ndarray | None, east: np.ndarray | None,
-                  why_off: str = "") -> AutopilotWind:
+                  why: str = "") -> AutopilotWind:
     """An autopilot's wind estimate is active when it is logged and not identically zero: PX4 and
     ArduPilot keep publishing zeros (or nothing) when no wind state is being estimated."""
     if source is None or t is None or north is None or east is None or len(t) == 0:
-        return AutopilotWind(None, False, "not logged" + (f" ({why_off})" if why_off else ""))
+        return AutopilotWind(None, False, "not logged" + (f" ({why})" if why else ""))
     speed = np.hypot(north, east)
     finite = speed[np.isfinite(speed)]
     if len(finite) == 0 or np.all(finite == 0):
         return AutopilotWind(source, False, "logged but all zero (no wind state estimated)"
-                             + (f"; {why_off}" if why_off else ""))
-    return AutopilotWind(source, True, "logged and nonzero", float(np.mean(finite)))
+                             + (f"; {why}" if why else ""))
+    return AutopilotWind(source, True, "logged and nonzero" + (f"; {why}" if why else ""), float(np.mean(finite)))
 
 
 def _fmt(value: float | None, unit: str = "", digits: int = 3) -> str:
