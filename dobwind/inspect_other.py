@@ -8,7 +8,7 @@ import re
 import numpy as np
 
 from dobwind.errors import InputError
-from dobwind.loginspect import AutopilotWind, LogSummary, Role, Vehicle, intervals, stream_stats, total, \
+from dobwind.loginspect import AutopilotWind, LogSummary, Role, Vehicle, inside, intervals, stream_stats, total, \
     wind_activity
 
 # rosbag.py's role names -> inspect's roles. "imu" is the specific force (and, under mavros, the attitude).
@@ -39,14 +39,10 @@ def _bag_stamps(path: str, wanted: dict[str, str]) -> tuple[dict[str, np.ndarray
     return {t: np.array(s, dtype=float) * 1e-9 for t, s in stamps.items()}, others
 
 
-def _bag_ground(path: str, setup: str, topic: str, end_s: float) -> tuple[tuple[tuple[float, float], ...], str]:
+def _bag_ground(setup: str, rows: list, end_s: float) -> tuple[tuple[tuple[float, float], ...], str]:
     """PX4 bags: airborne from vehicle_land_detected (landed or maybe_landed or ground_contact)."""
-    from dobwind.rosbag import _collect
-
     if setup != "px4":
         return (), "unknown: mavros bags carry no land detection"
-    msgs, _ = _collect(path, {"land": topic})
-    rows = msgs["land"]
     if not rows:
         return (), "unknown: no vehicle_land_detected"
     t = np.array([m.timestamp * 1e-6 for _, m in rows])
@@ -55,39 +51,77 @@ def _bag_ground(path: str, setup: str, topic: str, end_s: float) -> tuple[tuple[
     return intervals(t, ~ground, end_s), "vehicle_land_detected"
 
 
+def _bag_esc(setup: str, rows: list, spans) -> tuple[int | None, bool, str, float | None, float | None]:
+    """Rotor count (the ESCs reporting) and whether every one reads rpm > 0 while airborne."""
+    from dobwind.rosbag import _stamp
+
+    if not rows:
+        return None, False, "no ESC messages", None, None
+    px4 = setup == "px4"
+    t = np.array([_stamp(m, stamp, px4) for stamp, m in rows])
+    reports = [[r.esc_rpm for r in m.esc[:m.esc_count]] if px4 else [r.rpm for r in m.esc_status] for _, m in rows]
+    rotors = max(len(r) for r in reports)
+    if rotors == 0:
+        return None, False, "ESC messages report no ESC", None, None
+    rpm = np.array([r + [0] * (rotors - len(r)) for r in reports], dtype=float)
+    up = inside(t, spans) if spans else np.ones(len(t), dtype=bool)
+    share = float(np.mean(np.all(rpm[up] > 0, axis=1))) if up.any() else 0.0
+    note = f"rpm > 0 on all {rotors} ESCs in {100 * share:.0f} % of {int(up.sum())} " + ("airborne " if spans else "") + "reports"
+    return (rotors, share >= RPM_AIRBORNE_SHARE, note, float(np.median(rpm[up])) if up.any() else None,
+            float(np.max(rpm[up])) if up.any() else None)
+
+
+def _bag_wind(setup: str, topic: str | None, rows: list) -> AutopilotWind:
+    from dobwind.rosbag import _stamp
+
+    if not rows:
+        return wind_activity(None, None, None, None)
+    px4 = setup == "px4"
+    t = np.array([_stamp(m, stamp, px4) for stamp, m in rows])
+    # PX4's wind is NED; mavros' wind_estimation is ENU (x east, y north).
+    ne = np.array([[m.windspeed_north, m.windspeed_east] if px4 else [m.twist.twist.linear.y, m.twist.twist.linear.x]
+                   for _, m in rows], dtype=float)
+    return wind_activity(topic, t, ne[:, 0], ne[:, 1])
+
+
+def _bag_roles(setup: str, wanted: dict[str, str], stamps: dict[str, np.ndarray]) -> dict[str, Role]:
+    roles = {}
+    for bag_role, role in BAG_ROLES.items():
+        topic = wanted.get(bag_role)
+        roles[role] = (Role(role, topic, topic) if topic in stamps and len(stamps[topic]) >= 2 else
+                       Role(role, None, None, f"no {topic}" if topic else f"the {setup} setup has no such topic"))
+    if setup == "mavros" and roles["specific_force"].source:
+        roles["attitude"] = Role("attitude", f"{wanted['imu']} (orientation)", wanted["imu"])
+    imu = roles["specific_force"]
+    roles["acceleration"] = Role("acceleration", "IMU specific force rotated to NED, plus gravity", imu.stream) \
+        if imu.source else Role("acceleration", None, None, "no IMU topic")
+    roles["heading"] = Role("heading", "the vehicle's own yaw", roles["attitude"].stream)
+    order = ("velocity", "acceleration", "specific_force", "attitude", "rpm", "thrust", "hover_thrust", "heading",
+             "ground", "autopilot_wind")
+    return {r: roles.get(r, Role(r, None, None, f"the {setup} setup has no such topic")) for r in order}
+
+
 def inspect_rosbag(path: str) -> LogSummary:
-    from dobwind.rosbag import _setup
+    from dobwind.rosbag import _collect, _setup
 
     setup, wanted = _setup(path, {}, {})
     stamps, others = _bag_stamps(path, wanted)
     if not stamps:
         raise InputError(path, None, "no topic the estimator reads is in the bag")
-    streams = tuple(stream_stats(t, s) for t, s in sorted(stamps.items()))
     start = min(float(s.min()) for s in stamps.values())
     end = max(float(s.max()) for s in stamps.values())
-    roles = {r: Role(r, None, None, "not read from ROS 2 bags") for r in
-             ("velocity", "acceleration", "specific_force", "attitude", "rpm", "thrust", "hover_thrust", "heading",
-              "ground", "autopilot_wind")}
-    for bag_role, role in BAG_ROLES.items():
-        topic = wanted.get(bag_role)
-        roles[role] = (Role(role, topic, topic) if topic in stamps and len(stamps[topic]) >= 2 else
-                       Role(role, None, None, f"no {topic}" if topic else f"the {setup} setup has no such topic"))
-    if setup == "mavros":
-        roles["attitude"] = Role("attitude", f"{wanted['imu']} (orientation)", wanted["imu"]) \
-            if roles["specific_force"].source else roles["attitude"]
-    imu = roles["specific_force"]
-    roles["acceleration"] = Role("acceleration", "IMU specific force rotated to NED, plus gravity", imu.stream) \
-        if imu.source else Role("acceleration", None, None, "no IMU topic")
-    roles["heading"] = Role("heading", "the vehicle's own yaw", roles["attitude"].stream)
-    spans, airborne_source = ((), "unknown: no land detection topic") if roles["ground"].source is None else \
-        _bag_ground(path, setup, wanted["land"], end)
-    vehicle = Vehicle(None, "not read from ROS 2 bags (give it in the airframe)", f"ROS 2 bag ({setup} setup)", False,
-                      "ESC rpm is not checked in ROS 2 bags" if roles["rpm"].source else "no ESC topic")
-    wind = AutopilotWind(roles["autopilot_wind"].source, False, "logged; not checked for activity in ROS 2 bags") \
-        if roles["autopilot_wind"].source else wind_activity(None, None, None, None)
+    roles = _bag_roles(setup, wanted, stamps)
+    read = {r: wanted[r] for r in ("land", "esc", "wind") if r in wanted and wanted[r] in stamps}
+    msgs, _ = _collect(path, read) if read else ({}, set())
+    spans, airborne_source = _bag_ground(setup, msgs.get("land", []), end)
+    rotors, rpm_ok, rpm_note, rpm_median, rpm_max = _bag_esc(setup, msgs.get("esc", []), spans)
+    vehicle = Vehicle(rotors, "the ESCs reporting" if rotors else "no ESC topic: give it in the airframe",
+                      f"ROS 2 bag ({setup} setup)", rpm_ok, rpm_note, None, "", rpm_median, rpm_max)
     return LogSummary(path, "rosbag", "PX4" if setup == "px4" else "mavros", start, end,
-                      total(spans) if spans else None, airborne_source, spans, streams, tuple(roles.values()), {},
-                      vehicle, wind, (f"{setup} setup (by the bag's topic names)",), tuple(others))
+                      total(spans) if spans else None, airborne_source, spans,
+                      tuple(stream_stats(t, s) for t, s in sorted(stamps.items())), tuple(roles.values()), {},
+                      vehicle, _bag_wind(setup, read.get("wind"), msgs.get("wind", [])),
+                      (f"{setup} setup (by the bag's topic names)",), tuple(others))
 
 
 # Flight-log CSV columns (docs/formats.md) per role.

@@ -285,3 +285,24 @@ def test_real_logs_inspect_and_init(log, tmp_path, capsys):
     assert main(["check", str(tmp_path / "v.toml")]) == 0
     assert load_airframe(tmp_path / "v.toml").uncalibrated
     assert math.isfinite(load_airframe(tmp_path / "v.toml").observer.gains[0])
+
+
+def test_rosbag_streams_airborne_esc_wind_and_init(tmp_path):
+    pytest.importorskip("rosbags")
+    from dobwind.simulate import simulate
+    from tests.helpers import M300
+    from tests.test_rosbag import T0_US as BAG_T0_US, _px4_bag
+
+    af = load_airframe(M300)
+    cols = simulate(af, "tunnel", seed=5, hold_s=1.0, rate_hz=50.0)
+    bag = str(_px4_bag(tmp_path / "bag", af, cols, "mcap", landed_until=2.0, hover=0.4))
+    s = inspect_log(bag)
+    assert s.format == "rosbag" and s.role("velocity").source == "/fmu/out/vehicle_odometry"
+    assert s.stream("/fmu/out/vehicle_attitude").count == len(cols["t"])
+    assert s.stream("/fmu/out/vehicle_land_detected").rate_hz == pytest.approx(5.0, rel=1e-3)
+    # Land detection every 10th sample, landed while t < 2 s: airborne from the first report at or after 2 s.
+    first_up = cols["t"][::10][cols["t"][::10] >= 2.0][0]
+    assert s.airborne_intervals[0][0] == pytest.approx(BAG_T0_US * 1e-6 + first_up, abs=1e-6)
+    assert s.vehicle.rotors == 4 and s.vehicle.rpm_nonzero_airborne and s.autopilot_wind.active
+    _, choices, _ = build_airframe(bag, 8.0, str(tmp_path / "v.toml"))
+    assert choices.thrust_source == "rpm" and choices.rate_hz == 50.0
