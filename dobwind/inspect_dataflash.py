@@ -11,8 +11,8 @@ import numpy as np
 from dobwind.dataflash import (AP_WIND, ATTITUDE, EV_GROUND, IMU, VELOCITY, WANTED, _follow_primary, _load,
                                _stream)
 from dobwind.errors import InputError
-from dobwind.loginspect import (AutopilotWind, LogSummary, Role, Vehicle, inside, intervals, stream_stats,
-                                total, wind_activity)
+from dobwind.loginspect import (AutopilotWind, LogSummary, Role, Vehicle, inside, intervals, quiet_stderr,
+                                stream_stats, total, wind_activity)
 
 PARAMETERS = ("MOT_THST_HOVER", "FRAME_CLASS", "FRAME_TYPE", "EK3_DRAG_BCOEF_X", "EK3_DRAG_BCOEF_Y",
               "EK3_DRAG_MCOEF", "SIM_WIND_SPD", "SIM_WIND_DIR", "SIM_WIND_TURB", "SIM_WIND_T", "SIM_WIND_T_ALT")
@@ -29,8 +29,9 @@ def _parameters(rows: list[dict]) -> dict[str, float]:
     out: dict[str, float] = {}
     for r in rows:
         name = r.get("Name")
-        if isinstance(name, str) and name not in out:
-            out[name] = float(r.get("Value", np.nan))
+        value = r.get("Value")
+        if isinstance(name, str) and name not in out and isinstance(value, (int, float)) and np.isfinite(value):
+            out[name] = float(value)
     return out
 
 
@@ -151,7 +152,9 @@ def _ap_wind(msgs: dict, params: dict) -> AutopilotWind:
 
 def inspect_dataflash(path: str) -> LogSummary:
     notes: list[str] = []
-    msgs = _follow_primary(_load(path, WANTED + ("PARM",)), notes)
+    with quiet_stderr():
+        loaded = _load(path, WANTED + ("PARM",))
+    msgs = _follow_primary(loaded, notes)
     params_all = _parameters(msgs.pop("PARM"))
     params = {k: params_all[k] for k in PARAMETERS if k in params_all}
     streams = _streams(msgs)

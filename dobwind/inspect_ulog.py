@@ -149,7 +149,8 @@ def _px4_wind(topics: dict, wind_role: Role, params: dict) -> AutopilotWind:
 def inspect_ulog(path: str) -> LogSummary:
     ulog, complaint = _open(path, TOPICS_READ + EXTRA_TOPICS)
     topics = _topics(ulog)
-    params = {k: float(ulog.initial_parameters[k]) for k in PARAMETERS if k in ulog.initial_parameters}
+    params = {k: float(ulog.initial_parameters[k]) for k in PARAMETERS
+              if k in ulog.initial_parameters and np.isfinite(float(ulog.initial_parameters[k]))}
     if not topics:
         raise InputError(path, None, "no topic the estimator reads is in the log")
     start = min(float(d["t"].min()) for d in topics.values())

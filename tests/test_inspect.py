@@ -252,6 +252,15 @@ def test_dataflash_rates_airborne_roles_and_collective_init(tmp_path):
     assert af.limits.max_dt_s == pytest.approx(0.3)
 
 
+def test_a_corrupt_dataflash_log_is_one_line_on_stderr(tmp_path, capfd):
+    pytest.importorskip("pymavlink")
+    junk = tmp_path / "junk.bin"
+    junk.write_bytes(np.random.default_rng(1).integers(0, 256, 3000, dtype=np.uint8).tobytes())
+    assert main(["inspect", str(junk)]) == 2
+    out, err = capfd.readouterr()
+    assert out == "" and err.count("\n") == 1 and "junk.bin" in err
+
+
 def test_dataflash_rpm_init(tmp_path):
     pytest.importorskip("pymavlink")
     text, choices, _ = build_airframe(str(_ardupilot_log(tmp_path / "a.bin", esc_rpm=True)), 1.5, str(tmp_path / "v.toml"))
