@@ -91,6 +91,7 @@ def cmd_check(args: argparse.Namespace) -> int:
         "thrust": af.thrust.source,
         "discretization": af.observer.discretization,
         "acceleration": af.observer.acceleration,
+        "calibration": af.calibration,  # "prior": every accepted sample carries UNCALIBRATED
         "inputs": list(model.inputs.element_names()),
         "state_size": model.state.size,
         "step_instructions": model.step.n_instructions(),

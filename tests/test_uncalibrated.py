@@ -5,6 +5,7 @@ on nothing else, with outputs identical to the calibrated airframe's, in Python 
 from __future__ import annotations
 
 import dataclasses
+import json
 
 import numpy as np
 import pytest
@@ -79,13 +80,15 @@ def test_the_generated_c_sets_it_like_the_reference(flight):
     assert np.all(c.status[(ref.status.astype(np.int64) & NOT_ACCEPTED_MASK) == 0] & UNCALIBRATED)
 
 
-def test_the_c_header_names_the_bit(tmp_path):
+def test_the_c_header_and_check_name_it(tmp_path, capsys):
     from dobwind.cli import main
 
     (tmp_path / "p.toml").write_text(_prior_text())
     assert main(["generate", str(tmp_path / "p.toml"), "-o", str(tmp_path / "c")]) == 0
     header = next((tmp_path / "c").glob("*.h")).read_text()
     assert "STATUS_UNCALIBRATED 0x400u" in header and "calibration     prior" in header
+    assert main(["check", str(tmp_path / "p.toml"), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["calibration"] == PRIOR
 
 
 def test_fit_starts_from_the_calibrated_state(monkeypatch):
