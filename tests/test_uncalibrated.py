@@ -85,6 +85,7 @@ def test_the_c_header_and_check_name_it(tmp_path, capsys):
 
     (tmp_path / "p.toml").write_text(_prior_text())
     assert main(["generate", str(tmp_path / "p.toml"), "-o", str(tmp_path / "c")]) == 0
+    capsys.readouterr()
     header = next((tmp_path / "c").glob("*.h")).read_text()
     assert "STATUS_UNCALIBRATED 0x400u" in header and "calibration     prior" in header
     assert main(["check", str(tmp_path / "p.toml"), "--json"]) == 0
