@@ -1,4 +1,5 @@
-"""`dobwind inspect LOG`: what an autopilot (or CSV) log holds for the estimator, without resampling it.
+"""`dobwind inspect LOG`: what an autopilot (or CSV) log holds for the estimator, without resampling it
+(docs/inspect-init.md).
 
 One ``LogSummary`` per log: every stream the readers could use with its message count, median rate and
 worst gap; the log's span and airborne time; the autopilot's own wind and whether it is active; the

@@ -315,3 +315,22 @@ def test_rosbag_streams_airborne_esc_wind_and_init(tmp_path):
     assert s.vehicle.rotors == 4 and s.vehicle.rpm_nonzero_airborne and s.autopilot_wind.active
     _, choices, _ = build_airframe(bag, 8.0, str(tmp_path / "v.toml"))
     assert choices.thrust_source == "rpm" and choices.rate_hz == 50.0
+
+
+def test_inspect_names_only_what_the_readers_read(px4, tmp_path):
+    """The roles' streams are topics the replay readers parse (ulog.TOPICS_READ, dataflash.WANTED): a
+    reader that drops a topic must not leave inspect promising it."""
+    from dobwind.ulog import TOPICS_READ
+
+    for role in inspect_log(str(px4[0])).roles:
+        assert role.stream is None or role.stream in TOPICS_READ, role
+    pytest.importorskip("pymavlink")
+    from dobwind.dataflash import WANTED
+
+    for role in inspect_log(str(_ardupilot_log(tmp_path / "a.bin", esc_rpm=True))).roles:
+        assert role.stream is None or role.stream.split(" ")[0] in WANTED, role
+
+
+def test_the_starter_airframe_passes_verify(px4, capsys):
+    assert main(["verify", px4[1], "--steps", "2000"]) == 0
+    assert "0 status mismatches" in capsys.readouterr().out
