@@ -22,6 +22,7 @@ FRAME_CLASS_NAMES = {1: "quad", 2: "hexa", 3: "octa", 4: "octaquad", 5: "Y6", 7:
 # SERVOn_FUNCTION values of motors: Motor1..8 are 33..40, Motor9..12 are 82..85 (ArduPilot SRV_Channel).
 MOTOR_FUNCTIONS = set(range(33, 41)) | set(range(82, 86))
 RPM_AIRBORNE_SHARE = 0.95
+MOTOR_PWM_US = 1100.0  # a spinning motor's output; idle and disarmed outputs sit near 1000 us
 
 
 def _parameters(rows: list[dict]) -> dict[str, float]:
@@ -98,7 +99,7 @@ def _airborne(msgs: dict, end_s: float) -> tuple[tuple[tuple[float, float], ...]
     return (), "unknown: no EV events and no CTUN"
 
 
-def _rotors(msgs: dict, params: dict) -> tuple[int | None, str]:
+def _rotors(msgs: dict, params: dict, spans) -> tuple[int | None, str]:
     motors = [k for k, v in params.items() if k.startswith("SERVO") and k.endswith("_FUNCTION") and int(v) in MOTOR_FUNCTIONS]
     if motors:
         return len(motors), "SERVOn_FUNCTION set to a motor"
@@ -108,7 +109,22 @@ def _rotors(msgs: dict, params: dict) -> tuple[int | None, str]:
     escs = {r.get("Instance") for r in msgs["ESC"]}
     if escs:
         return len(escs), "ESC telemetry instances"
-    return None, "no motor SERVOn_FUNCTION, FRAME_CLASS or ESC telemetry"
+    driven = _driven_outputs(msgs.get("RCOU", []), spans)
+    if driven:
+        return driven, "RCOU channels above 1100 us while airborne (no parameters: servos would count too)"
+    return None, "no motor SERVOn_FUNCTION, FRAME_CLASS, ESC telemetry or driven RCOU channel"
+
+
+def _driven_outputs(rows: list[dict], spans) -> int:
+    """Output channels whose airborne median PWM is above 1100 us (motors idle at about 1000)."""
+    if not rows or not spans:
+        return 0
+    up = inside(np.array([r["TimeUS"] for r in rows]) * 1e-6, spans)
+    if not up.any():
+        return 0
+    picked = [r for r, u in zip(rows, up) if u]
+    return sum(1 for k in range(1, 33) if f"C{k}" in picked[0]
+               and np.median([r.get(f"C{k}", 0) for r in picked]) > MOTOR_PWM_US)
 
 
 def _rpm(msgs: dict, rotors: int | None, spans) -> tuple[bool, str, float | None, float | None]:
@@ -153,7 +169,7 @@ def _ap_wind(msgs: dict, params: dict) -> AutopilotWind:
 def inspect_dataflash(path: str) -> LogSummary:
     notes: list[str] = []
     with quiet_stderr():
-        loaded = _load(path, WANTED + ("PARM",))
+        loaded = _load(path, WANTED + ("PARM", "RCOU"))
     msgs = _follow_primary(loaded, notes)
     params_all = _parameters(msgs.pop("PARM"))
     params = {k: params_all[k] for k in PARAMETERS if k in params_all}
@@ -163,7 +179,7 @@ def inspect_dataflash(path: str) -> LogSummary:
     start = min(s.start_s for s in streams if s.start_s is not None)
     end = max(s.end_s for s in streams if s.end_s is not None)
     spans, source = _airborne(msgs, end)
-    rotors, rotor_source = _rotors(msgs, params_all)
+    rotors, rotor_source = _rotors(msgs, params_all, spans)
     rpm_ok, rpm_note, rpm_median, rpm_max = _rpm(msgs, rotors, spans)
     hover, hover_source = _hover(msgs, params, spans)
     frame = int(params.get("FRAME_CLASS", -1))

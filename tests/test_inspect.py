@@ -197,6 +197,7 @@ MESSAGES = {
     "ESC": ("QBf", ["TimeUS", "Instance", "RPM"]),
     "CTUN": ("Qff", ["TimeUS", "ThO", "ThH"]),
     "EV": ("QB", ["TimeUS", "Id"]),
+    "RCOU": ("QHHHHHH", ["TimeUS", "C1", "C2", "C3", "C4", "C5", "C6"]),
 }
 PARM_TYPE = 129  # write_dataflash numbers its messages from 130
 
@@ -211,7 +212,7 @@ def _parameters(params: dict[str, float]) -> bytes:
     return blob
 
 
-def _ardupilot_log(path: Path, *, esc_rpm: bool) -> Path:
+def _ardupilot_log(path: Path, *, esc_rpm: bool, esc: bool = True, parameters: bool = True) -> Path:
     """10 Hz EKF and CTUN, 25 Hz IMU; EV NOT_LANDED at 5 s and LAND_COMPLETE at 25 s; SITL ESCs at 0 rpm
     unless esc_rpm."""
     rows: list = []
@@ -227,8 +228,13 @@ def _ardupilot_log(path: Path, *, esc_rpm: bool) -> Path:
             rows += [("XKF1", {"TimeUS": us, "C": 0, "VN": 1.0}), ("XKQ", {"TimeUS": us, "C": 0, "Q1": 1.0}),
                      ("XKF2", {"TimeUS": us, "C": 0}), ("CTUN", {"TimeUS": us, "ThO": 0.4, "ThH": 0.37})]
             rows += [("ESC", {"TimeUS": us, "Instance": i, "RPM": 5000.0 if esc_rpm and _airborne(s) else 0.0})
-                     for i in range(4)]
+                     for i in range(4) if esc]
+            # Four motors, one servo at its 1000 us rest, one output unused.
+            rows.append(("RCOU", {"TimeUS": us, **{f"C{c}": 1500 if _airborne(s) else 1000 for c in range(1, 5)},
+                                  "C5": 1000, "C6": 0}))
     write_dataflash(path, MESSAGES, rows)
+    if not parameters:
+        return path
     params = {"FRAME_CLASS": 1, "MOT_THST_HOVER": 0.37, "SIM_WIND_SPD": 10.0, "SIM_WIND_DIR": 180.0,
               **{f"SERVO{i}_FUNCTION": 32.0 + i for i in range(1, 5)}}
     path.write_bytes(path.read_bytes() + _parameters(params))
@@ -259,6 +265,12 @@ def test_a_corrupt_dataflash_log_is_one_line_on_stderr(tmp_path, capfd):
     assert main(["inspect", str(junk)]) == 2
     out, err = capfd.readouterr()
     assert out == "" and err.count("\n") == 1 and "junk.bin" in err
+
+
+def test_dataflash_rotors_from_driven_outputs_without_parameters_or_esc(tmp_path):
+    pytest.importorskip("pymavlink")
+    s = inspect_log(str(_ardupilot_log(tmp_path / "a.bin", esc_rpm=False, esc=False, parameters=False)))
+    assert s.vehicle.rotors == 4 and s.vehicle.rotor_source.startswith("RCOU")
 
 
 def test_dataflash_rpm_init(tmp_path):
