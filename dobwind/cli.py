@@ -190,6 +190,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
     check_targets(_replay_targets(args), [args.airframe, args.log])
     af = load_airframe(args.airframe)
+    _warn_uncalibrated(af, args.airframe)
     if args.backend == "c" and args.precision == "single":
         from dobwind.codegen.single_terms import refuse_ill_conditioned_terms
 
@@ -212,6 +213,12 @@ def cmd_replay(args: argparse.Namespace) -> int:
     else:
         print(f"rows {metrics['rows']}, rejected {metrics['rejected_rows']} (no true wind in the log to score against)")
     return 0
+
+
+def _warn_uncalibrated(af, path: str) -> None:
+    if af.uncalibrated:  # dobwind init's prior: the numbers are a guess, and every row says so
+        sys.stderr.write(f"dobwind replay: warning: {path} is an uncalibrated prior ([calibration] status = "
+                         f"\"{af.calibration}\"): every estimate carries UNCALIBRATED until `dobwind fit` calibrates it\n")
 
 
 def _replay_csv(args: argparse.Namespace, af):

@@ -346,3 +346,10 @@ def test_inspect_names_only_what_the_readers_read(px4, tmp_path):
 def test_the_starter_airframe_passes_verify(px4, capsys):
     assert main(["verify", px4[1], "--steps", "2000"]) == 0
     assert "0 status mismatches" in capsys.readouterr().out
+
+
+def test_replay_of_the_log_with_its_starter_airframe_names_the_bit(px4, capsys):
+    assert main(["replay", px4[1], str(px4[0]), "--json"]) == 0
+    counts = json.loads(capsys.readouterr().out)["status_counts"]
+    accepted = {name: n for name, n in counts.items() if "LANDED" not in name and "NO_DATA" not in name}
+    assert accepted and all("UNCALIBRATED" in name for name in accepted)

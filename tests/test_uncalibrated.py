@@ -106,3 +106,16 @@ def test_fit_starts_from_the_calibrated_state(monkeypatch):
     with pytest.raises(Stop):
         fitfamily.fit_airframe(parse_airframe(_prior_text(), "<t>"), ["unused.csv"])
     assert seen == [CALIBRATED]
+
+
+def test_replay_warns_once(flight, tmp_path, capsys):
+    from dobwind.cli import main
+
+    _, prior, path = flight
+    (tmp_path / "p.toml").write_text(M300.read_text() + '\n[calibration]\nstatus = "prior"\n')
+    assert main(["replay", str(tmp_path / "p.toml"), path, "--json"]) == 0
+    out, err = capsys.readouterr()
+    assert err.count("\n") == 1 and "uncalibrated prior" in err and "UNCALIBRATED" in err and "p.toml" in err
+    assert json.loads(out)["trusted_share"] == 0.0  # status 0 is never reached
+    assert main(["replay", str(M300), path]) == 0
+    assert capsys.readouterr().err == ""
