@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from dobwind.errors import InputError
-from dobwind.loginspect import (AutopilotWind, LogSummary, Role, Stream, Vehicle, inside, intervals,
+from dobwind.loginspect import (AutopilotWind, LogSummary, Role, Vehicle, inside, intervals,
                                 stream_stats, total, wind_activity)
 from dobwind.ulog import PX4_WIND_TOPICS, TOPICS_READ, _open, truncation
 
