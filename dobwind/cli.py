@@ -91,6 +91,7 @@ def cmd_check(args: argparse.Namespace) -> int:
         "thrust": af.thrust.source,
         "discretization": af.observer.discretization,
         "acceleration": af.observer.acceleration,
+        "calibration": af.calibration,  # "prior": every accepted sample carries UNCALIBRATED
         "inputs": list(model.inputs.element_names()),
         "state_size": model.state.size,
         "step_instructions": model.step.n_instructions(),
@@ -189,6 +190,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
     check_targets(_replay_targets(args), [args.airframe, args.log])
     af = load_airframe(args.airframe)
+    _warn_uncalibrated(af, args.airframe)
     if args.backend == "c" and args.precision == "single":
         from dobwind.codegen.single_terms import refuse_ill_conditioned_terms
 
@@ -216,6 +218,12 @@ def cmd_replay(args: argparse.Namespace) -> int:
     for finding in [] if args.json else result.findings:
         print(f"  note: plausibility ({finding.check}): {finding.message} (a streamed CSV log: not marked SUSPECT)")
     return 0
+
+
+def _warn_uncalibrated(af, path: str) -> None:
+    if af.uncalibrated:  # dobwind init's prior: the numbers are a guess, and every row says so
+        sys.stderr.write(f"dobwind replay: warning: {path} is an uncalibrated prior ([calibration] status = "
+                         f"\"{af.calibration}\"): every estimate carries UNCALIBRATED until `dobwind fit` calibrates it\n")
 
 
 def _replay_csv(args: argparse.Namespace, af):
@@ -348,6 +356,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_simulate(command)
     _add_report(command)
     _add_demo(command)
+    _add_inspect(command)
+    _add_init(command)
     return parser
 
 
@@ -500,6 +510,42 @@ def _add_demo(command: _Command) -> None:
     p = command("demo", "the whole pipeline on the reference airframe")
     p.add_argument("-o", "--output", default="out/demo", help="folder for logs, fitted airframe, plots and C")
     p.set_defaults(func=cmd_demo)
+
+
+def _add_inspect(command: _Command) -> None:
+    p = command("inspect", "what an autopilot or CSV log holds for the estimator: streams and rates, airborne "
+                "time, the autopilot's wind, parameters, vehicle, and the inputs replay would use")
+    p.add_argument("log", help="flight log: PX4 ULog (.ulg), ArduPilot DataFlash (.bin), ROS 2 bag (.mcap, "
+                   ".db3 or its folder) or CSV (docs/formats.md)")
+    p.add_argument("--json", action="store_true", help=JSON_HELP)
+    p.set_defaults(func=cmd_inspect)
+
+
+def cmd_inspect(args: argparse.Namespace) -> int:
+    from dobwind.loginspect import inspect_log, text_report
+
+    summary = inspect_log(args.log)
+    if args.json:
+        _print_json(summary.as_dict())
+    else:
+        print(text_report(summary))
+    return 0
+
+
+def _add_init(command: _Command) -> None:
+    p = command("init", "a starter airframe (an uncalibrated prior) for the vehicle that flew a log")
+    p.add_argument("log", help="flight log: PX4 ULog (.ulg), ArduPilot DataFlash (.bin), ROS 2 bag or CSV")
+    p.add_argument("--mass", type=float, required=True, help="the vehicle's take-off mass, kg (required)")
+    p.add_argument("-o", "--output", required=True, help="the airframe TOML to write (required; never the log)")
+    p.add_argument("--name", default=None, help="airframe name, [a-z][a-z0-9_]* (default: from the output file name)")
+    p.add_argument("--json", action="store_true", help=JSON_HELP)
+    p.set_defaults(func=cmd_init)
+
+
+def cmd_init(args: argparse.Namespace) -> int:
+    from dobwind.initframe import run_init
+
+    return run_init(args.log, args.mass, args.output, args.name, args.json)
 
 
 def cmd_report(args: argparse.Namespace) -> int:

@@ -48,18 +48,18 @@ WANTED = ("XKF1", "NKF1", "XKQ", "NKQ1", "NKQ", "XKF2", "NKF2", "IMU", "ESC", "C
 CORE_MESSAGES = ("XKF1", "XKQ", "XKF2")  # logged per EKF3 core (field C)
 
 
-def _load(path: str) -> dict[str, list[dict]]:
+def _load(path: str, wanted: tuple[str, ...] = WANTED) -> dict[str, list[dict]]:
     """Every wanted message as a list of field dicts; DFReader prints to stdout, which --json needs."""
     try:
         from pymavlink import DFReader
     except ImportError:  # pragma: no cover - the ardupilot extra is part of `make setup`
         raise InputError(path, None, "reading DataFlash needs pymavlink (pip install 'dobwind[ardupilot]')") from None
-    out: dict[str, list[dict]] = {name: [] for name in WANTED}
+    out: dict[str, list[dict]] = {name: [] for name in wanted}
     try:
         with contextlib.redirect_stdout(io.StringIO()):
             reader = DFReader.DFReader_binary(path, zero_time_base=False)
             while True:
-                msg = reader.recv_match(type=list(WANTED))
+                msg = reader.recv_match(type=list(wanted))
                 if msg is None:
                     break
                 out[msg.get_type()].append(msg.to_dict())

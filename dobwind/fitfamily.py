@@ -17,7 +17,7 @@ from dobwind.hovernoise import HoverNoise, quieter_schedule
 from dobwind.fit import (CalibrationRun, FitReport, Points, PointsOf, calibration_points, calibration_run, fit_polynomial,
                          no_steady_data, points_from, read_calibration_logs)
 from dobwind.logs import FlightLog
-from dobwind.model.airframe import Airframe, ForceAirModel
+from dobwind.model.airframe import CALIBRATED, Airframe, ForceAirModel
 from dobwind.selfcheck import SelfCheck, Thresholds, self_check, self_check_sources
 
 MODELS = ("auto", "drag", "drag-heading", "drag-body", "polynomial")
@@ -162,6 +162,9 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynami
     above with an acceleration input, the fit runs again with that input blended with the velocity's
     derivative and keeps the better (dobwind/accelroute.py). The logs are read ``block_bytes`` at a time
     (None: each whole, in memory; the same airframe)."""
+    # What fit writes is calibrated: a prior (dobwind init's [calibration] status) stops being one here,
+    # and the self-check replays the new airframe without the UNCALIBRATED bit.
+    af = dataclasses.replace(af, calibration=CALIBRATED)
     options = FitOptions(terms, dynamic, model, still_air, limits, block_bytes, hover)
     new, report, points, check = _fit_once(af, log_paths, options)
     if accelroute.needs_blend_check(new, check, hover):

@@ -33,7 +33,7 @@ MAX_ROTORS = 16
 # Every key each table may hold. They are checked before any value is read, so that a misspelt key
 # ("masss") is reported as unknown rather than as the correct key missing. Add new keys here.
 TOP_KEYS = ("name", "mass", "gravity", "thrust", "observer", "force_air", "filter", "limits", "envelope",
-            "uncertainty", "ros2_topics")
+            "uncertainty", "ros2_topics", "calibration")
 # Roles of the ROS 2 bag reader (dobwind/rosbag.py) whose topic names [ros2_topics] may replace.
 ROS2_TOPIC_ROLES = ("velocity", "attitude", "imu", "esc", "thrust", "hover", "land", "wind")
 THRUST_KEYS = ("source", "scale", "rotors", "max_rpm", "coefficients")
@@ -44,6 +44,13 @@ FILTER_KEYS = ("speeds", "cutoffs")
 LIMITS_KEYS = ("max_dt", "max_tilt_deg")
 ENVELOPE_KEYS = ("force_h_max", "force_z", "airflow_h_max")
 UNCERTAINTY_KEYS = ("speeds", "sigma_h", "sigma_up", "noise_h", "noise_up")
+CALIBRATION_KEYS = ("status",)
+# [calibration] status: "calibrated" (the default: every file written before the key existed was
+# calibrated by fit or by hand) or "prior" (a starter law scaled from typical vehicles, written by
+# `dobwind init`; the step then sets the UNCALIBRATED quality bit on every accepted sample).
+CALIBRATED = "calibrated"
+PRIOR = "prior"
+CALIBRATION_STATUSES = (CALIBRATED, PRIOR)
 
 
 @dataclass(frozen=True)
@@ -128,6 +135,11 @@ class Airframe:
     uncertainty: Uncertainty | None = None  # optional: absent => the sigma outputs carry -1 (unknown)
     drag: DragLaw | None = None  # the ``drag`` force-air family; None: the polynomial family
     ros2_topics: tuple[tuple[str, str], ...] = ()  # optional (role, topic) replacing the bag reader's defaults
+    calibration: str = CALIBRATED  # [calibration] status; PRIOR: the step sets UNCALIBRATED
+
+    @property
+    def uncalibrated(self) -> bool:
+        return self.calibration != CALIBRATED
 
     @property
     def force_air_model(self) -> str:
@@ -459,6 +471,14 @@ def _ros2_topics(ros: _Reader | None) -> tuple[tuple[str, str], ...]:
     return topics
 
 
+def _calibration(cal: _Reader | None) -> str:
+    if cal is None:
+        return CALIBRATED
+    status = cal.string("status", CALIBRATION_STATUSES, default=CALIBRATED)
+    cal.done()
+    return status
+
+
 def _document(text: str, source: str) -> dict[str, Any]:
     try:
         return tomllib.loads(text)
@@ -485,6 +505,7 @@ def parse_airframe(text: str, source: str) -> Airframe:
     env = top.table_of("envelope", ENVELOPE_KEYS, required=False)
     unc = top.table_of("uncertainty", UNCERTAINTY_KEYS, required=False)
     ros2_topics = _ros2_topics(top.table_of("ros2_topics", ROS2_TOPIC_ROLES, required=False))
+    calibration = _calibration(top.table_of("calibration", CALIBRATION_KEYS, required=False))
     top.done()
     return Airframe(
         name=name,
@@ -501,6 +522,7 @@ def parse_airframe(text: str, source: str) -> Airframe:
         uncertainty=_uncertainty(unc) if unc is not None else None,
         drag=drag,
         ros2_topics=ros2_topics,
+        calibration=calibration,
     )
 
 

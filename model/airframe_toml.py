@@ -72,6 +72,8 @@ def airframe_document(af: Airframe) -> dict[str, Any]:
         for key, value in (("noise_h", af.uncertainty.noise_h_mps), ("noise_up", af.uncertainty.noise_up_mps)):
             if value > 0:  # absent means 0: files written before the noise terms read back the same
                 document["uncertainty"][key] = value
+    if af.uncalibrated:  # absent means calibrated: fit's output (calibrated) never carries the table
+        document["calibration"] = {"status": af.calibration}
     if af.ros2_topics:  # fit rewrites the whole airframe: keep the user's topic names
         document["ros2_topics"] = dict(af.ros2_topics)
     return document

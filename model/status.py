@@ -2,7 +2,7 @@
 
 Two kinds of bit. A REJECTION bit means the sample was rejected: the estimate (filters, bias, output)
 is unchanged and the output repeats the last accepted one; only the gap bookkeeping advances. A
-QUALITY bit (SETTLING, EXTRAPOLATED) marks an accepted sample (state and output updated) whose
+QUALITY bit (SETTLING, EXTRAPOLATED, UNCALIBRATED) marks an accepted sample (state and output updated) whose
 estimate should not be trusted yet or is outside the calibration. "Accepted" is therefore
 ``status & REJECTED_MASK == 0`` and "trusted" is ``status == 0``. Several bits may be set at once
 (a NaN dt is both non-finite and out of range); a rejected sample carries rejection bits only.
@@ -33,6 +33,10 @@ STATUS_BITS: tuple[StatusBit, ...] = (
               "(a rejected sample): the filters have not caught up yet", rejects=False),
     StatusBit("EXTRAPOLATED", 1 << 7, "accepted, but the heading-frame force or the model's airflow speed is "
               "outside the envelope calibrated by fit", rejects=False),
+    # 1 << 8 and 1 << 9 are replay's (STATUS_NO_DATA, STATUS_LANDED below): not the step's.
+    StatusBit("UNCALIBRATED", 1 << 10, "accepted, but the airframe's force-air law is an uncalibrated prior "
+              "([calibration] status = \"prior\", as `dobwind init` writes it): the wind is a rough guess until "
+              "`dobwind fit` calibrates it", rejects=False),
 )
 # The bits that mean "rejected"; an autopilot that accepts quality-flagged samples tests these only.
 REJECTED_MASK = sum(bit.value for bit in STATUS_BITS if bit.rejects)

@@ -22,7 +22,7 @@ def strict_loads(text: str):
 
 
 # The subcommands with --json that the tests below run; the walk over the parser below keeps it complete.
-JSON_COMMANDS = {"analyze", "check", "fit", "replay", "verify"}
+JSON_COMMANDS = {"analyze", "check", "fit", "replay", "verify", "inspect", "init"}
 
 
 def _json_run(argv: list[str], capsys) -> tuple[int, dict]:
@@ -112,6 +112,16 @@ def test_replay_json_with_nan_true_wind(tmp_path, capsys):
     code, report = _json_run(["replay", str(M300), str(log), "--json"], capsys)
     assert code == 0 and report["rows"] > 0
     assert report["per_sample"]["speed_mean"] is None and "per_sample.speed_mean" in report[NULL_PATHS_KEY]
+
+
+def test_inspect_and_init_json(tmp_path, capsys):
+    """On a simulated CSV log: each prints one strict JSON object in the common style."""
+    log = tmp_path / "tunnel.csv"
+    assert main(["simulate", "tunnel", "--hold", "2", "--rate", "50", "-o", str(log)]) == 0
+    code, report = _json_run(["inspect", str(log), "--json"], capsys)
+    assert code == 0 and report["format"] == "csv" and report["roles"]["rpm"]["source"].startswith("rpm_1")
+    code, report = _json_run(["init", str(log), "--mass", "8", "-o", str(tmp_path / "v.toml"), "--json"], capsys)
+    assert code == 0 and report["calibration"] == "prior" and report["choices"]["rate_hz"] == 50.0
 
 
 def test_fit_json_with_a_non_finite_figure(tmp_path, capsys, monkeypatch):

@@ -38,8 +38,9 @@ extern "C" {
  * Rejection bits (in M300_WIND_REJECTED_MASK): the sample was rejected; the estimate is
  * unchanged and *out repeats the last accepted output. Only the gap bookkeeping (run_s) advances, so
  * that the next accepted sample knows it follows a gap.
- * Quality bits (SETTLING, EXTRAPOLATED): the sample WAS accepted (state and *out updated), but the
- * estimate is not to be trusted yet or lies outside the calibration. Accepted means
+ * Quality bits (SETTLING, EXTRAPOLATED, UNCALIBRATED): the sample WAS accepted (state and *out
+ * updated), but the estimate is not to be trusted yet, lies outside the calibration, or comes from an
+ * uncalibrated prior force-air law. Accepted means
  * (status & M300_WIND_REJECTED_MASK) == 0; an autopilot acting on wind should require
  * status == 0. */
 #define M300_WIND_STATUS_NONFINITE 0x01u /* rejects: an input is NaN, infinite or beyond +-1e6 */
@@ -50,6 +51,7 @@ extern "C" {
 #define M300_WIND_STATUS_NUMERIC 0x20u /* rejects: the inputs were accepted but the result is not finite (sum of magnitudes beyond 1e30) */
 #define M300_WIND_STATUS_SETTLING 0x40u /* quality: accepted, but within one settling time of the first sample or of a gap (a rejected sample): the filters have not caught up yet */
 #define M300_WIND_STATUS_EXTRAPOLATED 0x80u /* quality: accepted, but the heading-frame force or the model's airflow speed is outside the envelope calibrated by fit */
+#define M300_WIND_STATUS_UNCALIBRATED 0x400u /* quality: accepted, but the airframe's force-air law is an uncalibrated prior ([calibration] status = "prior", as `dobwind init` writes it): the wind is a rough guess until `dobwind fit` calibrates it */
 #define M300_WIND_REJECTED_MASK 0x3Fu /* every rejection bit */
 #define M300_WIND_SETTLING_TIME_S 3.505618f /* SETTLING lasts this long (s) after the start or a gap */
 

@@ -1,0 +1,355 @@
+"""`dobwind inspect` and `dobwind init` (issue #36) on logs written here: every rate, airborne span and
+choice below is set by construction, so the expected values are closed forms of the test's own
+schedule. The real field logs are checked at the end and skipped without them."""
+from __future__ import annotations
+
+import json
+import math
+import struct
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dobwind.cli import main
+from dobwind.initframe import REFERENCE_MASS_KG, build_airframe, common_rate
+from dobwind.loginspect import inspect_log
+from dobwind.model.airframe import PRIOR, load_airframe
+from tests.dataflash_writer import write_dataflash
+from tests.helpers import ROOT
+from tests.ulog_writer import Topic, write_ulog
+
+pytest.importorskip("pyulog")
+
+FIELD = ROOT.parent / "shared" / "data" / "field"
+REAL_LOGS = sorted(FIELD.glob("*.ulg")) + sorted(FIELD.glob("*.bin")) + \
+    [ROOT.parent / "shared" / "data" / "px4-ulog" / "sample_px4_events.ulg"]
+ESC_REPORT = {"esc_report": [("int32_t", "esc_rpm")]}
+T0_US = 1_000_000
+LOG_S = 30.0
+TAKEOFF_S, LANDING_S = 5.0, 25.0   # vehicle_land_detected at 1 Hz: airborne from 5 s to 25 s
+HOVER_RPM = 4000.0
+
+
+def _stamps(rate_hz: float, gap: tuple[float, float] | None = None) -> np.ndarray:
+    t = np.arange(0.0, LOG_S, 1.0 / rate_hz)
+    return t if gap is None else t[(t <= gap[0]) | (t >= gap[1])]
+
+
+def _topic(name: str, fields: list[tuple[str, str]], t: np.ndarray, values) -> Topic:
+    return Topic(name, [("uint64_t", "timestamp")] + fields,
+                 [{"timestamp": int(round(T0_US + s * 1e6)), **values(s)} for s in t])
+
+
+def _airborne(s: float) -> bool:
+    return TAKEOFF_S <= s < LANDING_S
+
+
+def _px4_log(path: Path, *, attitude_hz=50.0, thrust_hz=50.0, position_gap=(12.0, 12.5), esc=True, dead_motor=False,
+             wind_active=False, land=True, rotor_param=4) -> Path:
+    """A PX4 log: position 10 Hz (with one gap), attitude and thrust setpoint at the given rates, ESC at
+    4 Hz (0 rpm on the ground; with dead_motor, motor 2 reads 0 rpm throughout), wind zero or not."""
+    def rpm(s: float) -> dict:
+        return {f"esc[{i}].esc_rpm": 0.0 if not _airborne(s) or (dead_motor and i == 1) else HOVER_RPM + 100 * i
+                for i in range(4)} | {"esc_count": 4}
+
+    topics = [
+        _topic("vehicle_local_position", [("float", f) for f in ("vx", "vy", "vz", "ax", "ay", "az")],
+               _stamps(10.0, position_gap), lambda s: {"vx": 1.0}),
+        _topic("vehicle_attitude", [("float[4]", "q")], _stamps(attitude_hz), lambda s: {"q[0]": 1.0}),
+        _topic("vehicle_thrust_setpoint", [("float[3]", "xyz")], _stamps(thrust_hz), lambda s: {"xyz[2]": -0.5}),
+        _topic("hover_thrust_estimate", [("float", "hover_thrust")], _stamps(10.0), lambda s: {"hover_thrust": 0.45}),
+        _topic("wind", [("float", "windspeed_north"), ("float", "windspeed_east")], _stamps(5.0),
+               lambda s: {"windspeed_north": 3.0 if wind_active else 0.0, "windspeed_east": 4.0 if wind_active else 0.0}),
+    ]
+    if land:
+        topics.append(_topic("vehicle_land_detected", [("bool", "landed")], _stamps(1.0),
+                             lambda s: {"landed": not _airborne(s)}))
+    if esc:
+        topics.append(_topic("esc_status", [("uint8_t", "esc_count"), ("esc_report[4]", "esc")], _stamps(4.0), rpm))
+    params = {"MPC_THR_HOVER": 0.5, "EKF2_DRAG_CTRL": 1.0 if wind_active else 0.0, "SYS_AUTOSTART": 4001.0}
+    if rotor_param:
+        params["CA_ROTOR_COUNT"] = float(rotor_param)
+    return write_ulog(path, topics, params, ESC_REPORT)
+
+
+@pytest.fixture(scope="module")
+def px4(tmp_path_factory) -> tuple[Path, str]:
+    """The default PX4 log and the starter airframe init builds from it for 2 kg (built once: the gain
+    design takes a second or two)."""
+    folder = tmp_path_factory.mktemp("px4")
+    log = _px4_log(folder / "a.ulg")
+    text, _, _ = build_airframe(str(log), REFERENCE_MASS_KG, str(folder / "v.toml"))
+    return log, str(_write(folder / "v.toml", text))
+
+
+def test_ulog_rates_gaps_airborne_and_roles(tmp_path):
+    s = inspect_log(str(_px4_log(tmp_path / "a.ulg")))
+    lp = s.stream("vehicle_local_position")
+    assert lp.rate_hz == pytest.approx(10.0, rel=1e-6) and lp.worst_gap_s == pytest.approx(0.5, abs=1e-6)  # 12.0 s, then 12.5 s
+    assert s.stream("esc_status").rate_hz == pytest.approx(4.0, rel=1e-6)
+    assert s.stream("vehicle_attitude").count == 1500
+    assert s.airborne_s == pytest.approx(LANDING_S - TAKEOFF_S) and s.airborne_source == "vehicle_land_detected"
+    assert s.airborne_intervals == ((TAKEOFF_S + 1.0, LANDING_S + 1.0),)  # the log's clock starts at 1 s
+    assert s.role("velocity").source == "vehicle_local_position.vx..vz"
+    assert s.role("thrust").source == "vehicle_thrust_setpoint.xyz[2]"
+    assert s.role("hover_thrust").stream == "hover_thrust_estimate"
+    # No vehicle_attitude_setpoint: the heading frame follows the vehicle's yaw, as replay does.
+    assert s.role("heading").source.startswith("vehicle_attitude (") and s.missing() == []
+    assert s.vehicle.rotors == 4 and s.vehicle.rpm_nonzero_airborne
+    assert not s.autopilot_wind.active and "all zero" in s.autopilot_wind.reason
+
+
+def test_ulog_wind_active_and_missing_roles(tmp_path):
+    s = inspect_log(str(_px4_log(tmp_path / "a.ulg", wind_active=True, esc=False, land=False, rotor_param=0)))
+    assert s.autopilot_wind.active and s.autopilot_wind.mean_speed_mps == pytest.approx(5.0)
+    assert "drag fusion is on" in s.autopilot_wind.reason
+    assert s.role("rpm").source is None and s.vehicle.rotors is None
+    # Without land detection the collective setpoint (0.5 > half of MPC_THR_HOVER) says airborne throughout.
+    assert "vehicle_thrust_setpoint" in s.airborne_source
+    assert s.airborne_s == pytest.approx(LOG_S - 1 / 50, abs=1e-6)
+
+
+def test_inspect_cli_text_and_one_json_object(tmp_path, capsys):
+    log = _px4_log(tmp_path / "a.ulg")
+    assert main(["inspect", str(log), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["roles"]["attitude"]["source"] == "vehicle_attitude.q[0]..q[3]" and out["missing"] == []
+    assert out["parameters"]["MPC_THR_HOVER"] == 0.5 and out["vehicle"]["rotors"] == 4
+    assert main(["inspect", str(log)]) == 0
+    text = capsys.readouterr().out
+    assert "vehicle_local_position" in text and "autopilot wind: inactive" in text
+    assert main(["inspect", str(tmp_path / "missing.ulg")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "missing.ulg" in err
+
+
+def test_init_rpm_when_every_esc_reads_rpm_airborne(px4):
+    af = load_airframe(px4[1])
+    assert af.thrust.source == "rpm" and af.thrust.rotors == 4 and af.calibration == PRIOR
+    # rpm only: the attitude's 50 Hz sets the rate; max_dt 1.5 position intervals (0.15 s) > 3 x 0.02 s.
+    assert af.observer.sample_time_s == pytest.approx(0.02) and af.limits.max_dt_s == pytest.approx(0.15)
+    # The prior thrust curve carries the weight at the airborne median rpm (hover): four rotors, m g.
+    median = np.median([HOVER_RPM + 100 * i for i in range(4)])
+    per_rotor = sum(c * (median / af.thrust.max_rpm) ** k for k, c in enumerate(af.thrust.coefficients))
+    assert 4 * per_rotor == pytest.approx(2.0 * af.gravity_mps2, rel=1e-9)
+
+
+def test_init_collective_when_a_motor_reads_zero_and_the_rate_follows_the_slower_stream(tmp_path):
+    log = _px4_log(tmp_path / "a.ulg", dead_motor=True, attitude_hz=19.6, thrust_hz=48.0)
+    text, choices, _ = build_airframe(str(log), 2.0, str(tmp_path / "v.toml"))
+    af = load_airframe(_write(tmp_path / "v.toml", text))
+    assert af.thrust.source == "collective" and choices.rotors == 4
+    # 19.6 Hz attitude is a jittery 20 Hz log: 20 Hz, not 10.
+    assert af.observer.sample_time_s == pytest.approx(0.05) and af.limits.max_dt_s == pytest.approx(0.15)
+
+
+def test_common_rate_rounds_down_with_jitter():
+    assert [common_rate(r) for r in (5.0, 9.6, 10.0, 19.6, 23.0, 24.0, 31.0, 47.5, 60.0, 250.0)] == \
+        [10.0, 10.0, 10.0, 20.0, 20.0, 25.0, 25.0, 25.0, 50.0, 100.0]
+
+
+def test_init_prior_scales_drag_area_with_mass_to_two_thirds(px4, tmp_path):
+    text = build_airframe(str(px4[0]), 8 * REFERENCE_MASS_KG, str(tmp_path / "v.toml"))[0]
+    small, large = load_airframe(px4[1]).drag, load_airframe(_write(tmp_path / "v.toml", text)).drag
+    assert large.q0 / small.q0 == pytest.approx(4.0) and large.l0 / small.l0 == pytest.approx(8.0)
+    # PX4's ballistic coefficient at the reference mass: q0 = rho/2 * m / BC = 0.6125 * 2 / 100.
+    assert small.q0 == pytest.approx(0.5 * 1.225 * REFERENCE_MASS_KG / 100.0)
+
+
+def test_init_gains_give_the_chosen_bandwidth(px4):
+    af = load_airframe(px4[1])
+    # 10 Hz position: 1/20 of it is 0.5 Hz, the cap. For the paper's discretization the observer is a
+    # first-order low-pass with pole p = 1 - dt gain / (2 m): |H| = 1/sqrt 2 at cos w = 1 - (1-p)^2/(2p).
+    dt, m, w = af.observer.sample_time_s, af.mass_kg, 2 * math.pi * 0.5 * af.observer.sample_time_s
+    c = 2 - math.cos(w)
+    pole = c - math.sqrt(c * c - 1)
+    assert af.observer.gains[0] == pytest.approx(2 * m * (1 - pole) / dt, rel=1e-6)
+    assert max(af.filter.cutoffs_hz) == pytest.approx(0.5)
+
+
+def test_init_cli_refuses_the_log_as_output_and_bad_mass(tmp_path, capsys):
+    log = _px4_log(tmp_path / "a.ulg", esc=False)
+    before = log.read_bytes()
+    assert main(["init", str(log), "--mass", "2", "-o", str(log)]) == 2
+    assert "input file" in capsys.readouterr().err and log.read_bytes() == before
+    assert main(["init", str(log), "--mass", "-1", "-o", str(tmp_path / "v.toml")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--mass" in err and not (tmp_path / "v.toml").exists()
+    assert main(["init", str(log), "--mass", "2", "-o", str(tmp_path / "v.toml"), "--name", "Bad Name"]) == 2
+    assert "--name" in capsys.readouterr().err and not (tmp_path / "v.toml").exists()
+    assert main(["init", str(log), "--mass", "2", "-o", str(tmp_path / "v.toml"), "--name", "quad", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["choices"]["thrust_source"] == "collective" and load_airframe(tmp_path / "v.toml").name == "quad"
+
+
+def _write(path: Path, text: str) -> Path:
+    path.write_text(text)
+    return path
+
+
+# ----- ArduPilot DataFlash -----
+MESSAGES = {
+    "XKF1": ("QBfff", ["TimeUS", "C", "VN", "VE", "VD"]),
+    "XKQ": ("QBffff", ["TimeUS", "C", "Q1", "Q2", "Q3", "Q4"]),
+    "XKF2": ("QBff", ["TimeUS", "C", "VWN", "VWE"]),
+    "IMU": ("QBfff", ["TimeUS", "I", "AccX", "AccY", "AccZ"]),
+    "ESC": ("QBf", ["TimeUS", "Instance", "RPM"]),
+    "CTUN": ("Qff", ["TimeUS", "ThO", "ThH"]),
+    "EV": ("QB", ["TimeUS", "Id"]),
+    "RCOU": ("QHHHHHH", ["TimeUS", "C1", "C2", "C3", "C4", "C5", "C6"]),
+}
+PARM_TYPE = 129  # write_dataflash numbers its messages from 130
+
+
+def _parameters(params: dict[str, float]) -> bytes:
+    """PARM messages (Name is char[16], which the shared writer does not pack), appended to a log."""
+    blob = bytes([0xA3, 0x95, 128]) + struct.pack("<BB4s16s64s", PARM_TYPE, 3 + 8 + 16 + 4, b"PARM", b"QNf",
+                                                  b"TimeUS,Name,Value")
+    for name, value in params.items():
+        blob += bytes([0xA3, 0x95, PARM_TYPE]) + np.array([T0_US], "<u8").tobytes() + name.encode().ljust(16, b"\0") \
+            + np.array([value], "<f4").tobytes()
+    return blob
+
+
+def _ardupilot_log(path: Path, *, esc_rpm: bool, esc: bool = True, parameters: bool = True) -> Path:
+    """10 Hz EKF and CTUN, 25 Hz IMU; EV NOT_LANDED at 5 s and LAND_COMPLETE at 25 s; SITL ESCs at 0 rpm
+    unless esc_rpm."""
+    rows: list = []
+    for k in range(int(LOG_S * 50)):  # a 50 Hz grid: IMU on every second instant, the rest on every fifth
+        s, us = k / 50, T0_US + k * 20_000
+        if k == TAKEOFF_S * 50:
+            rows.append(("EV", {"TimeUS": us, "Id": 28}))
+        if k == LANDING_S * 50:
+            rows.append(("EV", {"TimeUS": us, "Id": 18}))
+        if k % 2 == 0:
+            rows.append(("IMU", {"TimeUS": us, "I": 0, "AccZ": -9.8}))
+        if k % 5 == 0:
+            rows += [("XKF1", {"TimeUS": us, "C": 0, "VN": 1.0}), ("XKQ", {"TimeUS": us, "C": 0, "Q1": 1.0}),
+                     ("XKF2", {"TimeUS": us, "C": 0}), ("CTUN", {"TimeUS": us, "ThO": 0.4, "ThH": 0.37})]
+            rows += [("ESC", {"TimeUS": us, "Instance": i, "RPM": 5000.0 if esc_rpm and _airborne(s) else 0.0})
+                     for i in range(4) if esc]
+            # Four motors, one servo at its 1000 us rest, one output unused.
+            rows.append(("RCOU", {"TimeUS": us, **{f"C{c}": 1500 if _airborne(s) else 1000 for c in range(1, 5)},
+                                  "C5": 1000, "C6": 0}))
+    write_dataflash(path, MESSAGES, rows)
+    if not parameters:
+        return path
+    params = {"FRAME_CLASS": 1, "MOT_THST_HOVER": 0.37, "SIM_WIND_SPD": 10.0, "SIM_WIND_DIR": 180.0,
+              **{f"SERVO{i}_FUNCTION": 32.0 + i for i in range(1, 5)}}
+    path.write_bytes(path.read_bytes() + _parameters(params))
+    return path
+
+
+def test_dataflash_rates_airborne_roles_and_collective_init(tmp_path):
+    pytest.importorskip("pymavlink")
+    log = _ardupilot_log(tmp_path / "a.bin", esc_rpm=False)
+    s = inspect_log(str(log))
+    assert s.stream("XKF1 (primary core)").rate_hz == pytest.approx(10.0, rel=1e-4)
+    assert s.stream("IMU (I 0)").rate_hz == pytest.approx(25.0, rel=1e-4)
+    assert s.airborne_s == pytest.approx(LANDING_S - TAKEOFF_S) and s.airborne_source == "EV events"
+    assert s.role("thrust").source == "CTUN.ThO" and s.role("acceleration").source.startswith("IMU specific force")
+    assert s.parameters["SIM_WIND_SPD"] == 10.0 and s.vehicle.rotors == 4
+    assert not s.vehicle.rpm_nonzero_airborne and not s.autopilot_wind.active
+    text, choices, _ = build_airframe(str(log), 1.5, str(tmp_path / "v.toml"))
+    af = load_airframe(_write(tmp_path / "v.toml", text))
+    # CTUN and XKQ at 10 Hz: sample time 0.1 s, max_dt three of them.
+    assert af.thrust.source == "collective" and af.observer.sample_time_s == pytest.approx(0.1)
+    assert af.limits.max_dt_s == pytest.approx(0.3)
+
+
+def test_a_corrupt_dataflash_log_is_one_line_on_stderr(tmp_path, capfd):
+    pytest.importorskip("pymavlink")
+    junk = tmp_path / "junk.bin"
+    junk.write_bytes(np.random.default_rng(1).integers(0, 256, 3000, dtype=np.uint8).tobytes())
+    assert main(["inspect", str(junk)]) == 2
+    out, err = capfd.readouterr()
+    assert out == "" and err.count("\n") == 1 and "junk.bin" in err
+
+
+def test_dataflash_rotors_from_driven_outputs_without_parameters_or_esc(tmp_path):
+    pytest.importorskip("pymavlink")
+    s = inspect_log(str(_ardupilot_log(tmp_path / "a.bin", esc_rpm=False, esc=False, parameters=False)))
+    assert s.vehicle.rotors == 4 and s.vehicle.rotor_source.startswith("RCOU")
+
+
+def test_dataflash_rpm_init(tmp_path):
+    pytest.importorskip("pymavlink")
+    text, choices, _ = build_airframe(str(_ardupilot_log(tmp_path / "a.bin", esc_rpm=True)), 1.5, str(tmp_path / "v.toml"))
+    assert choices.thrust_source == "rpm" and choices.rotors == 4
+
+
+def test_csv_inspect_and_init(tmp_path):
+    from dobwind.logs import write_csv
+
+    t = np.arange(0, 10, 0.01)
+    cols = {"t": t, "vel_n": t * 0, "vel_e": t * 0, "vel_d": t * 0, "acc_n": t * 0, "acc_e": t * 0, "acc_d": t * 0,
+            "q_w": t * 0 + 1, "q_x": t * 0, "q_y": t * 0, "q_z": t * 0,
+            **{f"rpm_{i}": t * 0 + 3000 for i in range(1, 7)}}
+    write_csv(tmp_path / "f.csv", list(cols), np.column_stack(list(cols.values())), ["%.6f"] * len(cols))
+    s = inspect_log(str(tmp_path / "f.csv"))
+    assert s.stream("rows").rate_hz == pytest.approx(100.0, rel=1e-6) and s.vehicle.rotors == 6
+    assert s.role("thrust").source is None and s.missing() == []
+    text, choices, _ = build_airframe(str(tmp_path / "f.csv"), 3.0, str(tmp_path / "v.toml"))
+    assert choices.thrust_source == "rpm" and choices.rotors == 6 and choices.rate_hz == 100.0
+
+
+@pytest.mark.parametrize("log", REAL_LOGS, ids=lambda p: p.name)
+def test_real_logs_inspect_and_init(log, tmp_path, capsys):
+    if not log.exists():
+        pytest.skip(f"{log} not present")
+    pytest.importorskip("pymavlink")
+    assert main(["inspect", str(log), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["missing"] == [] and summary["airborne_s"] > 5 and summary["vehicle"]["rotors"] in (4, 8)
+    assert main(["init", str(log), "--mass", "2.0", "-o", str(tmp_path / "v.toml")]) == 0
+    assert main(["check", str(tmp_path / "v.toml")]) == 0
+    assert load_airframe(tmp_path / "v.toml").uncalibrated
+    assert math.isfinite(load_airframe(tmp_path / "v.toml").observer.gains[0])
+
+
+def test_rosbag_streams_airborne_esc_wind_and_init(tmp_path):
+    pytest.importorskip("rosbags")
+    from dobwind.simulate import simulate
+    from tests.helpers import M300
+    from tests.test_rosbag import T0_US as BAG_T0_US, _px4_bag
+
+    af = load_airframe(M300)
+    cols = simulate(af, "tunnel", seed=5, hold_s=1.0, rate_hz=50.0)
+    bag = str(_px4_bag(tmp_path / "bag", af, cols, "mcap", landed_until=2.0, hover=0.4))
+    s = inspect_log(bag)
+    assert s.format == "rosbag" and s.role("velocity").source == "/fmu/out/vehicle_odometry"
+    assert s.stream("/fmu/out/vehicle_attitude").count == len(cols["t"])
+    assert s.stream("/fmu/out/vehicle_land_detected").rate_hz == pytest.approx(5.0, rel=1e-3)
+    # Land detection every 10th sample, landed while t < 2 s: airborne from the first report at or after 2 s.
+    first_up = cols["t"][::10][cols["t"][::10] >= 2.0][0]
+    assert s.airborne_intervals[0][0] == pytest.approx(BAG_T0_US * 1e-6 + first_up, abs=1e-6)
+    assert s.vehicle.rotors == 4 and s.vehicle.rpm_nonzero_airborne and s.autopilot_wind.active
+    _, choices, _ = build_airframe(bag, 8.0, str(tmp_path / "v.toml"))
+    assert choices.thrust_source == "rpm" and choices.rate_hz == 50.0
+
+
+def test_inspect_names_only_what_the_readers_read(px4, tmp_path):
+    """The roles' streams are topics the replay readers parse (ulog.TOPICS_READ, dataflash.WANTED): a
+    reader that drops a topic must not leave inspect promising it."""
+    from dobwind.ulog import TOPICS_READ
+
+    for role in inspect_log(str(px4[0])).roles:
+        assert role.stream is None or role.stream in TOPICS_READ, role
+    pytest.importorskip("pymavlink")
+    from dobwind.dataflash import WANTED
+
+    for role in inspect_log(str(_ardupilot_log(tmp_path / "a.bin", esc_rpm=True))).roles:
+        assert role.stream is None or role.stream.split(" ")[0] in WANTED, role
+
+
+def test_the_starter_airframe_passes_verify(px4, capsys):
+    assert main(["verify", px4[1], "--steps", "2000"]) == 0
+    assert "0 status mismatches" in capsys.readouterr().out
+
+
+def test_replay_of_the_log_with_its_starter_airframe_names_the_bit(px4, capsys):
+    assert main(["replay", px4[1], str(px4[0]), "--json"]) == 0
+    counts = json.loads(capsys.readouterr().out)["status_counts"]
+    accepted = {name: n for name, n in counts.items() if "LANDED" not in name and "NO_DATA" not in name}
+    assert accepted and all("UNCALIBRATED" in name for name in accepted)
