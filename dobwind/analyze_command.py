@@ -16,9 +16,10 @@ from dobwind.analysis.report import analyze, text, write_plots
 from dobwind.errors import EXIT_CHECK_FAILED, InputError
 from dobwind.jsonout import print_json
 from dobwind.logs import write_atomically
-from dobwind.model.airframe import Airframe, load_airframe
+from dobwind.model.airframe import Airframe, load_airframe, parse_airframe, resolve_airframe_path
 from dobwind.model.airframe_toml import dump_airframe
 from dobwind.options import MAX_FREQUENCIES
+from dobwind.tomledit import replace_array
 from dobwind.outputs import OutputFiles, Target, check_targets
 
 
@@ -52,7 +53,7 @@ def analyze_command(args: argparse.Namespace) -> int:
     if target is not None:
         with OutputFiles([target]) as out:
             if designing:
-                text_toml = dump_airframe(af)
+                text_toml = designed_text(args.airframe, af, args.bandwidth)
                 write_atomically(out.stage(args.output), lambda handle: handle.write(text_toml))
             else:
                 report["plots"] = [str(p) for p in write_plots(report, systems, Path(args.output), out.stage)]
@@ -78,6 +79,23 @@ def _designed(af: Airframe, args: argparse.Namespace) -> tuple[Airframe, dict[st
     return new, {"bandwidth_hz": args.bandwidth, "gains": [gain, gain, gain], "gains_kg_per_s": [gain, gain, gain],
                  "previous_gains_kg_per_s": list(af.observer.gains), "sample_time_s": af.observer.sample_time_s,
                  "discretization": af.observer.discretization, "airframe_file": args.output}
+
+
+def designed_text(source: str, af: Airframe, bandwidth_hz: float) -> str:
+    """The airframe file's own text with the designed gains put in (its comments kept); the full dump
+    when the gains are written in a form the text edit does not handle, or the edit would not parse
+    back to ``af``'s gains."""
+    path = resolve_airframe_path(source)
+    literal = "[" + ", ".join(repr(float(g)) for g in af.observer.gains) + "]"
+    comment = f"kg/s: {bandwidth_hz:g} Hz bandwidth (`dobwind analyze {path.name} --bandwidth {bandwidth_hz:g}`)"
+    edited = replace_array(path.read_text(encoding="utf-8"), "observer", "gains", literal, comment)
+    if edited is not None:
+        try:
+            if parse_airframe(edited, str(path)).observer.gains == af.observer.gains:
+                return edited
+        except InputError:
+            pass
+    return dump_airframe(af)
 
 
 def _design_text(design: dict[str, Any]) -> str:

@@ -15,6 +15,7 @@ from typing import Any, Callable, NoReturn, Sequence
 
 from dobwind import options as opt
 from dobwind.helpfmt import DefaultsFormatter
+from dobwind.resources import shipped_airframe_names
 from dobwind.errors import EXIT_BAD_INPUT, EXIT_CHECK_FAILED, CheckFailed, InputError
 from dobwind.interrupts import Interrupted, signals_raise
 from dobwind.outputs import OutputFiles, Target, check_replaceable, check_targets
@@ -324,7 +325,8 @@ class _VersionAction(argparse.Action):
         parser.exit()
 
 
-AIRFRAME_HELP = "airframe TOML file (see docs/formats.md for its keys and units)"
+AIRFRAME_HELP = ("airframe TOML file (see docs/formats.md for its keys and units), or the name of a shipped one "
+                 f"({', '.join(shipped_airframe_names())}) when no such file exists")
 JSON_HELP = "print the results as JSON (indent 2, units in the key names) instead of text"
 # adds one subcommand: (name, one-line description) -> its parser
 _Command = Callable[[str, str], argparse.ArgumentParser]
