@@ -4,9 +4,14 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 
-.PHONY: setup test demo regen bench bench-replay clean realdata accuracy mutants
+.PHONY: setup system-deps test demo regen bench bench-replay clean realdata accuracy mutants figures
 
 setup: $(STAMP)
+
+# The system packages the tests need (C compilers, valgrind, cmake, chromium, python3-venv): installed
+# with apt-get when missing, as on CI (.ci/run runs `make test`, which runs this).
+system-deps:
+	bash .ci/system-deps
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -14,7 +19,7 @@ $(STAMP): pyproject.toml
 	$(BIN)/pip install --quiet -e '.[dev,ulog,ardupilot,rosbag]'
 	touch $(STAMP)
 
-test: $(STAMP)
+test: system-deps $(STAMP)
 	$(BIN)/python -m pytest -q
 
 demo: $(STAMP)
