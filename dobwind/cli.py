@@ -393,9 +393,17 @@ def _add_analyze(command: _Command) -> None:
     p.add_argument("--freq", type=opt.FREQUENCY, nargs="+", default=[0.1, 0.5, 1.0],
                    help=f"frequencies to report gain and phase at, Hz ({opt.FREQUENCY.text()}, below the Nyquist "
                         f"frequency 1/(2 sample_time); at most {opt.MAX_FREQUENCIES})")
-    p.add_argument("--bandwidth", type=opt.BANDWIDTH, help="design the observer gains (kg/s, equal on x y z) that give "
-                   f"this -3 dB bandwidth, Hz ({opt.BANDWIDTH.text()}, below the Nyquist frequency), then analyse "
-                   "the airframe with those gains (default: none, analyse the gains in the file)")
+    p.add_argument("--bandwidth", type=opt.DESIGN_TARGET, help="design the observer gains (kg/s, equal on x y z) that give "
+                   f"this -3 dB bandwidth, Hz ({opt.DESIGN_TARGET.text()}; Hz below the Nyquist frequency), or "
+                   "this wind noise along the airflow or ramp lag at an airspeed, then analyse the airframe with "
+                   "those gains (default: none, analyse the gains in the file)")
+    p.add_argument("--airspeed", type=opt.AIRSPEED, nargs="+", default=[],
+                   help=f"airspeeds to report the wind-unit figures at besides the schedule's breakpoints, m/s "
+                        f"({opt.AIRSPEED.text()}; at most {opt.MAX_AIRSPEEDS})")
+    p.add_argument("--force-noise", type=opt.FORCE_NOISE, metavar="N",
+                   help="1-sigma scatter of the observer's horizontal force estimate before the low-pass, per "
+                        f"axis, at the file's gains, N ({opt.FORCE_NOISE.text()}); default: from the wind noise "
+                        "the fit recorded in the airframe ([uncertainty] noise_h), else the wind noise is not given")
     p.set_defaults(func=cmd_analyze)
 
 

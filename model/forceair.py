@@ -513,18 +513,20 @@ POLYNOMIAL_FORCE_SEARCH_WEIGHTS = 1.0
 _VERTICAL_GRID_POINTS = 4001
 
 
-def _polynomial_function(af: "Airframe") -> ca.Function:
-    """(m, n, fz) -> (x, y, z airflow, heading frame; horizontal speed) of the polynomial family."""
+@functools.lru_cache(maxsize=16)
+def _polynomial_function(horizontal, vertical) -> ca.Function:
+    """(m, n, fz) -> (x, y, z airflow, heading frame; horizontal speed) of the polynomial family, per
+    pair of (frozen) ForceAirModel tables: built once, however many times a bisection asks."""
     m, n, fz = ca.SX.sym("m"), ca.SX.sym("n"), ca.SX.sym("fz")
-    x, y, z, speed_h, _ = polynomial_airflow((af.horizontal.terms, af.horizontal.coefficients),
-                                             (af.vertical.terms, af.vertical.coefficients), m, n, fz)
+    x, y, z, speed_h, _ = polynomial_airflow((horizontal.terms, horizontal.coefficients),
+                                             (vertical.terms, vertical.coefficients), m, n, fz)
     return ca.Function("polynomial_airflow", [m, n, fz], [ca.vertcat(x, y, z, speed_h)])
 
 
 def _polynomial_numpy(af: "Airframe", m: np.ndarray, n: np.ndarray, fz: np.ndarray) -> np.ndarray:
     """(N, 4): heading-frame airflow x, y, z and the horizontal speed, of the polynomial family."""
     rows = len(m)
-    out = _polynomial_function(af).map(rows)(*(np.asarray(v, float).reshape(1, rows) for v in (m, n, fz)))
+    out = _polynomial_function(af.horizontal, af.vertical).map(rows)(*(np.asarray(v, float).reshape(1, rows) for v in (m, n, fz)))
     return np.asarray(out).T
 
 
