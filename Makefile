@@ -29,6 +29,10 @@ demo: $(STAMP)
 regen: $(STAMP)
 	$(BIN)/python -m dobwind.regen
 
+# docs/figures.md and its images, from the current code (tests/test_docfigures.py fails when stale).
+figures: $(STAMP)
+	$(BIN)/python -m dobwind.analysis.docfigures docs
+
 # The M4F cycle estimate needs Unicorn (the bench extra); without it the column shows "-".
 bench: $(STAMP)
 	$(BIN)/pip install --quiet -e '.[bench]'
