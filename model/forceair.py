@@ -530,6 +530,13 @@ def _polynomial_numpy(af: "Airframe", m: np.ndarray, n: np.ndarray, fz: np.ndarr
     return np.asarray(out).T
 
 
+def family(af: "Airframe") -> str:
+    """The airframe's force-air family, as `fit --model` names them."""
+    if af.drag is None:
+        return "polynomial"
+    return f"drag-{af.drag.frame}"
+
+
 def needs_attitude(af: "Airframe") -> bool:
     """The airframe's law reads the attitude and thrust (the body-frame drag law): a caller that makes a
     force for an airflow must then balance the tilt that force causes."""

@@ -26,6 +26,7 @@ import numpy as np
 from dobwind.analysis import plots
 from dobwind.analysis.report import analyze, write_plots
 from dobwind.model.airframe import Airframe, load_airframe
+from dobwind.model import forceair
 from dobwind.model.forceair import DragLaw
 from dobwind.resources import shipped_airframe
 
@@ -84,7 +85,7 @@ def _airframe_figures(af: Airframe, images: Path | None, folder: Path) -> dict[s
             [[p["slope_along_mps_per_n"], p["wind_noise_along_mps"], p["ramp_lag_s"]] for p in block["airspeeds"]],
             [[c["bandwidth_hz"] or 0.0, c["group_delay_s"]] for c in report["cascade"]]]
     replays = {}
-    for scenario, hold, seed in (REPLAYS if af.drag is not None else ()):
+    for scenario, hold, seed in (REPLAYS if forceair.family(af) != "polynomial" else ()):
         run = _replay(af, folder, scenario, hold, seed)
         if images is not None:
             from dobwind.plots import replay_plot
@@ -103,7 +104,8 @@ def _pick(block: dict[str, Any], speed: float) -> dict[str, Any]:
 def _airframe_section(af: Airframe, numbers: dict[str, Any]) -> list[str]:
     r = numbers["report"]
     ramp, block = r["ramp"], r["wind_units"]
-    family = "polynomial (the paper's)" if af.drag is None else f"drag, {af.drag.frame} frame"
+    family = {"polynomial": "polynomial (the paper's)", "drag-heading": "drag, heading frame",
+              "drag-body": "drag, body frame"}[forceair.family(af)]
     noise = ", ".join(f"{_pick(block, s)['wind_noise_along_mps']:.3f} m/s at {s:g}" for s in SHOWN_MPS)
     lag = ", ".join(f"{_pick(block, s)['ramp_lag_s']:.2f} s at {s:g}" for s in SHOWN_MPS)
     n = af.name

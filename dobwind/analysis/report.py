@@ -100,12 +100,16 @@ def analyze(af: Airframe, freqs_hz: list[float], with_ramp: bool = True, airspee
     if stable:
         report["wind_units"] = wind_units(af, model, freqs_hz, list(airspeeds_mps), force_noise_n)
     if with_ramp and stable:
-        ramp = ramp_experiment(af)
-        systems["ramp"] = ramp
-        report["ramp"] = {"scheduled_lag_s": ramp.scheduled_lag_s, "fixed_lag_s": ramp.fixed_lag_s,
-                          "fixed_cutoff_hz": ramp.fixed_cutoff_hz, "lag_reduction_s": ramp.lag_reduction_s,
-                          "paper_lag_reduction_s": 2.2}
+        _add_ramp(af, report, systems)
     return report, systems
+
+
+def _add_ramp(af: Airframe, report: dict[str, Any], systems: dict[str, Any]) -> None:
+    ramp = ramp_experiment(af)
+    systems["ramp"] = ramp
+    report["ramp"] = {"scheduled_lag_s": ramp.scheduled_lag_s, "fixed_lag_s": ramp.fixed_lag_s,
+                      "fixed_cutoff_hz": ramp.fixed_cutoff_hz, "lag_reduction_s": ramp.lag_reduction_s,
+                      "paper_lag_reduction_s": 2.2}
 
 
 def _fmt_bw(value: float | None) -> str:
