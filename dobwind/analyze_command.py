@@ -12,8 +12,6 @@ from pathlib import Path
 from typing import Any
 
 from dobwind.analysis.design import WindTarget, design_gain, design_gain_for_wind, observer_bandwidth_hz, with_gains
-from dobwind.analysis.figures import noise_gain
-from dobwind.analysis.linear import linearize
 from dobwind.analysis.windunits import NoiseSource, noise_source
 from dobwind.analysis.report import analyze, text, write_plots
 from dobwind.errors import EXIT_CHECK_FAILED, InputError
@@ -51,14 +49,14 @@ def analyze_command(args: argparse.Namespace) -> int:
     if len(airspeeds) > MAX_AIRSPEEDS:
         raise InputError(args.airframe, "--airspeed", f"at most {MAX_AIRSPEEDS} airspeeds, got {len(airspeeds)}")
     force_noise = getattr(args, "force_noise", None)
-    # The noise is referred to the observer's input at the FILE's gains, before any design changes them.
-    noise = noise_source(af, build_step(af), force_noise) if designing or airspeeds or force_noise else None
+    # The noise is referred to the observer's input at the FILE's gains (--force-noise and the fit's
+    # recorded noise were measured there), before a design changes them.
+    noise = noise_source(af, build_step(af), force_noise) if designing else None
     design = _designed(af, args, noise) if designing else None
     if design is not None:
         af = design[0]
-        if noise is not None and noise.input_sigma is not None and force_noise is not None:
-            force_noise = _force_noise_at(af, noise.input_sigma)
-    report, systems = analyze(af, list(args.freq), airspeeds_mps=tuple(airspeeds), force_noise_n=force_noise)
+    report, systems = analyze(af, list(args.freq), airspeeds_mps=tuple(airspeeds), force_noise_n=force_noise,
+                              input_noise=noise)
     if design is not None:
         report["design"] = design[1]
         report["gains"] = design[1]["gains"]  # the key `analyze --bandwidth --json` printed before the design block
@@ -79,12 +77,6 @@ def analyze_command(args: argparse.Namespace) -> int:
         sys.stderr.write(f"dobwind analyze: {af.name}: unstable: {report['unstable_reason'] or 'a pole is outside the unit circle'}\n")
         return EXIT_CHECK_FAILED
     return 0
-
-
-def _force_noise_at(af: Airframe, input_sigma: float) -> float:
-    """The observer's force-noise scatter (N, axis x, before the low-pass) at ``af``'s gains for the
-    input-referred noise: --force-noise restated for the designed gains."""
-    return input_sigma * noise_gain(linearize(build_step(af), kind="noise").axis(0, with_filter=False))
 
 
 def _designed(af: Airframe, args: argparse.Namespace, noise: NoiseSource | None) -> tuple[Airframe, dict[str, Any]]:

@@ -97,3 +97,46 @@ def test_wind_design_round_trip(kind, value):
         again = wind_point(new, m2, 5.0, [], NoiseSource(source, "test"),
                            (jacobian_function(m2, "force"), jacobian_function(m2, "noise")))
         assert again["wind_noise_along_mps"] == pytest.approx(value, rel=1e-5)
+
+
+def _cli_json(args, capsys):
+    import json
+
+    from dobwind.cli import main
+
+    code = main(args + ["--json"])
+    out = capsys.readouterr()
+    return code, (json.loads(out.out) if code == 0 else out.err)
+
+
+@pytest.mark.parametrize("target,key,value", [("noise=0.2@5", "wind_noise_along_mps", 0.2),
+                                              ("lag=0.9@5", "ramp_lag_s", 0.9)])
+def test_analyze_designs_for_a_wind_target_and_reports_it(tmp_path, capsys, target, key, value):
+    """The designed airframe's report, at the target airspeed, meets the target: the force noise is
+    the file's, referred to the observer's input, not re-read at the new gains."""
+    from dobwind.model.airframe_toml import dumps
+    from tests.families import family_doc
+
+    path = tmp_path / "af.toml"
+    path.write_text(dumps(family_doc("drag-heading")))
+    code, report = _cli_json(["analyze", str(path), "--bandwidth", target, "--airspeed", "5",
+                              "--force-noise", "0.3", "-o", str(tmp_path / "new.toml")], capsys)
+    assert code == 0, report
+    assert report["wind_units"]["airspeeds"][0][key] == pytest.approx(value, rel=1e-4)
+    assert report["design"]["target"]["kind"] == target.split("=")[0]
+    assert report["gains_kg_per_s"] != [20.0, 25.0, 30.0]
+
+
+def test_analyze_refuses_an_unreachable_or_malformed_target(tmp_path, capsys):
+    from dobwind.model.airframe_toml import dumps
+    from tests.families import family_doc
+
+    path = tmp_path / "af.toml"
+    path.write_text(dumps(family_doc("drag-heading")))
+    code, err = _cli_json(["analyze", str(path), "--bandwidth", "lag=0.05@5"], capsys)  # the low-pass alone lags more
+    assert code == 2 and "out of reach" in err and "\n" == err[-1] and err.count("\n") == 1
+    code, err = _cli_json(["analyze", str(path), "--bandwidth", "noise=0.2@5"], capsys)  # no noise known
+    assert code == 2 and "--force-noise" in err
+    with pytest.raises(SystemExit) as exit_:  # argparse's own exit for a malformed option
+        _cli_json(["analyze", str(path), "--bandwidth", "wind=1@5"], capsys)
+    assert exit_.value.code == 2 and "noise=M/S@AIRSPEED" in capsys.readouterr().err

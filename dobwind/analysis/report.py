@@ -13,7 +13,7 @@ from dobwind.analysis import plots
 from dobwind.analysis.figures import figures, noise_gain
 from dobwind.analysis.linear import axis_system, continuous_observer, jacobian_function, linearize
 from dobwind.analysis.ramp import ramp_experiment
-from dobwind.analysis.windunits import wind_text, wind_units
+from dobwind.analysis.windunits import NoiseSource, wind_text, wind_units
 from dobwind.model.stability import unstable_reason
 from dobwind.model.airframe import DISCRETIZATIONS, Airframe
 from dobwind.model.step import build_step
@@ -45,7 +45,7 @@ def schedule_check(af: Airframe) -> dict[str, Any]:
 
 
 def analyze(af: Airframe, freqs_hz: list[float], with_ramp: bool = True, airspeeds_mps: tuple[float, ...] = (),
-            force_noise_n: float | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
+            force_noise_n: float | None = None, input_noise: NoiseSource | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
     """(JSON-able report, python-control systems for the plots). The wind-unit block (windunits.py)
     covers every breakpoint and ``airspeeds_mps``."""
     model = build_step(af)
@@ -98,7 +98,7 @@ def analyze(af: Airframe, freqs_hz: list[float], with_ramp: bool = True, airspee
     report["stable"] = stable and reason is None and report.get("schedule", {}).get("stable", False)
     report["unstable_reason"] = reason
     if stable:
-        report["wind_units"] = wind_units(af, model, freqs_hz, list(airspeeds_mps), force_noise_n)
+        report["wind_units"] = wind_units(af, model, freqs_hz, list(airspeeds_mps), force_noise_n, input_noise)
     if with_ramp and stable:
         _add_ramp(af, report, systems)
     return report, systems

@@ -104,7 +104,7 @@ def noise_source(af: Airframe, model: StepModel, force_noise_n: float | None) ->
     noise_jac = jacobian_function(model, "noise")
     if force_noise_n is not None:
         observer_gain = _noise_gains(linearize(model, function=noise_jac), with_filter=False)[0]
-        return NoiseSource(force_noise_n / observer_gain, f"--force-noise {force_noise_n:g} N")
+        return NoiseSource(force_noise_n / observer_gain, f"--force-noise {force_noise_n:g} N at the file's gains")
     recorded = af.uncertainty.noise_h_mps if af.uncertainty is not None else 0.0
     if not recorded > 0:
         return NoiseSource(None, "unknown (give --force-noise N, or fit the airframe)")
@@ -152,9 +152,10 @@ def wind_point(af: Airframe, model: StepModel, speed: float, freqs_hz: list[floa
 
 
 def wind_units(af: Airframe, model: StepModel, freqs_hz: list[float], airspeeds_mps: list[float],
-               force_noise_n: float | None = None) -> dict[str, Any]:
-    """The report's "wind_units" block: per breakpoint and per requested airspeed."""
-    noise = noise_source(af, model, force_noise_n)
+               force_noise_n: float | None = None, noise: NoiseSource | None = None) -> dict[str, Any]:
+    """The report's "wind_units" block: per breakpoint and per requested airspeed. ``noise`` (input-
+    referred, e.g. found at another airframe's gains before a design) overrides ``force_noise_n``."""
+    noise = noise or noise_source(af, model, force_noise_n)
     jacobians = (jacobian_function(model, "force"), jacobian_function(model, "noise"))
     point = lambda s: wind_point(af, model, s, freqs_hz, noise, jacobians)  # noqa: E731
     return {"noise_source": noise.source, "input_noise": noise.input_sigma, "ramp_rate_mps2": RAMP_RATE_MPS2,
