@@ -140,3 +140,14 @@ def test_analyze_refuses_an_unreachable_or_malformed_target(tmp_path, capsys):
     with pytest.raises(SystemExit) as exit_:  # argparse's own exit for a malformed option
         _cli_json(["analyze", str(path), "--bandwidth", "wind=1@5"], capsys)
     assert exit_.value.code == 2 and "noise=M/S@AIRSPEED" in capsys.readouterr().err
+
+
+def test_analyze_draws_the_wind_unit_figure_over_the_airspeeds_asked(tmp_path, capsys):
+    from dobwind.cli import main
+
+    assert main(["analyze", "nf_quad", "--airspeed", "1", "4", "--force-noise", "0.2", "-o", str(tmp_path / "a")]) == 0
+    assert (tmp_path / "a" / "wind_units.png").stat().st_size > 10_000
+    text = capsys.readouterr().out
+    assert "In wind units" in text and "(asked)" in text and "--force-noise 0.2 N" in text
+    assert main(["analyze", "nf_quad", "-o", str(tmp_path / "b")]) == 0  # none asked: the report's three figures
+    assert sorted(p.name for p in (tmp_path / "b").iterdir()) == ["bode.png", "discretizations.png", "ramp.png"]

@@ -23,7 +23,6 @@ from typing import Any
 
 import numpy as np
 
-from dobwind.analysis import plots
 from dobwind.analysis.report import analyze, write_plots
 from dobwind.model.airframe import Airframe, load_airframe
 from dobwind.model import forceair
@@ -77,9 +76,8 @@ def _airframe_figures(af: Airframe, images: Path | None, folder: Path) -> dict[s
     report, systems = analyze(af, FREQS_HZ, airspeeds_mps=AIRSPEEDS_MPS, force_noise_n=FORCE_NOISE_N)
     block = report["wind_units"]
     if images is not None:
-        for path in write_plots(report, systems, folder / af.name):
+        for path in write_plots(report, systems, folder / af.name):  # wind_units.png too (airspeeds asked)
             (images / f"{af.name}_{path.name}").write_bytes(path.read_bytes())
-        plots.wind_units(block, images / f"{af.name}_wind_units.png", af.name)
     ramp = systems["ramp"]
     data = [ramp.scheduled_mps, ramp.fixed_mps,
             [[p["slope_along_mps_per_n"], p["wind_noise_along_mps"], p["ramp_lag_s"]] for p in block["airspeeds"]],

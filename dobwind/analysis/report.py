@@ -177,4 +177,7 @@ def write_plots(report: dict[str, Any], systems: dict[str, Any], out_dir: Path,
     if "ramp" in systems:
         plots.ramp(systems["ramp"], stage(out_dir / "ramp.png"), name)
         written.append(out_dir / "ramp.png")
+    if report.get("wind_units", {}).get("airspeeds"):  # drawn over the airspeeds asked (--airspeed)
+        plots.wind_units(report["wind_units"], stage(out_dir / "wind_units.png"), name)
+        written.append(out_dir / "wind_units.png")
     return written
