@@ -80,9 +80,9 @@ def test_report_block_per_breakpoint_and_airspeed(family):
     assert block["breakpoints"][0]["force_noise_n"] < 0.3  # the low-pass takes some away
 
 
-@pytest.mark.parametrize("kind,value", [("lag", 0.7), ("noise", 0.15)])
-def test_wind_design_round_trip(kind, value):
-    af = family_airframe("drag-body")
+@pytest.mark.parametrize("family,kind,value", [(f, "lag", 0.7) for f in FAMILIES] + [("drag-body", "noise", 0.15)])
+def test_wind_design_round_trip(family, kind, value):
+    af = family_airframe(family)
     model = build_step(af)
     source = wind_units(af, model, [], [], force_noise_n=0.3)["input_noise"]
     gain = design_gain_for_wind(af, WindTarget(kind, value, 5.0), source)
