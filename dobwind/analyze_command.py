@@ -55,8 +55,11 @@ def analyze_command(args: argparse.Namespace) -> int:
     design = _designed(af, args, noise) if designing else None
     if design is not None:
         af = design[0]
-    report, systems = analyze(af, list(args.freq), airspeeds_mps=tuple(airspeeds), force_noise_n=force_noise,
-                              input_noise=noise)
+    try:
+        report, systems = analyze(af, list(args.freq), airspeeds_mps=tuple(airspeeds), force_noise_n=force_noise,
+                                  input_noise=noise)
+    except InputError as exc:  # name the file the user gave, not the airframe inside it
+        raise InputError(args.airframe, exc.where, exc.message) from None
     if design is not None:
         report["design"] = design[1]
         report["gains"] = design[1]["gains"]  # the key `analyze --bandwidth --json` printed before the design block

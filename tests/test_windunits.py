@@ -12,6 +12,7 @@ from dobwind.analysis.linear import linearize
 from dobwind.analysis.windunits import local_slope, wind_scatter, wind_units
 from dobwind.model.step import build_step
 from tests.families import FAMILIES, family_airframe, pure_quadratic
+from tests.helpers import ROOT
 
 
 def _linear(family: str, l0: float):
@@ -137,6 +138,11 @@ def test_analyze_refuses_an_unreachable_or_malformed_target(tmp_path, capsys):
     assert code == 2 and "out of reach" in err and "\n" == err[-1] and err.count("\n") == 1
     code, err = _cli_json(["analyze", str(path), "--bandwidth", "noise=0.2@5"], capsys)  # no noise known
     assert code == 2 and "--force-noise" in err
+    # nf_quad's law, s = 4 sqrt(F), needs 56 N for 30 m/s: beyond its weight, where the search stops.
+    quad = tmp_path / "quad.toml"
+    quad.write_text((ROOT / "airframes" / "nf_quad.toml").read_text())
+    code, err = _cli_json(["analyze", str(quad), "--airspeed", "5", "30"], capsys)
+    assert code == 2 and err.startswith(f"dobwind analyze: {quad}: --airspeed: the force-air law does not reach 30")
     with pytest.raises(SystemExit) as exit_:  # argparse's own exit for a malformed option
         _cli_json(["analyze", str(path), "--bandwidth", "wind=1@5"], capsys)
     assert exit_.value.code == 2 and "noise=M/S@AIRSPEED" in capsys.readouterr().err

@@ -34,6 +34,7 @@ import scipy.optimize
 from dobwind.analysis.figures import bandwidth_hz, gain_phase, group_delay_s, noise_gain
 from dobwind.analysis.linear import Linearization, jacobian_function, linearize
 from dobwind.analysis.ramp import RAMP_RATE_MPS2, force_for_airflow, hover_attitude
+from dobwind.errors import InputError
 from dobwind.model import forceair
 from dobwind.model.airframe import Airframe
 from dobwind.model.step import StepModel
@@ -151,10 +152,29 @@ def wind_point(af: Airframe, model: StepModel, speed: float, freqs_hz: list[floa
     return point
 
 
+# How far the law's reading of the operating force may fall from the airspeed asked (m/s): a polynomial
+# law that saturates, or is searched only up to the weight, cannot make every airspeed.
+REACH_TOLERANCE_MPS = 0.01
+
+
+def reaches(af: Airframe, speed_mps: float) -> bool:
+    """The law reads ``speed_mps`` back from the force made for it (within REACH_TOLERANCE_MPS)."""
+    air = _airflow(af, _operating_force(af, speed_mps)[None, :], 0.0)[0]
+    return abs(float(np.hypot(air[0], air[1])) - speed_mps) <= REACH_TOLERANCE_MPS
+
+
+def _check_airspeeds(af: Airframe, airspeeds_mps: list[float]) -> None:
+    for speed in airspeeds_mps:
+        if not reaches(af, speed):
+            raise InputError(af.name, "--airspeed", f"the force-air law does not reach {speed:g} m/s within a "
+                                                   f"force of the vehicle's weight")
+
+
 def wind_units(af: Airframe, model: StepModel, freqs_hz: list[float], airspeeds_mps: list[float],
                force_noise_n: float | None = None, noise: NoiseSource | None = None) -> dict[str, Any]:
     """The report's "wind_units" block: per breakpoint and per requested airspeed. ``noise`` (input-
     referred, e.g. found at another airframe's gains before a design) overrides ``force_noise_n``."""
+    _check_airspeeds(af, airspeeds_mps)
     noise = noise or noise_source(af, model, force_noise_n)
     jacobians = (jacobian_function(model, "force"), jacobian_function(model, "noise"))
     point = lambda s: wind_point(af, model, s, freqs_hz, noise, jacobians)  # noqa: E731
