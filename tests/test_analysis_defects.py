@@ -10,7 +10,6 @@ import pytest
 from codegen.generate import generate_code
 from dobwind import demo
 from dobwind.model.airframe import parse_airframe
-from dobwind.model.airframe_toml import dump_airframe
 from tests.families import FAMILIES, family_airframe
 
 

@@ -77,3 +77,25 @@ def test_ramp_lag_of_every_family_is_positive_and_reads_the_top(family):
     result = ramp_experiment(family_airframe(family))
     assert 0 < result.scheduled_lag_s < result.fixed_lag_s < 2.0
     assert result.scheduled_mps[-1] == pytest.approx(10.0, abs=0.05)
+
+
+@pytest.mark.parametrize("family", FAMILIES)
+def test_inversion_is_the_steps_own_force_air_stage(family):
+    """airframe_airflow gives what the step's force_air stage gives for the same force, yaw, attitude
+    and thrust: the analysis reads wind the way the C will."""
+    from dobwind.model.step import build_step
+
+    af = family_airframe(family)
+    stage = next(s for s in build_step(af).stages if s.name == "force_air")
+    rng = np.random.default_rng(7)
+    force = rng.normal(0, 2.0, (12, 3))
+    yaw = rng.uniform(-math.pi, math.pi, 12)
+    rot = Rotation.from_euler("xyz", rng.uniform(-0.3, 0.3, (12, 3))).as_matrix()
+    thrust = rng.uniform(0.8, 1.3, 12) * af.mass_kg * af.gravity_mps2
+    ours = forceair.airframe_airflow(af, force, yaw, rot, np.sqrt(thrust / (af.mass_kg * af.gravity_mps2)))
+    for k in range(12):
+        values = {"f_filt_new": force[k], "in.yaw_ref": yaw[k], "rot_body_to_ned": rot[k].reshape(-1, order="F"),
+                  "u_f": thrust[k]}
+        out = stage.function(*[values[name] for name in stage.inputs])
+        air = np.asarray(out[stage.outputs.index("air_rel_ned")]).ravel()
+        np.testing.assert_allclose(ours[k], air, rtol=1e-9, atol=1e-9)
