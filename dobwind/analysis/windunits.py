@@ -178,7 +178,9 @@ def wind_units(af: Airframe, model: StepModel, freqs_hz: list[float], airspeeds_
     noise = noise or noise_source(af, model, force_noise_n)
     jacobians = (jacobian_function(model, "force"), jacobian_function(model, "noise"))
     point = lambda s: wind_point(af, model, s, freqs_hz, noise, jacobians)  # noqa: E731
-    return {"noise_source": noise.source, "input_noise": noise.input_sigma, "ramp_rate_mps2": RAMP_RATE_MPS2,
+    unit = "m/s" if af.observer.acceleration == "velocity" else "m/s^2"  # of the acceleration input, per sample
+    return {"noise_source": noise.source, "input_noise": noise.input_sigma, "input_noise_unit": unit,
+            "ramp_rate_mps2": RAMP_RATE_MPS2,
             "breakpoints": [point(s) for s in af.filter.speeds_mps],
             "airspeeds": [point(s) for s in airspeeds_mps]}
 
