@@ -8,12 +8,13 @@ STAMP := $(VENV)/.installed-stamp
 
 setup: $(STAMP)
 
-# The system packages the tests need (C compilers, valgrind, cmake, chromium, python3-venv): installed
-# with apt-get when missing, as on CI (.ci/run runs `make test`, which runs this).
+# The system packages the README's commands need (python3-venv before the venv exists, the C compilers
+# the demo's verify uses, and for the tests valgrind, cmake, chromium...): installed with apt-get when
+# missing, as on CI (.ci/run runs `make test`), so a fresh clone needs nothing installed by hand.
 system-deps:
 	bash .ci/system-deps
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml | system-deps
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
 	$(BIN)/pip install --quiet -e '.[dev,ulog,ardupilot,rosbag]'

@@ -21,6 +21,7 @@ def _stub(folder: Path, name: str, body: str) -> None:
 def test_make_test_and_ci_share_the_one_install_script():
     makefile = (ROOT / "Makefile").read_text()
     assert re.search(r"^test: system-deps\b", makefile, re.M)
+    assert re.search(r"^\$\(STAMP\): pyproject.toml \| system-deps$", makefile, re.M)  # python3-venv first
     assert re.search(r"^system-deps:\n\tbash \.ci/system-deps$", makefile, re.M)
     ci = (ROOT / ".ci" / "run").read_text()
     assert "make test" in ci and "apt-get" not in ci  # no second copy of the package list
