@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from dobwind.analysis.design import WindTarget, design_gain_for_wind, with_gains
-from dobwind.analysis.figures import group_delay_s
+from dobwind.analysis.figures import group_delay_s, response
 from dobwind.analysis.linear import linearize
 from dobwind.analysis.windunits import local_slope, wind_scatter, wind_units
 from dobwind.model.step import build_step
@@ -73,6 +73,9 @@ def test_report_block_per_breakpoint_and_airspeed(family):
         delay = group_delay_s(linearize(model, p["airspeed_mps"]).axis(0))
         assert p["ramp_lag_s"] == pytest.approx(delay) and p["ramp_error_mps"] == pytest.approx(0.5 * delay)
         assert p["wind_noise_along_mps"] > 0 and p["slope_along_mps_per_n"] > 0
+        # Bode of force to wind: the force path's gain at 0.5 Hz times the slope.
+        h = abs(response(linearize(model, p["airspeed_mps"]).axis(0), np.array([0.5]))[0])
+        assert p["bode"][0]["gain_db_re_1mps_per_n"] == pytest.approx(20 * math.log10(h * p["slope_along_mps_per_n"]))
     # A drag law is steepest at zero airflow: the slope falls with airspeed (the test polynomial is no
     # drag law: its m^2 and n^2 terms make it steepen again).
     slopes = [p["slope_along_mps_per_n"] for p in block["breakpoints"]]

@@ -134,8 +134,8 @@ def wind_point(af: Airframe, model: StepModel, speed: float, freqs_hz: list[floa
     bode = []
     for f in freqs_hz:
         db, deg = gain_phase(sys_, f)
-        slope_db = 20 * math.log10(abs(along)) if along != 0 else -math.inf
-        bode.append({"freq_hz": f, "gain_db_re_1mps_per_n": db + slope_db, "phase_deg": deg})
+        gain = db + 20 * math.log10(abs(along)) if along != 0 and math.isfinite(along) else None  # JSON: no inf
+        bode.append({"freq_hz": f, "gain_db_re_1mps_per_n": gain, "phase_deg": deg})
     point: dict[str, Any] = {
         "airspeed_mps": speed, "cutoff_hz": _cutoff_at(af, speed),
         "slope_along_mps_per_n": along, "slope_across_mps_per_n": across,
