@@ -4,21 +4,27 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 
-.PHONY: setup test test-fast demo regen bench bench-replay clean realdata accuracy mutants
+.PHONY: setup system-deps test test-fast demo regen bench bench-replay clean realdata accuracy mutants figures
 
 setup: $(STAMP)
 
-$(STAMP): pyproject.toml
+# The system packages the README's commands need (python3-venv before the venv exists, the C compilers
+# the demo's verify uses, and for the tests valgrind, cmake, chromium...): installed with apt-get when
+# missing, as on CI (.ci/run runs `make test`), so a fresh clone needs nothing installed by hand.
+system-deps:
+	bash .ci/system-deps
+
+$(STAMP): pyproject.toml | system-deps
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
 	$(BIN)/pip install --quiet -e '.[dev,ulog,ardupilot,rosbag]'
 	touch $(STAMP)
 
-test: $(STAMP)
+test: system-deps $(STAMP)
 	$(BIN)/python -m pytest -q
 
 # The quick part of the suite (markers in tests/conftest.py): every package, no slow fit and no fuzz case.
-test-fast: $(STAMP)
+test-fast: system-deps $(STAMP)
 	$(BIN)/python -m pytest -q -m "not slow and not fuzz"
 
 demo: $(STAMP)
@@ -27,6 +33,10 @@ demo: $(STAMP)
 # Refresh the checked-in C for every airframe in airframes/ (tests fail while it is stale).
 regen: $(STAMP)
 	$(BIN)/python -m dobwind.regen
+
+# docs/figures.md and its images, from the current code (tests/test_docfigures.py fails when stale).
+figures: $(STAMP)
+	$(BIN)/python -m dobwind.analysis.docfigures docs
 
 # The M4F cycle estimate needs Unicorn (the bench extra); without it the column shows "-".
 bench: $(STAMP)

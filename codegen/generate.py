@@ -51,6 +51,19 @@ def _polynomial_text(model) -> str:
     return " + ".join(parts) or "0"
 
 
+def _force_air_lines(af: Airframe) -> list[str]:
+    """The header's description of the force-air law, one comment line each (issue #33: a drag airframe
+    was described by its empty polynomial tables, "horizontal speed = 0 m/s")."""
+    if af.drag is None:
+        return [f"horizontal speed = {_polynomial_text(af.horizontal)} m/s",
+                f"vertical (down)  = {_polynomial_text(af.vertical)} m/s"]
+    law = af.drag
+    coefficients = ", ".join(f"{k} {v:g}" for k, v in law.as_dict().items() if isinstance(v, float) and k != "exponent")
+    frame = "body-frame airflow at the measured attitude" if law.frame == "body" else "level heading-frame airflow"
+    return [f"drag law of the {frame}, inverted in the step (docs/model.md),",
+            f"exponent {law.exponent:g}, coefficients {coefficients}"]
+
+
 def _state_decls(model: StepModel, printer: CPrinter, prefix: str) -> list[dict[str, str]]:
     decls, seen_last = [], False
     for f in model.state.fields:
@@ -171,7 +184,7 @@ def _render(af: Airframe, precision: str, model: StepModel) -> GeneratedCode:
         **common, af=af, guard=f"{af.name.upper()}_WIND_H", status_bits=STATUS_BITS, rejected_mask=REJECTED_MASK,
         settling_time=printer.literal(model.settling_time_s),
         outputs=model.outputs.fields, inputs=model.inputs.fields, state=_state_decls(model, printer, prefix),
-        horizontal=_polynomial_text(af.horizontal), vertical=_polynomial_text(af.vertical),
+        force_air=_force_air_lines(af),
     )
     source = _ENV.get_template("source.c.j2").render(
         **common, validate=validate, sections=sections, check=check, commit=_commit_lines(model, printer),

@@ -15,6 +15,7 @@ from typing import Any, Callable, NoReturn, Sequence
 
 from dobwind import options as opt
 from dobwind.helpfmt import DefaultsFormatter
+from dobwind.resources import shipped_airframe_names
 from dobwind.errors import EXIT_BAD_INPUT, EXIT_CHECK_FAILED, CheckFailed, InputError
 from dobwind.interrupts import Interrupted, signals_raise
 from dobwind.outputs import OutputFiles, Target, check_replaceable, check_targets
@@ -332,7 +333,8 @@ class _VersionAction(argparse.Action):
         parser.exit()
 
 
-AIRFRAME_HELP = "airframe TOML file (see docs/formats.md for its keys and units)"
+AIRFRAME_HELP = ("airframe TOML file (see docs/formats.md for its keys and units), or the name of a shipped one "
+                 f"({', '.join(shipped_airframe_names())}) when no such file exists")
 JSON_HELP = "print the results as JSON (indent 2, units in the key names) instead of text"
 # adds one subcommand: (name, one-line description) -> its parser
 _Command = Callable[[str, str], argparse.ArgumentParser]
@@ -401,9 +403,17 @@ def _add_analyze(command: _Command) -> None:
     p.add_argument("--freq", type=opt.FREQUENCY, nargs="+", default=[0.1, 0.5, 1.0],
                    help=f"frequencies to report gain and phase at, Hz ({opt.FREQUENCY.text()}, below the Nyquist "
                         f"frequency 1/(2 sample_time); at most {opt.MAX_FREQUENCIES})")
-    p.add_argument("--bandwidth", type=opt.BANDWIDTH, help="design the observer gains (kg/s, equal on x y z) that give "
-                   f"this -3 dB bandwidth, Hz ({opt.BANDWIDTH.text()}, below the Nyquist frequency), then analyse "
-                   "the airframe with those gains (default: none, analyse the gains in the file)")
+    p.add_argument("--bandwidth", type=opt.DESIGN_TARGET, help="design the observer gains (kg/s, equal on x y z) that give "
+                   f"this -3 dB bandwidth, Hz ({opt.DESIGN_TARGET.text()}; Hz below the Nyquist frequency), or "
+                   "this wind noise along the airflow or ramp lag at an airspeed, then analyse the airframe with "
+                   "those gains (default: none, analyse the gains in the file)")
+    p.add_argument("--airspeed", type=opt.AIRSPEED, nargs="+", default=[],
+                   help=f"airspeeds to report the wind-unit figures at besides the schedule's breakpoints, m/s "
+                        f"({opt.AIRSPEED.text()}; at most {opt.MAX_AIRSPEEDS})")
+    p.add_argument("--force-noise", type=opt.FORCE_NOISE, metavar="N",
+                   help="1-sigma scatter of the observer's horizontal force estimate before the low-pass, per "
+                        f"axis, at the file's gains, N ({opt.FORCE_NOISE.text()}); default: from the wind noise "
+                        "the fit recorded in the airframe ([uncertainty] noise_h), else the wind noise is not given")
     p.set_defaults(func=cmd_analyze)
 
 

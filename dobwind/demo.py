@@ -21,7 +21,7 @@ from dobwind.harness.verify import verify_airframe
 from dobwind.logs import read_log, required_columns, write_atomically
 from dobwind.model import reference
 from dobwind.model.airframe import Airframe, load_airframe
-from dobwind.model.airframe_toml import dump_airframe
+from dobwind.model.airframe_toml import dump_airframe, rehashed
 from dobwind.model.exercise import flight_inputs
 from dobwind.model.step import build_step
 from dobwind.outputs import Target, staged_folder
@@ -88,6 +88,7 @@ def _fit(af: Airframe, logs: dict[str, str], out: Path) -> Airframe:
     """Calibrate on the sweep and vertical logs; writes the fitted airframe and its plot."""
     fitted, fit_report, points = fit_airframe(af, [logs["sweep"], logs["vertical"]], "auto")
     fitted_path = out / f"{af.name}_fitted.toml"
+    fitted = rehashed(fitted)  # the C generated from it names this file, not the one fitted from
     text = dump_airframe(fitted)
     write_atomically(fitted_path, lambda handle: handle.write(text))
     fit_plot(fitted, points, str(out / "fit.png"))

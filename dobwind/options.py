@@ -49,3 +49,40 @@ ERROR_SHARE = Bound(0.001, 10.0)          # fit self-check: share of the calibra
 ERROR_FLOOR = Bound(0.0, 100.0, "m/s")
 DIRECTION_LIMIT = Bound(0.1, 180.0, "deg")
 HOVER_NOISE = Bound(0.0, 10.0, "m/s")     # fit: noise target at low airflow; 0 keeps the airframe's low-pass
+
+
+# `analyze --bandwidth`: a force bandwidth in Hz, or a target in wind units at an airspeed.
+WIND_NOISE_TARGET = Bound(1e-4, 100.0, "m/s")
+WIND_LAG_TARGET = Bound(1e-4, 1000.0, "s")
+AIRSPEED = Bound(0.0, 100.0, "m/s")
+FORCE_NOISE = Bound(1e-9, 1e6, "N")
+MAX_AIRSPEEDS = 20
+
+
+@dataclass(frozen=True)
+class WindTargetSpec:
+    kind: str            # "noise" or "lag"
+    value: float
+    airspeed_mps: float
+
+
+class DesignTargetType:
+    """argparse ``type=`` of --bandwidth: "0.5" (Hz, a float as before), "noise=0.2@5" (m/s of wind noise
+    at 5 m/s airspeed) or "lag=0.6@5" (s of ramp lag at 5 m/s)."""
+
+    def text(self) -> str:
+        return (f"{BANDWIDTH.text()}; or noise=M/S@AIRSPEED ({WIND_NOISE_TARGET.text()}) or lag=S@AIRSPEED "
+                f"({WIND_LAG_TARGET.text()}), airspeed {AIRSPEED.text()}")
+
+    def __call__(self, text: str) -> float | WindTargetSpec:
+        kind, sep, rest = text.partition("=")
+        if not sep:
+            return BANDWIDTH(text)
+        value, at, speed = rest.partition("@")
+        if kind not in ("noise", "lag") or not at:
+            raise argparse.ArgumentTypeError(f"expected Hz, noise=M/S@AIRSPEED or lag=S@AIRSPEED, got {text!r}")
+        bound = WIND_NOISE_TARGET if kind == "noise" else WIND_LAG_TARGET
+        return WindTargetSpec(kind, float(bound(value)), float(AIRSPEED(speed)))
+
+
+DESIGN_TARGET = DesignTargetType()

@@ -17,6 +17,10 @@ class FieldError:
     max_abs: float
     worst_ratio: float  # max of |diff| / (atol + rtol |ref|): <= 1 passes
     worst_row: int
+    # The element that sets worst_ratio: its |diff| and its reference's magnitude. max_abs alone misled
+    # (issue #33): the limit cases reach 1e27, where a passing single-precision diff is 1e22.
+    worst_diff: float = 0.0
+    worst_ref: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -81,8 +85,10 @@ def _field_errors(layout, got: np.ndarray, ref: np.ndarray, tol: Tolerance, vali
         diff, ratio = _field_ratio(name, g, r, tol, mask)
         flat = ratio.max(axis=1) if ratio.size else np.zeros(0)
         row = int(np.argmax(flat)) if flat.size else -1
+        col = int(np.argmax(ratio[row])) if flat.size else 0
+        at = (float(diff[row, col]), float(abs(r[row, col]))) if flat.size else (0.0, 0.0)
         errors.append(FieldError(f.name, float(diff.max()) if diff.size else 0.0,
-                                 float(flat.max()) if flat.size else 0.0, row))
+                                 float(flat.max()) if flat.size else 0.0, row, *at))
     return tuple(errors)
 
 

@@ -79,7 +79,8 @@ class VerifyReport:
                 lines.append(f"    {title}: {comp.rows} steps, {comp.status_mismatches} status mismatches, "
                              f"worst error/tolerance {comp.worst_ratio:.3g}")
                 for e in worst:
-                    lines.append(f"      {e.name:14s} max |diff| {e.max_abs:.3g} (x{e.worst_ratio:.3g} of tolerance, row {e.worst_row})")
+                    lines.append(f"      {e.name:14s} |diff| {e.worst_diff:.3g} at |value| {e.worst_ref:.3g} "
+                                 f"(x{e.worst_ratio:.3g} of tolerance, row {e.worst_row})")
         return "\n".join(lines)
 
 

@@ -526,12 +526,41 @@ def parse_airframe(text: str, source: str) -> Airframe:
     )
 
 
-def load_airframe(path: str | Path) -> Airframe:
+# The package that carries the shipped airframes (the checkout's airframes/ folder, pyproject.toml).
+SHIPPED_AIRFRAMES_PACKAGE = "dobwind.airframes"
+
+
+def shipped_airframe_path(name: str) -> Path | None:
+    """The shipped airframe called ``name`` ("m300" or "m300.toml"), or None."""
+    from importlib import resources
+
+    stem = name.removesuffix(".toml")
+    if not stem or Path(stem).name != stem:
+        return None
+    try:
+        entry = resources.files(SHIPPED_AIRFRAMES_PACKAGE) / f"{stem}.toml"
+    except ModuleNotFoundError:
+        return None
+    path = Path(str(entry))
+    return path if path.is_file() else None
+
+
+def resolve_airframe_path(path: str | Path) -> Path:
+    """``path`` itself when it exists or names a folder; a bare name with no such file ("m300") is the
+    shipped airframe of that name, so `dobwind generate m300` works from any folder (issue #33)."""
     path = Path(path)
+    if path.exists() or len(path.parts) != 1:
+        return path
+    return shipped_airframe_path(path.name) or path
+
+
+def load_airframe(path: str | Path) -> Airframe:
+    path = resolve_airframe_path(path)
     try:
         data = path.read_bytes()
     except OSError as exc:
-        raise InputError(str(path), None, f"cannot read: {exc.strerror}") from None
+        shipped = "" if len(path.parts) != 1 else " (nor is it the name of a shipped airframe)"
+        raise InputError(str(path), None, f"cannot read: {exc.strerror}{shipped}") from None
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError:

@@ -1,6 +1,8 @@
 """Airframe -> TOML text, the inverse of ``airframe.parse_airframe`` (used by ``fit`` and tests)."""
 from __future__ import annotations
 
+import dataclasses
+import hashlib
 import math
 from typing import Any
 
@@ -90,3 +92,10 @@ def _force_air_document(af: Airframe) -> dict[str, Any]:
 
 def dump_airframe(af: Airframe) -> str:
     return dumps(airframe_document(af))
+
+
+def rehashed(af: Airframe) -> Airframe:
+    """``af`` naming the text it is written as: content_sha256 of its dumped TOML. An airframe made in
+    memory (a fit's result) otherwise carries the hash of the file it was fitted from, and C generated
+    from it would name the wrong airframe (issue #33)."""
+    return dataclasses.replace(af, content_sha256=hashlib.sha256(dump_airframe(af).encode()).hexdigest())

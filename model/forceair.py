@@ -41,12 +41,17 @@ import dataclasses
 import functools
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
 
+from dobwind.model.numeric import bisect_increasing
 from dobwind.model.sxvector import VectorFunction
 from dobwind.model.terms import Term, polynomial_expr, term_expr
+
+if TYPE_CHECKING:  # the airframe module imports this one; the functions below only read its fields
+    from dobwind.model.airframe import Airframe
 
 # Below this horizontal force (N) the force direction is noise; the polynomial family scales the
 # airflow down smoothly instead of dividing by ~0.
@@ -495,3 +500,133 @@ def law_decreasing(law: DragLaw, speed_max_mps: float, rotors: tuple[float, ...]
         if where is not None:
             return where + (f", rotor term {rotor:.2f}" if law.frame == "body" else "")
     return None
+
+
+# --- every family, NumPy: the force-air law of an airframe forward and inverted ---------------------
+# Analysis (dobwind/analysis) makes the force a given airflow would cause and reads the airflow a force
+# maps to through these two functions only, so that a new family added to the step is added here once
+# and every experiment follows (issue #33: the ramp once rebuilt the polynomial family alone).
+
+# The polynomial family's horizontal force is searched up to this multiple of the weight: far beyond
+# any calibrated airflow, so a target the law cannot reach clamps visibly instead of wrapping.
+POLYNOMIAL_FORCE_SEARCH_WEIGHTS = 1.0
+_VERTICAL_GRID_POINTS = 4001
+
+
+@functools.lru_cache(maxsize=16)
+def _polynomial_function(horizontal, vertical) -> ca.Function:
+    """(m, n, fz) -> (x, y, z airflow, heading frame; horizontal speed) of the polynomial family, per
+    pair of (frozen) ForceAirModel tables: built once, however many times a bisection asks."""
+    m, n, fz = ca.SX.sym("m"), ca.SX.sym("n"), ca.SX.sym("fz")
+    x, y, z, speed_h, _ = polynomial_airflow((horizontal.terms, horizontal.coefficients),
+                                             (vertical.terms, vertical.coefficients), m, n, fz)
+    return ca.Function("polynomial_airflow", [m, n, fz], [ca.vertcat(x, y, z, speed_h)])
+
+
+def _polynomial_numpy(af: "Airframe", m: np.ndarray, n: np.ndarray, fz: np.ndarray) -> np.ndarray:
+    """(N, 4): heading-frame airflow x, y, z and the horizontal speed, of the polynomial family."""
+    rows = len(m)
+    out = _polynomial_function(af.horizontal, af.vertical).map(rows)(*(np.asarray(v, float).reshape(1, rows) for v in (m, n, fz)))
+    return np.asarray(out).T
+
+
+def family(af: "Airframe") -> str:
+    """The airframe's force-air family, as `fit --model` names them."""
+    if af.drag is None:
+        return "polynomial"
+    return f"drag-{af.drag.frame}"
+
+
+def needs_attitude(af: "Airframe") -> bool:
+    """The airframe's law reads the attitude and thrust (the body-frame drag law): a caller that makes a
+    force for an airflow must then balance the tilt that force causes."""
+    return af.drag is not None and af.drag.frame == "body"
+
+
+def _hover_attitude(rows: int, rot, rotor) -> tuple[np.ndarray, np.ndarray]:
+    """Level attitude and hover rotor term where the caller gives none."""
+    rot = np.tile(np.eye(3), (rows, 1, 1)) if rot is None else np.asarray(rot, float)
+    rotor = np.ones(rows) if rotor is None else np.broadcast_to(np.asarray(rotor, float), (rows,))
+    return rot, rotor
+
+
+def airframe_airflow(af: "Airframe", force_ned: np.ndarray, yaw: np.ndarray, rot: np.ndarray | None = None,
+                     rotor: np.ndarray | None = None) -> np.ndarray:
+    """The airframe's force-air law inverted as the step inverts it: relative airflow (N, 3; NED, air
+    minus vehicle) from the NED external force (N, 3; offset included), heading ``yaw`` (rad), attitude
+    ``rot`` (N, 3, 3 body -> NED; level if None) and rotor = sqrt(u_f / (m g)) (1 if None); the last
+    two matter to the body-frame law only."""
+    force_ned = np.atleast_2d(np.asarray(force_ned, float))
+    yaw = np.broadcast_to(np.asarray(yaw, float), (len(force_ned),))
+    c, s = np.cos(yaw), np.sin(yaw)
+    m, n, fz = heading_force(force_ned.T, c, s, af.observer.force_offset_n)
+    if needs_attitude(af):
+        rot, rotor = _hover_attitude(len(force_ned), rot, rotor)
+        fn, fe = heading_to_ned(m, n, c, s)
+        return body_drag_airflow_numpy(af.drag, np.column_stack([fn, fe, fz]), rot, rotor)
+    if af.drag is not None:
+        air = drag_airflow_numpy(af.drag, m, n, fz)
+    else:
+        air = _polynomial_numpy(af, m, n, fz)[:, :3]
+    north, east = heading_to_ned(air[:, 0], air[:, 1], c, s)
+    return np.column_stack([north, east, air[:, 2]])
+
+
+def airframe_force(af: "Airframe", air_rel_ned: np.ndarray, yaw: np.ndarray, rot: np.ndarray | None = None,
+                   rotor: np.ndarray | None = None) -> np.ndarray:
+    """The airframe's force-air law forward: the NED external force (N, 3; offset included) that
+    ``airframe_airflow`` maps back to the relative airflow ``air_rel_ned`` (N, 3), same arguments.
+    The drag laws are forward laws; the polynomial family is inverted by bisection along the airflow
+    (its model: the air moves along the horizontal force)."""
+    air = np.atleast_2d(np.asarray(air_rel_ned, float))
+    yaw = np.broadcast_to(np.asarray(yaw, float), (len(air),))
+    c, s = np.cos(yaw), np.sin(yaw)
+    x, y, vz = heading_force(air.T, c, s, (0.0, 0.0, 0.0))
+    if needs_attitude(af):
+        rot, rotor = _hover_attitude(len(air), rot, rotor)
+        a = np.einsum("nji,nj->ni", rot, air)  # NED -> body: rot^T a
+        # eps: a finite angle at zero in-plane airflow (whose terms then vanish anyway).
+        f_b = np.column_stack(body_drag_force(af.drag, a[:, 0], a[:, 1], a[:, 2], rotor, 1e-9))
+        f = np.einsum("nij,nj->ni", rot, f_b)
+        m, n, fz = heading_force(f.T, c, s, (0.0, 0.0, 0.0))
+    elif af.drag is not None:
+        m, n, fz = drag_force(af.drag, x, y, vz)
+    else:
+        m, n, fz = _polynomial_force(af, x, y, vz)
+    off = af.observer.force_offset_n
+    north, east = heading_to_ned(m + off[0], n + off[1], c, s)
+    return np.column_stack([north, east, fz + off[2]])
+
+
+def _polynomial_force(af: "Airframe", x: np.ndarray, y: np.ndarray, vz: np.ndarray):
+    """Heading-frame force (m, n, fz) of the polynomial family for the airflow (x, y, vz): the horizontal
+    force along the airflow with the magnitude whose modelled speed is |(x, y)|; the vertical force on
+    the vertical model's monotone branch through zero force (at zero horizontal force)."""
+    weight = af.mass_kg * af.gravity_mps2
+    speed = np.hypot(x, y)
+    ux = np.where(speed > 0, x / np.maximum(speed, 1e-300), 1.0)
+    uy = np.where(speed > 0, y / np.maximum(speed, 1e-300), 0.0)
+    along = lambda fh: _polynomial_numpy(af, fh * ux, fh * uy, np.zeros_like(fh))[:, 3]  # noqa: E731
+    fh = bisect_increasing(along, speed, 0.0, POLYNOMIAL_FORCE_SEARCH_WEIGHTS * weight)
+    grid = np.linspace(-weight, weight, _VERTICAL_GRID_POINTS)
+    zeros = np.zeros_like(grid)
+    v_grid = _polynomial_numpy(af, zeros, zeros, grid)[:, 2]
+    # A vertical model that ignores fz cannot be inverted: no vertical force.
+    fz = np.zeros_like(vz) if np.ptp(v_grid) == 0.0 else _monotone_inverse(v_grid, grid, len(grid) // 2, vz)
+    return fh * ux, fh * uy, fz
+
+
+def _monotone_inverse(values: np.ndarray, grid: np.ndarray, zero: int, target: np.ndarray) -> np.ndarray:
+    """Invert a sampled function on the monotone branch through grid[zero] (targets off it clamp)."""
+    step = np.sign(np.diff(values))
+    direction = step[zero] if step[zero] != 0 else 1.0
+    lo = zero
+    while lo > 0 and step[lo - 1] == direction:
+        lo -= 1
+    hi = zero
+    while hi < len(step) and step[hi] == direction:
+        hi += 1
+    branch_v, branch_g = values[lo:hi + 1], grid[lo:hi + 1]
+    if direction < 0:
+        branch_v, branch_g = branch_v[::-1], branch_g[::-1]
+    return np.interp(target, branch_v, branch_g)

@@ -1,5 +1,5 @@
 """`dobwind report`: one self-contained HTML page that a real browser opens without errors and with every
-figure decoded (headless Chromium; .ci/run installs the Debian `chromium` package)."""
+figure decoded (headless Chromium; `make test` installs the Debian `chromium` package through .ci/system-deps)."""
 from __future__ import annotations
 
 import base64
@@ -61,7 +61,7 @@ def test_report_is_self_contained_and_complete(report_html):
 
 def test_report_opens_in_headless_chromium_without_errors(report_html, tmp_path):
     browser = shutil.which("chromium") or shutil.which("chromium-browser")
-    assert browser, "chromium is needed (.ci/run installs it)"
+    assert browser, "chromium is needed (`make test` installs it through .ci/system-deps)"
     page = report_html.read_text()
     probed = tmp_path / "probed.html"
     probed.write_text(page.replace("<head>", "<head>\n" + PROBE_HEAD, 1).replace("</body>", PROBE_TAIL + "\n</body>", 1))

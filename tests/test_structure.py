@@ -95,6 +95,9 @@ ONE_HOME = {
     "term variables": (r"[\"']fh[\"']\s*:", "model/forceair.py"),
     # force -> airflow direction: the guard against dividing by a vanishing horizontal force
     "force -> airflow direction": (r"FORCE_DIRECTION_EPS_N\s*\*\*|np\.maximum\(np\.hypot\(m, n\)", "model/forceair.py"),
+    # the polynomial family's expression, built from an airframe's terms (the ramp once rebuilt it:
+    # issue #33); its definition in model/terms.py is not a use
+    "polynomial family": (r"(?<!def )\bpolynomial_expr\(", "model/forceair.py"),
     # yaw from a quaternion
     "yaw from quaternion": (r"arctan2\(2 \* \(w \* z", "model/attitude.py"),
     # the attitude that points the thrust: body axes built by cross products
@@ -133,6 +136,8 @@ def test_the_one_home_check_sees_a_copy(tmp_path):
         "n = -samples.sin_yaw * f[:, 0] + samples.cos_yaw * f[:, 1] - offset[1]\n"
         'env = {"m": m, "n": n, "fh": ca.sqrt(m * m + n * n), "fz": fz}\n'
         "fh = np.maximum(np.hypot(m, n), 1e-6)\n"
+        "h = ca.Function('h', [m, n, fz], [polynomial_expr(af.horizontal.terms, af.horizontal.coefficients, env)])\n"
+
         "yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))\n"
         "y = np.cross(z, heading)\n")
     (tmp_path / "dobwind" / "simulate.py").write_text("y = np.cross(z, heading)\n")  # independent: allowed
@@ -213,3 +218,32 @@ def test_the_readme_check_sees_a_stale_name(tmp_path):
     (tmp_path / "README.md").write_text("## The pipeline\n\n`model/step.py` -> fit.py, gone.py, model/old.py,"
                                         " analysis/\n\n## Next\n\nmodel/later.py\n")
     assert missing_layout_names(tmp_path) == ["analysis/", "gone.py", "model/old.py"]
+
+
+# The analysis experiments see no force-air family: they go through forceair.airframe_force and
+# forceair.airframe_airflow, so a family added to the step is analysed without touching them.
+FAMILY_NAMES = r"\.drag\b|\bpolynomial_expr\(|\bdrag_force\(|\bbody_drag_\w+\(|\bdrag_airflow\w*\(|\bhorizontal\.terms\b"
+
+
+def family_mentions(root: Path = ROOT) -> list[str]:
+    import re
+
+    found = []
+    for path in sorted((root / "dobwind" / "analysis").glob("*.py")):
+        for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+            if re.search(FAMILY_NAMES, line.split("#")[0]):
+                found.append(f"{path.name}:{number}")
+    return found
+
+
+def test_analysis_names_no_force_air_family():
+    assert family_mentions() == []
+
+
+def test_the_family_check_sees_a_dispatch(tmp_path):
+    (tmp_path / "dobwind" / "analysis").mkdir(parents=True)
+    (tmp_path / "dobwind" / "analysis" / "ramp.py").write_text(
+        "x = 1  # af.drag in a comment is fine\n"
+        "if af.drag is not None and af.drag.frame == 'body':\n"
+        "    h = polynomial_expr(af.horizontal.terms, af.horizontal.coefficients, env)\n")
+    assert family_mentions(tmp_path) == ["ramp.py:2", "ramp.py:3"]

@@ -75,3 +75,31 @@ def ramp(result: RampResult, path: Path, airframe: str = "") -> Path:
     ax.legend(loc="lower right")
     fig.tight_layout()
     return _save(fig, path)
+
+
+def wind_units(block: dict, path: Path, airframe: str = "") -> Path:
+    """The wind-unit view over airspeed: the law's slope, the wind noise along and across the airflow,
+    and the ramp lag, each at the airspeeds asked (breakpoints marked)."""
+    points = sorted(block["airspeeds"], key=lambda p: p["airspeed_mps"])
+    speed = np.array([p["airspeed_mps"] for p in points])
+    fig, (slope_ax, noise_ax, lag_ax) = plt.subplots(3, 1, sharex=True, figsize=(8.5, 8))
+    slope_ax.semilogy(speed, [p["slope_along_mps_per_n"] for p in points], color="#0072B2", marker="o")
+    slope_ax.set_ylabel("slope (m/s per N)")
+    if points and points[0]["wind_noise_along_mps"] is not None:
+        noise_ax.plot(speed, [p["wind_noise_along_mps"] for p in points], color="#0072B2", marker="o", label="along")
+        noise_ax.plot(speed, [p["wind_noise_across_mps"] for p in points], color="#D55E00", ls="--", marker="s",
+                      label="across")
+        noise_ax.legend(loc="upper right")
+    noise_ax.set_ylabel("wind noise, 1 sigma (m/s)")
+    lag_ax.plot(speed, [p["ramp_lag_s"] for p in points], color="#009E73", marker="o")
+    lag_ax.set_ylabel("ramp lag (s)")
+    lag_ax.set_xlabel("airspeed (m/s)")
+    for ax in (slope_ax, noise_ax, lag_ax):
+        ax.grid(True, alpha=0.3)
+        for b in block["breakpoints"]:
+            ax.axvline(b["airspeed_mps"], color="grey", lw=0.8, ls=":")
+    prefix = f"{airframe}: " if airframe else ""
+    slope_ax.set_title(f"{prefix}in wind units (dotted: schedule breakpoints; noise from {block['noise_source']})",
+                       fontsize=9)
+    fig.tight_layout()
+    return _save(fig, path)

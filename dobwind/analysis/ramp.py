@@ -8,66 +8,44 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-import casadi as ca
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from dobwind.model import forceair, reference
 from dobwind.model.airframe import Airframe, FilterSchedule
 from dobwind.model.attitude import attitude_with_body_down, quaternion_wxyz
-from dobwind.model.numeric import bisect_increasing, rpm_for_rotor_thrust
+from dobwind.model.numeric import rpm_for_rotor_thrust
 from dobwind.model.step import StepModel, build_step
-from dobwind.model.terms import polynomial_expr
 
 RAMP_START_S, RAMP_RATE_MPS2, RAMP_TOP_MPS, HOLD_S = 5.0, 0.5, 10.0, 15.0
 LAG_LEVELS_MPS = np.arange(2.0, 9.01, 0.5)
 
 
-def _model_functions(af: Airframe) -> tuple[ca.Function, ca.Function]:
-    m, n, fz = ca.SX.sym("m"), ca.SX.sym("n"), ca.SX.sym("fz")
-    env = forceair.term_variables(m, n, fz)
-    horizontal = ca.Function("h", [m, n, fz], [polynomial_expr(af.horizontal.terms, af.horizontal.coefficients, env)])
-    vertical = ca.Function("v", [m, n, fz], [polynomial_expr(af.vertical.terms, af.vertical.coefficients, env)])
-    return horizontal, vertical
+# Fixed-point passes of the hover balance (the body-frame law's force depends on the tilt it causes):
+# the tilt's effect on the force is a few percent, so each pass gains about two digits.
+HOVER_BALANCE_PASSES = 8
 
 
-def _monotone_inverse(values: np.ndarray, grid: np.ndarray, zero: int, target: np.ndarray) -> np.ndarray:
-    """Invert a sampled function on the monotone branch through grid[zero] (targets off it clamp)."""
-    step = np.sign(np.diff(values))
-    direction = step[zero] if step[zero] != 0 else 1.0
-    lo = zero
-    while lo > 0 and step[lo - 1] == direction:
-        lo -= 1
-    hi = zero
-    while hi < len(step) and step[hi] == direction:
-        hi += 1
-    branch_v, branch_g = values[lo:hi + 1], grid[lo:hi + 1]
-    if direction < 0:
-        branch_v, branch_g = branch_v[::-1], branch_g[::-1]
-    return np.interp(target, branch_v, branch_g)
+def hover_attitude(af: Airframe, force_ned: np.ndarray, yaw: np.ndarray) -> tuple[Rotation, np.ndarray]:
+    """The attitude that holds position against ``force_ned`` (thrust -u_f z_b = -(m g e3 + f)) and the
+    true thrust u_f it takes."""
+    need = af.mass_kg * af.gravity_mps2 * np.array([0, 0, 1.0]) + force_ned
+    true_thrust = np.linalg.norm(need, axis=1)
+    return attitude_with_body_down(need / true_thrust[:, None], yaw), true_thrust
 
 
-def force_for_airflow(af: Airframe, air_rel_ned: np.ndarray, yaw: np.ndarray, max_force_n: float | None = None) -> np.ndarray:
-    """External force (NED, rows) that the airframe's force-air model maps to the given relative
-    airflow: horizontal force along the airflow (searched up to the weight), vertical force on the
-    vertical model's monotone branch through zero force."""
-    max_force_n = max_force_n or af.mass_kg * af.gravity_mps2
-    horizontal, vertical = _model_functions(af)
-    h_map = horizontal.map(len(yaw))
-    c, s = np.cos(yaw), np.sin(yaw)
-    rel_c = np.stack(forceair.heading_force(air_rel_ned.T, c, s, (0.0, 0.0, 0.0))[:2], 1)
-    speed = np.hypot(rel_c[:, 0], rel_c[:, 1])
-    direction = np.where(speed[:, None] > 0, rel_c / np.maximum(speed, 1e-12)[:, None], [1.0, 0.0])
-    h_of = lambda fh: np.asarray(h_map(fh * direction[:, 0], fh * direction[:, 1], np.zeros_like(fh))).ravel()
-    fh = bisect_increasing(h_of, speed, 0.0, max_force_n)
-    grid = np.linspace(-max_force_n, max_force_n, 4001)
-    v_grid = np.asarray(vertical.map(len(grid))(np.zeros_like(grid), np.zeros_like(grid), grid)).ravel()
-    if np.ptp(v_grid) == 0.0:  # a vertical model that ignores fz cannot be inverted: no vertical force
-        fz = np.zeros(len(yaw))
-    else:
-        fz = _monotone_inverse(v_grid, grid, len(grid) // 2, air_rel_ned[:, 2])
-    off = np.asarray(af.observer.force_offset_n)
-    m_c, n_c = fh * direction[:, 0] + off[0], fh * direction[:, 1] + off[1]
-    return np.stack([*forceair.heading_to_ned(m_c, n_c, c, s), fz + off[2]], 1)
+def force_for_airflow(af: Airframe, air_rel_ned: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    """External force (NED, rows) that the airframe's force-air law (model/forceair.py, any family) maps
+    to the given relative airflow for a vehicle hovering against it: for the body-frame law the tilt
+    and thrust that force needs are found with it (a fixed point), as the step will see them."""
+    force = forceair.airframe_force(af, air_rel_ned, yaw)
+    if not forceair.needs_attitude(af):
+        return force
+    for _ in range(HOVER_BALANCE_PASSES):
+        rot, thrust = hover_attitude(af, force, yaw)
+        rotor = np.sqrt(thrust / (af.mass_kg * af.gravity_mps2))
+        force = forceair.airframe_force(af, air_rel_ned, yaw, rot.as_matrix(), rotor)
+    return force
 
 
 def hover_inputs(model: StepModel, force_ned: np.ndarray, yaw: np.ndarray, dt: float) -> np.ndarray:
@@ -75,10 +53,8 @@ def hover_inputs(model: StepModel, force_ned: np.ndarray, yaw: np.ndarray, dt: f
     -u_f z_b + m g e3 + f = 0, no acceleration, no velocity."""
     af = model.airframe
     n = len(yaw)
-    need = af.mass_kg * af.gravity_mps2 * np.array([0, 0, 1.0]) + force_ned
-    true_thrust = np.linalg.norm(need, axis=1)
+    rot, true_thrust = hover_attitude(af, force_ned, yaw)
     thrust = true_thrust / af.thrust.scale  # what the sensors report, through the calibrated scale
-    rot = attitude_with_body_down(need / true_thrust[:, None], yaw)
     values = {"dt": np.full(n, dt), "vel_ned": np.zeros((n, 3)), "acc_ned": np.zeros((n, 3)),
               "q": quaternion_wxyz(rot), "yaw_ref": yaw, "thrust": thrust,
               "specific_force": rot.inv().apply(np.tile([0, 0, -af.gravity_mps2], (n, 1)))}

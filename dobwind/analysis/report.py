@@ -13,6 +13,7 @@ from dobwind.analysis import plots
 from dobwind.analysis.figures import figures, noise_gain
 from dobwind.analysis.linear import axis_system, continuous_observer, jacobian_function, linearize
 from dobwind.analysis.ramp import ramp_experiment
+from dobwind.analysis.windunits import NoiseSource, wind_text, wind_units
 from dobwind.model.stability import unstable_reason
 from dobwind.model.airframe import DISCRETIZATIONS, Airframe
 from dobwind.model.step import build_step
@@ -43,8 +44,10 @@ def schedule_check(af: Airframe) -> dict[str, Any]:
             "speeds_checked_mps": [0.0, top], "points": SCHEDULE_GRID_POINTS}
 
 
-def analyze(af: Airframe, freqs_hz: list[float], with_ramp: bool = True) -> tuple[dict[str, Any], dict[str, Any]]:
-    """(JSON-able report, python-control systems for the plots)."""
+def analyze(af: Airframe, freqs_hz: list[float], with_ramp: bool = True, airspeeds_mps: tuple[float, ...] = (),
+            force_noise_n: float | None = None, input_noise: NoiseSource | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
+    """(JSON-able report, python-control systems for the plots). The wind-unit block (windunits.py)
+    covers every breakpoint and ``airspeeds_mps``."""
     model = build_step(af)
     report: dict[str, Any] = {
         "airframe": af.name, "sample_time_s": af.observer.sample_time_s, "discretization": af.observer.discretization,
@@ -94,13 +97,19 @@ def analyze(af: Airframe, freqs_hz: list[float], with_ramp: bool = True) -> tupl
     reason = unstable_reason(af)
     report["stable"] = stable and reason is None and report.get("schedule", {}).get("stable", False)
     report["unstable_reason"] = reason
+    if stable:
+        report["wind_units"] = wind_units(af, model, freqs_hz, list(airspeeds_mps), force_noise_n, input_noise)
     if with_ramp and stable:
-        ramp = ramp_experiment(af)
-        systems["ramp"] = ramp
-        report["ramp"] = {"scheduled_lag_s": ramp.scheduled_lag_s, "fixed_lag_s": ramp.fixed_lag_s,
-                          "fixed_cutoff_hz": ramp.fixed_cutoff_hz, "lag_reduction_s": ramp.lag_reduction_s,
-                          "paper_lag_reduction_s": 2.2}
+        _add_ramp(af, report, systems)
     return report, systems
+
+
+def _add_ramp(af: Airframe, report: dict[str, Any], systems: dict[str, Any]) -> None:
+    ramp = ramp_experiment(af)
+    systems["ramp"] = ramp
+    report["ramp"] = {"scheduled_lag_s": ramp.scheduled_lag_s, "fixed_lag_s": ramp.fixed_lag_s,
+                      "fixed_cutoff_hz": ramp.fixed_cutoff_hz, "lag_reduction_s": ramp.lag_reduction_s,
+                      "paper_lag_reduction_s": 2.2}
 
 
 def _fmt_bw(value: float | None) -> str:
@@ -143,6 +152,8 @@ def text(report: dict[str, Any], freqs_hz: list[float]) -> str:
         lines += ["", f"Ramp to 10 m/s at 0.5 m/s^2: mean lag {r['scheduled_lag_s']:.2f} s scheduled, "
                       f"{r['fixed_lag_s']:.2f} s with a fixed {r['fixed_cutoff_hz']:g} Hz low-pass: "
                       f"{r['lag_reduction_s']:.2f} s less lag (paper: 2.2 s)"]
+    if "wind_units" in report:
+        lines += wind_text(report["wind_units"])
     lines.append("")
     lines.append("stable" if report["stable"] else f"UNSTABLE: {report['unstable_reason'] or 'see the poles above'}")
     return "\n".join(lines)
@@ -166,4 +177,7 @@ def write_plots(report: dict[str, Any], systems: dict[str, Any], out_dir: Path,
     if "ramp" in systems:
         plots.ramp(systems["ramp"], stage(out_dir / "ramp.png"), name)
         written.append(out_dir / "ramp.png")
+    if report.get("wind_units", {}).get("airspeeds"):  # drawn over the airspeeds asked (--airspeed)
+        plots.wind_units(report["wind_units"], stage(out_dir / "wind_units.png"), name)
+        written.append(out_dir / "wind_units.png")
     return written
