@@ -480,7 +480,8 @@ def _add_replay(command: _Command) -> None:
 def _add_simulate(command: _Command) -> None:
     p = command("simulate", "synthesize a flight log with known wind")
     p.add_argument("scenario", help="sweep (the paper's calibration) | vertical (climbs and descents) | tunnel "
-                   "(60 deg, 3-10 m/s) | still-air (manoeuvres) | outdoor (turbulent)")
+                   "(60 deg, 3-10 m/s) | still-air (manoeuvres) | outdoor (turbulent) | box (legs along 8 tracks in a steady "
+                   "wind, for fit --wind unknown) | one-heading (legs along one track, the nose never turning)")
     p.add_argument("--airframe", help="airframe TOML (default: the shipped reference airframe m300)")
     p.add_argument("-o", "--output", required=True, help="the flight-log CSV to write (required)")
     p.add_argument("--seed", type=opt.SEED, default=0, help=f"turbulence and timing noise ({opt.SEED.text()})")

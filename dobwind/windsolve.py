@@ -41,6 +41,8 @@ LAW = ("l0", "q0", "ox", "oy", "kappa")
 MAX_CONDITION = 1e4          # column-scaled Jacobian: beyond it some combination is not identified
 MAX_WIND_SIGMA_MPS = 0.5     # each wind component's 1-sigma at the solution
 MIN_SAMPLES_PER_WIND = 30
+STEADY_SPEED_MPS = 0.3       # ground velocity change over a settling time that still counts as steady
+STEADY_YAW_DEG = 5.0
 START_SPEEDS_MPS = (0.0, 4.0, 10.0)   # starting winds (and 8 directions for the non-zero ones)
 
 
@@ -92,6 +94,21 @@ def _usable(t: np.ndarray, status: np.ndarray, settle_s: float) -> np.ndarray:
     return ~rejected & (t - last >= settle_s)
 
 
+def steady(t: np.ndarray, log: FlightLog, window_s: float) -> np.ndarray:
+    """Rows whose ground velocity and heading changed little over the last ``window_s`` (the observer's
+    settling time): there the filtered force is the drag of the current airflow. In manoeuvres it lags,
+    and that lag, not the wind, is what a fit on every row would explain (it read a 3.3 m/s wind as 4.9
+    on a simulated box flight)."""
+    vel = log.stack("vel_n", "vel_e")
+    yaw = np.unwrap(np.nan_to_num(heading_yaw(log, log.stack("q_w", "q_x", "q_y", "q_z"))))
+    before = np.searchsorted(t, t - window_s)
+    inside = t - window_s >= t[0]
+    dv = np.hypot(*(vel - vel[before]).T)
+    dyaw = np.abs(yaw - yaw[before])
+    with np.errstate(invalid="ignore"):
+        return inside & (dv < STEADY_SPEED_MPS) & (dyaw < math.radians(STEADY_YAW_DEG))
+
+
 def log_samples(af: Airframe, flights: list[tuple[str, LogTime]], segment_s: float | None) -> tuple[Samples, list[tuple[str, float, float]]]:
     """The decimated samples of every log and the wind groups' (path, start, end) in log time."""
     from dobwind.fit import calibration_run
@@ -102,6 +119,7 @@ def log_samples(af: Airframe, flights: list[tuple[str, LogTime]], segment_s: flo
         log = flight.log
         t = log.time_s
         keep = _usable(t, status, run.model.settling_time_s) & np.isfinite(force).all(axis=1)
+        keep &= steady(t, log, run.model.settling_time_s)
         step = dragfit.sample_step(dragfit.median_step(t, af), SAMPLE_RATE_HZ)
         keep &= (np.arange(len(t)) % step) == 0
         if not keep.any():
@@ -188,33 +206,47 @@ def _inflation(residual: np.ndarray, log_index: np.ndarray) -> float:
     return math.sqrt((1 + rho) / (1 - rho))
 
 
-def identification(jac: np.ndarray, residual: np.ndarray, samples: Samples, groups: int) -> tuple[float, np.ndarray]:
-    """(column-scaled condition number, each group's largest wind-component 1-sigma in m/s)."""
+def raw_jacobian(x: np.ndarray, samples: Samples, groups: int) -> np.ndarray:
+    """The residuals' Jacobian at ``x`` by central differences (least_squares' own is the robust loss's
+    reweighted one, which hides how well the data pin each parameter down)."""
+    columns = []
+    for k in range(len(x)):
+        h = 1e-5 * max(1.0, abs(float(x[k])))
+        up, down = x.copy(), x.copy()
+        up[k] += h
+        down[k] -= h
+        columns.append((_residual(up, samples, groups) - _residual(down, samples, groups)) / (2 * h))
+    return -np.column_stack(columns)
+
+
+def identification(x: np.ndarray, samples: Samples, groups: int) -> tuple[float, np.ndarray]:
+    """(column-scaled condition number, each group's largest wind-component 1-sigma in m/s) at ``x``:
+    the covariance sigma^2 (J^T J)^-1 with sigma the residuals' robust scale (MAD), inflated for their
+    correlation from sample to sample."""
+    jac = raw_jacobian(x, samples, groups)
+    residual = _residual(x, samples, groups)
     norms = np.linalg.norm(jac, axis=0)
-    live = norms > 0
-    scaled = jac[:, live] / norms[live]
-    singular = np.linalg.svd(scaled, compute_uv=False)
-    condition = float(singular[0] / singular[-1]) if singular[-1] > 0 and live.all() else math.inf
-    dof = max(len(residual) - jac.shape[1], 1)
-    sigma2 = float(np.sum(residual ** 2)) / dof
-    try:
-        cov = np.linalg.pinv(jac.T @ jac) * sigma2
-    except np.linalg.LinAlgError:
+    if not np.all(norms > 0):
         return math.inf, np.full(groups, math.inf)
-    wind_sigma = np.sqrt(np.maximum(np.diag(cov)[:2 * groups], 0.0)).reshape(groups, 2).max(axis=1)
+    singular = np.linalg.svd(jac / norms, compute_uv=False)
+    condition = float(singular[0] / singular[-1]) if singular[-1] > 0 else math.inf
     if not math.isfinite(condition):
-        wind_sigma[:] = math.inf
+        return condition, np.full(groups, math.inf)
+    sigma = 1.4826 * float(np.median(np.abs(residual - np.median(residual))))
+    scaled_inverse = np.linalg.inv((jac / norms).T @ (jac / norms))
+    cov = scaled_inverse / np.outer(norms, norms) * sigma * sigma
+    wind_sigma = np.sqrt(np.maximum(np.diag(cov)[:2 * groups], 0.0)).reshape(groups, 2).max(axis=1)
     return condition, wind_sigma * _inflation(residual, samples.log_index)
 
 
 def coverage(samples: Samples, winds: np.ndarray) -> str:
     """What the flight spanned: heading spread, airflow-direction spread (45 deg bins) and speeds."""
-    yaw_bins = len(np.unique(np.floor(np.degrees(np.arctan2(samples.sin_yaw, samples.cos_yaw)) % 360 / 45)))
+    yaw_bins = len(np.unique(np.floor(np.degrees(np.arctan2(samples.sin_yaw, samples.cos_yaw)) % 360 / 45) % 8))
     air = winds[samples.group] - samples.vel
     speed = np.hypot(air[:, 0], air[:, 1])
     ground = np.hypot(samples.vel[:, 0], samples.vel[:, 1])
     moving = speed > 0.5
-    air_bins = len(np.unique(np.floor(np.degrees(np.arctan2(air[moving, 1], air[moving, 0])) % 360 / 45)))
+    air_bins = len(np.unique(np.floor(np.degrees(np.arctan2(air[moving, 1], air[moving, 0])) % 360 / 45) % 8))
     return (f"headings in {yaw_bins} of 8 45-deg sectors, airflow from {air_bins} of 8, ground speed "
             f"{np.percentile(ground, 5):.1f}-{np.percentile(ground, 95):.1f} m/s")
 
@@ -230,7 +262,7 @@ def estimate_winds(af: Airframe, flights: list[tuple[str, LogTime]], segment_s: 
                           f"(need {MIN_SAMPLES_PER_WIND}: a longer flight{', or a longer --segment-s' if segment_s else ''})")
     result = solve(samples, groups)
     winds = result.x[:2 * groups].reshape(groups, 2)
-    condition, sigma = identification(result.jac, result.fun, samples, groups)
+    condition, sigma = identification(result.x, samples, groups)
     what = coverage(samples, winds)
     if condition > MAX_CONDITION or not np.all(sigma <= MAX_WIND_SIGMA_MPS):
         worst = int(np.argmax(np.nan_to_num(sigma, nan=math.inf)))
