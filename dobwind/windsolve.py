@@ -258,8 +258,9 @@ def estimate_winds(af: Airframe, flights: list[tuple[str, LogTime]], segment_s: 
     counts = np.bincount(samples.group, minlength=groups)
     if counts.min() < MIN_SAMPLES_PER_WIND:
         worst = int(np.argmin(counts))
-        raise CheckFailed(f"--wind unknown: {spans[worst][0]} gives only {counts[worst]} usable samples for a wind "
-                          f"(need {MIN_SAMPLES_PER_WIND}: a longer flight{', or a longer --segment-s' if segment_s else ''})")
+        raise CheckFailed(f"--wind unknown: {spans[worst][0]} gives only {counts[worst]} steady samples for a wind "
+                          f"(need {MIN_SAMPLES_PER_WIND}: legs of constant velocity and heading longer than the "
+                          f"observer's settling time{', or a longer --segment-s' if segment_s else ''}); nothing written")
     result = solve(samples, groups)
     winds = result.x[:2 * groups].reshape(groups, 2)
     condition, sigma = identification(result.x, samples, groups)
