@@ -69,6 +69,18 @@ class SteadyWind:
         return f"steady wind {self.speed_mps:g} m/s from {self.from_deg:g} deg, updraft {self.up_mps:g} m/s (--wind)"
 
 
+@dataclass(frozen=True)
+class PerLogWind:
+    """A steady wind per log (`--wind` repeated once per log, in the logs' order)."""
+    winds: tuple[tuple[str, SteadyWind], ...]
+
+    def wind(self, path: str, flight: LogTime) -> tuple[np.ndarray, np.ndarray]:
+        return dict(self.winds)[path].wind(path, flight)
+
+    def describe(self) -> str:
+        return "; ".join(f"{path}: {wind.describe()}" for path, wind in self.winds)
+
+
 WIND_SYNTAX = "SPEED@FROM[,UP] (m/s, degrees the wind blows from clockwise from north, optional updraft m/s)"
 _NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
 _WIND = re.compile(rf"^\s*({_NUMBER})\s*@\s*({_NUMBER})\s*(?:,\s*({_NUMBER})\s*)?$")

@@ -2,19 +2,23 @@
 
 What is measured: the observer's external force f (heading frame), the ground velocity v and the
 attitude. What is not: the wind w. The relative airflow is a = R(yaw) (w - v), and a drag law maps it to
-force: f_h = l0 a_h + q0 |a_h| a_h + o + kappa T_h (dobwind/dragfit.py's `basis`, the force-air home's
-horizontal drag basis; o the heading-frame force offset, kappa T_h the horizontal share of a thrust-scale
-error). Unknowns: w per log or segment (north, east) and (l0, q0, ox, oy, kappa); solved by nonlinear least
-squares (scipy, soft-L1 loss: gusts and manoeuvres are outliers of a steady model). The vertical wind is
-assumed zero on average (a steady updraft is indistinguishable from a thrust-scale error), so the
-vertical law is left to the ordinary fit, which then calibrates on the winds found here.
+force: f_h = l0 a_h + q0 |a_h| a_h + (q2c, q2s: the quadratic drag's fore-aft/lateral anisotropy) + o
+(dobwind/dragfit.py's `basis`, the force-air home's horizontal drag basis; o the heading-frame force
+offset). Unknowns: w per log or segment (north, east) and LAW; solved by nonlinear least squares (scipy,
+soft-L1 loss: gusts are outliers of a steady model). On simulated box flights (tests/test_fieldcal.py,
+three seeds, 3-7 m/s winds) the isotropic law left 0.02-0.44 m/s of wind error and this one 0.11-0.22.
+A thrust-scale term is left out: in steady flight the thrust's horizontal part balances the drag, so it
+only rescales the law. The vertical wind is assumed zero on average (a steady updraft is
+indistinguishable from a thrust-scale error), so the vertical law is left to the ordinary fit, which then
+calibrates on the winds found here.
 
 The flight must identify the wind. A constant offset o turns with the vehicle and a constant wind does
 not, so the headings must vary; a quadratic law in a speed that never changes sign makes wind and law
 trade (f = q0 (w - v)^2 + ... is a quadratic in v with as many coefficients as unknowns), so the speeds
 and directions must vary too. Both show in the Jacobian of the joint problem at the solution: its
 column-scaled condition number, and each wind's 1-sigma from the covariance (residual variance inflated
-for the residuals' correlation from sample to sample). A flight that fails either is refused with what
+for the residuals' correlation from sample to sample). That 1-sigma is statistical: the law's own misfit
+to the vehicle adds a bias it does not see (up to 0.45 m/s on half a simulated box flight). A flight that fails either is refused with what
 it lacks (heading spread, airflow-direction spread, speeds), instead of a guess.
 
 Samples: the calibration airframe's step (fit.calibration_run), rows it accepted at least a settling time
@@ -37,7 +41,8 @@ from dobwind.model.forceair import heading_force
 from dobwind.model.status import accepted
 
 SAMPLE_RATE_HZ = 5.0
-LAW = ("l0", "q0", "ox", "oy", "kappa")
+LAW = ("l0", "q0", "ox", "oy", "q2c", "q2s")
+LAW_BOUNDS = {"l0": (0.0, np.inf), "q0": (0.0, np.inf), "kappa": (-1.0, 1.0)}
 MAX_CONDITION = 1e4          # column-scaled Jacobian: beyond it some combination is not identified
 MAX_WIND_SIGMA_MPS = 0.5     # each wind component's 1-sigma at the solution
 MIN_SAMPLES_PER_WIND = 30
@@ -125,7 +130,8 @@ def log_samples(af: Airframe, flights: list[tuple[str, LogTime]], segment_s: flo
         if not keep.any():
             continue
         part = _part(af, log, force, v_filt, keep)
-        label = np.floor((t[keep] - t[keep][0]) / segment_s).astype(int) if segment_s else np.zeros(int(keep.sum()), int)
+        # Segments count from the log's first row, so that a segment boundary is where the user put it.
+        label = np.floor((t[keep] - t[0]) / segment_s).astype(int) if segment_s else np.zeros(int(keep.sum()), int)
         for value in np.unique(label):
             inside = label == value
             spans.append((path, float(t[keep][inside][0] + flight.t0_s), float(t[keep][inside][-1] + flight.t0_s)))
@@ -157,7 +163,7 @@ def _design(samples: Samples, winds: np.ndarray) -> np.ndarray:
     air_c = np.column_stack([c * air_ned[:, 0] + s * air_ned[:, 1], -s * air_ned[:, 0] + c * air_ned[:, 1],
                              np.zeros(len(c))])
     full = dragfit.basis(air_c)[:, :2, :]
-    columns = [full[:, :, dragfit.PARAMETERS.index(p)] for p in LAW[:-1]] + [samples.thrust_h]
+    columns = [samples.thrust_h if p == "kappa" else full[:, :, dragfit.PARAMETERS.index(p)] for p in LAW]
     return np.stack(columns, axis=2)
 
 
@@ -171,7 +177,9 @@ def _linear_law(samples: Samples, winds: np.ndarray) -> np.ndarray:
     scale = np.maximum(np.abs(a).max(axis=0), 1e-12)
     law, *_ = np.linalg.lstsq(a / scale, samples.force_h.ravel(), rcond=None)
     law = law / scale
-    law[:2] = np.maximum(law[:2], 1e-6)
+    for k, p in enumerate(LAW):
+        low, high = LAW_BOUNDS.get(p, (-np.inf, np.inf))
+        law[k] = min(max(law[k], low + 1e-6), high - 1e-6)
     return law
 
 
@@ -179,8 +187,8 @@ def solve(samples: Samples, groups: int):
     """The joint least squares from several starting winds (the same for every group); the best."""
     from scipy.optimize import least_squares
 
-    lower = np.r_[np.full(2 * groups, -60.0), 0.0, 0.0, -np.inf, -np.inf, -1.0]
-    upper = np.r_[np.full(2 * groups, 60.0), np.inf, np.inf, np.inf, np.inf, 1.0]
+    lower = np.r_[np.full(2 * groups, -60.0), [LAW_BOUNDS.get(p, (-np.inf, np.inf))[0] for p in LAW]]
+    upper = np.r_[np.full(2 * groups, 60.0), [LAW_BOUNDS.get(p, (-np.inf, np.inf))[1] for p in LAW]]
     scale = max(float(np.median(np.abs(samples.force_h))), 1e-3)
     best = None
     for speed in START_SPEEDS_MPS:

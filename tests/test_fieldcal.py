@@ -6,6 +6,7 @@ simulated box flight must read the simulator's wind back through its own replay,
 must find a box flight's wind and refuse a flight whose nose never turns."""
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -20,7 +21,7 @@ from dobwind.model.airframe_toml import dumps
 from dobwind.model.status import accepted
 from dobwind.replay import replay_ulog
 from dobwind.simulate import simulate
-from dobwind.sitlwind import PROFILE_LINEAR, PROFILE_NONE, PROFILE_SQRT, profile_speed
+from dobwind.sitlwind import PROFILE_LINEAR, PROFILE_NONE, PROFILE_SQRT, profile_speed, read_sitl_log, sitl_wind_ned
 from dobwind.windsolve import GroupWinds, estimate_winds
 from tests.dataflash_writer import write_dataflash
 from tests.helpers import airframe_dict
@@ -133,12 +134,17 @@ def test_fit_from_a_dataflash_log_reads_the_simulator_wind_back(box, capsys, way
     tmp, path, af, cols = box
     mean = _mean_wind(cols)
     speed, from_deg = float(np.hypot(*mean)), _from_deg(mean)
-    params = {"SIM_WIND_SPD": speed, "SIM_WIND_DIR": from_deg, "SIM_WIND_T": 1.0, "SIM_WIND_TURB": 0.0}
+    params = {"SIM_WIND_SPD": speed, "SIM_WIND_DIR": from_deg, "SIM_WIND_T": 1.0, "SIM_WIND_TURB": 0.3}
     log = _dataflash(tmp / f"box_{way}.bin", af, cols, params)
     out = tmp / f"fit_{way}.toml"
-    truth = ["--truth", "sitl"] if way == "sitl" else ["--wind", f"{speed:.4f}@{from_deg:.4f}"]
+    truth = ["--truth", "sitl"] if way == "sitl" else ["--wind", f"{speed:.4f}@{from_deg:.4f}", "--json"]
     code = main(["fit", str(path), log, *truth, "-o", str(out), "--model", "drag-heading", "--hover-noise", "0"])
-    assert code == 0, capsys.readouterr().err
+    printed = capsys.readouterr()
+    assert code == 0, printed.err
+    if way == "sitl":  # the simulator's turbulence is not in the log: the truth is its mean, and fit says so
+        assert "SIM_WIND_TURB 0.3 > 0" in printed.err and "approximate" in printed.err
+    else:
+        assert "(--wind)" in json.loads(printed.out)["wind_truth"]["truth"]
     text = out.read_text()
     assert text.startswith("# calibrated by `dobwind fit` from " + log)
     assert ("SIM_WIND_SPD" in text) if way == "sitl" else ("(--wind)" in text)
@@ -193,7 +199,9 @@ def test_wind_unknown_refuses_a_flight_whose_nose_never_turns(box, tmp_path, cap
 
 @pytest.mark.parametrize("argv, option", [(["--wind", "3@90", "--truth", "sitl"], "--truth"),
                                           (["--wind", "3@90", "--still-air"], "--still-air"),
-                                          (["--wind", "3@90", "--segment-s", "30"], "--segment-s")])
+                                          (["--wind", "3@90", "--segment-s", "30"], "--segment-s"),
+                                          (["--wind", "3@90", "--wind", "2@0"], "--wind"),
+                                          (["--wind", "unknown", "--wind", "unknown"], "--wind")])
 def test_conflicting_truth_options_exit_2_naming_the_option(box, tmp_path, capsys, argv, option):
     _, path, _, _ = box
     assert main(["fit", str(path), "x.csv", *argv, "-o", str(tmp_path / "n.toml")]) == 2
@@ -212,3 +220,39 @@ def test_no_usable_rows_is_a_check_failure(box):
     short = {k: v[:20] for k, v in cols.items()}
     with pytest.raises(CheckFailed):
         estimate_winds(af, [("short", LogTime(FlightLog("short", short), 0.0))])
+
+
+def test_sitl_wind_follows_the_barometer_altitude_in_the_log(tmp_path):
+    """SIM_WIND_SPD 10 from 180 with the square law below 60 m, on a log whose BARO.Alt climbs 0 -> 60 m:
+    the wind blows north at 10 sqrt(alt / 60) m/s; a PARM change in flight (DIR 90) takes effect at its time."""
+    rows = [("PARM", {"TimeUS": 100_000, "Name": n, "Value": v})
+            for n, v in (("SIM_WIND_SPD", 10.0), ("SIM_WIND_DIR", 180.0), ("SIM_WIND_T", 0.0), ("SIM_WIND_T_ALT", 60.0))]
+    t = np.arange(0.0, 12.0, 0.5)
+    rows += [("BARO", {"TimeUS": int(1e6 + k * 5e5), "I": 0, "Alt": 5.0 * k}) for k in range(len(t))]
+    rows += [("BARO", {"TimeUS": int(1e6 + k * 5e5), "I": 1, "Alt": 999.0}) for k in range(len(t))]  # not instance 0
+    rows.append(("PARM", {"TimeUS": 10_000_000, "Name": "SIM_WIND_DIR", "Value": 90.0}))
+    log = read_sitl_log(str(write_dataflash(tmp_path / "sitl.bin", MESSAGES, sorted(rows, key=lambda r: r[1]["TimeUS"]))))
+    assert log.altitude_source.startswith("BARO.Alt")
+    clock = 1.0 + t
+    wind = sitl_wind_ned(log, clock)
+    speed = 10 * np.sqrt(np.minimum(5.0 * np.arange(len(t)) / 60.0, 1.0))
+    before = clock < 10.0
+    np.testing.assert_allclose(wind[before], np.column_stack([speed, 0 * speed, 0 * speed])[before], atol=1e-5)
+    np.testing.assert_allclose(wind[~before][:, 1], -speed[~before], atol=1e-5)  # from the east: blows west
+
+
+def test_wind_unknown_per_segment_finds_each_segments_wind(box):
+    """Two box flights in two different steady winds, one after the other in one log: --segment-s of the
+    first flight's length finds each one's wind (within 0.3 m/s), not their mean."""
+    tmp, path, af, first = box
+    second = simulate(af, "box", seed=8, hold_s=6.0, rate_hz=10.0)
+    shift = first["t"][-1] + 0.1
+    cols = {k: np.concatenate([first[k], second[k] + (shift if k == "t" else 0)]) for k in first if k != "segment"}
+    csv = tmp / "two_winds.csv"
+    write_csv(csv, list(cols), np.column_stack([cols[k] for k in cols]), ["%.9g"] * len(cols))
+    solution = estimate_winds(af, [(str(csv), flight_of(str(csv), af, None))], segment_s=shift)
+    assert len(solution.groups) == 2 and solution.groups[0].t_end_s < shift <= solution.groups[1].t_start_s
+    truths = [_mean_wind(first), _mean_wind(second)]
+    assert np.hypot(*(truths[0] - truths[1])) > 1.0  # the winds differ: a mean would miss both
+    for group, truth in zip(solution.groups, truths):
+        assert np.hypot(*(np.array(group.wind_ne) - truth)) < 0.3, (group, truth)
