@@ -7,18 +7,17 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
-
 import numpy as np
 
 from dobwind.fieldtruth import LogTime
 from dobwind.model.airframe import load_airframe
+from dobwind.model.forceair import wind_from_deg
 from dobwind.model.status import accepted
 from dobwind.replay import replay_ulog
 
 
 def _direction_from(n: float, e: float) -> float:
-    return math.degrees(math.atan2(-e, -n)) % 360.0
+    return float(wind_from_deg(n, e))
 
 
 def summary(airframe: str, log: str, sitl: bool, rate_hz: float | None) -> dict:

@@ -74,8 +74,8 @@ def calibration_sources(af: Airframe, log_paths: list[str], still_air: bool = Fa
         needed = required_columns(af) + [(c, "the true wind (fit needs it)") for c in TRUTH_COLUMNS]
         for path in log_paths:
             if is_autopilot_log(path):  # autopilot logs carry no true wind
-                raise InputError(path, "wind_n", "an autopilot log has no true wind: give it with --wind SPEED@FROM, --truth FILE.csv, "
-                                 "--truth sitl or --wind unknown (or --still-air)")
+                raise InputError(path, "wind_n", "an autopilot log has no true wind: give it with --wind SPEED@FROM, "
+                                 "--truth FILE.csv, --truth sitl or --wind unknown (or --still-air)")
         return [file_source(path, needed, TRUTH_BOUNDS, False, block_bytes) for path in log_paths]
     rows = max(1, block_bytes // 200)  # about the rows of a CSV block
     return [memory_source(_with_zero_truth(read_autopilot(path, af).log), rows) if is_autopilot_log(path)

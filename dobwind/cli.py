@@ -148,7 +148,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
     from dobwind.hovernoise import HoverNoise
     from dobwind.selfcheck import Thresholds, text_table
 
-    from dobwind.fieldfit import field_options, field_truth, mark_calibrated
+    from dobwind.fieldfit import field_options, field_truth
 
     plot = args.plot if args.plot is not None else str(args.output).removesuffix(".toml") + "_fit.png"
     targets = [Target("-o", args.output), Target("--plot", plot)]
@@ -164,7 +164,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
     passed = bool(report.self_check["passed"])
     written = passed or args.force  # a model that failed its self-check is written only when forced
     if written:
-        text = (field.header(list(args.logs)) if field else "") + dump_airframe(mark_calibrated(new))
+        text = (field.header(list(args.logs)) if field else "") + dump_airframe(new)
         _refuse_out_of_range(text, args.output)
         with OutputFiles(targets) as out:
             write_atomically(out.stage(args.output), lambda handle: handle.write(text))
@@ -480,8 +480,9 @@ def _add_replay(command: _Command) -> None:
 def _add_simulate(command: _Command) -> None:
     p = command("simulate", "synthesize a flight log with known wind")
     p.add_argument("scenario", help="sweep (the paper's calibration) | vertical (climbs and descents) | tunnel "
-                   "(60 deg, 3-10 m/s) | still-air (manoeuvres) | outdoor (turbulent) | box (legs along 8 tracks in a steady "
-                   "wind, for fit --wind unknown) | one-heading (legs along one track, the nose never turning)")
+                   "(60 deg, 3-10 m/s) | still-air (manoeuvres) | outdoor (turbulent) | box (legs along 4 tracks, out and "
+                   "back, in a steady wind: for fit --wind unknown) | one-heading (the same legs along one track, the "
+                   "nose never turning)")
     p.add_argument("--airframe", help="airframe TOML (default: the shipped reference airframe m300)")
     p.add_argument("-o", "--output", required=True, help="the flight-log CSV to write (required)")
     p.add_argument("--seed", type=opt.SEED, default=0, help=f"turbulence and timing noise ({opt.SEED.text()})")

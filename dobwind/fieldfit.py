@@ -4,7 +4,6 @@ written airframe (its provenance comment)."""
 from __future__ import annotations
 
 import argparse
-import dataclasses
 from dataclasses import dataclass, field
 
 from dobwind.errors import InputError
@@ -94,14 +93,6 @@ def field_truth(options: FieldOptions, af: Airframe, log_paths: list[str]) -> Fi
     else:
         truth = read_truth_csv(str(options.truth))
     return FieldTruth(truth, truth_reader(truth, options.rate_hz), summary)
-
-
-def mark_calibrated(af: Airframe) -> Airframe:
-    """The airframe with an "uncalibrated prior" marker cleared, when the airframe has one (`dobwind init`
-    writes priors marked so; the field is the inspect work's, looked up by name so either order of
-    merging works)."""
-    names = {f.name for f in dataclasses.fields(af)}
-    return dataclasses.replace(af, uncalibrated=False) if "uncalibrated" in names else af
 
 
 SEGMENT_S = Bound(5.0, 36_000.0, "s")

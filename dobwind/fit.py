@@ -133,8 +133,8 @@ def read_calibration_logs(af: Airframe, log_paths: list[str], still_air: bool = 
         needed = required_columns(af) + [(c, "the true wind (fit needs it)") for c in TRUTH_COLUMNS]
         for path in log_paths:
             if is_autopilot_log(path):  # autopilot logs carry no true wind
-                raise InputError(path, "wind_n", "an autopilot log has no true wind: give it with --wind SPEED@FROM, --truth FILE.csv, "
-                                 "--truth sitl or --wind unknown (or --still-air)")
+                raise InputError(path, "wind_n", "an autopilot log has no true wind: give it with --wind SPEED@FROM, "
+                                 "--truth FILE.csv, --truth sitl or --wind unknown (or --still-air)")
         return [read_log(path, needed, TRUTH_BOUNDS) for path in log_paths]
     logs = []
     for path in log_paths:

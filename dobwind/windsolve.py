@@ -37,7 +37,7 @@ from dobwind.errors import CheckFailed
 from dobwind.fieldtruth import LogTime
 from dobwind.logs import FlightLog, heading_yaw
 from dobwind.model.airframe import Airframe
-from dobwind.model.forceair import heading_force
+from dobwind.model.forceair import heading_force, wind_from_deg
 from dobwind.model.status import accepted
 
 SAMPLE_RATE_HZ = 5.0
@@ -79,7 +79,7 @@ class WindGroup:
 
     @property
     def from_deg(self) -> float:
-        return math.degrees(math.atan2(-self.wind_ne[1], -self.wind_ne[0])) % 360.0
+        return float(wind_from_deg(self.wind_ne[0], self.wind_ne[1]))
 
 
 @dataclass(frozen=True)
@@ -160,8 +160,7 @@ def _design(samples: Samples, winds: np.ndarray) -> np.ndarray:
     """(N, 2, len(LAW)) heading-frame force per unit of each law parameter at these winds."""
     air_ned = winds[samples.group] - samples.vel
     c, s = samples.cos_yaw, samples.sin_yaw
-    air_c = np.column_stack([c * air_ned[:, 0] + s * air_ned[:, 1], -s * air_ned[:, 0] + c * air_ned[:, 1],
-                             np.zeros(len(c))])
+    air_c = np.column_stack(heading_force(np.column_stack([air_ned, np.zeros(len(c))]).T, c, s, (0.0, 0.0, 0.0)))
     full = dragfit.basis(air_c)[:, :2, :]
     columns = [samples.thrust_h if p == "kappa" else full[:, :, dragfit.PARAMETERS.index(p)] for p in LAW]
     return np.stack(columns, axis=2)
