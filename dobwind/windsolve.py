@@ -43,6 +43,8 @@ from dobwind.model.status import accepted
 SAMPLE_RATE_HZ = 5.0
 LAW = ("l0", "q0", "ox", "oy", "q2c", "q2s")
 LAW_BOUNDS = {"l0": (0.0, np.inf), "q0": (0.0, np.inf), "kappa": (-1.0, 1.0)}
+MIN_HEADING_SECTORS = 3      # of 8 (45 deg each), see Coverage.lacking
+MIN_AIRFLOW_SECTORS = 2
 MAX_CONDITION = 1e4          # column-scaled Jacobian: beyond it some combination is not identified
 MAX_WIND_SIGMA_MPS = 0.5     # each wind component's 1-sigma at the solution
 MIN_SAMPLES_PER_WIND = 30
@@ -246,16 +248,36 @@ def identification(x: np.ndarray, samples: Samples, groups: int) -> tuple[float,
     return condition, wind_sigma * _inflation(residual, samples.log_index)
 
 
-def coverage(samples: Samples, winds: np.ndarray) -> str:
-    """What the flight spanned: heading spread, airflow-direction spread (45 deg bins) and speeds."""
-    yaw_bins = len(np.unique(np.floor(np.degrees(np.arctan2(samples.sin_yaw, samples.cos_yaw)) % 360 / 45) % 8))
+@dataclass(frozen=True)
+class Coverage:
+    """What the flight spanned at its samples: 45-deg sectors of heading and of airflow direction (of
+    airflow above 0.5 m/s, with the winds found) and the ground speed's 5th and 95th percentiles."""
+    heading_sectors: int
+    airflow_sectors: int
+    ground_speed_mps: tuple[float, float]
+
+    def lacking(self) -> bool:
+        """Too few headings to tell a force offset (it turns with the vehicle) from a wind (it does not),
+        or too few airflow directions to tell the wind's direction from the law's anisotropy: the Jacobian
+        test alone can pass on such a flight, through the law's nonlinearity at next to no airflow."""
+        return self.heading_sectors < MIN_HEADING_SECTORS or self.airflow_sectors < MIN_AIRFLOW_SECTORS
+
+    def text(self) -> str:
+        low, high = self.ground_speed_mps
+        return (f"headings in {self.heading_sectors} of 8 45-deg sectors (need {MIN_HEADING_SECTORS}), airflow from "
+                f"{self.airflow_sectors} of 8 (need {MIN_AIRFLOW_SECTORS}), ground speed {low:.1f}-{high:.1f} m/s")
+
+
+def _sectors(north: np.ndarray, east: np.ndarray) -> int:
+    return len(np.unique(np.floor(np.degrees(np.arctan2(east, north)) % 360 / 45) % 8))
+
+
+def coverage(samples: Samples, winds: np.ndarray) -> Coverage:
     air = winds[samples.group] - samples.vel
-    speed = np.hypot(air[:, 0], air[:, 1])
+    moving = np.hypot(air[:, 0], air[:, 1]) > 0.5
     ground = np.hypot(samples.vel[:, 0], samples.vel[:, 1])
-    moving = speed > 0.5
-    air_bins = len(np.unique(np.floor(np.degrees(np.arctan2(air[moving, 1], air[moving, 0])) % 360 / 45) % 8))
-    return (f"headings in {yaw_bins} of 8 45-deg sectors, airflow from {air_bins} of 8, ground speed "
-            f"{np.percentile(ground, 5):.1f}-{np.percentile(ground, 95):.1f} m/s")
+    return Coverage(_sectors(samples.cos_yaw, samples.sin_yaw), _sectors(air[moving, 0], air[moving, 1]),
+                    (float(np.percentile(ground, 5)), float(np.percentile(ground, 95))))
 
 
 def estimate_winds(af: Airframe, flights: list[tuple[str, LogTime]], segment_s: float | None = None) -> JointSolution:
@@ -271,8 +293,9 @@ def estimate_winds(af: Airframe, flights: list[tuple[str, LogTime]], segment_s: 
     result = solve(samples, groups)
     winds = result.x[:2 * groups].reshape(groups, 2)
     condition, sigma = identification(result.x, samples, groups)
-    what = coverage(samples, winds)
-    if condition > MAX_CONDITION or not np.all(sigma <= MAX_WIND_SIGMA_MPS):
+    spanned = coverage(samples, winds)
+    what = spanned.text()
+    if spanned.lacking() or condition > MAX_CONDITION or not np.all(sigma <= MAX_WIND_SIGMA_MPS):
         worst = int(np.argmax(np.nan_to_num(sigma, nan=math.inf)))
         raise CheckFailed(
             f"--wind unknown: the flight does not identify the wind and the force-air law together (wind 1-sigma "

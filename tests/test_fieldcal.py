@@ -193,7 +193,7 @@ def test_wind_unknown_refuses_a_flight_whose_nose_never_turns(box, tmp_path, cap
     out = tmp_path / "never.toml"
     assert main(["fit", str(path), str(csv), "--wind", "unknown", "-o", str(out)]) == 1
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "does not identify the wind" in err and "headings in 1 of 8" in err
+    assert err.count("\n") == 1 and "does not identify the wind" in err and "headings in 1 of 8 45-deg sectors (need 3)" in err
     assert not out.exists()
 
 
