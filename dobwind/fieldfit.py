@@ -71,6 +71,12 @@ def field_truth(options: FieldOptions, af: Airframe, log_paths: list[str]) -> Fi
     """The truth the options name (None: the logs' own wind columns, or --still-air). --wind unknown
     solves for the winds here (CheckFailed when the flight does not identify them)."""
     check_options(options, len(log_paths))
+    if options.rate_hz is not None:
+        from dobwind.autopilot import is_autopilot_log
+
+        if not options.given or not all(is_autopilot_log(p) for p in log_paths):
+            raise InputError("--rate", None, "only with --wind or --truth, for autopilot logs (CSV logs keep their "
+                             "own clock)")
     if not options.given:
         return None
     summary: list[str] = []

@@ -201,7 +201,8 @@ def test_wind_unknown_refuses_a_flight_whose_nose_never_turns(box, tmp_path, cap
                                           (["--wind", "3@90", "--still-air"], "--still-air"),
                                           (["--wind", "3@90", "--segment-s", "30"], "--segment-s"),
                                           (["--wind", "3@90", "--wind", "2@0"], "--wind"),
-                                          (["--wind", "unknown", "--wind", "unknown"], "--wind")])
+                                          (["--wind", "unknown", "--wind", "unknown"], "--wind"),
+                                          (["--wind", "3@90", "--rate", "10"], "--rate")])
 def test_conflicting_truth_options_exit_2_naming_the_option(box, tmp_path, capsys, argv, option):
     _, path, _, _ = box
     assert main(["fit", str(path), "x.csv", *argv, "-o", str(tmp_path / "n.toml")]) == 2
