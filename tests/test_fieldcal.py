@@ -257,3 +257,37 @@ def test_wind_unknown_per_segment_finds_each_segments_wind(box):
     assert np.hypot(*(truths[0] - truths[1])) > 1.0  # the winds differ: a mean would miss both
     for group, truth in zip(solution.groups, truths):
         assert np.hypot(*(np.array(group.wind_ne) - truth)) < 0.3, (group, truth)
+
+
+def test_fit_with_the_wind_unknown_calibrates_a_box_flight_end_to_end(box, capsys):
+    """fit --wind unknown on the box flight's CSV (its wind columns ignored): exit 0, the provenance names
+    the winds found, and the fitted airframe replayed over the flight reads the simulator's mean wind
+    within 0.3 m/s."""
+    tmp, path, af, cols = box
+    csv = tmp / "box_unknown.csv"
+    write_csv(csv, list(cols), np.column_stack([cols[k] for k in cols]), ["%.9g"] * len(cols))
+    out = tmp / "fit_unknown.toml"
+    code = main(["fit", str(path), str(csv), "--wind", "unknown", "-o", str(out), "--model", "drag-heading",
+                 "--hover-noise", "0", "--json"])
+    printed = capsys.readouterr()
+    assert code == 0, printed.err
+    assert "--wind unknown" in json.loads(printed.out)["wind_truth"]["truth"]
+    assert "# wind truth: estimated jointly with the force-air law" in out.read_text()
+    from dobwind.replay import replay
+
+    model, _, traj = replay(load_airframe(out), str(csv))
+    wind = traj.outputs[:, model.outputs.slice("wind_ned")][accepted(traj.status)]
+    assert np.hypot(*(wind[:, :2].mean(axis=0) - _mean_wind(cols))) < 0.3
+
+
+def test_truth_sitl_needs_a_dataflash_log_and_a_truth_file_must_overlap_the_log(tmp_path):
+    from dobwind.sitlwind import read_sitl_log
+
+    with pytest.raises(InputError) as caught:
+        read_sitl_log(str(tmp_path / "flight.ulg"))
+    assert ".bin" in caught.value.message
+    series = WindSeries("mast.csv", np.array([500.0, 600.0]), np.zeros((2, 3)))
+    log = FlightLog("f.csv", {"t": np.arange(0.0, 10.0)})
+    with pytest.raises(InputError) as caught:
+        with_truth("f.csv", LogTime(log, 0.0), series)
+    assert "where the truth is known" in caught.value.message
