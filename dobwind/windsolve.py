@@ -5,12 +5,12 @@ attitude. What is not: the wind w. The relative airflow is a = R(yaw) (w - v), a
 force: f_h = l0 a_h + q0 |a_h| a_h + (q2c, q2s: the quadratic drag's fore-aft/lateral anisotropy) + o
 (dobwind/dragfit.py's `basis`, the force-air home's horizontal drag basis; o the heading-frame force
 offset). Unknowns: w per log or segment (north, east) and LAW; solved by nonlinear least squares (scipy,
-soft-L1 loss: gusts are outliers of a steady model). On simulated box flights (tests/test_fieldcal.py,
-three seeds, 3-7 m/s winds) the isotropic law left 0.02-0.44 m/s of wind error and this one 0.11-0.22.
-A thrust-scale term is left out: in steady flight the thrust's horizontal part balances the drag, so it
-only rescales the law. The vertical wind is assumed zero on average (a steady updraft is
-indistinguishable from a thrust-scale error), so the vertical law is left to the ordinary fit, which then
-calibrates on the winds found here.
+soft-L1 loss: gusts are outliers of a steady model). On simulated box flights (`dobwind simulate box
+--hold 6 --rate 10`, seeds 5, 6, 7, a 3 kg collective-thrust quad, 3-7 m/s winds) the isotropic law
+(l0, q0, o) left 0.02-0.44 m/s of wind error and this one 0.11-0.22. A thrust-scale term is left out:
+in steady flight the thrust's horizontal part balances the drag, so it only rescales the law. The
+vertical wind is assumed zero on average (a steady updraft is indistinguishable from a thrust-scale
+error), so the vertical law is left to the ordinary fit, which then calibrates on the winds found here.
 
 The flight must identify the wind. A constant offset o turns with the vehicle and a constant wind does
 not, so the headings must vary; a quadratic law in a speed that never changes sign makes wind and law
@@ -18,12 +18,14 @@ trade (f = q0 (w - v)^2 + ... is a quadratic in v with as many coefficients as u
 and directions must vary too. Both show in the Jacobian of the joint problem at the solution: its
 column-scaled condition number, and each wind's 1-sigma from the covariance (residual variance inflated
 for the residuals' correlation from sample to sample). That 1-sigma is statistical: the law's own misfit
-to the vehicle adds a bias it does not see (up to 0.45 m/s on half a simulated box flight). A flight that fails either is refused with what
-it lacks (heading spread, airflow-direction spread, speeds), instead of a guess.
+to the vehicle adds a bias it does not see (up to 0.45 m/s on half a simulated box flight). A flight
+that fails either, or spans too few headings or airflow directions (Coverage), is refused with what it
+lacks, instead of a guess.
 
 Samples: the calibration airframe's step (fit.calibration_run), rows it accepted at least a settling time
-after any rejection, decimated to about SAMPLE_RATE_HZ; the velocity is the step's delayed ground velocity
-v_filt, delay-matched to the filtered force (as fit.heading_rows does).
+after any rejection and steady over the settling time before them (`steady`: in manoeuvres the filtered
+force lags the airflow), decimated to about SAMPLE_RATE_HZ; the velocity is the step's delayed ground
+velocity v_filt, delay-matched to the filtered force (as fit.heading_rows does).
 """
 from __future__ import annotations
 
