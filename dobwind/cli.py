@@ -148,6 +148,8 @@ def cmd_fit(args: argparse.Namespace) -> int:
     from dobwind.hovernoise import HoverNoise
     from dobwind.selfcheck import Thresholds, text_table
 
+    import functools
+
     from dobwind.fieldfit import field_options, field_truth
 
     plot = args.plot if args.plot is not None else str(args.output).removesuffix(".toml") + "_fit.png"
@@ -156,11 +158,13 @@ def cmd_fit(args: argparse.Namespace) -> int:
     check_targets(targets, [args.airframe, *args.logs, *options.files()])
     af = load_airframe(args.airframe)
     field = field_truth(options, af, list(args.logs))  # --wind unknown: the winds solved here (or exit 1)
+    if field is not None:  # every fit of the logs below reads them with that truth
+        fit_airframe = functools.partial(fit_airframe, log_reader=field.reader)
     limits = Thresholds(cv_share=args.max_error_share, replay_share=args.max_error_share,
                         floor_mps=args.error_floor, direction_deg=args.max_direction_error)
     hover = HoverNoise(target_mps=args.hover_noise)
     new, report, points = fit_airframe(af, list(args.logs), args.terms, args.dynamic, args.model, args.still_air,
-                                       limits, hover=hover, log_reader=field.reader if field else None)
+                                       limits, hover=hover)
     passed = bool(report.self_check["passed"])
     written = passed or args.force  # a model that failed its self-check is written only when forced
     if written:

@@ -165,9 +165,11 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynami
     lowered when the noise there is above ``hover.target_mps`` (dobwind/hovernoise.py). When it stays
     above with an acceleration input, the fit runs again with that input blended with the velocity's
     derivative and keeps the better (dobwind/accelroute.py). The logs are read ``block_bytes`` at a time
-    (None: each whole, in memory; the same airframe). ``log_reader``: how each log is read with its true
-    wind when not from its own columns (an autopilot log and a known wind: dobwind/fieldtruth.py)."""
-    options = FitOptions(terms, dynamic, model, still_air, limits, block_bytes, hover, log_reader)
+    (None: each whole, in memory; the same airframe)."""
+    options = FitOptions(terms, dynamic, model, still_air, limits, block_bytes, hover)
+    # ``log_reader``: how each log is read with its true wind when not from its own columns (an autopilot
+    # log and a known wind: dobwind/fieldtruth.py).
+    options = dataclasses.replace(options, log_reader=log_reader)
     new, report, points, check = _fit_once(af, log_paths, options)
     if accelroute.needs_blend_check(new, check, hover):
         try:
