@@ -52,7 +52,7 @@ MAX_WIND_SIGMA_MPS = 0.5     # each wind component's 1-sigma at the solution
 MIN_SAMPLES_PER_WIND = 30
 STEADY_SPEED_MPS = 0.3       # ground velocity change over a settling time that still counts as steady
 STEADY_YAW_DEG = 5.0
-START_SPEEDS_MPS = (0.0, 4.0, 10.0)   # starting winds (and 8 directions for the non-zero ones)
+START_SPEEDS_MPS = (0.0, 5.0, 12.0)   # starting winds (and 4 directions for the non-zero ones)
 
 
 @dataclass(frozen=True)
@@ -195,7 +195,7 @@ def solve(samples: Samples, groups: int):
     scale = max(float(np.median(np.abs(samples.force_h))), 1e-3)
     best = None
     for speed in START_SPEEDS_MPS:
-        for angle in (np.arange(8) * math.pi / 4 if speed else [0.0]):
+        for angle in (np.arange(4) * math.pi / 2 + math.pi / 4 if speed else [0.0]):
             winds = np.tile([speed * math.cos(angle), speed * math.sin(angle)], (groups, 1))
             x0 = np.r_[winds.ravel(), np.clip(_linear_law(samples, winds), lower[2 * groups:], upper[2 * groups:])]
             x0 = np.clip(x0, lower + 1e-9, upper - 1e-9)
