@@ -60,16 +60,22 @@ def memory_source(log: FlightLog, block_rows: int) -> LogSource:
 
 
 def calibration_sources(af: Airframe, log_paths: list[str], still_air: bool = False,
-                        block_bytes: int = BLOCK_BYTES) -> list[LogSource]:
+                        block_bytes: int = BLOCK_BYTES,
+                        log_reader: Callable[[str, Airframe], FlightLog] | None = None) -> list[LogSource]:
     """fit.read_calibration_logs as sources: the same checks, in the same order (an autopilot log is
-    decoded whole: its topics are resampled onto one time base)."""
+    decoded whole: its topics are resampled onto one time base). ``log_reader``: as read_calibration_logs'."""
     from dobwind.autopilot import is_autopilot_log, read_autopilot
+
+    if log_reader is not None:
+        rows = max(1, block_bytes // 200)
+        return [memory_source(log_reader(path, af), rows) for path in log_paths]
 
     if not still_air:
         needed = required_columns(af) + [(c, "the true wind (fit needs it)") for c in TRUTH_COLUMNS]
         for path in log_paths:
             if is_autopilot_log(path):  # autopilot logs carry no true wind
-                raise InputError(path, "wind_n", "an autopilot log has no true wind: fit it with --still-air")
+                raise InputError(path, "wind_n", "an autopilot log has no true wind: give it with --wind SPEED@FROM, "
+                                 "--truth FILE.csv, --truth sitl or --wind unknown (or --still-air)")
         return [file_source(path, needed, TRUTH_BOUNDS, False, block_bytes) for path in log_paths]
     rows = max(1, block_bytes // 200)  # about the rows of a CSV block
     return [memory_source(_with_zero_truth(read_autopilot(path, af).log), rows) if is_autopilot_log(path)

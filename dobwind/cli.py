@@ -150,10 +150,18 @@ def cmd_fit(args: argparse.Namespace) -> int:
     from dobwind.hovernoise import HoverNoise
     from dobwind.selfcheck import Thresholds, text_table
 
+    import functools
+
+    from dobwind.fieldfit import field_options, field_truth
+
     plot = args.plot if args.plot is not None else str(args.output).removesuffix(".toml") + "_fit.png"
     targets = [Target("-o", args.output), Target("--plot", plot)]
-    check_targets(targets, [args.airframe, *args.logs])
+    options = field_options(args)
+    check_targets(targets, [args.airframe, *args.logs, *options.files()])
     af = load_airframe(args.airframe)
+    field = field_truth(options, af, list(args.logs))  # --wind unknown: the winds solved here (or exit 1)
+    if field is not None:  # every fit of the logs below reads them with that truth
+        fit_airframe = functools.partial(fit_airframe, log_reader=field.reader)
     limits = Thresholds(cv_share=args.max_error_share, replay_share=args.max_error_share,
                         floor_mps=args.error_floor, direction_deg=args.max_direction_error)
     hover = HoverNoise(target_mps=args.hover_noise)
@@ -162,19 +170,21 @@ def cmd_fit(args: argparse.Namespace) -> int:
     passed = bool(report.self_check["passed"])
     written = passed or args.force  # a model that failed its self-check is written only when forced
     if written:
-        text = dump_airframe(new)
+        text = (field.header(list(args.logs)) if field else "") + dump_airframe(new)
         _refuse_out_of_range(text, args.output)
         with OutputFiles(targets) as out:
             write_atomically(out.stage(args.output), lambda handle: handle.write(text))
             fit_plot(new, points, str(out.stage(plot)))
     if args.json:
         _print_json({**report.__dict__, "written": written, "airframe": str(args.output) if written else None,
-                     "plot": plot if written else None})
+                     "plot": plot if written else None, **({"wind_truth": field.record()} if field else {})})
     else:
         print(text_report(report))
+        for line in field.summary if field else []:
+            print(line)
         print(text_table(report.self_check))
         print(f"wrote {args.output} and {plot}" if written else "nothing written")
-    for warning in report.warnings:
+    for warning in report.warnings + (field.warnings() if field else []):
         sys.stderr.write(f"dobwind fit: warning: {warning}\n")
     if passed:
         return 0
@@ -420,7 +430,8 @@ def _add_analyze(command: _Command) -> None:
 def _add_fit(command: _Command) -> None:
     p = command("fit", "fit the force-air model from logs with true wind")
     p.add_argument("airframe", help=AIRFRAME_HELP + "; its mass, thrust model and observer are kept")
-    p.add_argument("logs", nargs="+", help="calibration flight-log CSVs with true wind columns (docs/formats.md)")
+    p.add_argument("logs", nargs="+", help="calibration flight logs: CSVs with true wind columns (docs/formats.md), "
+                   "or autopilot logs (.ulg, .bin, ROS 2 bags) with --wind or --truth")
     p.add_argument("-o", "--output", required=True, help="the new airframe file (TOML, required)")
     p.add_argument("--model", choices=("auto", "drag", "drag-heading", "drag-body", "polynomial"), default="auto",
                    help="force-air family: 'drag' (a drag law fitted forward and inverted in the step, in the "
@@ -433,6 +444,9 @@ def _add_fit(command: _Command) -> None:
                    "cross-validation (default: auto)")
     p.add_argument("--still-air", action="store_true",
                    help="the logs were flown in still air: wind columns may be absent and are taken as zero")
+    from dobwind.fieldfit import add_options
+
+    add_options(p)
     p.add_argument("--plot", help="PNG of the fitted surface and residuals (default: OUTPUT without .toml + _fit.png)")
     p.add_argument("--dynamic", action="store_true",
                    help="calibrate on manoeuvring flight too (constant wind), not only on steady holds")
@@ -490,7 +504,9 @@ def _add_replay(command: _Command) -> None:
 def _add_simulate(command: _Command) -> None:
     p = command("simulate", "synthesize a flight log with known wind")
     p.add_argument("scenario", help="sweep (the paper's calibration) | vertical (climbs and descents) | tunnel "
-                   "(60 deg, 3-10 m/s) | still-air (manoeuvres) | outdoor (turbulent)")
+                   "(60 deg, 3-10 m/s) | still-air (manoeuvres) | outdoor (turbulent) | box (legs along 4 tracks, out and "
+                   "back, in a steady wind: for fit --wind unknown) | one-heading (the same legs along one track, the "
+                   "nose never turning)")
     p.add_argument("--airframe", help="airframe TOML (default: the shipped reference airframe m300)")
     p.add_argument("-o", "--output", required=True, help="the flight-log CSV to write (required)")
     p.add_argument("--seed", type=opt.SEED, default=0, help=f"turbulence and timing noise ({opt.SEED.text()})")

@@ -119,16 +119,22 @@ def _term_matrix(terms: list[str], m: np.ndarray, n: np.ndarray, fz: np.ndarray)
     return forceair.term_matrix([parse_term(t) for t in terms], m, n, fz)
 
 
-def read_calibration_logs(af: Airframe, log_paths: list[str], still_air: bool = False) -> list[FlightLog]:
+def read_calibration_logs(af: Airframe, log_paths: list[str], still_air: bool = False,
+                          log_reader: Callable[[str, Airframe], FlightLog] | None = None) -> list[FlightLog]:
     """Logs with the true wind; ``still_air``: logs flown in still air, whose wind columns may be absent
-    (taken as zero: the relative airflow is minus the ground velocity)."""
+    (taken as zero: the relative airflow is minus the ground velocity); ``log_reader``: reads each log with
+    its truth another way (an autopilot log and a known wind, dobwind/fieldtruth.py)."""
     from dobwind.autopilot import is_autopilot_log, read_autopilot
+
+    if log_reader is not None:
+        return [log_reader(path, af) for path in log_paths]
 
     if not still_air:
         needed = required_columns(af) + [(c, "the true wind (fit needs it)") for c in TRUTH_COLUMNS]
         for path in log_paths:
             if is_autopilot_log(path):  # autopilot logs carry no true wind
-                raise InputError(path, "wind_n", "an autopilot log has no true wind: fit it with --still-air")
+                raise InputError(path, "wind_n", "an autopilot log has no true wind: give it with --wind SPEED@FROM, "
+                                 "--truth FILE.csv, --truth sitl or --wind unknown (or --still-air)")
         return [read_log(path, needed, TRUTH_BOUNDS) for path in log_paths]
     logs = []
     for path in log_paths:

@@ -20,6 +20,8 @@ from dobwind.logs import FlightLog
 from dobwind.model.airframe import CALIBRATED, Airframe, ForceAirModel
 from dobwind.selfcheck import SelfCheck, Thresholds, self_check, self_check_sources
 
+LogReader = Callable[[str, Airframe], FlightLog]  # a calibration log's path -> the log with its true wind
+
 MODELS = ("auto", "drag", "drag-heading", "drag-body", "polynomial")
 # --model -> the drag-law frames it fits (both drag frames are scored alike and the better one is kept).
 DRAG_FRAMES_OF = {"auto": ("heading", "body"), "drag": ("heading", "body"), "drag-heading": ("heading",),
@@ -103,9 +105,9 @@ class _Calibration:
 
 
 def _whole_logs(af: Airframe, log_paths: list[str], frames: tuple[str, ...], dynamic: bool,
-                still_air: bool) -> _Calibration:
+                still_air: bool, log_reader: LogReader | None = None) -> _Calibration:
     """Every log read whole and reduced in one block (the reference the streamed fit is held to)."""
-    logs = read_calibration_logs(af, log_paths, still_air)
+    logs = read_calibration_logs(af, log_paths, still_air, log_reader)
     run = calibration_run(af, logs)  # one reference pass for the drag samples and the polynomial family
     by_frame, per_log = drag_samples(af, logs, frames, run)
     return _Calibration(by_frame, per_log, lambda airframe: calibration_points(airframe, logs, dynamic, run),
@@ -113,13 +115,13 @@ def _whole_logs(af: Airframe, log_paths: list[str], frames: tuple[str, ...], dyn
 
 
 def _streamed_logs(af: Airframe, log_paths: list[str], frames: tuple[str, ...], dynamic: bool, still_air: bool,
-                   points: bool, block_bytes: int) -> _Calibration:
+                   points: bool, block_bytes: int, log_reader: LogReader | None = None) -> _Calibration:
     """Every log read ``block_bytes`` at a time, once for its shape, once for the calibration step (drag
     samples and chunk means together), again for the points of a rescaled airframe and for the
     self-check: the numbers of _whole_logs, with nothing kept at the logs' full rate. The decimated
     samples are capped (dragfit.MAX_SAMPLES); the polynomial family's chunk means, a few per hold, still
     grow with the logs' length."""
-    sources = calstream.calibration_sources(af, log_paths, still_air, block_bytes)
+    sources = calstream.calibration_sources(af, log_paths, still_air, block_bytes, log_reader)
     shapes = [calstream.log_shape(source, af) for source in sources]
     first = calstream.reduce_logs(af, sources, shapes, frames, dynamic, points)
     per_log = [len(part["time"]) for part in first.samples[frames[0]]]
@@ -150,12 +152,14 @@ class FitOptions:
     limits: Thresholds
     block_bytes: int | None
     hover: HoverNoise
+    log_reader: LogReader | None = None  # each log with its truth read another way (dobwind/fieldtruth.py)
 
 
 def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynamic: bool = False,
                  model: str = "auto", still_air: bool = False, limits: Thresholds = Thresholds(),
                  block_bytes: int | None = BLOCK_BYTES,
-                 hover: HoverNoise = HoverNoise()) -> tuple[Airframe, FitReport, Points | None]:
+                 hover: HoverNoise = HoverNoise(),
+                 log_reader: LogReader | None = None) -> tuple[Airframe, FitReport, Points | None]:
     """Both families fitted and scored, the better one chosen, then the self-check (report.self_check;
     the caller refuses to write a model that failed it unless forced), and the low-pass at zero airflow
     lowered when the noise there is above ``hover.target_mps`` (dobwind/hovernoise.py). When it stays
@@ -166,6 +170,9 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynami
     # and the self-check replays the new airframe without the UNCALIBRATED bit.
     af = dataclasses.replace(af, calibration=CALIBRATED)
     options = FitOptions(terms, dynamic, model, still_air, limits, block_bytes, hover)
+    # ``log_reader``: how each log is read with its true wind when not from its own columns (an autopilot
+    # log and a known wind: dobwind/fieldtruth.py).
+    options = dataclasses.replace(options, log_reader=log_reader)
     new, report, points, check = _fit_once(af, log_paths, options)
     if accelroute.needs_blend_check(new, check, hover):
         try:
@@ -194,10 +201,10 @@ def _fit_once(af: Airframe, log_paths: list[str],
     limits, block_bytes, hover = options.limits, options.block_bytes, options.hover
     frames = DRAG_FRAMES_OF[model]
     if block_bytes is None:
-        calibration = _whole_logs(af, log_paths, frames or ("heading",), dynamic, still_air)
+        calibration = _whole_logs(af, log_paths, frames or ("heading",), dynamic, still_air, options.log_reader)
     else:
         calibration = _streamed_logs(af, log_paths, frames or ("heading",), dynamic, still_air,
-                                     model in ("polynomial", "auto"), block_bytes)
+                                     model in ("polynomial", "auto"), block_bytes, options.log_reader)
     by_frame, per_log = calibration.by_frame, calibration.per_log
     samples = by_frame.get("heading", next(iter(by_frame.values())))
     families, scores, failures = _drag_families(af, by_frame, frames, len(samples))

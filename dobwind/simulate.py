@@ -31,7 +31,7 @@ from dobwind.model.airframe import Airframe
 from dobwind.model.numeric import rpm_for_rotor_thrust
 from dobwind.vehicle import Sensors, VehicleSpec, body_force, thrust_factor
 
-SCENARIOS = ("sweep", "vertical", "tunnel", "still-air", "outdoor")
+SCENARIOS = ("sweep", "vertical", "tunnel", "still-air", "outdoor", "box", "one-heading")
 
 
 @dataclass(frozen=True)
@@ -135,7 +135,30 @@ def scenario(name: str, hold_s: float | None = None, rng: np.random.Generator | 
                                 yaw_deg=float(rng.uniform(0, 360)), wind_ned=wind, ramp_s=3.0))
         return Scenario(name, tuple(segs), turbulence_h=0.6, turbulence_frac=0.05, turbulence_v=0.25,
                         turbulence_time_s=3.0)
+    if name in ("box", "one-heading"):
+        return _field_flight(name, hold_s, rng)
     raise InputError("simulate", "SCENARIO", f"unknown scenario {name!r} (one of {', '.join(SCENARIOS)})")
+
+
+def _field_flight(name: str, hold_s: float | None, rng: np.random.Generator) -> Scenario:
+    """A field calibration flight in one steady wind (3-7 m/s from a random direction, light turbulence):
+    'box': legs out and back along 4 tracks (8 directions) at 2 and 4 m/s, nose first, with hovers between them (what
+    `fit --wind unknown` needs: varied headings and speeds), climbing or descending at 1 m/s between legs (the
+    vertical law's calibration); 'one-heading': the same speeds fore and aft
+    along one track, the nose never turning (what it must refuse)."""
+    hold = hold_s or 8.0
+    wind = _wind_from(float(rng.uniform(3.0, 7.0)), float(rng.uniform(0, 360)))
+    tracks = np.arange(0.0, 180.0, 45.0) if name == "box" else np.array([float(rng.uniform(0, 360))] * 4)
+    segs = [Segment(hold, yaw_deg=float(tracks[0]), wind_ned=wind, ramp_s=3.0)]
+    for k, track in enumerate(tracks):
+        for speed in (2.0, 4.0):
+            for sign in (1.0, -1.0):
+                c, s = math.cos(math.radians(track)), math.sin(math.radians(track))
+                yaw = float(track) if name == "one-heading" or sign > 0 else float(track) + 180.0
+                segs += [Segment(hold, velocity_ned=(sign * speed * c, sign * speed * s, 0.0), yaw_deg=yaw,
+                                 wind_ned=wind, ramp_s=2.0),
+                         Segment(hold / 2, velocity_ned=(0.0, 0.0, sign), yaw_deg=yaw, wind_ned=wind, ramp_s=2.0)]
+    return Scenario(name, tuple(segs), turbulence_h=0.1, turbulence_frac=0.03, turbulence_time_s=1.0)
 
 
 def _profile(t: np.ndarray, starts: np.ndarray, ramps: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

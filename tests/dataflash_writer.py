@@ -6,8 +6,8 @@ import struct
 from pathlib import Path
 
 # DataFlash format characters used here -> struct codes (Q uint64 TimeUS, B uint8, f float, d double,
-# i int32, H uint16, h int16, I uint32, b int8).
-_CODES = {"Q": "Q", "B": "B", "f": "f", "d": "d", "i": "i", "I": "I", "H": "H", "h": "h", "b": "b"}
+# i int32, H uint16, h int16, I uint32, b int8, N char[16]).
+_CODES = {"N": "16s", "Q": "Q", "B": "B", "f": "f", "d": "d", "i": "i", "I": "I", "H": "H", "h": "h", "b": "b"}
 _FMT_TYPE = 128
 
 
@@ -15,6 +15,14 @@ def _fmt_message(msg_type: int, name: str, fmt: str, columns: list[str]) -> byte
     length = 3 + struct.calcsize("<" + "".join(_CODES[c] for c in fmt))
     body = struct.pack("<BB4s16s64s", msg_type, length, name.encode(), fmt.encode(), ",".join(columns).encode())
     return bytes([0xA3, 0x95, _FMT_TYPE]) + body
+
+
+def _pack(code: str, value) -> bytes:
+    if code == "N":  # char[16] text (PARM.Name)
+        return struct.pack("<16s", str(value or "").encode())
+    if code in "fd":
+        return struct.pack("<" + code, float(value if value is not None else 0.0))
+    return struct.pack("<" + _CODES[code], int(round(value if value is not None else 0)))
 
 
 def write_dataflash(path: Path, messages: dict[str, tuple[str, list[str]]], rows: list[tuple[str, dict]]) -> Path:
@@ -30,8 +38,7 @@ def write_dataflash(path: Path, messages: dict[str, tuple[str, list[str]]], rows
         blob += _fmt_message(types[name], name, fmt, cols)
     for name, values in rows:
         fmt, cols = messages[name]
-        packed = b"".join(struct.pack("<" + _CODES[c], int(round(values.get(col, 0))) if c not in "fd"
-                                      else float(values.get(col, 0.0))) for c, col in zip(fmt, cols))
+        packed = b"".join(_pack(c, values.get(col)) for c, col in zip(fmt, cols))
         blob += bytes([0xA3, 0x95, types[name]]) + packed
     path.write_bytes(blob)
     return path
