@@ -9,7 +9,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from dobwind import accelroute, calstream, dragexponent, dragfit, holdcv
+from dobwind import accelroute, calstream, dragexponent, dragfit, holdcv, runmeans
 from dobwind.csvchunks import BLOCK_BYTES
 from dobwind.envelope import calibration_envelope, uncertainty_table, with_observer_noise
 from dobwind.errors import CheckFailed
@@ -183,6 +183,24 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynami
     return new, report, points
 
 
+Fit = tuple[Airframe, FitReport, "Points | None"]
+
+
+def refit_without_outliers(first: Fit, log_paths: list[str], fit: Callable[[list[str]], Fit]) -> Fit:
+    """``first`` (the fit on every log) again without the logs it flagged as outliers (runmeans), by
+    ``fit`` on the rest; ``first`` itself when none is flagged or none would be left. The new report
+    names the logs left out (excluded_logs and a warning)."""
+    excluded = runmeans.outlier_logs(first[1].runs)
+    kept = [log for log in log_paths if log not in excluded]
+    if not excluded or not kept:
+        return first
+    new, report, points = fit(kept)
+    report.excluded_logs = excluded
+    report.warnings.append(f"--exclude-outliers: fitted without {', '.join(excluded)} (flagged as outliers by the fit "
+                           "on every log); the self-check replays only the logs kept")
+    return new, report, points
+
+
 def _fit_once(af: Airframe, log_paths: list[str],
               options: FitOptions) -> tuple[Airframe, FitReport, Points | None, SelfCheck]:
     """One fit of ``af``'s route: the families, the choice, the self-check and the low-pass at zero
@@ -217,6 +235,8 @@ def _fit_once(af: Airframe, log_paths: list[str],
     report.warnings += [sparse] if sparse else []
     vertical = vertical_warning(report.vertical_cv_rmse_mps, samples.airflow[:, 2] if len(samples) else np.zeros(0))
     report.warnings += [vertical] if vertical else []
+    for run in report.runs:
+        run["log"] = log_paths[run["log"]]  # the index into the logs given -> its path
     for index, count in enumerate(per_log):
         if count == 0:
             report.warnings.append(f"{log_paths[index]}: contributed no usable sample")
@@ -294,6 +314,8 @@ def _drag_families(af: Airframe, by_frame: dict[str, dragfit.DragSamples], frame
         if samples < 100:
             failures.append(f"{family} family: only {samples} usable samples (need 100)")
             continue
+        # Logs whose means a per-sample fit cannot meet are fitted on their means (dobwind/runmeans.py).
+        by_frame[frame] = dragfit.anchor_on_runs(by_frame[frame])
         choice = dragfit.choose_drag_law(by_frame[frame], holdcv.prefer_on_holds)
         reason = _uninvertible(by_frame[frame], choice)
         if reason is not None:
@@ -382,4 +404,6 @@ def _drag_report(choice: dragfit.DragChoice, samples: dragfit.DragSamples, fitte
     report.horizontal_extrapolation_rmse_mps = _none(choice.extrapolation_h_mps)
     report.vertical_rmse_mps, report.vertical_cv_rmse_mps = choice.rmse_v_mps, _none(choice.cv_v_mps)
     report.not_increasing = list(choice.dropped)
+    report.anchored = samples.anchor
+    report.runs = [dataclasses.asdict(v) for v in dragfit.run_verdicts(samples, choice.active, choice.theta)]
     return report
