@@ -17,7 +17,7 @@ from dobwind.hovernoise import HoverNoise, quieter_schedule
 from dobwind.fit import (CalibrationRun, FitReport, Points, PointsOf, calibration_points, calibration_run, fit_polynomial,
                          no_steady_data, points_from, read_calibration_logs)
 from dobwind.logs import FlightLog
-from dobwind.model.airframe import Airframe, ForceAirModel
+from dobwind.model.airframe import VERTICAL_FALLBACK, Airframe, ForceAirModel
 from dobwind.selfcheck import SelfCheck, Thresholds, self_check, self_check_sources
 
 MODELS = ("auto", "drag", "drag-heading", "drag-body", "polynomial")
@@ -234,7 +234,9 @@ def _fit_once(af: Airframe, log_paths: list[str],
     sparse = holdcv.sparse_windows(report.hold_cv_by_speed, float(np.median(samples.rates_hz()))) if len(samples) else None
     report.warnings += [sparse] if sparse else []
     vertical = vertical_warning(report.vertical_cv_rmse_mps, samples.airflow[:, 2] if len(samples) else np.zeros(0))
-    report.warnings += [vertical] if vertical else []
+    report.warnings += [vertical + VERTICAL_FALLBACK_NOTE] if vertical else []
+    # Unidentified, the vertical law is not used: the step publishes zero vertical wind and flags it.
+    new = dataclasses.replace(new, vertical_law=VERTICAL_FALLBACK if vertical else "fitted")
     for run in report.runs:
         run["log"] = log_paths[run["log"]]  # the index into the logs given -> its path
     for index, count in enumerate(per_log):
@@ -247,6 +249,11 @@ def _fit_once(af: Airframe, log_paths: list[str],
         new, check, hover, lambda af_: calibration.check(af_, cv, speed_range, limits))
     report.warnings += quiet_warnings
     return new, report, points, check
+
+
+VERTICAL_FALLBACK_NOTE = (f'; the airframe is written with force_air.vertical_law = "{VERTICAL_FALLBACK}": the '
+                          "step publishes zero vertical wind with sigma_up -1 and the quality bit VERTICAL_UNIDENTIFIED "
+                          "(docs/c-api.md)")
 
 
 def vertical_warning(cv_v_mps: float | None, air_z_mps: np.ndarray) -> str | None:
