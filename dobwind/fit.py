@@ -116,6 +116,7 @@ class FitReport:
     anchored: bool = False
     runs: list[dict] = field(default_factory=list)
     excluded_logs: list[str] = field(default_factory=list)   # left out by --exclude-outliers
+    hold_cv_without_outliers_mps: float | None = None  # the hold-level CV without the flagged logs (runmeans)
     warnings: list[str] = field(default_factory=list)
 
 
