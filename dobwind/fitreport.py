@@ -83,8 +83,8 @@ def runs_lines(report: FitReport) -> list[str]:
     """Per calibration log: the mean airflow error the law leaves and whether it looks like an outlier."""
     if not report.runs:
         return []
-    how = ("the law fitted on the logs' means, each weighted once (bisquare weights)" if report.anchored
-           else "the law fitted on every sample")
+    how = ("the law fitted on the logs' means, each weighted once (bisquare weights); the families ranked by "
+           "the robust loss of these errors (run_loss)" if report.anchored else "the law fitted on every sample")
     lines = [f"  per log ({how}): mean true airflow, error of the mean estimated airflow, weight"]
     for run in report.runs:
         mark = "  OUTLIER: disagrees with the other logs" if run["outlier"] else ""
