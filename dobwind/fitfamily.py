@@ -244,7 +244,8 @@ def _fit_once(af: Airframe, log_paths: list[str],
             report.warnings.append(f"{log_paths[index]}: contributed no usable sample")
     speed_range = _speed_range(samples, points)
     cv = report.hold_cv_speed_mps if report.hold_cv_speed_mps is not None else report.horizontal_cv_rmse_mps
-    exempt = runmeans.exempt_outliers(report.runs) if report.hold_cv_without_outliers_mps is not None else []
+    exempt = (runmeans.exempt_outliers(report.runs, report.anchored)
+              if report.hold_cv_without_outliers_mps is not None else [])
     if exempt:  # the fit's own outliers: judged on the logs that agree (runmeans.exempt_outliers)
         cv = report.hold_cv_without_outliers_mps
         limits = dataclasses.replace(limits, outlier_logs=tuple(exempt))
@@ -356,7 +357,7 @@ def _drag_family(af: Airframe, picked: dragexponent.ExponentChoice) -> tuple[Fam
     report = _drag_report(picked.choice, picked.samples, fitted)
     report.exponent_scores = {f"{p:g}": s for p, s in sorted(picked.scores.items())}
     flagged = [run["log"] for run in report.runs if run["outlier"]]  # log indices here
-    if runmeans.exempt_outliers(report.runs):
+    if runmeans.exempt_outliers(report.runs, report.anchored):
         # The hold-level CV the self-check judges when it leaves the flagged logs out (fitfamily._fit_once).
         keep = ~np.isin(picked.samples.log_index, flagged)
         hold = holdcv.hold_cv(picked.samples.select(keep), dragfit.drag_fit_predict(picked.choice.active))

@@ -24,7 +24,6 @@ per-sample fit they had, unchanged.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Callable
 
@@ -35,7 +34,7 @@ import numpy as np
 # observer noise averages over a log), far below the 1-3 m/s a tunnel's inconsistent runs leave.
 GATE_MPS = 0.25
 MIN_LOGS = 3            # fewer logs than this cannot tell a disagreeing log from the law
-CAUCHY_C = 2.385        # Cauchy tuning constant (95 % efficiency at the normal), in robust scales
+CAUCHY_C = 2.385        # Cauchy constant (95 % efficiency at the normal) of the loss that ranks fits
 TUKEY_C = 4.685         # Tukey bisquare tuning constant (95 % efficiency at the normal), in robust scales
 # The robust scale of the logs' mean speed errors never goes below this (m/s): a law through every
 # other log exactly would otherwise call any small disagreement an outlier.
@@ -85,10 +84,6 @@ def anchored_system(stats: RunStats, weights: np.ndarray) -> tuple[np.ndarray, n
 def robust_scale(errors: np.ndarray) -> float:
     """1.4826 MAD of the logs' mean speed errors about zero, floored (SCALE_FLOOR_MPS)."""
     return max(SCALE_FLOOR_MPS, 1.4826 * float(np.median(np.abs(errors))))
-
-
-def cauchy_weights(errors: np.ndarray, scale: float) -> np.ndarray:
-    return 1.0 / (1.0 + (errors / (CAUCHY_C * scale)) ** 2)
 
 
 def tukey_weights(errors: np.ndarray, scale: float) -> np.ndarray:
@@ -152,7 +147,7 @@ class RunVerdict:
     """One calibration log's figures under the fitted law."""
     log: int
     mean_speed_mps: float        # the log's mean true horizontal airflow speed (H-filtered)
-    error_mps: float             # mean predicted minus mean true horizontal airflow speed
+    error_mps: float             # size of the error of the log's mean estimated horizontal airflow vector
     weight: float                # its bisquare weight in the anchored fit (1 when not anchored)
     outlier: bool
 
@@ -173,20 +168,17 @@ def needs_anchor(errors: np.ndarray) -> bool:
     return len(errors) >= MIN_LOGS and bool(np.any(np.abs(errors) > GATE_MPS))
 
 
-def finite_or_nan(value: float) -> float:
-    return value if math.isfinite(value) else math.nan
-
-
 # The self-check leaves the fit's outliers unjudged only while they are fewer than this share of the
 # logs: one of four tunnel runs, none of three (two agreeing logs cannot outvote a third).
 EXEMPT_SHARE = 1 / 3
 
 
-def exempt_outliers(runs: list[dict]) -> list[str]:
-    """The flagged logs (outlier_logs) when they are fewer than EXEMPT_SHARE of all; else none: a fit
-    that disowns more of its logs than that is judged on all of them."""
+def exempt_outliers(runs: list[dict], anchored: bool) -> list[str]:
+    """The flagged logs (outlier_logs) of a fit anchored on the run means when they are fewer than
+    EXEMPT_SHARE of all; else none: a fit that disowns more of its logs than that, or one fitted per
+    sample (which weighted the flagged log in fully), is judged on all of them."""
     flagged = outlier_logs(runs)
-    return flagged if 0 < len(flagged) < EXEMPT_SHARE * len(runs) else []
+    return flagged if anchored and 0 < len(flagged) < EXEMPT_SHARE * len(runs) else []
 
 
 def exempt_warning(runs: list[dict], exempt: list[str]) -> str:

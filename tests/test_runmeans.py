@@ -133,3 +133,33 @@ def test_refusal_advice_names_the_run_and_exclusion_refits_without_it():
     assert any("b.csv" in w for w in report.warnings)
     same = refit_without_outliers(first, ["b.csv"], fit)  # type: ignore[arg-type]  # none would be left
     assert same is first and len(seen) == 1
+
+
+def _runs(flags: list[bool]) -> list[dict]:
+    return [{"log": f"{k}.csv", "error_mps": 1.0 if f else 0.1, "weight": 0.0 if f else 1.0, "outlier": f}
+            for k, f in enumerate(flags)]
+
+
+def test_only_a_minority_of_an_anchored_fits_outliers_is_exempt():
+    assert runmeans.exempt_outliers(_runs([False, False, True, False]), anchored=True) == ["2.csv"]
+    assert runmeans.exempt_outliers(_runs([False, False, True, False]), anchored=False) == []
+    assert runmeans.exempt_outliers(_runs([False, True, False]), anchored=True) == []          # 1 of 3
+    assert runmeans.exempt_outliers(_runs([True, True] + [False] * 5), anchored=True) == ["0.csv", "1.csv"]
+    assert runmeans.exempt_outliers(_runs([True, True, True] + [False] * 4), anchored=True) == []
+    assert runmeans.exempt_outliers(_runs([False] * 4), anchored=True) == []
+
+
+def test_the_self_check_does_not_judge_an_exempt_log_but_judges_the_others():
+    from dobwind.model.airframe import load_airframe
+    from dobwind.selfcheck import LogCheck, Thresholds, verdict
+    from tests.helpers import M300
+
+    logs = [LogCheck(f"{k}.csv", 100, 50, 80, speed_rms_mps=rms, speed_max_mps=rms, direction_mean_deg=1.0)
+            for k, rms in enumerate((0.1, 0.1, 1.5, 0.1))]
+    af = load_airframe(M300)
+    assert not verdict(af, logs, 0.1, 10.0, Thresholds()).passed
+    exempt = verdict(af, logs, 0.1, 10.0, Thresholds(outlier_logs=("2.csv",)))
+    assert exempt.passed and exempt.outlier_logs == ["2.csv"]
+    logs[1].speed_rms_mps = 1.5   # another log failing is still refused
+    again = verdict(af, logs, 0.1, 10.0, Thresholds(outlier_logs=("2.csv",)))
+    assert not again.passed and any(r.startswith("1.csv") for r in again.reasons)
