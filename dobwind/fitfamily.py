@@ -257,7 +257,7 @@ def _fit_once(af: Airframe, log_paths: list[str],
     return new, report, points, check
 
 
-VERTICAL_FALLBACK_NOTE = (f'; the airframe is written with force_air.vertical_law = "{VERTICAL_FALLBACK}": the '
+VERTICAL_FALLBACK_NOTE = (f'; the fitted airframe says force_air.vertical_law = "{VERTICAL_FALLBACK}": its '
                           "step publishes zero vertical wind with sigma_up -1 and the quality bit VERTICAL_UNIDENTIFIED "
                           "(docs/c-api.md)")
 
