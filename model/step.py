@@ -418,11 +418,9 @@ def _wind(s: Signals) -> Signals:
 def _wind_level(s: Signals) -> Signals:
     """_wind with zero vertical wind: the airframe's vertical law is a fallback (issue #31). Zero WIND
     rather than zero AIRFLOW: zero airflow would publish the vehicle's own climb rate as vertical wind."""
-    w = s["air_rel_ned"] + s["v_filt_new"]
-    level = ca.vertcat(w[0], w[1], ca.SX(0))
-    speed_h = ca.sqrt(w[0] * w[0] + w[1] * w[1])
-    return {"wind_ned": level, "wind_speed_h": speed_h, "wind_speed_up": ca.SX(0),
-            "wind_from_deg": forceair.wind_from_deg_sx(w[0], w[1])}
+    found = _wind(s)  # one wind triangle for both (the mutation suite anchors on it)
+    w = found["wind_ned"]
+    return {**found, "wind_ned": ca.vertcat(w[0], w[1], ca.SX(0)), "wind_speed_up": ca.SX(0)}
 
 
 # --- the next state and the result check -----------------------------------------------------------
