@@ -167,6 +167,12 @@ def cmd_fit(args: argparse.Namespace) -> int:
     hover = HoverNoise(target_mps=args.hover_noise)
     new, report, points = fit_airframe(af, list(args.logs), args.terms, args.dynamic, args.model, args.still_air,
                                        limits, hover=hover)
+    if args.exclude_outliers:
+        from dobwind.fitfamily import refit_without_outliers
+
+        new, report, points = refit_without_outliers(
+            (new, report, points), list(args.logs),
+            lambda logs: fit_airframe(af, logs, args.terms, args.dynamic, args.model, args.still_air, limits, hover=hover))
     passed = bool(report.self_check["passed"])
     written = passed or args.force  # a model that failed its self-check is written only when forced
     if written:
@@ -189,6 +195,10 @@ def cmd_fit(args: argparse.Namespace) -> int:
     if passed:
         return 0
     reasons = "; ".join(report.self_check["reasons"])
+    from dobwind.runmeans import outlier_advice
+
+    advice = None if args.exclude_outliers else outlier_advice(report.runs)
+    reasons += f" (what would make the data fit: {advice})" if advice else ""
     if args.force:
         sys.stderr.write(f"dobwind fit: warning: the self-check failed ({reasons}); written anyway (--force)\n")
         return 0
@@ -475,6 +485,9 @@ def _add_fit(command: _Command) -> None:
                    "with the velocity's derivative at low frequency (acceleration_bias_time 0.5 s) if that fit is "
                    f"clearly quieter and passes its self-check; 0 keeps the airframe's schedule and observer ({opt.HOVER_NOISE.text()}; "
                    f"default {hover.target_mps:g})")
+    p.add_argument("--exclude-outliers", action="store_true",
+                   help="when the fit flags calibration logs as outliers (a log whose mean airflow disagrees with "
+                   "the others', docs/tunnel-runs.md), fit again without them; the report names the logs left out")
     p.add_argument("--json", action="store_true", help=JSON_HELP)
     p.set_defaults(func=cmd_fit)
 

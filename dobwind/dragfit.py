@@ -27,6 +27,7 @@ from typing import Callable
 import numpy as np
 from scipy.signal import lfilter, lfilter_zi
 
+from dobwind import runmeans
 from dobwind.model.airframe import Airframe
 from dobwind.model.attitude import rotation_matrices
 from dobwind.model.discretization import first_order
@@ -92,6 +93,9 @@ class DragSamples:
     interval_s: np.ndarray | None = None
     # The law's exponent the q0, q2c, q2s columns stand for (with_exponent); 2 as sampled.
     exponent: float = 2.0
+    # Fit on the logs' means and normalized within-log variation (dobwind/runmeans.py) instead of on
+    # every sample alike: set by anchor_on_runs when the logs' means disagree with a per-sample fit.
+    anchor: bool = False
 
     @property
     def parameters(self) -> tuple[str, ...]:
@@ -108,7 +112,7 @@ class DragSamples:
         return DragSamples(self.observed[keep], self.columns[keep], self.cos_yaw[keep], self.sin_yaw[keep],
                            self.airflow[keep], self.group[keep], self.log_index[keep], self.frame,
                            pick(self.rotation), pick(self.rotor), pick(self.hold), pick(self.hold_age_s),
-                           pick(self.interval_s), self.exponent)
+                           pick(self.interval_s), self.exponent, self.anchor)
 
     def __len__(self) -> int:
         return len(self.observed)
@@ -415,6 +419,12 @@ def _solve(samples: DragSamples, active: tuple[str, ...], weights: np.ndarray | 
     of an SVD of the whole (3N x P) system per set, which made the fit's cross-validation slow."""
     parameters = samples.parameters
     gram, rhs = _normal_equations(samples, weights, [parameters.index(p) for p in active])
+    return solve_normal(parameters, active, gram, rhs)
+
+
+def solve_normal(parameters: tuple[str, ...], active: tuple[str, ...], gram: np.ndarray,
+                 rhs: np.ndarray) -> np.ndarray:
+    """_solve's active set on normal equations already formed over the ``active`` parameters."""
     free = list(active)
     while True:
         cols = [active.index(p) for p in free]
@@ -435,8 +445,11 @@ def _solve(samples: DragSamples, active: tuple[str, ...], weights: np.ndarray | 
 
 def robust_fit(samples: DragSamples, active: tuple[str, ...], rounds: int = 4) -> np.ndarray:
     """IRLS with Huber weights, the residual scale estimated per axis (horizontal and vertical noise
-    differ: thrust noise enters the vertical force only)."""
+    differ: thrust noise enters the vertical force only). Samples marked ``anchor`` are fitted on their
+    logs' means instead (runmeans.py)."""
     theta = _solve(samples, active)
+    if samples.anchor and len(np.unique(samples.log_index)) >= runmeans.MIN_LOGS:
+        return anchored_theta(samples, active, theta)[0]
     for _ in range(rounds):
         residual = samples.observed - np.einsum("nap,p->na", samples.columns, theta)
         sigma = np.maximum(1.4826 * np.median(np.abs(residual - np.median(residual, axis=0)), axis=0), 1e-9)
@@ -444,6 +457,78 @@ def robust_fit(samples: DragSamples, active: tuple[str, ...], rounds: int = 4) -
         weights = np.sqrt(np.where(z <= 1, 1.0, 1.0 / np.maximum(z, 1e-12)))
         theta = _solve(samples, active, weights / sigma)
     return theta
+
+
+def _axis_scale(samples: DragSamples, theta: np.ndarray) -> np.ndarray:
+    """1/sigma per axis of a fit's residuals (robust), north and east pooled."""
+    residual = samples.observed - np.einsum("nap,p->na", samples.columns, theta)
+    mad = 1.4826 * np.median(np.abs(residual - np.median(residual, axis=0)), axis=0)
+    horizontal = max(float(np.sqrt(mad[0] ** 2 + mad[1] ** 2) / math.sqrt(2)), 1e-9)
+    return 1.0 / np.array([horizontal, horizontal, max(float(mad[2]), 1e-9)])
+
+
+def run_errors(samples: DragSamples, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per log (sorted): the logs, each one's mean true horizontal airflow speed, and the size of the
+    error of its mean predicted horizontal airflow vector (m/s; the inversion as the step does it)."""
+    predicted = predicted_airflow(samples, theta)
+    logs = np.unique(samples.log_index)
+    speeds, errors = [], []
+    for log in logs:
+        pick = samples.log_index == log
+        true = samples.airflow[pick, :2].mean(axis=0)
+        error = prediction_error(predicted[pick, :2], samples.airflow[pick, :2]).mean(axis=0)
+        speeds.append(float(np.hypot(*true)))
+        errors.append(float(np.hypot(*error)))
+    return logs, np.array(speeds), np.array(errors)
+
+
+def anchored_theta(samples: DragSamples, active: tuple[str, ...],
+                   start: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The run-mean anchored fit of the active parameters (runmeans.anchored_fit), the per-axis noise
+    taken from the per-sample fit ``start``: theta and each log's Cauchy weight."""
+    parameters = samples.parameters
+    index = [parameters.index(p) for p in active]
+    stats = runmeans.run_stats(samples.observed, samples.columns[:, :, index], samples.log_index,
+                               _axis_scale(samples, start))
+
+    def solve(gram: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+        return solve_normal(parameters, active, gram, rhs)
+
+    return runmeans.anchored_fit(stats, solve, lambda theta: run_errors(samples, theta)[2])
+
+
+# The per-sample fit whose run-mean errors decide whether to anchor (anchor_on_runs): the plainest law
+# with both a linear and a quadratic term, in either frame.
+ANCHOR_TEST_SET = ("l0", "q0")
+
+
+def anchor_on_runs(samples: DragSamples) -> DragSamples:
+    """The samples marked for the run-mean anchored fit when a per-sample fit of ANCHOR_TEST_SET leaves
+    some log's mean airflow off by more than runmeans.GATE_MPS (runmeans.needs_anchor); else as they are."""
+    if len(np.unique(samples.log_index)) < runmeans.MIN_LOGS:
+        return samples
+    theta = robust_fit(samples, ANCHOR_TEST_SET + VERTICAL_SETS[-1] + ALWAYS)
+    if not runmeans.needs_anchor(run_errors(samples, theta)[2]):
+        return samples
+    return dataclasses.replace(samples, anchor=True)
+
+
+def anchored_sets(candidates: tuple[tuple[str, ...], ...]) -> tuple[tuple[str, ...], ...]:
+    """The sets an anchored fit chooses among: those with a linear (l0 or lr) AND a quadratic term. A
+    few logs' means at a few speeds, a zero-airflow one among them, fix a law's rise from zero and its
+    curvature; a set without one of the two cannot meet them, and the grouped CV that ranks the sets
+    scores the within-log scatter the anchored fit does not let outvote the means (with q0 alone it
+    chose a law that left two of the four Neural-Fly runs 1-2 m/s off)."""
+    return tuple(h for h in candidates if "q0" in h and ("l0" in h or ROTOR_DRAG_KEY in h))
+
+
+def run_verdicts(samples: DragSamples, active: tuple[str, ...], theta: np.ndarray) -> list[runmeans.RunVerdict]:
+    """Each log's mean error under ``theta`` and whether it looks like an outlier (runmeans.verdicts)."""
+    logs, speeds, errors = run_errors(samples, theta)
+    weights = None
+    if samples.anchor and len(logs) >= runmeans.MIN_LOGS:
+        weights = anchored_theta(samples, active, _solve(samples, active))[1]
+    return runmeans.verdicts(logs, speeds, errors, weights)
 
 
 def law_of(theta: np.ndarray, frame: str = "heading", exponent: float = 2.0) -> DragLaw:
@@ -606,6 +691,8 @@ def choose_drag_law(samples: DragSamples, prefer: Prefer) -> DragChoice:
     vertical_full = VERTICAL_SETS[-1]
     folds, top = fold_splits(samples), top_split(samples)  # the same splits for every candidate
     candidates = BODY_HORIZONTAL_SETS if samples.frame == "body" else HORIZONTAL_SETS
+    if samples.anchor:
+        candidates = anchored_sets(candidates)
     horizontal, theta, where, score, dropped = _choose_horizontal(samples, candidates, folds, top, prefer)
     if where is None and _fourfold_helps(samples, horizontal, score, folds, top):
         wider = tuple(h + FOURFOLD_KEYS for h in candidates if "q0" in h)

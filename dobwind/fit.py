@@ -111,6 +111,12 @@ class FitReport:
     not_increasing: list[str] = field(default_factory=list)
     # drag families: the hold-level score (m/s) of each exponent tried (dobwind/dragexponent.py)
     exponent_scores: dict[str, float] = field(default_factory=dict)
+    # drag families: whether the law was fitted on the logs' means (dobwind/runmeans.py), and per log its
+    # mean horizontal airflow error under the law, its weight and whether it looks like an outlier.
+    anchored: bool = False
+    runs: list[dict] = field(default_factory=list)
+    excluded_logs: list[str] = field(default_factory=list)   # left out by --exclude-outliers
+    hold_cv_without_outliers_mps: float | None = None  # the hold-level CV without the flagged logs (runmeans)
     warnings: list[str] = field(default_factory=list)
 
 

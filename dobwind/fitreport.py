@@ -79,6 +79,20 @@ def _exponent_line(report: FitReport) -> list[str]:
     return [f"  exponent {exponent:g}, chosen by the hold-level score (CV and top holds, m/s) of each tried: {tried}"]
 
 
+def runs_lines(report: FitReport) -> list[str]:
+    """Per calibration log: the mean airflow error the law leaves and whether it looks like an outlier."""
+    if not report.runs:
+        return []
+    how = ("the law fitted on the logs' means, each weighted once (bisquare weights); the families ranked by "
+           "the robust loss of these errors (run_loss)" if report.anchored else "the law fitted on every sample")
+    lines = [f"  per log ({how}): mean true airflow, error of the mean estimated airflow, weight"]
+    for run in report.runs:
+        mark = "  OUTLIER: disagrees with the other logs" if run["outlier"] else ""
+        lines.append(f"    {run['log']}: {run['mean_speed_mps']:.2f} m/s, error {run['error_mps']:.2f} m/s, "
+                     f"weight {run['weight']:.2f}{mark}")
+    return lines
+
+
 def text_report(report: FitReport) -> str:
     def model(terms: list[str], coefs: list[float]) -> str:
         return " + ".join(f"{c:.4g}*{t}" if t != "1" else f"{c:.4g}" for t, c in zip(terms, coefs))
@@ -100,6 +114,7 @@ def text_report(report: FitReport) -> str:
             f"drag law: {law}",
             *(f"  not chosen: {where}" for where in report.not_increasing),
             *_exponent_line(report),
+            *runs_lines(report),
             f"  horizontal airflow RMSE {report.horizontal_rmse_mps:.3f} m/s, "
             + _errors(report.horizontal_cv_rmse_mps, report.horizontal_extrapolation_rmse_mps),
             f"  vertical airflow RMSE {report.vertical_rmse_mps:.3f} m/s"])

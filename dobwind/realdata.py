@@ -48,6 +48,8 @@ def runs(data_dir: Path) -> dict[str, Path]:
 
 
 SPLIT_TRAIN = ("nowind", "35wind", "100wind")  # spans the range, zero wind included
+# Issue #31's goal: `dobwind fit` on the four constant-wind runs with no options writes a model.
+CONSTANT_WIND = ("nowind", "35wind", "70wind", "100wind")
 
 
 def _score(fitted, log_path: Path, nominal: float, report) -> dict:
@@ -63,7 +65,18 @@ def _score(fitted, log_path: Path, nominal: float, report) -> dict:
         "mean_up_mps": float(-mean[2]),
         "fit_terms": report.horizontal_terms, "fit_cv_rmse_mps": report.horizontal_cv_rmse_mps,
         "thrust_scale": report.thrust_scale, "warnings": report.warnings,
+        "fit_outliers": [Path(run["log"]).stem for run in report.runs if run["outlier"]],
     }
+
+
+def _constant_wind_fit(af: Airframe, own: dict[str, Path]) -> dict:
+    """The fit the user runs on the constant-wind runs, no options (not --dynamic): passed or refused,
+    and the per-run table of its report (runmeans.py)."""
+    names = [n for n in CONSTANT_WIND if n in own]
+    _, report, _ = fit_airframe(af, [str(own[n]) for n in names], "auto")
+    return {"runs": names, "passed": bool(report.self_check["passed"]), "reasons": report.self_check["reasons"],
+            "model": report.model, "anchored": report.anchored,
+            "per_run": [{**run, "log": Path(run["log"]).stem} for run in report.runs]}
 
 
 def _training_set(logs: dict[str, dict[str, Path]], data_dir: Path) -> str:
@@ -107,7 +120,7 @@ def _check_converted(af: Airframe, logs: dict[str, dict[str, Path]], skipped: li
                            for name, log_path in winds.items()}
               for controller, winds in logs.items() if controller != trainer}
     return {"leave_one_out": loo, "split": split, "training_controller": trainer, "other_controllers": others,
-            "skipped": skipped}
+            "skipped": skipped, "constant_wind_fit": _constant_wind_fit(af, own)}
 
 
 def held_out_error_mps(results: dict) -> tuple[float, int]:
@@ -123,8 +136,22 @@ HEAD = "  run         nominal  mean |wind|  |mean wind|  from deg  up m/s   fitt
 
 def _row(name: str, r: dict) -> str:
     mark = "*" if r.get("trained_on") else " "
+    flagged = f"; fit flags {', '.join(r['fit_outliers'])}" if r.get("fit_outliers") else ""
     return (f"  {name:9s}{mark}  {r['nominal_mps']:7.1f}  {r['mean_speed_mps']:11.2f}  {r['speed_of_mean_mps']:11.2f}  "
-            f"{r['mean_from_deg']:8.1f}  {r['mean_up_mps']:6.2f}   {', '.join(r['fit_terms'])} ({r['fit_cv_rmse_mps'] or math.nan:.2f})")
+            f"{r['mean_from_deg']:8.1f}  {r['mean_up_mps']:6.2f}   {', '.join(r['fit_terms'])} ({r['fit_cv_rmse_mps'] or math.nan:.2f})"
+            f"{flagged}")
+
+
+def constant_wind_lines(result: dict | None) -> list[str]:
+    """The four-run fit's verdict and its per-run table."""
+    if not result:
+        return []
+    verdict = "writes a model (self-check PASS)" if result["passed"] else "refuses: " + "; ".join(result["reasons"])
+    lines = [f"`dobwind fit` on {', '.join(result['runs'])} (no options): the {result['model']} family "
+             f"{'fitted on the run means' if result['anchored'] else 'fitted per sample'}; {verdict}"]
+    lines += [f"  {run['log']:24s} mean airflow {run['mean_speed_mps']:5.2f} m/s, error {run['error_mps']:.2f} m/s, "
+              f"weight {run['weight']:.2f}{'  OUTLIER' if run['outlier'] else ''}" for run in result["per_run"]]
+    return lines
 
 
 def tables(results: dict) -> list[str]:
@@ -142,6 +169,7 @@ def tables(results: dict) -> list[str]:
             lines += [_row(name, r) for name, r in winds.items()]
     for entry in results.get("skipped", []):
         lines.append(f"  skipped {entry['controller']} {entry['wind']}: {entry['reason']}")
+    lines += constant_wind_lines(results.get("constant_wind_fit"))
     error, count = held_out_error_mps(results)
     controllers = 1 + len(others)
     lines.append(f"  held-out runs, {controllers} controller{'s' * (controllers != 1)}: mean |mean |wind| - nominal| "

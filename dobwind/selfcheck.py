@@ -78,6 +78,7 @@ class SelfCheck:
     noise_h_mps: float = 0.0   # the observer noise over every log (horizontal speed, vertical wind)
     noise_up_mps: float = 0.0
     still_noise_mps: float | None = None  # per-axis horizontal noise at low airflow (None: no such segment)
+    outlier_logs: list[str] = field(default_factory=list)  # replayed, not judged (Thresholds.outlier_logs)
 
 
 def _wrap_deg(a: float) -> float:
@@ -302,6 +303,8 @@ def verdict(af: Airframe, logs: list[LogCheck], cv_mps: float | None, speed_rang
     for check in logs:
         if check.fit_samples == 0:
             reasons.append(f"{check.log}: contributed no usable sample to the fit")
+        if check.log in limits.outlier_logs:
+            continue  # the fit's own outlier (runmeans): reported beside the table, not judged
         if check.speed_rms_mps is None:
             reasons.append(f"{check.log}: no scorable segment in the training replay")
         elif check.speed_rms_mps > replay_limit:
@@ -314,7 +317,7 @@ def verdict(af: Airframe, logs: list[LogCheck], cv_mps: float | None, speed_rang
     noise_up = pooled_noise([(c.noise_up_mps, c.noise_dof) for c in logs])
     still = pooled_noise([(c.still_noise_mps, c.still_dof) for c in logs]) if any(c.still_dof for c in logs) else None
     return SelfCheck(not reasons, reasons, cv_mps, speed_range_mps, cv_limit, replay_limit, limits.direction_deg, logs,
-                     noise_h, noise_up, still)
+                     noise_h, noise_up, still, list(limits.outlier_logs))
 
 
 def self_check(af: Airframe, logs: list[FlightLog], fit_samples: list[int], cv_mps: float | None,
@@ -359,8 +362,10 @@ def text_table(check: dict) -> str:
         speed = "n/a" if c["speed_rms_mps"] is None else f"{c['speed_rms_mps']:.3f} / {c['speed_max_mps']:.3f} m/s"
         direction = ("n/a" if c["direction_mean_deg"] is None else
                      f"{c['direction_mean_deg']:.2f} / {c['direction_max_deg']:.2f} deg")
+        outlier = " (the fit's outlier: not judged)" if c["log"] in check.get("outlier_logs", []) else ""
         lines.append(f"  {c['log']}: {c['fit_samples']} fit samples, {c['points_kept']} of {c['rows']} points kept "
-                     f"in {len(c['segments'])} segments; speed error RMS / max {speed}; direction mean / max {direction}")
+                     f"in {len(c['segments'])} segments; speed error RMS / max {speed}; direction mean / max "
+                     f"{direction}{outlier}")
         lines += _segment_lines(c["segments"])
     lines.append(f"  observer noise (sample scatter about each segment's mean error): {check['noise_h_mps']:.3f} m/s "
                  f"horizontal speed, {check['noise_up_mps']:.3f} m/s vertical; the sigma outputs include it")

@@ -18,6 +18,9 @@ class Thresholds:
     floor_mps: float = 0.15
     direction_deg: float = 10.0      # each log's mean per-segment direction error
     max_coefficient: float = 1e6     # any model coefficient, in its SI units
+    # Logs the fit itself flagged as outliers (dobwind/runmeans.py, a minority of them only): replayed and
+    # reported, but not held to the per-log replay limits. Set by the fit, never by the user.
+    outlier_logs: tuple[str, ...] = ()
 
     def speed_limit_mps(self, share: float, speed_range_mps: float) -> float:
         return max(self.floor_mps, share * speed_range_mps)

@@ -140,6 +140,10 @@ class Airframe:
     @property
     def uncalibrated(self) -> bool:
         return self.calibration != CALIBRATED
+    # [force_air] vertical_law: "fitted" (the law's vertical part is inverted), or VERTICAL_FALLBACK when
+    # the calibration did not identify it: the step then publishes zero vertical wind, sigma_up -1 and the
+    # quality bit VERTICAL_UNIDENTIFIED (model/status.py, docs/c-api.md).
+    vertical_law: str = "fitted"
 
     @property
     def force_air_model(self) -> str:
@@ -307,6 +311,16 @@ def _drag_law(reader: _Reader) -> DragLaw:
         raise reader.fail("exponent", f"must be in [{low:g}, {high:g}] (the growth of the quadratic terms), got {exponent!r}")
     reader.done()
     return DragLaw(**values, frame=frame, exponent=exponent)
+
+
+# [force_air] vertical_law (issue #31): whether the vertical part of the law is used or the zero-wind fallback.
+VERTICAL_FALLBACK = "zero-wind"
+VERTICAL_LAWS = ("fitted", VERTICAL_FALLBACK)
+FORCE_AIR_KEYS = FORCE_AIR_KEYS + ("vertical_law",)
+
+
+def _vertical_law(fa: _Reader) -> str:
+    return fa.string("vertical_law", VERTICAL_LAWS, default="fitted")
 
 
 def _force_air_tables(fa: _Reader) -> tuple[ForceAirModel, ForceAirModel, DragLaw | None]:
@@ -499,7 +513,9 @@ def parse_airframe(text: str, source: str) -> Airframe:
     top.within("gravity", gravity, "gravity")
     thrust = _thrust(top.table_of("thrust", THRUST_KEYS))  # type: ignore[arg-type]
     observer = _observer(top.table_of("observer", OBSERVER_KEYS))  # type: ignore[arg-type]
-    horizontal, vertical, drag = _force_air_tables(top.table_of("force_air", FORCE_AIR_KEYS))  # type: ignore[arg-type]
+    force_air = top.table_of("force_air", FORCE_AIR_KEYS)
+    vertical_law = _vertical_law(force_air)  # type: ignore[arg-type]
+    horizontal, vertical, drag = _force_air_tables(force_air)  # type: ignore[arg-type]
     schedule = _filter(top.table_of("filter", FILTER_KEYS), observer.sample_time_s)  # type: ignore[arg-type]
     limits = _limits(top.table_of("limits", LIMITS_KEYS, required=False), observer.sample_time_s, source)
     env = top.table_of("envelope", ENVELOPE_KEYS, required=False)
@@ -523,6 +539,7 @@ def parse_airframe(text: str, source: str) -> Airframe:
         drag=drag,
         ros2_topics=ros2_topics,
         calibration=calibration,
+        vertical_law=vertical_law,
     )
 
 

@@ -82,6 +82,12 @@ def airframe_document(af: Airframe) -> dict[str, Any]:
 
 
 def _force_air_document(af: Airframe) -> dict[str, Any]:
+    if af.vertical_law != "fitted":  # absent means fitted: files written before the key read back the same
+        return {"vertical_law": af.vertical_law, **_force_air_law(af)}
+    return _force_air_law(af)
+
+
+def _force_air_law(af: Airframe) -> dict[str, Any]:
     if af.drag is not None:
         return {"model": "drag", "drag": af.drag.as_dict()}
     return {

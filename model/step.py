@@ -11,7 +11,7 @@ them. A rejected sample (a rejection bit in the status) leaves the estimate unch
 repeats the last accepted one, which the state carries in its ``last.*`` fields. Only the gap
 bookkeeping ``run_s`` advances on rejection (it drops to 0), so that the next accepted sample knows it
 follows a gap: it must not difference the velocity across the gap, and it starts a SETTLING period.
-Quality bits (SETTLING, EXTRAPOLATED, UNCALIBRATED) flag accepted samples; see status.py. The frames, signs and
+Quality bits (SETTLING, EXTRAPOLATED, UNCALIBRATED, VERTICAL_UNIDENTIFIED) flag accepted samples; see status.py. The frames, signs and
 equations of every stage, and the paper's slips the stages correct, are in docs/model.md.
 """
 from __future__ import annotations
@@ -372,7 +372,11 @@ def _add_back_end(b: _Builder, af: Airframe) -> None:
     b.add("force_air", "heading-frame force -> relative airflow (air minus vehicle velocity), NED"
           + (" (body-frame drag law at the measured attitude)" if body else ""),
           ["f_filt_new", "in.yaw_ref"] + (["rot_body_to_ned", "u_f"] if body else []), partial(_force_air, af))
-    b.add("wind", "wind triangle and the reported quantities", ["air_rel_ned", "v_filt_new"], _wind)
+    if af.vertical_law == "fitted":
+        b.add("wind", "wind triangle and the reported quantities", ["air_rel_ned", "v_filt_new"], _wind)
+    else:
+        b.add("wind", "wind triangle and the reported quantities; the vertical law is not identified "
+              "(force_air.vertical_law): zero vertical wind", ["air_rel_ned", "v_filt_new"], _wind_level)
 
 
 def _force_air(af: Airframe, s: Signals) -> Signals:
@@ -409,6 +413,14 @@ def _wind(s: Signals) -> Signals:
     speed_h = ca.sqrt(w[0] * w[0] + w[1] * w[1])
     return {"wind_ned": w, "wind_speed_h": speed_h, "wind_speed_up": -w[2],
             "wind_from_deg": forceair.wind_from_deg_sx(w[0], w[1])}
+
+
+def _wind_level(s: Signals) -> Signals:
+    """_wind with zero vertical wind: the airframe's vertical law is a fallback (issue #31). Zero WIND
+    rather than zero AIRFLOW: zero airflow would publish the vehicle's own climb rate as vertical wind."""
+    found = _wind(s)  # one wind triangle for both (the mutation suite anchors on it)
+    w = found["wind_ned"]
+    return {**found, "wind_ned": ca.vertcat(w[0], w[1], ca.SX(0)), "wind_speed_up": ca.SX(0)}
 
 
 # --- the next state and the result check -----------------------------------------------------------
@@ -496,20 +508,26 @@ def _add_quality_stages(b: _Builder, af: Airframe, settle_s: float) -> None:
             status = status + ca.if_else(inside, 0, bits["EXTRAPOLATED"])
         if af.uncalibrated:  # a constant of the airframe, folded in: calibrated airframes' code is unchanged
             status = status + bits["UNCALIBRATED"]
+        if af.vertical_law != "fitted":  # every accepted sample: its vertical wind is not an estimate
+            status = status + bits["VERTICAL_UNIDENTIFIED"]
         return {"run_s_new": run_s, "quality_status": status}
 
     inputs = ["state.run_s", "in.dt"] + (["force_heading", "airflow_speed_h"] if env is not None else [])
     b.add("quality", f"quality bits of an accepted sample: SETTLING for {settle_s:g} s after the start or a gap"
           + (", EXTRAPOLATED outside the calibrated envelope" if env is not None else "")
-          + (", UNCALIBRATED always (the force-air law is a prior)" if af.uncalibrated else ""), inputs, quality)
+          + (", UNCALIBRATED always (the force-air law is a prior)" if af.uncalibrated else "")
+          + (", VERTICAL_UNIDENTIFIED always (force_air.vertical_law)" if af.vertical_law != "fitted" else ""),
+          inputs, quality)
     unc = af.uncertainty
 
     def uncertainty(s: Signals) -> Signals:
         if unc is None:
             return {"wind_sigma_h": ca.SX(UNKNOWN_SIGMA), "wind_sigma_up": ca.SX(UNKNOWN_SIGMA)}
         speed = s["airflow_speed_h"]
+        sigma_up = (_quadrature(_interp(unc.speeds_mps, unc.sigma_up_mps, speed), unc.noise_up_mps)
+                    if af.vertical_law == "fitted" else ca.SX(UNKNOWN_SIGMA))  # the fallback: not an estimate
         return {"wind_sigma_h": _quadrature(_interp(unc.speeds_mps, unc.sigma_h_mps, speed), unc.noise_h_mps),
-                "wind_sigma_up": _quadrature(_interp(unc.speeds_mps, unc.sigma_up_mps, speed), unc.noise_up_mps)}
+                "wind_sigma_up": sigma_up}
 
     b.add("uncertainty", "1-sigma wind errors from the calibration residuals at the model's airflow speed"
           f" and the observer noise ({unc.noise_h_mps:g} m/s horizontal, {unc.noise_up_mps:g} m/s vertical)"

@@ -216,3 +216,21 @@ def test_noise_still_above_the_target_at_the_floor_is_a_warning():
                         "floor, 0.05 Hz (--hover-noise 0.07)"]
     _, _, _, met = _quiet_hover(af, _check(True, 0.5), HoverNoise(), lambda lowered: _check(True, 0.07))
     assert met == []
+
+
+def test_a_lower_cutoff_that_is_not_quieter_is_not_taken():
+    """Issue #31: on a real tunnel run the error at low airflow was a slow wander, and the floor's 0.05 Hz
+    read 1.08 m/s against 0.81 at 0.2 Hz. A slower low-pass that is no quieter is not taken, and said;
+    one that is quieter still is (the first round here), and the rounds stop at the first that is not."""
+    from dobwind.fitfamily import _quiet_hover
+    from tests.helpers import make_airframe
+
+    af = make_airframe(**{"filter.speeds": [0.0, 3.0, 10.0], "filter.cutoffs": [0.2, 0.35, 0.5]})
+    new, check, change, warnings = _quiet_hover(af, _check(True, 0.81), HoverNoise(), lambda lowered: _check(True, 1.08))
+    assert new is af and check.still_noise_mps == 0.81 and change == {}
+    assert len(warnings) == 1 and "not lowered below 0.2 Hz" in warnings[0] and "1.080" in warnings[0]
+    measured = {0.05: 0.10, 0.0245: 0.12}   # 0.0245 = 0.05 (0.07 / 0.10)^2
+    new, check, change, warnings = _quiet_hover(af, _check(True, 0.14), HoverNoise(floor_hz=0.01),
+                                                lambda lowered: _check(True, measured[lowered.filter.cutoffs_hz[0]]))
+    assert new.filter.cutoffs_hz[0] == 0.05 and check.still_noise_mps == 0.10
+    assert change["still_noise_mps"] == [0.14, 0.10] and "not lowered below 0.05 Hz" in warnings[0]

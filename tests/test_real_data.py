@@ -52,3 +52,14 @@ def test_neural_fly_runs_against_a_convex_law(capsys):
     assert "35wind -> 70wind: force per m/s falls with the speed" in text
     assert all(r.slope_n_per_mps > 0 for r in by_name.values())
     assert text.splitlines()[1].startswith("  force offset from the zero-airflow run:")
+
+
+def test_neural_fly_constant_wind_fit_writes_a_model_and_names_its_outlier(results):
+    """Issue #31: `fit` on the four constant-wind runs, no options, writes a model. The run means
+    disagree (no convex law meets them all, test above), so the fit anchored on the means flags one run
+    and leaves every other within 0.5 m/s of its mean airflow."""
+    fit = results["constant_wind_fit"]
+    assert fit["anchored"] and fit["passed"], fit["reasons"]
+    flagged = [run for run in fit["per_run"] if run["outlier"]]
+    assert len(flagged) == 1 and flagged[0]["error_mps"] > 0.5
+    assert all(run["error_mps"] < 0.5 for run in fit["per_run"] if not run["outlier"])

@@ -52,6 +52,7 @@ extern "C" {
 #define M300_WIND_STATUS_SETTLING 0x40u /* quality: accepted, but within one settling time of the first sample or of a gap (a rejected sample): the filters have not caught up yet */
 #define M300_WIND_STATUS_EXTRAPOLATED 0x80u /* quality: accepted, but the heading-frame force or the model's airflow speed is outside the envelope calibrated by fit */
 #define M300_WIND_STATUS_UNCALIBRATED 0x400u /* quality: accepted, but the airframe's force-air law is an uncalibrated prior ([calibration] status = "prior", as `dobwind init` writes it): the wind is a rough guess until `dobwind fit` calibrates it */
+#define M300_WIND_STATUS_VERTICAL_UNIDENTIFIED 0x1000u /* quality: accepted, but the airframe's vertical law is a fallback (fit did not identify it; force_air.vertical_law): the vertical wind is published as zero with sigma_up -1, the horizontal wind is estimated as usual */
 #define M300_WIND_REJECTED_MASK 0x3Fu /* every rejection bit */
 #define M300_WIND_SETTLING_TIME_S 3.505618f /* SETTLING lasts this long (s) after the start or a gap */
 
