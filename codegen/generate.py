@@ -27,6 +27,12 @@ from dobwind.model.step import StepModel, build_step
 from dobwind.model.version import VERSION
 
 SELFTEST_ROWS = 120
+# The types of the bit-pattern comparisons of the rejection tests (printer.CPrinter._bit_exact, source.c.j2).
+IEEE_TYPES = {
+    "single": {"bits": "uint32_t", "key": "int32_t", "abs_mask": "0x7fffffffu", "inf": "0x7f800000u", "sign_shift": 31},
+    "double": {"bits": "uint64_t", "key": "int64_t", "abs_mask": "(~(uint64_t)0 >> 1)", "inf": "((uint64_t)0x7ffu << 52)",
+               "sign_shift": 63},
+}
 
 _ENV = jinja2.Environment(
     loader=jinja2.PackageLoader("dobwind.codegen", "templates"),
@@ -157,6 +163,8 @@ def _render(af: Airframe, precision: str, model: StepModel) -> GeneratedCode:
     validate, sections, check = build_sections(model, printer)
     every_line = [line for s in (validate.section, *sections, check) for line in s.lines] + list(validate.reject_lines)
     kernels = {k: any(f"{prefix}{k}(" in line for line in every_line) for k in ("sincos", "expm1", "atan2")}
+    kernels.update({f"ieee_{k}": any(f"{prefix}{k}(" in line for line in every_line) for k in ("key", "magnitude")})
+    kernels["ieee"] = kernels["ieee_key"] or kernels["ieee_magnitude"]
     common = {
         "name": af.name,
         "prefix": prefix,
@@ -177,7 +185,7 @@ def _render(af: Airframe, precision: str, model: StepModel) -> GeneratedCode:
         **common, validate=validate, sections=sections, check=check, commit=_commit_lines(model, printer),
         reset=[f"state->{field} = {printer.literal(value)};" for field, value in model.reset_on_reject],
         total_ops=total_ops, total_calls=validate.section.calls + sum(s.calls for s in sections) + check.calls,
-        kernels=kernels, coefficients=kernel_literals(printer),
+        kernels=kernels, coefficients=kernel_literals(printer), ieee=IEEE_TYPES[precision],
         state_fields=[f for f in model.state.fields],
     )
     selftest = _ENV.get_template("selftest.c.j2").render(**common, **_selftest_context(model, printer, precision))
