@@ -63,7 +63,7 @@ def cmd_verify(args: argparse.Namespace) -> int:
     if args.c_dir is None and args.precision in ("single", "both"):
         refuse_ill_conditioned_terms(af, args.airframe)  # generate refuses them: nothing to verify
     report = verify_airframe(af, args.precision, steps=args.steps, seed=args.seed,
-                             c_dir=None if args.c_dir is None else Path(args.c_dir))
+                             c_dir=None if args.c_dir is None else Path(args.c_dir), flags=args.flags)
     if args.json:
         _print_json(report.as_dict())
     else:
@@ -378,6 +378,10 @@ def _add_verify(command: _Command) -> None:
                    f"({opt.SEED.text()})")
     p.add_argument("--c-dir", help="verify the generated C in this folder as it is (e.g. generated_c/m300) "
                    "instead of freshly generated C; its precision is read from its header (default: none)")
+    p.add_argument("--flags", choices=("px4", "ardupilot"), help="also build with that autopilot's own compile "
+                   "flags (gcc, clang, arm-none-eabi-gcc; C and C++, -Werror), and build the self-test and the "
+                   "library compared with the reference with them; ardupilot: single precision only "
+                   "(default: none)")
     p.add_argument("--json", action="store_true", help=JSON_HELP)
     p.set_defaults(func=cmd_verify)
 

@@ -72,11 +72,14 @@ class FlagSet:
     name: str            # "px4" | "ardupilot"
     c: tuple[str, ...]
     cxx: tuple[str, ...]
+    # False where -fsingle-precision-constant turns every unsuffixed (double) literal into a float: the
+    # double-precision C would silently lose its precision, so only single precision is built with it.
+    double_ok: bool = True
 
 
 FLAG_SETS = {
     "px4": FlagSet("px4", PX4_C, PX4_CXX),
-    "ardupilot": FlagSet("ardupilot", ARDUPILOT_C, ARDUPILOT_CXX),
+    "ardupilot": FlagSet("ardupilot", ARDUPILOT_C, ARDUPILOT_CXX, double_ok=False),
 }
 
 
