@@ -48,7 +48,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
     target = Target("-o", out_dir, "dir")
     check_targets([target], [args.airframe])
     check_replaceable(target, is_generated_name)
-    files = generate_to_dir(af, out_dir, args.precision, source=args.airframe)
+    files = generate_to_dir(af, out_dir, args.precision, source=args.airframe, integration=args.target)
     for path in files:
         print(path)
     return 0
@@ -364,6 +364,9 @@ def _add_generate(command: _Command) -> None:
     p.add_argument("-o", "--output", help="output folder (default: generated_c/<name>/ in the working directory)")
     p.add_argument("--precision", choices=("single", "double"), default="single",
                    help="floating-point type of the generated C: float (single) or double")
+    p.add_argument("--target", choices=("px4", "ardupilot"), help="also write that autopilot's integration "
+                   "beside the C: px4/ (a PX4 work-queue module, its .msg and parameter) or AP_DOBWind/ (an "
+                   "ArduPilot library with its DataFlash message); single precision (default: the C only)")
     p.set_defaults(func=cmd_generate)
 
 

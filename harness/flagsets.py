@@ -63,7 +63,7 @@ ARDUPILOT_CXX = (
 # What clang needs to take a gcc flag set: its name for single-precision constants, and no error for the
 # options it does not have (it ignores them, which is what they would do for it anyway).
 _CLANG_RENAMES = {"-fsingle-precision-constant": "-cl-single-precision-constant"}
-_CLANG_EXTRA = ("-Wno-unknown-warning-option", "-Wno-ignored-optimization-argument")
+_CLANG_EXTRA = ("-Wno-unknown-warning-option", "-Wno-ignored-optimization-argument", "-Wno-gnu-designator")
 _CLANG_DROPS = {"-fno-strength-reduce", "-falign-functions=16", "-fcheck-new"}
 
 
