@@ -18,6 +18,7 @@ from dobwind.harness.flagsets import FLAG_SETS, Toolchain, available_toolchains
 from dobwind.model.airframe import parse_airframe
 from dobwind.model.errors import CheckFailed, InputError
 from dobwind.model.airframe_toml import dumps
+from dobwind.codegen.targetdocs import PAGES, generated_files, shown_blocks
 from tests.helpers import M300, airframe_dict
 
 STANDINS = Path(__file__).resolve().parent / "standins"
@@ -145,3 +146,24 @@ def test_target_folders_are_deterministic_and_self_contained():
 def test_targets_are_single_precision():
     with pytest.raises(InputError, match="single precision"):
         generate_code(_airframe("m300 (rpm, NED acceleration)"), "double", target="px4")
+
+
+@pytest.mark.parametrize("target, must_show", [
+    ("px4", {"px4/CMakeLists.txt", "px4/module.yaml", "px4/msg/DobWind.msg", "px4/DobWind.hpp", "px4/DobWind.cpp"}),
+    ("ardupilot", {"AP_DOBWind/AP_DOBWind.h", "AP_DOBWind/AP_DOBWind.cpp", "AP_DOBWind/LogStructure.h"}),
+])
+def test_integration_page_shows_the_generated_files(target, must_show):
+    """docs/px4.md and docs/ardupilot.md show exactly what generate writes (and the tests above compile);
+    refresh them with `python -m dobwind.codegen.targetdocs`."""
+    shown = shown_blocks(PAGES[target].read_text(encoding="utf-8"))
+    assert must_show <= set(shown)
+    files = generated_files(target)
+    for path, text in shown.items():
+        assert text == files[path].rstrip("\n") + "\n", f"{PAGES[target].name}: {path} is stale"
+
+
+def test_a_stale_page_block_is_seen():
+    page = PAGES["ardupilot"].read_text(encoding="utf-8").replace("get_velocity_NED(velocity)", "get_velocity(velocity)", 1)
+    shown = shown_blocks(page)
+    files = generated_files("ardupilot")
+    assert any(text != files[path].rstrip("\n") + "\n" for path, text in shown.items())
