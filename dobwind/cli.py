@@ -62,8 +62,13 @@ def cmd_verify(args: argparse.Namespace) -> int:
     af = load_airframe(args.airframe)
     if args.c_dir is None and args.precision in ("single", "both"):
         refuse_ill_conditioned_terms(af, args.airframe)  # generate refuses them: nothing to verify
-    report = verify_airframe(af, args.precision, steps=args.steps, seed=args.seed,
-                             c_dir=None if args.c_dir is None else Path(args.c_dir), flags=args.flags)
+    try:
+        report = verify_airframe(af, args.precision, steps=args.steps, seed=args.seed,
+                                 c_dir=None if args.c_dir is None else Path(args.c_dir), flags=args.flags)
+    except InputError as exc:
+        if exc.source != af.name:
+            raise
+        raise InputError(args.airframe, exc.where, exc.message) from None  # name the file, not the airframe
     if args.json:
         _print_json(report.as_dict())
     else:

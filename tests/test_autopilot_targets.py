@@ -167,3 +167,23 @@ def test_a_stale_page_block_is_seen():
     shown = shown_blocks(page)
     files = generated_files("ardupilot")
     assert any(text != files[path].rstrip("\n") + "\n" for path, text in shown.items())
+
+
+def test_generate_target_from_the_command_line(tmp_path, capsys):
+    from dobwind.cli import main
+
+    assert main(["generate", str(M300), "--target", "px4", "-o", str(tmp_path / "c")]) == 0
+    assert (tmp_path / "c" / "px4" / "DobWind.cpp").is_file() and (tmp_path / "c" / "m300_wind.c").is_file()
+    # Regenerating replaces the folder it wrote (its px4/ is its own), with another target too.
+    assert main(["generate", str(M300), "--target", "ardupilot", "-o", str(tmp_path / "c")]) == 0
+    assert (tmp_path / "c" / "AP_DOBWind" / "AP_DOBWind.cpp").is_file() and not (tmp_path / "c" / "px4").exists()
+    assert main(["generate", str(M300), "--target", "px4", "--precision", "double", "-o", str(tmp_path / "d")]) == 2
+    assert "single precision" in capsys.readouterr().err and not (tmp_path / "d").exists()
+
+
+def test_verify_refuses_double_precision_with_ardupilot_flags(capsys):
+    from dobwind.cli import main
+
+    assert main(["verify", str(M300), "--flags", "ardupilot", "--precision", "double"]) == 2
+    err = capsys.readouterr().err
+    assert str(M300) in err and "-fsingle-precision-constant" in err
