@@ -20,8 +20,15 @@
  * autopilots' flags, which flush subnormals to zero (-funsafe-math-optimizations links FTZ/DAZ: a
  * negative subnormal rpm would compare as 0) or let the compiler assume there is no NaN
  * (-ffinite-math-only, -ffast-math: a NaN would pass `!(x <= limit)`). memcpy, not a union, so that
- * C and C++ alike define it; the compiler folds the limits' keys to constants. */
-static inline uint32_t m300_wind_bits(float x)
+ * C and C++ alike define it; the compiler folds the limits' keys to constants. Always inlined where
+ * the compiler allows it: -Os would otherwise call them, and the call costs more than the test. */
+#if defined(__GNUC__)
+#define M300_WIND_INLINE static inline __attribute__((always_inline))
+#else
+#define M300_WIND_INLINE static inline
+#endif
+
+M300_WIND_INLINE uint32_t m300_wind_bits(float x)
 {
     uint32_t u;
     memcpy(&u, &x, sizeof u);
@@ -31,7 +38,7 @@ static inline uint32_t m300_wind_bits(float x)
 /* x's place in the IEEE order as an integer (monotonic, -0 and +0 both 0); a NaN gets a key above
  * every number (nan_high: x on the left of <= or <) or below every number (x on the right), so that
  * the test fails for a NaN as an IEEE comparison does. */
-static inline int32_t m300_wind_key(float x, int nan_high)
+M300_WIND_INLINE int32_t m300_wind_key(float x, int nan_high)
 {
     const uint32_t u = m300_wind_bits(x);
     const uint32_t magnitude = u & 0x7fffffffu;
@@ -44,7 +51,7 @@ static inline int32_t m300_wind_key(float x, int nan_high)
 
 /* |x| as bits, for tests |x| <= c with a constant c >= 0: the magnitude bits order as the magnitudes
  * do, and a NaN's lie above every number's, so the test fails for a NaN */
-static inline uint32_t m300_wind_magnitude(float x)
+M300_WIND_INLINE uint32_t m300_wind_magnitude(float x)
 {
     return m300_wind_bits(x) & 0x7fffffffu;
 }
