@@ -15,7 +15,6 @@ from dobwind.model.step import StepModel
 TARGETS = ("px4", "ardupilot")
 # The folder each target writes, inside generate's output folder.
 TARGET_FOLDERS = {"px4": "px4", "ardupilot": "AP_DOBWind"}
-_MSG_TYPES = {"float": "float32"}
 
 
 @dataclass(frozen=True)
