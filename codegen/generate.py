@@ -15,6 +15,7 @@ from dobwind.codegen.printer import CPrinter, LiteralError
 from dobwind.codegen.kernels import kernel_literals
 from dobwind.codegen.sections import build_sections, c_element, signal_sizes
 from dobwind.codegen.single_terms import refuse_ill_conditioned_terms  # noqa: F401 (re-exported)
+from dobwind.codegen.targets import TARGET_FOLDERS, render_target
 from dobwind.codegen.tolerance import MIN_SPEED_FOR_DIRECTION, SELFTEST_TOLERANCE
 from dobwind.model import reference
 from dobwind.model.airframe import Airframe
@@ -27,6 +28,12 @@ from dobwind.model.step import StepModel, build_step
 from dobwind.model.version import VERSION
 
 SELFTEST_ROWS = 120
+# The types of the bit-pattern comparisons of the rejection tests (printer.CPrinter._bit_exact, source.c.j2).
+IEEE_TYPES = {
+    "single": {"bits": "uint32_t", "key": "int32_t", "abs_mask": "0x7fffffffu", "inf": "0x7f800000u", "sign_shift": 31},
+    "double": {"bits": "uint64_t", "key": "int64_t", "abs_mask": "(~(uint64_t)0 >> 1)", "inf": "((uint64_t)0x7ffu << 52)",
+               "sign_shift": 63},
+}
 
 _ENV = jinja2.Environment(
     loader=jinja2.PackageLoader("dobwind.codegen", "templates"),
@@ -151,25 +158,31 @@ def _limit_context(model: StepModel, printer: CPrinter, precision: str) -> dict:
 
 
 def generate_code(af: Airframe, precision: str = "single", model: StepModel | None = None,
-                  source: str | None = None) -> GeneratedCode:
-    """``source`` names the airframe file in errors (default: the airframe's name)."""
+                  source: str | None = None, target: str | None = None) -> GeneratedCode:
+    """``source`` names the airframe file in errors (default: the airframe's name). ``target`` ("px4",
+    "ardupilot") adds that autopilot's module or library folder (codegen/targets.py); single precision."""
     model = model or build_step(af)
     _refuse_unstable(af)
+    if target is not None and precision != "single":
+        raise InputError(source or af.name, "--target", f"{target} integrations are single precision "
+                         "(the autopilots' estimators run in float): drop --precision double")
     if precision == "single":
         refuse_ill_conditioned_terms(af, source or af.name)
     try:
-        return _render(af, precision, model)
+        return _render(af, precision, model, target)
     except LiteralError as exc:
         raise InputError(source or af.name, None, f"cannot print the C in {precision} precision: {exc} "
                          "(check the airframe's values)") from None
 
 
-def _render(af: Airframe, precision: str, model: StepModel) -> GeneratedCode:
+def _render(af: Airframe, precision: str, model: StepModel, target: str | None = None) -> GeneratedCode:
     prefix = f"{af.name}_wind_"
     printer = CPrinter(precision, kernel_prefix=prefix)
     validate, sections, check = build_sections(model, printer)
     every_line = [line for s in (validate.section, *sections, check) for line in s.lines] + list(validate.reject_lines)
     kernels = {k: any(f"{prefix}{k}(" in line for line in every_line) for k in ("sincos", "expm1", "atan2")}
+    kernels.update({f"ieee_{k}": any(f"{prefix}{k}(" in line for line in every_line) for k in ("key", "magnitude")})
+    kernels["ieee"] = kernels["ieee_key"] or kernels["ieee_magnitude"]
     common = {
         "name": af.name,
         "prefix": prefix,
@@ -190,7 +203,7 @@ def _render(af: Airframe, precision: str, model: StepModel) -> GeneratedCode:
         **common, validate=validate, sections=sections, check=check, commit=_commit_lines(model, printer),
         reset=[f"state->{field} = {printer.literal(value)};" for field, value in model.reset_on_reject],
         total_ops=total_ops, total_calls=validate.section.calls + sum(s.calls for s in sections) + check.calls,
-        kernels=kernels, coefficients=kernel_literals(printer),
+        kernels=kernels, coefficients=kernel_literals(printer), ieee=IEEE_TYPES[precision],
         state_fields=[f for f in model.state.fields],
     )
     selftest = _ENV.get_template("selftest.c.j2").render(**common, **_selftest_context(model, printer, precision))
@@ -201,6 +214,8 @@ def _render(af: Airframe, precision: str, model: StepModel) -> GeneratedCode:
         f"{af.name}_wind_selftest.c": selftest,
         "CMakeLists.txt": cmake,
     }
+    if target is not None:
+        files.update(render_target(target, _ENV, model, common, files))
     return GeneratedCode(af.name, precision, files, total_ops)
 
 
@@ -209,7 +224,8 @@ def _refuse_unstable(af: Airframe) -> None:
 
 
 # What generate writes for any airframe: the only names a folder it replaces may hold.
-GENERATED_NAME = re.compile(r"[a-z][a-z0-9_]*_wind(_selftest)?\.[ch]|CMakeLists\.txt")
+GENERATED_NAME = re.compile(r"[a-z][a-z0-9_]*_wind(_selftest)?\.[ch]|CMakeLists\.txt|"
+                            + "|".join(TARGET_FOLDERS.values()))
 
 
 def is_generated_name(name: str) -> bool:
@@ -222,6 +238,7 @@ def write_files(files: dict[str, str], out_dir: str | Path) -> list[Path]:
     paths = []
     for name, text in files.items():
         path = Path(out_dir) / name
+        path.parent.mkdir(parents=True, exist_ok=True)  # a target's folder
         path.write_text(text, encoding="utf-8")
         paths.append(path)
     return paths

@@ -93,6 +93,27 @@ class CPrinter:
         # a negation printed before it can never make "--0.0f".
         return f"({text})" if math.copysign(1.0, value) < 0 else text
 
+    def _bit_exact(self, args: list[str], bools: list[bool], op: int,
+                   constant_arg: Callable[[int], float | None], magnitude: Callable[[int], bool]) -> str | None:
+        """A rejection test of a value against a constant limit, printed as a call of the generated
+        file's bit-pattern comparisons (source.c.j2): integer tests on the IEEE 754 bits decide as the
+        reference does even where the integrator's flags flush subnormals to zero or assume no NaN
+        (-funsafe-math-optimizations, -ffast-math). None: not such a test (two variables, or a truth value)."""
+        if not self.directed_limits or self.kernel_prefix is None or op not in (ca.OP_LT, ca.OP_LE) or any(bools):
+            return None
+        constants = [constant_arg(0), constant_arg(1)]
+        if (constants[0] is None) == (constants[1] is None):
+            return None
+        sign = _COMPARE[op]
+        k = self.kernel_prefix
+        if constants[1] is not None:  # x <= c, x < c
+            limit = self._compared(args, bools, 1, op, constant_arg)
+            if magnitude(0) and constants[1] >= 0.0:  # |y| <= c: the magnitude bits suffice (NaN is above any c)
+                return f"{k}magnitude({args[0]}) {sign} {k}bits({limit})"
+            return f"{k}key({args[0]}, 1) {sign} {k}key({limit}, 1)"
+        limit = self._compared(args, bools, 0, op, constant_arg)  # c <= x, c < x
+        return f"{k}key({limit}, 0) {sign} {k}key({args[1]}, 0)"
+
     def _compared(self, args: list[str], bools: list[bool], i: int, op: int,
                   constant_arg: Callable[[int], float | None]) -> str:
         """A comparison operand. A single-precision limit is printed as the float on the safe side of
@@ -119,12 +140,13 @@ class CPrinter:
         return f"(({self.real})({condition}))"
 
     def operation(self, op: int, args: list[str], bools: list[bool],
-                  constant_arg: Callable[[int], float | None]) -> tuple[str, bool]:
+                  constant_arg: Callable[[int], float | None],
+                  magnitude: Callable[[int], bool] = lambda i: False) -> tuple[str, bool]:
         """C expression for one SX operation and whether it is a truth value (printed as int).
 
         Truth values from comparisons stay ``int`` in C: converting them to floating point and back at
         every logical step would cost instructions for nothing. ``constant_arg(i)`` is argument i's
-        value when it is a constant.
+        value when it is a constant, ``magnitude(i)`` whether it is an absolute value (fabs).
         """
         def num(i: int) -> str:  # an argument in arithmetic context
             return f"(({self.real}){args[i]})" if bools[i] else args[i]
@@ -136,7 +158,7 @@ class CPrinter:
         arithmetic = self._arithmetic(op, num, constant_arg)
         if arithmetic is not None:
             return arithmetic, False
-        logical = self._logical(op, args, bools, constant_arg)
+        logical = self._bit_exact(args, bools, op, constant_arg, magnitude) or self._logical(op, args, bools, constant_arg)
         if logical is not None:
             return logical, True
         raise NotImplementedError(f"CasADi operation {op} has no C printing")

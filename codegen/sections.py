@@ -112,6 +112,7 @@ class _Writer:
         self.index = 0  # the instruction being printed (constants are read from the Function by index)
         self.sincos: dict[tuple[int, int], str] = {}     # angle value -> its sincos temporary
         self.reciprocal: dict[tuple[int, int], str] = {}  # denominator value -> 1/it
+        self.magnitudes: set[str] = set()  # temporaries holding an absolute value (fabs)
         # Single precision: a denominator used more than once becomes one reciprocal and products
         # (a division costs 14 cycles on a Cortex-M4F, a product 1). Double keeps every division, so
         # that it stays bit-identical to the reference.
@@ -171,9 +172,12 @@ class _Writer:
         boolean = False
         if name is None:
             expr, boolean = p.operation(ins.op, [self.work[a] for a in ins.args], [self.is_bool[a] for a in ins.args],
-                                        lambda i: self.constants.get(ins.args[i]) if i < len(ins.args) else None)
+                                        lambda i: self.constants.get(ins.args[i]) if i < len(ins.args) else None,
+                                        lambda i: self.work[ins.args[i]] in self.magnitudes)
             name = self.temp("int" if boolean else p.real, expr, lines)
             self.calls += ins.op in CALL_OPS
+            if ins.op == ca.OP_FABS:
+                self.magnitudes.add(name)
         self.work[ins.res[0]], self.is_bool[ins.res[0]] = name, boolean
         self.constants.pop(ins.res[0], None)
 

@@ -49,7 +49,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
     target = Target("-o", out_dir, "dir")
     check_targets([target], [args.airframe])
     check_replaceable(target, is_generated_name)
-    files = generate_to_dir(af, out_dir, args.precision, source=args.airframe)
+    files = generate_to_dir(af, out_dir, args.precision, source=args.airframe, integration=args.target)
     for path in files:
         print(path)
     return 0
@@ -63,8 +63,13 @@ def cmd_verify(args: argparse.Namespace) -> int:
     af = load_airframe(args.airframe)
     if args.c_dir is None and args.precision in ("single", "both"):
         refuse_ill_conditioned_terms(af, args.airframe)  # generate refuses them: nothing to verify
-    report = verify_airframe(af, args.precision, steps=args.steps, seed=args.seed,
-                             c_dir=None if args.c_dir is None else Path(args.c_dir))
+    try:
+        report = verify_airframe(af, args.precision, steps=args.steps, seed=args.seed,
+                                 c_dir=None if args.c_dir is None else Path(args.c_dir), flags=args.flags)
+    except InputError as exc:
+        if exc.source != af.name:
+            raise
+        raise InputError(args.airframe, exc.where, exc.message) from None  # name the file, not the airframe
     if args.json:
         _print_json(report.as_dict())
     else:
@@ -396,6 +401,9 @@ def _add_generate(command: _Command) -> None:
     p.add_argument("-o", "--output", help="output folder (default: generated_c/<name>/ in the working directory)")
     p.add_argument("--precision", choices=("single", "double"), default="single",
                    help="floating-point type of the generated C: float (single) or double")
+    p.add_argument("--target", choices=("px4", "ardupilot"), help="also write that autopilot's integration "
+                   "beside the C: px4/ (a PX4 work-queue module, its .msg and parameter) or AP_DOBWind/ (an "
+                   "ArduPilot library with its DataFlash message); single precision (default: the C only)")
     p.set_defaults(func=cmd_generate)
 
 
@@ -410,6 +418,10 @@ def _add_verify(command: _Command) -> None:
                    f"({opt.SEED.text()})")
     p.add_argument("--c-dir", help="verify the generated C in this folder as it is (e.g. generated_c/m300) "
                    "instead of freshly generated C; its precision is read from its header (default: none)")
+    p.add_argument("--flags", choices=("px4", "ardupilot"), help="also build with that autopilot's own compile "
+                   "flags (gcc, clang, arm-none-eabi-gcc; C and C++, -Werror), and build the self-test and the "
+                   "library compared with the reference with them; ardupilot: single precision only "
+                   "(default: none)")
     p.add_argument("--json", action="store_true", help=JSON_HELP)
     p.set_defaults(func=cmd_verify)
 

@@ -7,7 +7,7 @@ steps, the two implementations run in turn within each round (interleaved). The 
 instruction-level estimate of the real firmware (harness/m4cycles.py), not a measurement.
 Flash is a minimal Cortex-M4F firmware (-Os, gc-sections) calling the step, single precision.
 
-    python -m dobwind.harness.bench [AIRFRAME] [--json]
+    python -m dobwind.harness.bench [AIRFRAME ...] [--json]
 """
 from __future__ import annotations
 
@@ -35,6 +35,8 @@ from dobwind.model.exercise import flight_inputs
 from dobwind.model.step import StepModel, build_step
 
 ROWS = 1000
+# One airframe of each family: the paper's polynomial and the drag-body law fit chooses on most vehicles.
+DEFAULT_AIRFRAMES = ("airframes/m300.toml", "benchmarks/bench/m300body.toml")
 # -fno-math-errno (the flag the README recommends): sqrt then compiles to the instruction (sqrtss, vsqrt.f32)
 # instead of a call kept for errno; the step's square roots never see a negative argument.
 FLAGS = ("-std=c99", "-O2", "-fno-math-errno")
@@ -104,6 +106,9 @@ class Row:
     m4f_flash_bytes: int | None
     m4f_double_symbols: int | None
     m4f_cycles_estimate: float | None = None  # mean over the bench rows; see harness/m4cycles.py
+    m4f_object_bytes: int | None = None       # the step's object code (-Os, without libm)
+    airframe: str = ""
+    family: str = ""
 
 
 def _data_file(model: StepModel, work: Path) -> Path:
@@ -189,11 +194,13 @@ def bench(af_path: str) -> list[Row]:
                  str(cas_src), str(data), "-o", str(cas), "-lm"])
             flash: dict[str, tuple[int | None, int | None]] = {"dobwind": (None, None), "casadi generate()": (None, None)}
             cycles = None
+            code_bytes: dict[str, int | None] = {"dobwind": None, "casadi generate()": None}
             if precision == "single" and cortex.available():
                 mdir = pdir / "m4f"
                 mdir.mkdir()
                 build = cortex.check_generated(pdir, name, model.inputs.fields, mdir)
                 flash["dobwind"] = (build.firmware_flash_bytes, len(build.double_symbols))
+                code_bytes["dobwind"] = build.object_text_bytes
                 cycles = _m4f_cycles(model, mdir / "with_step.elf")
                 cmain_text = _casadi_firmware_main(fname, model)
                 elf = cortex.build_firmware([cas_src], cmain_text, mdir, "casadi_fw",
@@ -206,8 +213,16 @@ def bench(af_path: str) -> list[Row]:
             for (label, exe), ns in zip(pair, _interleaved_ns([ours, cas])):
                 instructions = _instructions_per_step(exe)
                 results.append(Row(precision, label, instructions, ns, *flash[label],
-                                   cycles if label == "dobwind" and precision == "single" else None))
+                                   cycles if label == "dobwind" and precision == "single" else None,
+                                   code_bytes[label], name, family(model.airframe)))
     return results
+
+
+def family(af) -> str:
+    """The force-air family, as fit names it."""
+    if af.drag is None:
+        return "polynomial"
+    return "drag-body" if af.drag.frame == "body" else "drag-heading"
 
 
 def _m4f_cycles(model: StepModel, elf: Path) -> float | None:
@@ -249,14 +264,17 @@ int main(void)
 
 
 def table(rows: list[Row]) -> str:
-    out = ["| precision | implementation | x86-64 instructions/step | ns/step | Cortex-M4F flash (bytes) | "
-           "double-precision symbols | M4F cycles/step (estimate) |",
-           "|---|---|---:|---:|---:|---:|---:|"]
+    out = [f"{rows[0].airframe} ({rows[0].family})\n" if rows and rows[0].airframe else "",
+           "| precision | implementation | x86-64 instructions/step | ns/step | Cortex-M4F flash (bytes) | "
+           "M4F step object (bytes) | double-precision symbols | M4F cycles/step (estimate) |",
+           "|---|---|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
         flash = "-" if r.m4f_flash_bytes is None else str(r.m4f_flash_bytes)
+        code = "-" if r.m4f_object_bytes is None else str(r.m4f_object_bytes)
         dbl = "-" if r.m4f_double_symbols is None else str(r.m4f_double_symbols)
         cyc = "-" if r.m4f_cycles_estimate is None else f"{r.m4f_cycles_estimate:.0f}"
-        out.append(f"| {r.precision} | {r.implementation} | {r.instructions_per_step:.0f} | {r.ns_per_step:.1f} | {flash} | {dbl} | {cyc} |")
+        out.append(f"| {r.precision} | {r.implementation} | {r.instructions_per_step:.0f} | {r.ns_per_step:.1f} | {flash} | "
+                   f"{code} | {dbl} | {cyc} |")
     by = {(r.precision, r.implementation): r for r in rows}
     for p in ("double", "single"):
         ours, theirs = by.get((p, "dobwind")), by.get((p, "casadi generate()"))
@@ -270,17 +288,18 @@ def table(rows: list[Row]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m dobwind.harness.bench")
-    parser.add_argument("airframe", nargs="?", default="airframes/m300.toml")
+    parser.add_argument("airframe", nargs="*", default=list(DEFAULT_AIRFRAMES),
+                        help="airframe files (default: one of each family: m300's polynomial and a drag-body fit)")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args(argv)
     if not shutil.which("valgrind"):
         sys.stderr.write("bench: valgrind is needed (apt-get install valgrind)\n")
         return 2
-    rows = bench(args.airframe)
+    tables = [bench(path) for path in args.airframe]
     if args.json:
-        print(json.dumps([asdict(r) for r in rows], indent=2))
+        print(json.dumps([asdict(r) for rows in tables for r in rows], indent=2))
     else:
-        print(table(rows))
+        print("\n\n".join(table(rows) for rows in tables))
     return 0
 
 

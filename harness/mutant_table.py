@@ -59,25 +59,28 @@ def _validation_mutants(af: Airframe) -> list[CMutant]:
     q_lo, q_hi = (1 - QUATERNION_NORM_TOLERANCE) ** 2, (1 + QUATERNION_NORM_TOLERANCE) ** 2
     top_dt = af.limits.max_dt_s * (1 + DT_TOLERANCE)
     big = INPUT_MAGNITUDE_LIMIT
-    finite_test = r"(fabsf?\(in->{0}\);\n\s*const int \w+ = )(\w+) <= [^;]+;"
+    # The rejection tests compare bit patterns (codegen/printer.py _bit_exact): |x| <= c as
+    # <prefix>magnitude(t) <= <prefix>bits(c), x <= c as <prefix>key(x, 1) <= <prefix>key(c, 1).
+    finite_test = r"(fabsf?\(in->{0}\);\n\s*const int \w+ = )(\w+magnitude\(\w+\)) <= (\w+bits)\([^;]+\);"
     return [
-        CMutant("dt upper bound <= becomes <", "validate", r"in->dt <= ", "in->dt < "),
+        CMutant("dt upper bound <= becomes <", "validate", r"(key\(in->dt, 1\)) <= ", r"\1 < "),
         CMutant("dt upper bound x1.001", "validate", near=top_dt, scale=1.001),
-        CMutant("dt lower bound x10 (1e-5 -> 1e-4)", "validate", r"(\S+) <= in->dt", r"(\1 * ({real})10) <= in->dt"),
-        CMutant("dt lower bound <= becomes <", "validate", r"(\S+) <= in->dt", r"\1 < in->dt"),
-        CMutant("yaw_ref limit 1e6 -> 2e6", "validate", finite_test.format("yaw_ref"), r"\1\2 <= ({real})2e6;"),
+        CMutant("dt lower bound x10 (1e-5 -> 1e-4)", "validate", r"key\(([^,]+), 0\) <= (\w+key\(in->dt)",
+                r"key(\1 * ({real})10, 0) <= \2"),
+        CMutant("dt lower bound <= becomes <", "validate", r"(0\)) <= (\w+key\(in->dt)", r"\1 < \2"),
+        CMutant("yaw_ref limit 1e6 -> 2e6", "validate", finite_test.format("yaw_ref"), r"\1\2 <= \3(({real})2e6);"),
         CMutant("yaw_ref limit <= becomes <", "validate", finite_test.format("yaw_ref"),
-                r"\1\2 < ({real})" + f"{big:.1f};"),
+                r"\1\2 < \3(({real})" + f"{big:.1f});"),
         CMutant("vel_ned[1] magnitude test dropped", "validate", finite_test.format(r"vel_ned\[1\]"),
                 r"\1\2 == \2;"),
         CMutant("quaternion lower bound 0.81 -> 0.8", "validate", near=q_lo, value=0.8),
         CMutant("quaternion upper bound 1.21 -> 1.22", "validate", near=q_hi, value=1.22),
-        CMutant("quaternion lower bound <= becomes <", "validate", r"(0\.81\d*) <= ", r"\1 < ",
+        CMutant("quaternion lower bound <= becomes <", "validate", r"(0\.81\d*, 0\)) <= ", r"\1 < ",
                 precisions=("double",)),
         CMutant("tilt threshold cos(max_tilt) -0.01", "validate", near=cos_tilt, value=cos_tilt - 0.01),
         CMutant("tilt test <= becomes <", "validate",
                 r"(?s)(const double (t\d+) = [\d.e+-]+ \* \w+;.*?= \2) <= ", r"\1 < ", precisions=("double",)),
-        *[CMutant(f"rpm check on rotor {i + 1} dropped", "validate", rf"0\.0f? <= in->rotor_rpm\[{i}\];",
+        *[CMutant(f"rpm check on rotor {i + 1} dropped", "validate", rf"\w+key\(0\.0f?, 0\) <= \w+key\(in->rotor_rpm\[{i}\], 0\);",
                   f"in->rotor_rpm[{i}] == in->rotor_rpm[{i}];") for i in range(af.thrust.rotors)
           if af.thrust.source == "rpm"],
         CMutant("BAD_THRUST bit dropped", "validate", r"\? 16\.0f? :", "? ({real})0 :"),
@@ -106,8 +109,8 @@ def _estimate_mutants(af: Airframe) -> list[CMutant]:
         CMutant("settling time x1.1", "quality", near=settling_time_s(af), scale=1.1, count=None),
         CMutant("SETTLING bit dropped", "quality", r"\? 64\.0f? :", "? ({real})0 :"),
         CMutant("quaternion order in z_b (w*y -> x*y)", "attitude", r"in->q\[0\] \* in->q\[2\]", "in->q[1] * in->q[2]"),
-        CMutant("result limit 1e30 x10", "check_result", r"<= ([\d.e+-]+f?);", r"<= (\1 * ({real})10);"),
-        CMutant("result limit <= becomes <", "check_result", r"<= ([\d.e+-]+f?);", r"< \1;", precisions=("double",)),
+        CMutant("result limit 1e30 x10", "check_result", r"<= (\w+key)\(([\d.e+-]+f?), 1\);", r"<= \1(\2 * ({real})10, 1);"),
+        CMutant("result limit <= becomes <", "check_result", r"<= (\w+key\([\d.e+-]+f?, 1\);)", r"< \1", precisions=("double",)),
     ]
 
 

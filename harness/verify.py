@@ -15,6 +15,7 @@ from dobwind.codegen.tolerance import TOLERANCE
 from dobwind.model.errors import CheckFailed, InputError
 from dobwind.harness.build import Compiler, available_compilers, build_shared_library, run, strict_compile, system_compiler
 from dobwind.harness.compare import Comparison, compare
+from dobwind.harness.flagsets import FLAG_SETS, FlagSet, Toolchain, available_toolchains, build_selftest, compile_c
 from dobwind.harness.cstep import CStep
 from dobwind.model import reference
 from dobwind.model.airframe import Airframe
@@ -111,10 +112,39 @@ def folder_precision(c_dir: Path, name: str) -> str:
     return found.group(1)
 
 
+def _selftest_build(code_dir: Path, name: str, work: Path, flags: FlagSet | None) -> Path:
+    if flags is not None:
+        return build_selftest(Toolchain("cc", system_compiler(), system_compiler()), flags, code_dir, name, work)
+    exe = work / "selftest"
+    run([system_compiler(), "-std=c99", "-O2", str(code_dir / f"{name}_wind.c"), str(code_dir / f"{name}_wind_selftest.c"),
+         "-o", str(exe), "-lm"])
+    return exe
+
+
+def _flag_set_builds(report: PrecisionReport, flags: FlagSet, code_dir: Path, name: str, work: Path) -> None:
+    """Every toolchain at hand, C and the C file as C++, with the autopilot's set (-Werror in it)."""
+    sources = [code_dir / f"{name}_wind.c", code_dir / f"{name}_wind_selftest.c"]
+    for toolchain in available_toolchains():
+        for cxx in (False, True):
+            label = f"{toolchain.label} {flags.name} {'C++' if cxx else 'C'}"
+            try:
+                compile_c(toolchain, flags, sources, work, cxx)
+                report.compilers[label] = "ok"
+            except CheckFailed as exc:
+                report.compilers[label] = _first_error(str(exc))
+
+
+def _first_error(text: str) -> str:
+    lines = [line for line in text.splitlines() if "error" in line] or text.splitlines()[-1:]
+    return lines[0][:200]
+
+
 def verify_precision(model: StepModel, precision: str, steps: int, seed: int, work: Path,
                      c_dir: Path | None = None, compilers: list[Compiler] | None = None,
-                     references: ReferenceChecks | None = None) -> PrecisionReport:
-    """With ``c_dir`` the C in that folder is checked as it is (a hand edit shows); otherwise fresh C."""
+                     references: ReferenceChecks | None = None, flags: FlagSet | None = None) -> PrecisionReport:
+    """With ``c_dir`` the C in that folder is checked as it is (a hand edit shows); otherwise fresh C.
+    With ``flags`` (an autopilot's set, harness/flagsets.py) the C is also compiled with it by every
+    toolchain, and the self-test and the library compared with the reference are built with it."""
     report = PrecisionReport(precision)
     if c_dir is None:
         write_files(generate_code(model.airframe, precision, model).files, work)
@@ -127,15 +157,15 @@ def verify_precision(model: StepModel, precision: str, steps: int, seed: int, wo
             report.compilers[compiler.label] = "ok"
         except CheckFailed as exc:
             report.compilers[compiler.label] = str(exc).splitlines()[-1][:200]
+    if flags is not None:
+        _flag_set_builds(report, flags, code_dir, name, work)
     try:
-        exe = work / "selftest"
-        run([system_compiler(), "-std=c99", "-O2", str(code_dir / f"{name}_wind.c"), str(code_dir / f"{name}_wind_selftest.c"),
-             "-o", str(exe), "-lm"])
-        done = run([str(exe)])
+        done = run([str(_selftest_build(code_dir, name, work, flags))])
         report.selftest, report.selftest_ok = done.stdout.strip().splitlines()[-1], True
     except CheckFailed as exc:
         report.selftest = str(exc).strip().splitlines()[-1]
-    cstep = CStep(model, build_shared_library(model, precision, code_dir, work))
+    extra = () if flags is None else tuple(f for f in flags.c if f not in ("-Werror", "-Wfatal-errors"))
+    cstep = CStep(model, build_shared_library(model, precision, code_dir, work, extra))
     checks = references if references is not None else ReferenceChecks.build(model, precision, steps, seed)
     report.cases = compare(model, cstep.cases(checks.states, checks.inputs), checks.cases, TOLERANCE[precision])
     report.flight = compare(model, cstep.run(checks.flight_inputs), checks.flight, TOLERANCE[precision])
@@ -163,17 +193,26 @@ class ReferenceChecks:
 
 
 def verify_airframe(af: Airframe, precision: str = "both", steps: int = 20000, seed: int = 1,
-                    c_dir: Path | None = None, model: StepModel | None = None) -> VerifyReport:
-    """``c_dir``: verify that folder's C (its own precision; ``precision`` must be it or "both")."""
+                    c_dir: Path | None = None, model: StepModel | None = None,
+                    flags: str | None = None) -> VerifyReport:
+    """``c_dir``: verify that folder's C (its own precision; ``precision`` must be it or "both").
+    ``flags``: "px4" or "ardupilot", build with that autopilot's compile flags too."""
     model = model or build_step(af)
     if c_dir is not None:
         found = folder_precision(Path(c_dir), af.name)
         if precision not in ("both", found):
             raise InputError(str(c_dir), None, f"holds {found}-precision C, not {precision}")
         precision = found
+    flag_set = None if flags is None else FLAG_SETS[flags]
     precisions = ("double", "single") if precision == "both" else (precision,)
+    if flag_set is not None and not flag_set.double_ok:
+        if precisions == ("double",):
+            raise InputError(af.name, "--flags", f"{flags}'s -fsingle-precision-constant makes every double literal "
+                             "a float: its builds are single precision (use --precision single)")
+        precisions = ("single",)
     reports = []
     for p in precisions:
         with tempfile.TemporaryDirectory(prefix=f"dobwind-verify-{p}-") as tmp:
-            reports.append(verify_precision(model, p, steps, seed, Path(tmp), None if c_dir is None else Path(c_dir)))
+            reports.append(verify_precision(model, p, steps, seed, Path(tmp), None if c_dir is None else Path(c_dir),
+                                            flags=flag_set))
     return VerifyReport(af.name, reports)

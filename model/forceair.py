@@ -37,6 +37,8 @@ analysis and flight share one definition. Frames and signs: docs/model.md.
 """
 from __future__ import annotations
 
+from typing import Callable
+
 import dataclasses
 import functools
 import math
@@ -73,6 +75,8 @@ ROTOR_DRAG_KEY = "lr"
 DRAG_FRAMES = ("heading", "body")
 # Newton steps of the body-frame inversion (3-D, coupled through |a| and the inflow terms).
 BODY_NEWTON_STEPS = 4
+# The step's: Newton steps per sample from the previous sample's airflow (body_drag_airflow_tracking).
+TRACKING_NEWTON_STEPS = 2
 # The isotropic start solves the quadratic law; with another exponent it is off by (F / q0)^(1/2 - 1/p)
 # (about 45 % at 20 m/s for p = 1.6), and two more steps bring it to float precision up to 40 m/s
 # (tests/test_drag_exponent.py); far beyond, where the step flags the airflow, it converges less.
@@ -361,6 +365,19 @@ def body_drag_force(law: DragLaw, ax, ay, az, rotor, eps: float = 0.0):
 
 
 def _body_newton_step(law: DragLaw, a: ca.SX, rotor: ca.SX, force_b: ca.SX) -> ca.SX:
+    return _body_newton_chord(law, a, rotor, force_b)[0]
+
+
+def _body_law_value(law: DragLaw, a: ca.SX, rotor: ca.SX) -> ca.SX:
+    sa, sr = ca.SX.sym("a", 3), ca.SX.sym("rotor")
+    value = ca.vertcat(*body_drag_force(law, sa[0], sa[1], sa[2], sr, DRAG_SPEED_EPS_MPS))
+    coefficients = _symbols(law)
+    return ca.Function("body_drag_value", [sa, sr, *coefficients], [value])(a, rotor, *coefficients)
+
+
+def _body_newton_chord(law: DragLaw, a: ca.SX, rotor: ca.SX, force_b: ca.SX) -> tuple[ca.SX, Callable[[ca.SX], ca.SX]]:
+    """One Newton step from ``a``, and the correction J(a)^-1 r of that same Jacobian for a later
+    iterate (a chord step: the Jacobian reused, only the law's value evaluated again)."""
     sa, sr = ca.SX.sym("a", 3), ca.SX.sym("rotor")
     value = ca.vertcat(*body_drag_force(law, sa[0], sa[1], sa[2], sr, DRAG_SPEED_EPS_MPS))
     coefficients = _symbols(law)
@@ -376,15 +393,17 @@ def _body_newton_step(law: DragLaw, a: ca.SX, rotor: ca.SX, force_b: ca.SX) -> c
         ca.horzcat(j[1, 2] * j[2, 0] - j[1, 0] * j[2, 2], j[0, 0] * j[2, 2] - j[0, 2] * j[2, 0], j[0, 2] * j[1, 0] - j[0, 0] * j[1, 2]),
         ca.horzcat(j[1, 0] * j[2, 1] - j[1, 1] * j[2, 0], j[0, 1] * j[2, 0] - j[0, 0] * j[2, 1], j[0, 0] * j[1, 1] - j[0, 1] * j[1, 0]))
     det = j[0, 0] * adj[0, 0] + j[0, 1] * adj[1, 0] + j[0, 2] * adj[2, 0]
-    return a - (adj @ r) / ca.fmax(det, _DENOMINATOR_FLOOR)
+    inv_det = 1 / ca.fmax(det, _DENOMINATOR_FLOOR)
+
+    def chord(later: ca.SX) -> ca.SX:
+        return later - (adj @ ((_body_law_value(law, later, rotor) - force_b) * inv_trace)) * inv_det
+
+    return a - (adj @ r) * inv_det, chord
 
 
-def body_drag_airflow(law: DragLaw, force_ned: ca.SX, rot: ca.SX, rotor: ca.SX) -> ca.SX:
-    """The body-frame law inverted: relative airflow (NED, m/s) from the NED force (offset removed),
-    the attitude ``rot`` (body -> NED, 3x3) and rotor = sqrt(u_f / (m g))."""
-    f_b = rot.T @ force_ned
-    # Start: each axis's isotropic law solved alone (the in-plane pair along its force), as in the heading
-    # frame; Newton then couples the axes.
+def _body_isotropic_start(law: DragLaw, f_b: ca.SX, rotor: ca.SX) -> ca.SX:
+    """Each axis's isotropic law solved alone (the in-plane pair along its force), as in the heading
+    frame: the body-frame airflow Newton starts from when nothing better is known."""
     lin = law.l0 + law.lr * rotor
     fh = ca.sqrt(f_b[0] * f_b[0] + f_b[1] * f_b[1])
     scale = 2 / ca.fmax(lin + ca.sqrt(lin * lin + 4 * law.q0 * fh), _DENOMINATOR_FLOOR)
@@ -392,10 +411,45 @@ def body_drag_airflow(law: DragLaw, force_ned: ca.SX, rot: ca.SX, rotor: ca.SX) 
     sh = ca.sqrt(ax * ax + ay * ay)
     rz = f_b[2] - law.i1 * sh - law.i2 * sh * sh
     az = 2 * rz / ca.fmax(law.lz + ca.sqrt(law.lz * law.lz + 4 * law.qz * ca.fabs(rz)), _DENOMINATOR_FLOOR)
-    a = ca.vertcat(ax, ay, az)
+    return ca.vertcat(ax, ay, az)
+
+
+def body_drag_airflow(law: DragLaw, force_ned: ca.SX, rot: ca.SX, rotor: ca.SX) -> ca.SX:
+    """The body-frame law inverted: relative airflow (NED, m/s) from the NED force (offset removed),
+    the attitude ``rot`` (body -> NED, 3x3) and rotor = sqrt(u_f / (m g)). Converged from the
+    isotropic start (calibration and analysis; the step tracks, see body_drag_airflow_tracking)."""
+    f_b = rot.T @ force_ned
+    a = _body_isotropic_start(law, f_b, rotor)
     for _ in range(law.newton_steps(BODY_NEWTON_STEPS)):
         a = _body_newton_step(law, a, rotor, f_b)
     return rot @ a
+
+
+def body_drag_airflow_tracking(law: DragLaw, force_ned: ca.SX, rot: ca.SX, rotor: ca.SX, previous: ca.SX,
+                               warm: ca.SX) -> tuple[ca.SX, ca.SX]:
+    """The step's inversion of the body-frame law: (NED airflow, body-frame airflow) after
+    TRACKING_NEWTON_STEPS steps (more for laws that need them, DragLaw.newton_steps), the last a chord
+    step (the Jacobian of the step before reused: near the solution it barely changes, and the law's
+    value alone is half the cost) from the previous sample's body-frame airflow (``warm`` = 1; the
+    attitude turns little between samples, and Newton absorbs it), or from the isotropic start on the
+    first sample (``warm`` = 0) or after a jump. The force is low-passed, so from one sample to the next the solution
+    moves little and Newton, quadratic near it, tracks it in fewer steps than a cold start needs: each
+    sample continues the iteration of the one before (the first samples, within the settling time, may
+    be a few steps short of converged)."""
+    f_b = rot.T @ force_ned
+    cold = _body_isotropic_start(law, f_b, rotor)
+    # A jump of the force (a gust, the end of a gap) can leave the previous airflow far from the new
+    # solution, where Newton may not converge in a few steps (or overflow in single precision): then the
+    # isotropic start, which is near the solution at any size. The test, in 1-norms (no squares to
+    # overflow): the previous airflow within half the start's size (plus 1 m/s) of it.
+    distance = ca.sum1(ca.fabs(previous - cold))
+    near = ca.logic_and(warm > 0, distance <= 0.5 * ca.sum1(ca.fabs(cold)) + 1.0)
+    start = cold + near * (previous - cold)  # a product, not a select: smaller code on a Cortex-M
+    a, chord = _body_newton_chord(law, start, rotor, f_b)
+    for _ in range(law.newton_steps(TRACKING_NEWTON_STEPS) - 2):
+        a, chord = _body_newton_chord(law, a, rotor, f_b)
+    a = chord(a)  # the last step reuses the Jacobian of the one before
+    return rot @ a, a
 
 
 @functools.lru_cache(maxsize=None)

@@ -120,6 +120,9 @@ def state_layout(af: Airframe) -> Layout:
     if af.observer.estimates_acceleration_bias:
         fields.append(Field("acc_bias", 3, "m/s^2", "acceleration input minus the velocity's derivative, "
                             "slowly averaged (the input's bias), NED"))
+    if _body_drag(af):
+        fields.append(Field("air_prev", 3, "m/s", "relative airflow of the last accepted sample, body FRD: "
+                            "the drag law's inversion starts from it"))
     fields += [Field(f"last.{f.name}", f.size, f.unit, "last valid output: " + f.doc) for f in OUTPUT_FIELDS]
     fields.append(Field("initialized", 1, "-", "0 until the first accepted sample, then 1"))
     fields.append(Field("run_s", 1, "s", "accepted time since the start or the last gap, capped at the "
@@ -371,7 +374,8 @@ def _add_back_end(b: _Builder, af: Airframe) -> None:
     body = _body_drag(af)
     b.add("force_air", "heading-frame force -> relative airflow (air minus vehicle velocity), NED"
           + (" (body-frame drag law at the measured attitude)" if body else ""),
-          ["f_filt_new", "in.yaw_ref"] + (["rot_body_to_ned", "u_f"] if body else []), partial(_force_air, af))
+          ["f_filt_new", "in.yaw_ref"] + (["rot_body_to_ned", "u_f", "state.air_prev", "state.initialized"] if body else []),
+          partial(_force_air, af))
     if af.vertical_law == "fitted":
         b.add("wind", "wind triangle and the reported quantities", ["air_rel_ned", "v_filt_new"], _wind)
     else:
@@ -384,12 +388,21 @@ def _force_air(af: Airframe, s: Signals) -> Signals:
     c, sn = ca.cos(s["in.yaw_ref"]), ca.sin(s["in.yaw_ref"])
     mm, nn, fz = forceair.heading_force(s["f_filt_new"], c, sn, offset)
     if _body_drag(af):
-        # The offset is calibrated in the heading frame; the law acts on the body-frame airflow.
-        fn, fe = forceair.heading_to_ned(mm, nn, c, sn)
+        # The offset is calibrated in the heading frame; the law acts on the body-frame airflow. Without
+        # a horizontal offset, turning into the heading frame and back is the identity: the NED force
+        # itself (no sine and cosine of yaw_ref at all).
+        if offset[0] == 0.0 and offset[1] == 0.0:
+            fn, fe = s["f_filt_new"][0], s["f_filt_new"][1]
+        else:
+            fn, fe = forceair.heading_to_ned(mm, nn, c, sn)
         rotor = ca.sqrt(ca.fmax(s["u_f"], 0) * (1 / (af.mass_kg * af.gravity_mps2)))
-        air = forceair.body_drag_airflow(af.drag, ca.vertcat(fn, fe, fz), ca.reshape(s["rot_body_to_ned"], 3, 3), rotor)
+        air, air_body = forceair.body_drag_airflow_tracking(
+            af.drag, ca.vertcat(fn, fe, fz), ca.reshape(s["rot_body_to_ned"], 3, 3), rotor, s["state.air_prev"],
+            s["state.initialized"])
         north, east, rel_z = air[0], air[1], air[2]
         speed_h = ca.sqrt(north * north + east * east)
+        return {"force_heading": ca.vertcat(mm, nn, fz), "airflow_speed_h": speed_h,
+                "air_rel_ned": ca.vertcat(north, east, rel_z), "air_body": air_body}
     elif af.drag is not None:
         rel_x, rel_y, rel_z = forceair.drag_airflow(af.drag, mm, nn, fz)
         speed_h = ca.sqrt(rel_x * rel_x + rel_y * rel_y)
@@ -431,7 +444,7 @@ _NEXT_STATE_SIGNAL = {
     "fe_prev": "f_e", "vel_prev": "in.vel_ned", "initialized": "const.one",
     "last.force_ned": "f_filt_new", "last.wind_ned": "wind_ned", "last.wind_speed_h": "wind_speed_h",
     "last.wind_speed_up": "wind_speed_up", "last.wind_from_deg": "wind_from_deg",
-    "acc_bias": "acc_bias_new", "run_s": "run_s_new",
+    "acc_bias": "acc_bias_new", "run_s": "run_s_new", "air_prev": "air_body",
     "last.wind_sigma_h": "wind_sigma_h", "last.wind_sigma_up": "wind_sigma_up",
 }
 

@@ -115,10 +115,26 @@ def test_step_stage_inverts_the_law_at_the_measured_attitude():
     a = np.array([4.0, -3.0, 1.0])
     rotor = np.array([math.sqrt(1.3)])
     force = rot @ np.array(body_drag_force(law, a[:1], a[1:2], a[2:], rotor)).ravel()
-    args = {"f_filt_new": force, "in_yaw_ref": 0.7, "rot_body_to_ned": rot.T.ravel(), "u_f": u_f}
+    args = {"f_filt_new": force, "in_yaw_ref": 0.7, "rot_body_to_ned": rot.T.ravel(), "u_f": u_f,
+            "state_air_prev": np.zeros(3), "state_initialized": 0.0}
     names = [n.replace(".", "_") for n in stage.inputs]
-    air = stage.function(*[args[n] for n in names])[stage.outputs.index("air_rel_ned")]
-    np.testing.assert_allclose(np.asarray(air).ravel(), rot @ a, atol=1e-5)
+
+    def run(previous: np.ndarray, warm: float) -> tuple[np.ndarray, np.ndarray]:
+        out = stage.function(*[dict(args, state_air_prev=previous, state_initialized=warm)[n] for n in names])
+        return (np.asarray(out[stage.outputs.index("air_rel_ned")]).ravel(),
+                np.asarray(out[stage.outputs.index("air_body")]).ravel())
+
+    # The step tracks the solution (forceair.body_drag_airflow_tracking): from the isotropic start on the
+    # first sample, then from the previous sample's body-frame airflow; three samples of a steady force
+    # reach it.
+    air, body = run(np.zeros(3), 0.0)
+    for _ in range(2):
+        air, body = run(body, 1.0)
+    np.testing.assert_allclose(air, rot @ a, atol=1e-5)
+    np.testing.assert_allclose(body, a, atol=1e-5)
+    # The solution itself is a fixed point; a previous airflow far from it is not used (the cold start is).
+    np.testing.assert_allclose(run(a, 1.0)[0], rot @ a, atol=1e-9)
+    np.testing.assert_allclose(run(-10 * a, 1.0)[0], run(np.zeros(3), 0.0)[0], rtol=1e-12)
 
 
 def test_filtered_regression_recovers_a_known_body_law():

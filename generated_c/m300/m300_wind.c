@@ -15,6 +15,57 @@
 #include <stdint.h>
 #include <string.h>
 
+/* The rejection tests compare a value with a constant limit on the value's IEEE 754 bit pattern, with
+ * integer operations: they then decide exactly as the reference's comparisons do even under the
+ * autopilots' flags, which flush subnormals to zero (-funsafe-math-optimizations links FTZ/DAZ: a
+ * negative subnormal rpm would compare as 0) or let the compiler assume there is no NaN
+ * (-ffinite-math-only, -ffast-math: a NaN would pass `!(x <= limit)`). memcpy, not a union, so that
+ * C and C++ alike define it; the compiler folds the limits' keys to constants. Always inlined where
+ * the compiler allows it: -Os would otherwise call them, and the call costs more than the test. */
+#if defined(__GNUC__)
+#define M300_WIND_INLINE static inline __attribute__((always_inline))
+#else
+#define M300_WIND_INLINE static inline
+#endif
+
+M300_WIND_INLINE uint32_t m300_wind_bits(float x)
+{
+    uint32_t u;
+    memcpy(&u, &x, sizeof u);
+    return u;
+}
+
+/* x's place in the IEEE order as an integer (monotonic, -0 and +0 both 0); a NaN gets a key above
+ * every number (nan_high: x on the left of <= or <) or below every number (x on the right), so that
+ * the test fails for a NaN as an IEEE comparison does. */
+M300_WIND_INLINE int32_t m300_wind_key(float x, int nan_high)
+{
+    const uint32_t u = m300_wind_bits(x);
+    const uint32_t magnitude = u & 0x7fffffffu;
+    const int32_t nan_key = (int32_t)(0x7f800000u + 1u);
+    if (magnitude > 0x7f800000u) {
+        return nan_high ? nan_key : -nan_key;
+    }
+    return (u >> 31) != 0u ? -(int32_t)magnitude : (int32_t)magnitude;
+}
+
+/* |x| as bits, for tests |x| <= c with a constant c >= 0: the magnitude bits order as the magnitudes
+ * do, and a NaN's lie above every number's, so the test fails for a NaN */
+M300_WIND_INLINE uint32_t m300_wind_magnitude(float x)
+{
+    return m300_wind_bits(x) & 0x7fffffffu;
+}
+
+/* The value of v, which the compiler cannot see through: the argument reductions below subtract the
+ * parts of pi/2 and ln 2 one at a time, each exactly; -funsafe-math-optimizations (PX4's flags) would
+ * otherwise reassociate them into one product with the constants' rounded sum, an error of about
+ * k * 4e-8 (5e-4 at x = 1e4 rad). */
+static float m300_wind_opaque(float v)
+{
+    volatile float kept = v;
+    return kept;
+}
+
 /* sin and cos of one angle in single precision, instead of libm's sinf/cosf whose reduction of huge
  * arguments costs about 3 KB of flash on a Cortex-M. x = k pi/2 + r with k rounded; r by Cody-Waite
  * reduction with pi/2 in three parts, the first two of 12 bits, and k split into a multiple of 1024 and
@@ -28,15 +79,17 @@ typedef struct {
 
 static m300_wind_sincos_t m300_wind_sincos(float x)
 {
-    /* k = round(x 2/pi) by adding and subtracting 1.5 * 2^23 (exact for |x 2/pi| < 2^22; C99's
-     * FLT_EVAL_METHOD 0 and no -ffast-math keep the two operations as written) */
-    const float kf = (x * 0.636619747f + 12582912.0f) - 12582912.0f;
-    const long k = (long)kf;
+    /* k = x 2/pi rounded (half away from zero) by the conversion to an integer, which truncates: no
+     * floating-point trick that -funsafe-math-optimizations could fold away ((y + 1.5 * 2^23) - 1.5 *
+     * 2^23 becomes y under reassociation) */
+    const float t = x * 0.636619747f;
+    const long k = (long)(t + (t < 0.0f ? -0.5f : 0.5f));
+    const float kf = (float)k;
     const long k_high = (k / 1024L) * 1024L;
     const float kh = (float)k_high;
     const float kl = (float)(k - k_high);
-    const float r = ((((x - kh * 1.57080078f) - kl * 1.57080078f) - kh * (-4.45358455e-06f))
-                     - kl * (-4.45358455e-06f)) - kf * (-8.70551631e-10f);
+    const float r = m300_wind_opaque(m300_wind_opaque(m300_wind_opaque(m300_wind_opaque(x - kh * 1.57080078f) - kl * 1.57080078f)
+                     - kh * (-4.45358455e-06f)) - kl * (-4.45358455e-06f)) - kf * (-8.70551631e-10f);
     const float z = r * r;
     const float s = r + r * z * ((-0.166666546f) + z * (0.00833216087f + z * (-0.000195152959f)));
     const float c = 1.0f - 0.5f * z + z * z * (0.0416666456f + z * ((-0.00138873163f) + z * 2.44331571e-05f));
@@ -69,10 +122,12 @@ static float m300_wind_expm1(float x)
     }
     {
         const float xc = x > -87.0f ? (x < 88.0f ? x : 88.0f) : -87.0f;
-        const float kf = (xc * 1.44269502f + 12582912.0f) - 12582912.0f; /* round to nearest, as in sincos */
-        const float p = m300_wind_expm1_poly((xc - kf * 0.693115234f) - kf * 3.19461833e-05f);
+        const float t = xc * 1.44269502f;
+        const int k = (int)(t + (t < 0.0f ? -0.5f : 0.5f)); /* rounded by the conversion, as in sincos */
+        const float kf = (float)k;
+        const float p = m300_wind_expm1_poly(m300_wind_opaque(xc - kf * 0.693115234f) - kf * 3.19461833e-05f);
         /* 2^k from its IEEE 754 bits; memcpy is defined in C and C++ alike (a union is not in C++) */
-        const uint32_t bits = (uint32_t)((int)kf + 127) << 23;
+        const uint32_t bits = (uint32_t)(k + 127) << 23;
         float scale;
         memcpy(&scale, &bits, sizeof scale);
         return scale * p + (scale - 1.0f);
@@ -145,54 +200,54 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
     /* ---- validate: reject NaN/inf, bad dt, non-unit quaternion, excessive tilt, negative thrust (76 ops) ---- */
     {
         const float t0 = fabsf(in->dt);
-        const int t1 = t0 <= 1000000.0f;
+        const int t1 = m300_wind_magnitude(t0) <= m300_wind_bits(1000000.0f);
         const float t2 = fabsf(in->vel_ned[0]);
-        const int t3 = t2 <= 1000000.0f;
+        const int t3 = m300_wind_magnitude(t2) <= m300_wind_bits(1000000.0f);
         const int t4 = t1 & t3;
         const float t5 = fabsf(in->vel_ned[1]);
-        const int t6 = t5 <= 1000000.0f;
+        const int t6 = m300_wind_magnitude(t5) <= m300_wind_bits(1000000.0f);
         const int t7 = t4 & t6;
         const float t8 = fabsf(in->vel_ned[2]);
-        const int t9 = t8 <= 1000000.0f;
+        const int t9 = m300_wind_magnitude(t8) <= m300_wind_bits(1000000.0f);
         const int t10 = t7 & t9;
         const float t11 = fabsf(in->acc_ned[0]);
-        const int t12 = t11 <= 1000000.0f;
+        const int t12 = m300_wind_magnitude(t11) <= m300_wind_bits(1000000.0f);
         const int t13 = t10 & t12;
         const float t14 = fabsf(in->acc_ned[1]);
-        const int t15 = t14 <= 1000000.0f;
+        const int t15 = m300_wind_magnitude(t14) <= m300_wind_bits(1000000.0f);
         const int t16 = t13 & t15;
         const float t17 = fabsf(in->acc_ned[2]);
-        const int t18 = t17 <= 1000000.0f;
+        const int t18 = m300_wind_magnitude(t17) <= m300_wind_bits(1000000.0f);
         const int t19 = t16 & t18;
         const float t20 = fabsf(in->q[0]);
-        const int t21 = t20 <= 1000000.0f;
+        const int t21 = m300_wind_magnitude(t20) <= m300_wind_bits(1000000.0f);
         const int t22 = t19 & t21;
         const float t23 = fabsf(in->q[1]);
-        const int t24 = t23 <= 1000000.0f;
+        const int t24 = m300_wind_magnitude(t23) <= m300_wind_bits(1000000.0f);
         const int t25 = t22 & t24;
         const float t26 = fabsf(in->q[2]);
-        const int t27 = t26 <= 1000000.0f;
+        const int t27 = m300_wind_magnitude(t26) <= m300_wind_bits(1000000.0f);
         const int t28 = t25 & t27;
         const float t29 = fabsf(in->q[3]);
-        const int t30 = t29 <= 1000000.0f;
+        const int t30 = m300_wind_magnitude(t29) <= m300_wind_bits(1000000.0f);
         const int t31 = t28 & t30;
         const float t32 = fabsf(in->rotor_rpm[0]);
-        const int t33 = t32 <= 1000000.0f;
+        const int t33 = m300_wind_magnitude(t32) <= m300_wind_bits(1000000.0f);
         const int t34 = t31 & t33;
         const float t35 = fabsf(in->rotor_rpm[1]);
-        const int t36 = t35 <= 1000000.0f;
+        const int t36 = m300_wind_magnitude(t35) <= m300_wind_bits(1000000.0f);
         const int t37 = t34 & t36;
         const float t38 = fabsf(in->rotor_rpm[2]);
-        const int t39 = t38 <= 1000000.0f;
+        const int t39 = m300_wind_magnitude(t38) <= m300_wind_bits(1000000.0f);
         const int t40 = t37 & t39;
         const float t41 = fabsf(in->rotor_rpm[3]);
-        const int t42 = t41 <= 1000000.0f;
+        const int t42 = m300_wind_magnitude(t41) <= m300_wind_bits(1000000.0f);
         const int t43 = t40 & t42;
         const float t44 = fabsf(in->yaw_ref);
-        const int t45 = t44 <= 1000000.0f;
+        const int t45 = m300_wind_magnitude(t44) <= m300_wind_bits(1000000.0f);
         const int t46 = t43 & t45;
-        const int t49 = 1.00000007e-05f <= in->dt;
-        const int t50 = in->dt <= 0.100009993f;
+        const int t49 = m300_wind_key(1.00000007e-05f, 0) <= m300_wind_key(in->dt, 0);
+        const int t50 = m300_wind_key(in->dt, 1) <= m300_wind_key(0.100009993f, 1);
         const int t51 = t49 & t50;
         const float t55 = in->q[0] * in->q[0];
         const float t56 = in->q[1] * in->q[1];
@@ -201,20 +256,20 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const float t59 = t57 + t58;
         const float t60 = in->q[3] * in->q[3];
         const float t61 = t59 + t60;
-        const int t62 = 0.810000002f <= t61;
-        const int t63 = t61 <= 1.20999992f;
+        const int t62 = m300_wind_key(0.810000002f, 0) <= m300_wind_key(t61, 0);
+        const int t63 = m300_wind_key(t61, 1) <= m300_wind_key(1.20999992f, 1);
         const int t64 = t62 & t63;
         const float t68 = 0.5f * t61;
         const float t69 = t55 - t56;
         const float t70 = t69 - t58;
         const float t71 = t70 + t60;
         const int t72 = t68 <= t71;
-        const int t76 = 0.0f <= in->rotor_rpm[0];
-        const int t77 = 0.0f <= in->rotor_rpm[1];
+        const int t76 = m300_wind_key(0.0f, 0) <= m300_wind_key(in->rotor_rpm[0], 0);
+        const int t77 = m300_wind_key(0.0f, 0) <= m300_wind_key(in->rotor_rpm[1], 0);
         const int t78 = t76 & t77;
-        const int t79 = 0.0f <= in->rotor_rpm[2];
+        const int t79 = m300_wind_key(0.0f, 0) <= m300_wind_key(in->rotor_rpm[2], 0);
         const int t80 = t78 & t79;
-        const int t81 = 0.0f <= in->rotor_rpm[3];
+        const int t81 = m300_wind_key(0.0f, 0) <= m300_wind_key(in->rotor_rpm[3], 0);
         const int t82 = t80 & t81;
         const int t86 = t46 & t51;
         const int t87 = t86 & t64;
@@ -547,12 +602,12 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const float t15 = t13 + t14;
         const float t16 = fabsf(acc_bias_new[2]);
         const float t17 = t15 + t16;
-        const int t18 = t17 <= 9.99999939e+29f;
+        const int t18 = m300_wind_key(t17, 1) <= m300_wind_key(9.99999939e+29f, 1);
         const int t19 = !t18;
         const float t20 = (t19 ? 32.0f : 0.0f);
         result_status = t20;
     }
-    if (result_status != 0.0f) {
+    if (result_status > 0.0f) { /* a sum of status bits: > 0, not != 0 (-Wfloat-equal) */
         state->run_s = 0.0f;
         *out = state->last;
         return (int)result_status;

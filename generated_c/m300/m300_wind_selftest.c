@@ -780,7 +780,7 @@ static int close_enough(float got, float want)
     if (isinf(want)) {
         return isinf(got) && (got > 0.0f) == (want > 0.0f);
     }
-    return isfinite(got) && fabs((double)got - (double)want) <= 0.001 + 2e-05 * fabs((double)want);
+    return isfinite(got) && fabs((double)got - (double)want) <= (double)0.001 + (double)2e-05 * fabs((double)want);
 }
 
 /* A direction is judged only where the expected wind is strong enough to have one, but it must be a
@@ -791,14 +791,14 @@ static int direction_close(float got, float want, float speed_want)
     if (!isfinite(want) || !isfinite(got)) {
         return close_enough(got, want);
     }
-    if (!((double)speed_want >= 0.5)) {
+    if (!((double)speed_want >= (double)0.5)) {
         return 1;
     }
-    angle = fmod(fabs((double)got - (double)want), 360.0);
-    if (angle > 180.0) {
-        angle = 360.0 - angle;
+    angle = fmod(fabs((double)got - (double)want), (double)360.0);
+    if (angle > (double)180.0) {
+        angle = (double)360.0 - angle;
     }
-    return angle <= 0.01;
+    return angle <= (double)0.01;
 }
 
 static void load_input(m300_wind_input_t *in, const float *u)
