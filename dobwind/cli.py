@@ -170,14 +170,14 @@ def cmd_fit(args: argparse.Namespace) -> int:
     limits = Thresholds(cv_share=args.max_error_share, replay_share=args.max_error_share,
                         floor_mps=args.error_floor, direction_deg=args.max_direction_error)
     hover = HoverNoise(target_mps=args.hover_noise)
-    new, report, points = fit_airframe(af, list(args.logs), args.terms, args.dynamic, args.model, args.still_air,
-                                       limits, hover=hover)
+    def fit(logs: list[str]):
+        return fit_airframe(af, logs, args.terms, args.dynamic, args.model, args.still_air, limits, hover=hover)
+
+    new, report, points = fit(list(args.logs))
     if args.exclude_outliers:
         from dobwind.fitfamily import refit_without_outliers
 
-        new, report, points = refit_without_outliers(
-            (new, report, points), list(args.logs),
-            lambda logs: fit_airframe(af, logs, args.terms, args.dynamic, args.model, args.still_air, limits, hover=hover))
+        new, report, points = refit_without_outliers((new, report, points), list(args.logs), fit)
     passed = bool(report.self_check["passed"])
     written = passed or args.force  # a model that failed its self-check is written only when forced
     if written:
@@ -197,7 +197,12 @@ def cmd_fit(args: argparse.Namespace) -> int:
         print(f"wrote {args.output} and {plot}" if written else "nothing written")
     for warning in report.warnings + (field.warnings() if field else []):
         sys.stderr.write(f"dobwind fit: warning: {warning}\n")
-    if passed:
+    return _fit_verdict(args, report)
+
+
+def _fit_verdict(args: argparse.Namespace, report) -> int:
+    """Exit 0 on a passing self-check; else say why (and which log disagrees) and refuse unless --force."""
+    if report.self_check["passed"]:
         return 0
     reasons = "; ".join(report.self_check["reasons"])
     from dobwind.runmeans import outlier_advice

@@ -38,9 +38,9 @@ extern "C" {
  * Rejection bits (in M300_WIND_REJECTED_MASK): the sample was rejected; the estimate is
  * unchanged and *out repeats the last accepted output. Only the gap bookkeeping (run_s) advances, so
  * that the next accepted sample knows it follows a gap.
- * Quality bits (SETTLING, EXTRAPOLATED, UNCALIBRATED): the sample WAS accepted (state and *out
- * updated), but the estimate is not to be trusted yet, lies outside the calibration, or comes from an
- * uncalibrated prior force-air law. Accepted means
+ * Quality bits (SETTLING, EXTRAPOLATED, UNCALIBRATED, VERTICAL_UNIDENTIFIED): the sample WAS accepted (state and *out
+ * updated), but the estimate is not to be trusted yet, lies outside the calibration, comes from an
+ * uncalibrated prior force-air law, or has no vertical estimate. Accepted means
  * (status & M300_WIND_REJECTED_MASK) == 0; an autopilot acting on wind should require
  * status == 0. */
 #define M300_WIND_STATUS_NONFINITE 0x01u /* rejects: an input is NaN, infinite or beyond +-1e6 */
