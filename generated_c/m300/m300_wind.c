@@ -645,5 +645,5 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
     out->wind_sigma_up = state->last.wind_sigma_up = wind_sigma_up;
     state->initialized = 1.0f;
     state->run_s = run_s_new;
-    return (int)quality_status; /* 0, or quality bits of an accepted sample (SETTLING, EXTRAPOLATED, UNCALIBRATED) */
+    return (int)quality_status; /* 0, or quality bits of an accepted sample (the header lists them) */
 }
