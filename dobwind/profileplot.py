@@ -36,6 +36,6 @@ def profile_plot(stats: dict[str, np.ndarray], title: str, path: str) -> None:
     for ax in axes:
         ax.grid(True, alpha=0.3)
     counts = stats["count"][has]
-    fig.suptitle(f"{title}\n{int(counts.sum())} trusted estimates in {int(has.sum())} bins")
+    fig.suptitle(f"{title}\n{int(counts.sum())} estimates in {int(has.sum())} bins")
     fig.tight_layout()
     save(fig, path)

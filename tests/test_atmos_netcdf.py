@@ -1,0 +1,150 @@
+"""`replay -o OUT.nc` (issue #35): a CF-1.8 trajectory on the log's own clock (UTC from GPS time), with the
+position track on the estimate rows, pinned against closed forms and against the CSV output of the same
+replay; a CF checker runs on it where one is installed, and the names/units are checked against the
+CF standard-name table entries the file uses (carried here) in any case."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from dobwind.cli import main
+from dobwind.logs import ESTIMATE_COLUMNS
+from dobwind.model.status import STATUS_BITS, STATUS_LANDED, STATUS_NO_DATA
+from tests import atmos_logs
+from tests.helpers import M300
+
+pytest.importorskip("pymavlink")
+xr = pytest.importorskip("xarray")
+pytest.importorskip("netCDF4")
+
+# From the CF standard name table (version 84 and later): name -> canonical units. Written here by hand
+# from the table, not from dobwind's own list, so a wrong name or unit in dobwind fails.
+CF_TABLE = {"eastward_wind": "m s-1", "northward_wind": "m s-1", "upward_air_velocity": "m s-1",
+            "wind_speed": "m s-1", "wind_from_direction": "degree", "latitude": "degrees_north",
+            "longitude": "degrees_east", "altitude": "m", "height": "m", "time": None}
+CF_MODIFIERS = ("standard_error", "number_of_observations")
+
+
+@pytest.fixture(scope="module")
+def replayed(tmp_path_factory):
+    """One synthetic flight replayed to NetCDF and to CSV."""
+    folder = tmp_path_factory.mktemp("nc")
+    _, cols = atmos_logs.flight()
+    log = atmos_logs.write_log(folder / "f.bin", cols)
+    assert main(["replay", str(M300), str(log), "-o", str(folder / "f.nc")]) == 0
+    assert main(["replay", str(M300), str(log), "-o", str(folder / "f.csv")]) == 0
+    return folder, cols
+
+
+def _csv(path):
+    return np.genfromtxt(path, delimiter=",", names=True, comments="#")
+
+
+def test_netcdf_holds_the_csv_estimate_under_cf_names(replayed):
+    folder, _ = replayed
+    csv = _csv(folder / "f.csv")
+    with xr.open_dataset(folder / "f.nc") as ds:
+        for var, column in (("eastward_wind", "wind_e"), ("northward_wind", "wind_n"),
+                            ("upward_air_velocity", "wind_speed_up"), ("wind_speed", "wind_speed_h"),
+                            ("wind_from_direction", "wind_from_deg")):
+            # float32 in the file, %.6g in the CSV
+            np.testing.assert_allclose(ds[var].values, csv[column], rtol=1e-5, atol=1e-5)
+            assert ds[var].attrs["standard_name"] == var
+        np.testing.assert_array_equal(ds["status"].values, csv["status"].astype(int))
+        np.testing.assert_allclose(ds["log_time"].values - ds["log_time"].values[0], csv["t"], atol=2e-6)
+
+
+def test_time_is_utc_from_gps_week_and_position_follows_the_track(replayed):
+    folder, cols = replayed
+    with xr.open_dataset(folder / "f.nc") as ds:
+        t_sim = ds["log_time"].values - atmos_logs.BOOT_US * 1e-6  # the simulation's clock
+        expected = np.datetime64(atmos_logs.UTC0.replace(tzinfo=None)) + (t_sim * 1e9).astype("timedelta64[ns]")
+        lag = np.abs((ds["time"].values - expected) / np.timedelta64(1, "ms"))
+        assert lag.max() < 2.0
+        lat, lon, alt, height = atmos_logs.track(t_sim)
+        inside = t_sim <= cols["t"][::5][-1]  # the track's last sample; later rows are beyond it
+        np.testing.assert_allclose(ds["lat"].values[inside], lat[inside], atol=1e-9)
+        np.testing.assert_allclose(ds["lon"].values[inside], lon[inside], atol=1e-9)
+        np.testing.assert_allclose(ds["height"].values[inside], height[inside], atol=1e-3)
+        np.testing.assert_allclose(ds["alt"].values[inside], alt[inside], atol=1e-3)
+        assert ds.attrs["featureType"] == "trajectory"
+        assert "POS" in ds.attrs["position_note"]
+
+
+def test_names_units_and_flags_follow_cf(replayed):
+    folder, _ = replayed
+    with xr.open_dataset(folder / "f.nc", decode_times=False) as ds:
+        assert ds.attrs["Conventions"] == "CF-1.8"
+        assert ds.attrs["dobwind_airframe"] == "m300" and ds.attrs["dobwind_version"]
+        assert "calibrat" in ds.attrs["dobwind_calibration"]
+        assert ds["time"].attrs["units"] == "seconds since 1970-01-01 00:00:00"
+        named = 0
+        for name, var in ds.variables.items():
+            std = var.attrs.get("standard_name")
+            if std is None:
+                continue
+            base, *modifier = std.split()
+            assert base in CF_TABLE, f"{name}: {std} not in the table"
+            assert all(m in CF_MODIFIERS for m in modifier), f"{name}: modifier {modifier}"
+            if CF_TABLE[base] is not None and not modifier:
+                assert var.attrs["units"] == CF_TABLE[base], name
+            named += 1
+        assert named >= 11
+        for var in ("eastward_wind", "northward_wind", "wind_speed"):
+            assert "wind_speed_standard_error" in ds[var].attrs["ancillary_variables"].split()
+        flags = ds["status"].attrs
+        masks, meanings = list(flags["flag_masks"]), flags["flag_meanings"].split()
+        assert len(masks) == len(meanings)
+        for bit in STATUS_BITS:
+            assert meanings[masks.index(bit.value)] == bit.name.lower()
+        assert meanings[masks.index(STATUS_NO_DATA)] == "no_data"
+        assert meanings[masks.index(STATUS_LANDED)] == "landed"
+
+
+def test_a_cf_checker_passes_it(replayed):
+    checker = pytest.importorskip("compliance_checker.runner")
+    from compliance_checker.runner import CheckSuite, ComplianceChecker
+
+    CheckSuite.load_all_available_checkers()
+    folder, _ = replayed
+    passed, errors = ComplianceChecker.run_checker(str(folder / "f.nc"), ["cf:1.8"], 0, "normal",
+                                                   str(folder / "report.txt"), "text")
+    assert not errors and passed, (folder / "report.txt").read_text()[:3000]
+    assert checker is not None
+
+
+def test_without_position_it_says_so_and_writes_no_coordinates(tmp_path, capsys):
+    _, cols = atmos_logs.flight()
+    log = atmos_logs.write_log(tmp_path / "nopos.bin", cols, position=False, gps_time=False)
+    assert main(["replay", str(M300), str(log), "-o", str(tmp_path / "nopos.nc")]) == 0
+    err = capsys.readouterr().err
+    assert "warning" in err and "no latitude" in err and "nopos.bin" in err
+    with xr.open_dataset(tmp_path / "nopos.nc", decode_times=False) as ds:
+        assert "lat" not in ds.variables and "lon" not in ds.variables and "featureType" not in ds.attrs
+        assert "no global position" in ds.attrs["position_note"]
+        assert ds["time"].attrs["units"] == "s"  # seconds since boot: the log's own clock, no reference date
+        np.testing.assert_allclose(ds["time"].values[0], atmos_logs.BOOT_US * 1e-6, atol=1e-6)
+
+
+def test_csv_log_to_netcdf_and_a_failed_write_loses_nothing(tmp_path, monkeypatch):
+    from dobwind import ncreplay
+    from dobwind.logs import write_csv
+
+    _, cols = atmos_logs.flight(hold_s=1.0)
+    names = [n for n in cols if n != "segment"]
+    write_csv(tmp_path / "f.csv", names, np.column_stack([cols[n] for n in names]), ["%.17g"] * len(names))
+    out = tmp_path / "f.nc"
+    assert main(["replay", str(M300), str(tmp_path / "f.csv"), "-o", str(out)]) == 0
+    with xr.open_dataset(out, decode_times=False) as ds:
+        assert ds.sizes["time"] == len(cols["t"]) and "lat" not in ds.variables
+    before = out.read_bytes()
+
+    def half_then_full_disk(path, ds):  # a disk that fills up halfway through the file
+        path.write_bytes(b"CDF partial")
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(ncreplay, "write_dataset", half_then_full_disk)
+    assert main(["replay", str(M300), str(tmp_path / "f.csv"), "-o", str(out)]) == 2
+    assert out.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f.csv", "f.nc"]  # no temporary left behind
+    assert len(ESTIMATE_COLUMNS) == 13  # the columns the file maps; a new output needs a NetCDF name too
