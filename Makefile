@@ -11,7 +11,7 @@ setup: $(STAMP)
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
-	$(BIN)/pip install --quiet -e '.[dev,ulog,ardupilot,rosbag]'
+	$(BIN)/pip install --quiet -e '.[dev,ulog,ardupilot,rosbag,netcdf,cfcheck]'
 	touch $(STAMP)
 
 test: $(STAMP)
