@@ -170,9 +170,12 @@ def _ulog_geo(path: str) -> Geo:
         notes.append("no global position in the log (no vehicle_global_position topic with a fix)")
     home = topics.get("home_position")
     if track is not None and home is not None and "alt" in home and len(home["alt"]):
-        # The last home: PX4 resets it at every arming, and the take-off of this log's flight is the last one.
+        # The home in force at each sample (held, not interpolated): PX4 sets it at every arming, so a
+        # log of several flights measures each one from its own take-off point.
+        t_home = np.asarray(home["timestamp"], float) * 1e-6
+        idx = np.clip(np.searchsorted(t_home, track.t_s, side="right") - 1, 0, len(t_home) - 1)
         track = Track(track.t_s, track.lat_deg, track.lon_deg, track.alt_m, track.source,
-                      np.interp(track.t_s, np.asarray(home["timestamp"], float) * 1e-6, np.asarray(home["alt"], float)))
+                      np.asarray(home["alt"], float)[idx])
     gps = topics.get("vehicle_gps_position")
     if gps is None or "time_utc_usec" not in gps:
         return Geo(track, None, "no GPS time in the log (no vehicle_gps_position.time_utc_usec)", tuple(notes))
@@ -214,7 +217,8 @@ def on_rows(track: Track, t: np.ndarray, landed: np.ndarray | None = None) -> Ro
     lon = np.where(ok, lon, np.nan)
     alt = np.where(ok, np.interp(t, track.t_s, track.alt_m), np.nan)
     if track.home_alt_m is not None:
-        home = np.interp(t, track.t_s, track.home_alt_m)
+        before = np.clip(np.searchsorted(track.t_s, t, side="right") - 1, 0, len(track.t_s) - 1)
+        home = track.home_alt_m[before]  # held: a new home is a step, not a ramp
         return RowPosition(lat, lon, alt, alt - home, f"{track.source} altitude above home")
     ground = _takeoff_altitude(alt, landed)
     return RowPosition(lat, lon, alt, alt - ground[0], ground[1])

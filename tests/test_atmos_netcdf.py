@@ -4,6 +4,8 @@ replay; a CF checker runs on it where one is installed, and the names/units are 
 CF standard-name table entries the file uses (carried here) in any case."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -148,3 +150,53 @@ def test_csv_log_to_netcdf_and_a_failed_write_loses_nothing(tmp_path, monkeypatc
     assert out.read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["f.csv", "f.nc"]  # no temporary left behind
     assert len(ESTIMATE_COLUMNS) == 13  # the columns the file maps; a new output needs a NetCDF name too
+
+
+def test_px4_position_home_and_utc_from_a_ulog(tmp_path):
+    """The PX4 reader alone: vehicle_global_position on the rows, home_position's altitude as the take-off
+    point, time_utc_usec against its timestamp (rows before the receiver knew the time carry 0)."""
+    pytest.importorskip("pyulog")
+    from dobwind.position import on_rows, read_geo
+    from tests.ulog_writer import Topic, write_ulog
+
+    stamps = np.arange(0, 20_000_000, 200_000) + 5_000_000  # 5 Hz from 5 s after boot
+    t = stamps * 1e-6
+    gpos = Topic("vehicle_global_position", [("uint64_t", "timestamp"), ("double", "lat"), ("double", "lon"),
+                                             ("float", "alt")],
+                 [{"timestamp": s, "lat": -35.0 + 1e-6 * k, "lon": 179.99999 + 1e-6 * k, "alt": 600.0 + 0.5 * k}
+                  for k, s in enumerate(stamps)])
+    utc0 = 1_700_000_000.0
+    gps = Topic("vehicle_gps_position", [("uint64_t", "timestamp"), ("uint64_t", "time_utc_usec")],
+                [{"timestamp": s, "time_utc_usec": 0 if k < 3 else round((utc0 + s * 1e-6) * 1e6)}
+                 for k, s in enumerate(stamps)])
+    home = Topic("home_position", [("uint64_t", "timestamp"), ("float", "alt")],
+                 [{"timestamp": 4_000_000, "alt": 590.0}, {"timestamp": 6_000_000, "alt": 599.0}])
+    geo = read_geo(str(write_ulog(tmp_path / "f.ulg", [gpos, gps, home])))
+    assert geo.utc_offset_s == pytest.approx(utc0, abs=1e-5)
+    rows = t[:-1] + 0.1  # halfway between position samples
+    pos = on_rows(geo.track, rows)
+    k = np.arange(len(rows)) + 0.5
+    np.testing.assert_allclose(pos.lat_deg, -35.0 + 1e-6 * k, atol=1e-9)
+    # Across the antimeridian the longitude is interpolated the short way and wrapped into [-180, 180).
+    lon = 179.99999 + 1e-6 * k
+    np.testing.assert_allclose(pos.lon_deg, np.where(lon >= 180.0, lon - 360.0, lon), atol=1e-9)
+    assert (pos.lon_deg < 0).any() and (pos.lon_deg > 0).any()
+    # Above the home in force: 590 m until PX4 re-homed at 6 s (the first home holds before it, too).
+    home_alt = np.where(rows < 6.0, 590.0, 599.0)
+    np.testing.assert_allclose(pos.height_m, 600.0 + 0.5 * k - home_alt, atol=1e-3)
+    far = on_rows(geo.track, np.array([t[0] - 1.0, t[-1] + 1.0]))
+    assert np.all(np.isnan(far.lat_deg))  # no position outside the track
+
+
+SITL = Path(__file__).resolve().parents[2] / "shared" / "data" / "field" / "arducopter_sitl_wind10_from180.bin"
+
+
+@pytest.mark.skipif(not SITL.exists(), reason="the field logs are not beside the checkout")
+def test_the_sitl_log_has_utc_position_and_home(tmp_path):
+    from dobwind.position import read_geo
+
+    geo = read_geo(str(SITL))
+    when = np.datetime64(int(geo.utc_offset_s + geo.track.t_s[0]), "s")
+    assert np.datetime64("2020-01-01") < when < np.datetime64("2030-01-01")
+    height = geo.track.alt_m - geo.track.home_alt_m
+    assert 25.0 < height.max() < 40.0 and abs(height[0]) < 1.0  # the README: up to 33 m, from the ground
