@@ -87,17 +87,45 @@ def run_all(job: Callable[..., Done], args_per_log: list[tuple], logs: list[str]
     with _progress(len(logs), label, show_progress) as bar:
         if jobs <= 1 or len(logs) == 1:
             for k, args in enumerate(args_per_log):
-                results[k] = job(*args)
+                results[k] = _stop_if_interrupted(job(*args))
                 if bar is not None:
                     bar.update(1)
         else:
-            with ProcessPoolExecutor(max_workers=min(jobs, len(logs))) as pool:
+            pool = ProcessPoolExecutor(max_workers=min(jobs, len(logs)), initializer=_worker_init)
+            try:
                 futures = {pool.submit(job, *args): k for k, args in enumerate(args_per_log)}
                 for future in as_completed(futures):
-                    results[futures[future]] = future.result()
+                    results[futures[future]] = _stop_if_interrupted(future.result())
                     if bar is not None:
                         bar.update(1)
+            except BaseException:
+                pool.shutdown(wait=True, cancel_futures=True)  # no log starts after a stop or a failure
+                raise
+            pool.shutdown(wait=True)
     return [results[k] for k in range(len(logs))]
+
+
+def _worker_init() -> None:
+    """Workers ignore SIGINT/SIGTERM between jobs (the parent decides to stop); a job's own command
+    installs dobwind's handlers while it runs, so the log in progress still cleans up after itself."""
+    import signal
+
+    from dobwind.interrupts import HANDLED
+
+    for signo in HANDLED:
+        signal.signal(signo, signal.SIG_IGN)
+
+
+def _stop_if_interrupted(done: Done) -> Done:
+    """A job that a signal ended (exit 128 + n) stops the whole run, as it would stop one command."""
+    if done.code > 128:
+        from dobwind.interrupts import Interrupted
+
+        # The job's own handler took the signal; sent again, it reaches this command's handler, which
+        # records it (the command line then says "stopped by ...") and raises.
+        os.kill(os.getpid(), done.code - 128)
+        raise Interrupted(done.code - 128)
+    return done
 
 
 def run_command(log: str, argv: list[str]) -> Done:

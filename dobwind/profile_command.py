@@ -26,6 +26,8 @@ def _job(airframe: str, log: str, bin_m: float, backend: str, precision: str, ra
         return Done(log, flight_sums(airframe, log, bin_m, backend, precision, rate, allow))
     except InputError as exc:
         return Done(log, None, f"dobwind profile: {exc}", 2)
+    except Exception as exc:  # noqa: BLE001 - a bug on one log must not lose the others' profile
+        return Done(log, None, f"dobwind profile: internal error on {log}: {type(exc).__name__}: {exc}", 1)
 
 
 def profile_command(args: argparse.Namespace) -> int:

@@ -45,8 +45,8 @@ def _folder(work: Path, logs: int, minutes: float, rate: float) -> Path:
     return folder
 
 
-def _measure(argv: list[str]) -> tuple[float, float]:
-    """(wall seconds, peak resident MB of the largest process in the tree)."""
+def _measure(argv: list[str]) -> tuple[float, float, float]:
+    """(wall seconds, peak resident MB of the largest process in the tree, CPU seconds of the whole tree)."""
     start = time.perf_counter()
     proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     _, status, usage = os.wait4(proc.pid, 0)
@@ -54,7 +54,7 @@ def _measure(argv: list[str]) -> tuple[float, float]:
     if os.waitstatus_to_exitcode(status) != 0:
         raise SystemExit(f"{' '.join(argv)} failed: {proc.stderr.read().decode()[-500:]}")
     proc.stderr.close()
-    return wall, usage.ru_maxrss / 1024.0
+    return wall, usage.ru_maxrss / 1024.0, usage.ru_utime + usage.ru_stime
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -71,24 +71,29 @@ def main(argv: list[str] | None = None) -> int:
     work = Path(args.work)
     work.mkdir(parents=True, exist_ok=True)
     folder = _folder(work, args.logs, args.minutes, args.rate)
+    load = os.getloadavg()[0]
     times: dict[int, list[float]] = {j: [] for j in args.jobs}
     peaks: dict[int, float] = {j: 0.0 for j in args.jobs}
+    cpu: dict[int, list[float]] = {j: [] for j in args.jobs}
     for _ in range(args.rounds):
         for jobs in args.jobs:
             out = work / f"estimates_jobs{jobs}"
             shutil.rmtree(out, ignore_errors=True)
             cmd = ["replay", str(AIRFRAME), str(folder), "--jobs", str(jobs), "--backend", args.backend]
-            wall, peak = _measure(_dobwind(*cmd, *(["-o", str(out)] if args.write else [])))
+            wall, peak, cpu_s = _measure(_dobwind(*cmd, *(["-o", str(out)] if args.write else [])))
             times[jobs].append(wall)
+            cpu[jobs].append(cpu_s)
             peaks[jobs] = max(peaks[jobs], peak)
             shutil.rmtree(out, ignore_errors=True)
     base = statistics.median(times[args.jobs[0]])
     print(f"{args.logs} logs x {args.minutes:g} min at {args.rate:g} Hz, {args.backend} backend, "
           f"{os.cpu_count()} cores, median of {args.rounds} round(s)")
-    print("jobs  wall s   speed-up  peak MB (largest process)")
+    print(f"load average before: {load:.1f} (a loaded machine cannot show the speed-up: compare "
+          "the CPU seconds, which parallel work must not inflate)")
+    print("jobs  wall s   speed-up  CPU s   peak MB (largest process)")
     for jobs in args.jobs:
         wall = statistics.median(times[jobs])
-        print(f"{jobs:4d}  {wall:7.1f}  {base / wall:8.2f}  {peaks[jobs]:8.1f}")
+        print(f"{jobs:4d}  {wall:7.1f}  {base / wall:8.2f}  {statistics.median(cpu[jobs]):6.1f}  {peaks[jobs]:8.1f}")
     return 0
 
 
