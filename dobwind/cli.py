@@ -533,6 +533,7 @@ def _add_profile(command: _Command) -> None:
     p.add_argument("--rate", type=opt.ULOG_RATE,
                    help=f"autopilot logs only: resample at this rate, Hz ({opt.ULOG_RATE.text()}) (default: none, "
                    "the attitude's clock)")
+    p.add_argument("--json", action="store_true", help=JSON_HELP)
     _add_many_options(p, "profile")
     p.set_defaults(func=cmd_profile)
 

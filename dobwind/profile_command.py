@@ -45,7 +45,7 @@ def profile_command(args: argparse.Namespace) -> int:
     allow = allowed_mask(args.allow or [])
     af = load_airframe(args.airframe)
     done = run_all(_job, [(args.airframe, log, args.bin, args.backend, args.precision, args.rate, allow) for log in logs],
-                   logs, args.jobs, "profile", wanted(False))
+                   logs, args.jobs, "profile", wanted(args.json))
     for result in done:
         if result.error:
             sys.stderr.write(result.error + "\n")
@@ -65,8 +65,25 @@ def profile_command(args: argparse.Namespace) -> int:
             from dobwind.profileplot import profile_plot
 
             profile_plot(stats, f"{af.name}: wind profile over {len(good)} flight(s)", str(out.stage(args.plot)))
-    print(_text(stats, done))
+    if args.json:
+        from dobwind.jsonout import print_json
+
+        print_json(_as_json(stats, done, args))
+    else:
+        print(_text(stats, done))
     return max(r.code for r in done)
+
+
+def _as_json(stats: dict[str, np.ndarray], done: list[Done], args: argparse.Namespace) -> dict:
+    def clean(v):
+        return None if isinstance(v, float) and not np.isfinite(v) else v
+
+    bins = [{c: clean(stats[c][k].item()) for c in CSV_COLUMNS} for k in range(len(stats["count"]))]
+    logs = [{"log": r.log, "exit": r.code, "error": r.error,
+             "trusted_rows": None if r.value is None else r.value[1],
+             "notes": [] if r.value is None else list(r.value[2])} for r in done]
+    return {"airframe_file": str(args.airframe), "output": str(args.output), "bin_m": args.bin, "bins": bins,
+            "logs": logs}
 
 
 def _text(stats: dict[str, np.ndarray], done: list[Done]) -> str:

@@ -2,6 +2,8 @@
 flights combined in any order), and the command end to end on synthetic flights with a position track."""
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -126,7 +128,7 @@ def test_profile_command_bins_each_row_at_its_height(two_flights, capsys):
     assert "f3.bin" in text and "f4.bin" in text
 
 
-def test_profile_netcdf_and_plot(two_flights):
+def test_profile_netcdf_and_plot(two_flights, capsys):
     xr = pytest.importorskip("xarray")
     pytest.importorskip("netCDF4")
     folder, logs, _ = two_flights
@@ -134,8 +136,12 @@ def test_profile_netcdf_and_plot(two_flights):
     assert main(["profile", str(M300), str(folder / "logs"), "-o", str(out), "--plot", str(png), "--jobs", "2"]) == 0
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     csv = folder / "p2.csv"
-    assert main(["profile", str(M300), *map(str, logs), "-o", str(csv), "--jobs", "1"]) == 0
+    capsys.readouterr()
+    assert main(["profile", str(M300), *map(str, logs), "-o", str(csv), "--jobs", "1", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
     ref = _read(csv)
+    assert [b["count"] for b in report["bins"]] == ref["count"].astype(int).tolist()
+    assert [entry["exit"] for entry in report["logs"]] == [0, 0]
     with xr.open_dataset(out) as ds:
         assert ds["height"].attrs["standard_name"] == "height" and ds["height"].attrs["positive"] == "up"
         assert ds["wind_from_direction"].attrs["standard_name"] == "wind_from_direction"
