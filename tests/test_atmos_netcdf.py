@@ -152,6 +152,11 @@ def test_csv_log_to_netcdf_and_a_failed_write_loses_nothing(tmp_path, monkeypatc
     assert len(ESTIMATE_COLUMNS) == 13  # the columns the file maps; a new output needs a NetCDF name too
 
 
+def _wrap(lon):
+    """Longitude into [-180, 180), as autopilots report it."""
+    return (lon + 180.0) % 360.0 - 180.0
+
+
 def test_px4_position_home_and_utc_from_a_ulog(tmp_path):
     """The PX4 reader alone: vehicle_global_position on the rows, home_position's altitude as the take-off
     point, time_utc_usec against its timestamp (rows before the receiver knew the time carry 0)."""
@@ -163,7 +168,7 @@ def test_px4_position_home_and_utc_from_a_ulog(tmp_path):
     t = stamps * 1e-6
     gpos = Topic("vehicle_global_position", [("uint64_t", "timestamp"), ("double", "lat"), ("double", "lon"),
                                              ("float", "alt")],
-                 [{"timestamp": s, "lat": -35.0 + 1e-6 * k, "lon": 179.99999 + 1e-6 * k, "alt": 600.0 + 0.5 * k}
+                 [{"timestamp": s, "lat": -35.0 + 1e-6 * k, "lon": _wrap(179.99999 + 1e-6 * k), "alt": 600.0 + 0.5 * k}
                   for k, s in enumerate(stamps)])
     utc0 = 1_700_000_000.0
     gps = Topic("vehicle_gps_position", [("uint64_t", "timestamp"), ("uint64_t", "time_utc_usec")],
@@ -179,7 +184,7 @@ def test_px4_position_home_and_utc_from_a_ulog(tmp_path):
     np.testing.assert_allclose(pos.lat_deg, -35.0 + 1e-6 * k, atol=1e-9)
     # Across the antimeridian the longitude is interpolated the short way and wrapped into [-180, 180).
     lon = 179.99999 + 1e-6 * k
-    np.testing.assert_allclose(pos.lon_deg, np.where(lon >= 180.0, lon - 360.0, lon), atol=1e-9)
+    np.testing.assert_allclose(pos.lon_deg, _wrap(lon), atol=1e-9)
     assert (pos.lon_deg < 0).any() and (pos.lon_deg > 0).any()
     # Above the home in force: 590 m until PX4 re-homed at 6 s (the first home holds before it, too).
     home_alt = np.where(rows < 6.0, 590.0, 599.0)
