@@ -158,3 +158,32 @@ def test_profile_refuses_an_unknown_output_kind_and_a_log_without_height(tmp_pat
     assert main(["profile", str(M300), str(log), "-o", str(tmp_path / "p.csv")]) == 2
     err = capsys.readouterr().err
     assert "no global position" in err and "nopos.bin" in err and not (tmp_path / "p.csv").exists()
+
+
+def test_csv_log_with_position_columns_to_netcdf_and_profile(tmp_path, capsys):
+    """A CSV log with the optional lat, lon, alt columns: the NetCDF carries them, and the profile bins by
+    the altitude above the first row (no landed rows in a CSV log: its first position is the take-off)."""
+    xr = pytest.importorskip("xarray")
+    pytest.importorskip("netCDF4")
+    from dobwind.logs import write_csv
+    from dobwind.model.airframe import load_airframe
+    from dobwind.model.status import trusted
+    from dobwind.replay import replay
+
+    _, cols = atmos_logs.flight(hold_s=1.0)
+    t = cols["t"]
+    cols = {k: v for k, v in cols.items() if k != "segment"}
+    cols.update(lat=np.full_like(t, 60.1), lon=np.full_like(t, 24.9), alt=100.0 + 3.0 * t)
+    names = list(cols)
+    log = tmp_path / "f.csv"
+    write_csv(log, names, np.column_stack([cols[n] for n in names]), ["%.17g"] * len(names))
+    assert main(["replay", str(M300), str(log), "-o", str(tmp_path / "f.nc")]) == 0
+    with xr.open_dataset(tmp_path / "f.nc", decode_times=False) as ds:
+        np.testing.assert_allclose(ds["height"].values, 3.0 * (t - t[0]), atol=1e-9)
+        np.testing.assert_allclose(ds["lat"].values, 60.1)
+    assert main(["profile", str(M300), str(log), "-o", str(tmp_path / "p.csv"), "--bin", "10"]) == 0
+    got = _read(tmp_path / "p.csv")
+    _, _, traj = replay(load_airframe(M300), str(log))
+    height = (3.0 * (t - t[0]))[trusted(traj.status)]
+    expected = np.bincount(np.floor(height / 10.0).astype(int))
+    assert got["count"].astype(int).tolist() == expected[expected.nonzero()[0][0]:].tolist()
