@@ -62,7 +62,6 @@ def calibration_text(af: Airframe) -> str:
 def global_attrs(src: Source, geo: Geo, title: str) -> dict[str, str]:
     af = src.airframe
     return {"Conventions": cfnames.CONVENTIONS, "title": title,
-            "institution": "unknown (written by dobwind)",
             "source": f"dobwind {_version()} disturbance-observer wind estimate from a multirotor flight log",
             "history": f"dobwind {_version()} ({src.backend} backend): airframe {Path(src.airframe_path).name}, "
                        f"log {Path(src.log_path).name}",
@@ -137,10 +136,13 @@ def _position(coords: dict, pos: RowPosition | None, geo: Geo) -> str:
 
 
 def _encoding(ds) -> dict[str, dict]:
+    """NaN marks missing data, except where CF forbids a fill value: coordinate and bounds variables."""
+    bounds = {var.attrs["bounds"] for var in ds.variables.values() if "bounds" in var.attrs}
+    plain = {"time", "log_time", *ds.dims, *bounds}
     enc: dict[str, dict] = {}
     for name, var in ds.variables.items():
         if var.dtype.kind == "f":
-            enc[name] = {"_FillValue": np.nan if name not in ("time", "log_time") else None}
+            enc[name] = {"_FillValue": None if name in plain else np.nan}
         elif name == "status":
             enc[name] = {"_FillValue": None}
         if var.ndim:

@@ -117,7 +117,7 @@ def _write_netcdf(path: Path, stats: dict[str, np.ndarray], args: argparse.Names
 
     height_attrs = {"standard_name": "height", "units": "m", "positive": "up", "axis": "Z",
                     "long_name": "height above the take-off point (bin centre)", "bounds": "height_bnds"}
-    method = "time: mean (over the samples in the bin)"
+    method = "height: mean"  # each value is the mean over the estimates inside its height cell
 
     def var(values, std, units, long, method_=method, **extra):
         attrs = {"units": units, "long_name": long, "cell_methods": method_, **extra}
@@ -125,7 +125,7 @@ def _write_netcdf(path: Path, stats: dict[str, np.ndarray], args: argparse.Names
             attrs["standard_name"] = std
         return ("height", np.asarray(values, dtype=np.float64), attrs)
 
-    spread = "time: standard_deviation"
+    spread = "height: standard_deviation"
     data = {
         "wind_speed": var(stats["speed_mean_mps"], "wind_speed", "m s-1", "mean horizontal wind speed"),
         "wind_speed_spread": var(stats["speed_std_mps"], None, "m s-1", "standard deviation of the horizontal "
@@ -150,7 +150,6 @@ def _write_netcdf(path: Path, stats: dict[str, np.ndarray], args: argparse.Names
     }
     ds = xr.Dataset(data, coords={"height": ("height", stats["height_m"], height_attrs)})
     ds.attrs = {"Conventions": cfnames.CONVENTIONS, "title": f"dobwind wind profile: {af.name}",
-                "institution": "unknown (written by dobwind)",
                 "source": f"dobwind {__version__} disturbance-observer wind estimates binned by height",
                 "history": f"dobwind {__version__} profile, bin {args.bin:g} m, {len(logs)} log(s)",
                 "references": "dobwind docs/atmospheric.md", "dobwind_version": __version__,

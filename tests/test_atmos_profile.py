@@ -135,6 +135,9 @@ def test_profile_netcdf_and_plot(two_flights, capsys):
     out, png = folder / "p.nc", folder / "p.png"
     assert main(["profile", str(M300), str(folder / "logs"), "-o", str(out), "--plot", str(png), "--jobs", "2"]) == 0
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    from tests.test_atmos_netcdf import cf_check
+
+    cf_check(out)
     csv = folder / "p2.csv"
     capsys.readouterr()
     assert main(["profile", str(M300), *map(str, logs), "-o", str(csv), "--jobs", "1", "--json"]) == 0
