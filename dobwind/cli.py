@@ -511,8 +511,7 @@ def _add_many_options(p: argparse.ArgumentParser, what: str) -> None:
 
 
 def _add_profile(command: _Command) -> None:
-    from dobwind.campaign import JOBS
-    from dobwind.options import Bound
+    from dobwind.profile import BIN
 
     p = command("profile", "wind speed, direction and vertical wind binned by height above take-off, over "
                 "one or many flights")
@@ -520,8 +519,7 @@ def _add_profile(command: _Command) -> None:
     p.add_argument("logs", nargs="+", help="flight logs (autopilot logs with global position; CSV logs with "
                    "lat, lon, alt columns, else height from vel_d) or folders of them")
     p.add_argument("-o", "--output", required=True, help="the profile to write: .csv or CF-NetCDF .nc (required)")
-    p.add_argument("--bin", type=Bound(0.1, 1000.0, "m"), default=5.0, metavar="M",
-                   help="height bin, m (0.1 to 1000 m; default 5)")
+    p.add_argument("--bin", type=BIN, default=5.0, metavar="M", help=f"height bin, m ({BIN.text()}; default 5)")
     p.add_argument("--plot", help="PNG of speed, direction and vertical wind against height with wind barbs "
                    "(default: none, not drawn)")
     p.add_argument("--allow", action="append", metavar="FLAG",

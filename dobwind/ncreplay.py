@@ -5,19 +5,20 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from dobwind.model.airframe import Airframe
 from dobwind.model.reference import Trajectory
-from dobwind.netcdf import Source, _require_xarray, replay_dataset, write_dataset
+from dobwind.netcdf import Source, require_xarray, replay_dataset, write_dataset
 from dobwind.position import Geo, read_geo
 
 
 def require_netcdf(output: str) -> None:
     """Before any log is read: the libraries are there (one line naming the output otherwise)."""
-    _require_xarray(output)
+    require_xarray(output)
 
 
 def warn_without_position(command: str, log_path: str, geo: Geo) -> None:
@@ -36,12 +37,11 @@ def write_replay_netcdf(staged: Path, af: Airframe, args: argparse.Namespace, t_
     write_dataset(staged, ds)
 
 
+@dataclass(frozen=True)
 class CsvReplay:
     """What cmd_replay prints for a CSV log, as ``replay_stream``'s result gives it."""
-
-    def __init__(self, metrics: dict, scored: bool) -> None:
-        self.metrics = metrics
-        self.scored = scored
+    metrics: dict
+    scored: bool
 
 
 def replay_csv_netcdf(args: argparse.Namespace, af: Airframe, out) -> CsvReplay:

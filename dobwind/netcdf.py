@@ -35,7 +35,7 @@ class Source:
     backend: str
 
 
-def _require_xarray(path: str):
+def require_xarray(path: str):
     try:
         import xarray
         import netCDF4  # noqa: F401 - the engine; without it xarray would pick another or fail later
@@ -158,7 +158,7 @@ def write_dataset(path: str | Path, ds) -> None:
 def replay_dataset(t_log: np.ndarray, outputs: np.ndarray, status: np.ndarray, geo: Geo, src: Source,
                    landed: np.ndarray | None = None):
     """The Dataset of one replay from the step's outputs and status on the log's clock ``t_log``."""
-    xr = _require_xarray(src.log_path)
+    xr = require_xarray(src.log_path)
     rows = estimate_rows(t_log, outputs, status)
     cols = {name: rows[:, k] for k, name in enumerate(ESTIMATE_COLUMNS)}
     pos = on_rows(geo.track, t_log, landed) if geo.track is not None else None

@@ -15,6 +15,9 @@ import numpy as np
 
 from dobwind.errors import InputError
 from dobwind.model.airframe import Airframe
+from dobwind.options import Bound
+
+BIN = Bound(0.1, 1000.0, "m")  # --bin: finer than GPS altitude is noise, coarser than 1 km is no profile
 
 # Below this horizontal speed a sample's direction is noise and does not enter the direction spread.
 MIN_SPEED_FOR_DIRECTION_MPS = 0.5

@@ -39,9 +39,9 @@ def profile_command(args: argparse.Namespace) -> int:
     if not str(args.output).lower().endswith(".csv") and not is_netcdf(args.output):
         raise InputError(f"-o {args.output}", None, "the profile is written as .csv or .nc (by its extension)")
     if is_netcdf(args.output):
-        from dobwind.netcdf import _require_xarray
+        from dobwind.netcdf import require_xarray
 
-        _require_xarray(args.output)
+        require_xarray(args.output)
     allow = allowed_mask(args.allow or [])
     af = load_airframe(args.airframe)
     done = run_all(_job, [(args.airframe, log, args.bin, args.backend, args.precision, args.rate, allow) for log in logs],

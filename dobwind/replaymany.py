@@ -38,6 +38,10 @@ def replay_many(args: argparse.Namespace) -> int:
     outputs: list[str | None] = [None] * len(logs)
     if args.output is not None:
         check_targets([Target("-o", args.output, "dir")], [str(args.airframe), *logs])
+        if args.format == "nc":
+            from dobwind.netcdf import require_xarray
+
+            require_xarray(args.output)
         outputs = list(output_names(logs, args.output, "." + args.format))
     from dobwind.model.airframe import load_airframe
 
