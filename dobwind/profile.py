@@ -15,6 +15,7 @@ import numpy as np
 
 from dobwind.errors import InputError
 from dobwind.model.airframe import Airframe
+from dobwind.model.forceair import wind_from_deg
 from dobwind.options import Bound
 
 BIN = Bound(0.1, 1000.0, "m")  # --bin: finer than GPS altitude is noise, coarser than 1 km is no profile
@@ -94,7 +95,7 @@ def table(total: dict[int, np.ndarray], bin_m: float) -> dict[str, np.ndarray]:
         "speed_mean_mps": np.where(n > 0, s[:, _I["speed"]] / np.maximum(n, 1), np.nan),
         "speed_std_mps": _std(s[:, _I["speed2"]], s[:, _I["speed"]], n),
         "vector_speed_mps": np.hypot(mean_n, mean_e),
-        "direction_from_deg": np.where(n > 0, np.degrees(np.arctan2(-mean_e, -mean_n)) % 360.0, np.nan),
+        "direction_from_deg": np.where(n > 0, wind_from_deg(mean_n, mean_e), np.nan),
         "direction_spread_deg": np.where(n_dir > 1, spread, np.nan),
         "northward_mean_mps": mean_n, "eastward_mean_mps": mean_e,
         "up_mean_mps": mean_up, "up_std_mps": _std(s[:, _I["up2"]], s[:, _I["up"]], n),
