@@ -44,6 +44,7 @@ def profile_command(args: argparse.Namespace) -> int:
         require_xarray(args.output)
     allow = allowed_mask(args.allow or [])
     af = load_airframe(args.airframe)
+    import dobwind.replay  # noqa: F401 - imported once here, inherited by every forked worker
     done = run_all(_job, [(args.airframe, log, args.bin, args.backend, args.precision, args.rate, allow) for log in logs],
                    logs, args.jobs, "profile", wanted(args.json))
     for result in done:

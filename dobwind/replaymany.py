@@ -46,6 +46,7 @@ def replay_many(args: argparse.Namespace) -> int:
     from dobwind.model.airframe import load_airframe
 
     load_airframe(args.airframe)  # a bad airframe is one line, not one line per log
+    import dobwind.replay  # noqa: F401 - imported once here, inherited by every forked worker
     done = run_all(run_command, [(log, _argv(args, log, out)) for log, out in zip(logs, outputs)], logs,
                    args.jobs, "replay", wanted(args.json))
     for result in done:
