@@ -52,10 +52,12 @@ def profile_command(args: argparse.Namespace) -> int:
             sys.stderr.write(result.error + "\n")
     good = [r for r in done if r.value is not None]
     stats = table(combine([r.value[0] for r in good]), args.bin)
+    if not stats and not good:
+        return max(r.code for r in done)  # each log's reason is on stderr already: nothing written
     if not stats:
         where = ", ".join(logs[:3]) + (" ..." if len(logs) > 3 else "")
-        raise InputError(where, None, "no trusted estimate with a height in any log: nothing written" if good
-                         else "every log failed: nothing written")
+        raise InputError(where, None, "no trusted estimate with a height in any log: nothing written (--allow "
+                         "admits quality-flagged rows)")
     with OutputFiles(targets) as out:
         staged = out.stage(args.output)
         if is_netcdf(args.output):
