@@ -11,7 +11,6 @@ import contextlib
 import io
 import os
 import sys
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Sequence
@@ -83,6 +82,8 @@ def run_all(job: Callable[..., Done], args_per_log: list[tuple], logs: list[str]
             show_progress: bool) -> list[Done]:
     """job(*args) for every log, in worker processes (``jobs`` of them; 1: in this process), results in
     the logs' order. The bar counts logs as they finish."""
+    from concurrent.futures import ProcessPoolExecutor, as_completed  # here: multiprocessing costs every command's start
+
     results: dict[int, Done] = {}
     with _progress(len(logs), label, show_progress) as bar:
         if jobs <= 1 or len(logs) == 1:
