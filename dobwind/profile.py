@@ -10,13 +10,15 @@ whatever order the workers finish in.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from dobwind.errors import InputError
-from dobwind.model.airframe import Airframe
-from dobwind.model.forceair import wind_from_deg
 from dobwind.options import Bound
+
+if TYPE_CHECKING:  # the model (CasADi) loads only when a profile runs, not with the parser (--bin)
+    from dobwind.model.airframe import Airframe
 
 BIN = Bound(0.1, 1000.0, "m")  # --bin: finer than GPS altitude is noise, coarser than 1 km is no profile
 
@@ -77,6 +79,8 @@ def _std(s2: np.ndarray, s1: np.ndarray, n: np.ndarray) -> np.ndarray:
 
 def table(total: dict[int, np.ndarray], bin_m: float) -> dict[str, np.ndarray]:
     """Per-bin statistics, every bin from the lowest to the highest with samples (empty ones: count 0)."""
+    from dobwind.model.forceair import wind_from_deg
+
     if not total:
         return {}
     keys = np.arange(min(total), max(total) + 1)
