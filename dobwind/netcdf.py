@@ -117,8 +117,9 @@ def estimate_dataset(cols: dict[str, np.ndarray], t_log: np.ndarray, pos: RowPos
     if pos is not None:
         ds.attrs["featureType"] = "trajectory"
         ds["trajectory"] = ((), Path(src.log_path).name, {"cf_role": "trajectory_id", "long_name": "flight log"})
-        for var in names:
-            ds[var].attrs["coordinates"] = "time lat lon alt height"
+        for var in ds.data_vars:
+            if ds[var].dims == ("time",):
+                ds[var].attrs["coordinates"] = "time lat lon alt height"
     return ds
 
 

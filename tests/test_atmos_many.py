@@ -83,3 +83,26 @@ def test_an_empty_folder_and_plot_with_several_logs_are_refused(logs, tmp_path, 
     assert "holds no flight logs" in capsys.readouterr().err
     assert main(["replay", str(M300), *map(str, paths[:2]), "--plot", str(tmp_path / "p.png")]) == 2
     assert "--plot" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv, says", [
+    (["profile", "{af}", "{missing}", "-o", "{out}.csv"], "cannot read"),
+    (["profile", "{af}", "{log}", "-o", "{out}.csv", "--allow", "tilt"], "not a quality flag"),
+    (["profile", "{af}", "{log}", "-o", "{out}.csv", "--bin", "0"], "--bin"),
+    (["profile", "{af}", "{log}", "-o", "{out}.csv", "--jobs", "0"], "--jobs"),
+    (["replay", "{af}", "{log}", "{log}", "-o", "{out}.csv"], "not a folder"),
+    (["replay", "{af}", "{log}", "{missing}", "--jobs", "1"], "cannot read"),
+])
+def test_bad_input_is_one_stderr_line_and_exit_2(logs, tmp_path, capsys, argv, says):
+    _, paths = logs
+    (tmp_path / "out.csv").write_text("keep me\n")  # an existing file a refused command must not touch
+    fill = {"{af}": str(M300), "{log}": str(paths[0]), "{missing}": str(tmp_path / "missing.bin"),
+            "{out}.csv": str(tmp_path / "out.csv")}
+    try:
+        code = main([fill.get(a, a) for a in argv])
+    except SystemExit as stop:  # argparse's refusals exit from inside the parser
+        code = stop.code
+    assert code == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert len(err) == 1 and says in err[0] and "Traceback" not in err[0], err
+    assert (tmp_path / "out.csv").read_text() == "keep me\n"
