@@ -46,11 +46,20 @@ class Track:
 
 
 @dataclass(frozen=True)
+class LocalHeight:
+    """The estimator's own up position (relative to its origin): a height when there is no global fix."""
+    t_s: np.ndarray
+    up_m: np.ndarray
+    source: str
+
+
+@dataclass(frozen=True)
 class Geo:
     track: Track | None
     utc_offset_s: float | None   # log clock + this = Unix seconds, UTC
     time_source: str             # where the UTC offset came from, or why there is none
     notes: tuple[str, ...] = ()
+    local: LocalHeight | None = None
 
 
 @dataclass(frozen=True)
@@ -110,7 +119,7 @@ def _dataflash_messages(path: str) -> dict[str, list[dict]]:
         from pymavlink import DFReader
     except ImportError:  # pragma: no cover - the ardupilot extra is part of `make setup`
         raise InputError(path, None, "reading DataFlash needs pymavlink (pip install 'dobwind[ardupilot]')") from None
-    out: dict[str, list[dict]] = {"POS": [], "GPS": []}
+    out: dict[str, list[dict]] = {"POS": [], "GPS": [], "XKF1": [], "NKF1": []}
     try:
         with contextlib.redirect_stdout(io.StringIO()):
             reader = DFReader.DFReader_binary(path, zero_time_base=False)
@@ -147,18 +156,27 @@ def _dataflash_geo(path: str) -> Geo:
                        _column(fixed, "Alt"), "GPS") if fixed else None
     if track is None:
         notes.append("no global position in the log (neither POS nor GPS with a fix)")
+    ekf = [r for r in msgs["XKF1"] if r.get("C", 0) == 0] or msgs["NKF1"]  # core 0 (EKF3) or EKF2's one
+    local = _local(_column(ekf, "TimeUS") * 1e-6, -_column(ekf, "PD"), "XKF1.PD (EKF core 0)") if ekf else None
     timed = [r for r in gps if r.get("Status", 0) >= ARDUPILOT_3D_FIX and r.get("GWk", 0) > 0 and "GMS" in r]
     if not timed:
-        return Geo(track, None, "no GPS time in the log (no GPS message with a 3-D fix and a week number)", tuple(notes))
+        return Geo(track, None, "no GPS time in the log (no GPS message with a 3-D fix and a week number)",
+                   tuple(notes), local)
     unix = gps_to_unix(_column(timed, "GWk"), _column(timed, "GMS"))
     offset = float(np.median(unix - _column(timed, "TimeUS") * 1e-6))
-    return Geo(track, offset, f"GPS.GWk/GMS ({len(timed)} messages with a 3-D fix)", tuple(notes))
+    return Geo(track, offset, f"GPS.GWk/GMS ({len(timed)} messages with a 3-D fix)", tuple(notes), local)
+
+
+def _local(t: np.ndarray, up: np.ndarray, source: str) -> LocalHeight | None:
+    t, up = _unique_increasing(t, up)
+    good = np.isfinite(up)
+    return LocalHeight(t[good], up[good], source) if good.sum() >= 2 else None
 
 
 def _ulog_geo(path: str) -> Geo:
     from dobwind.ulog import _open
 
-    ulog, _ = _open(path, ("vehicle_global_position", "vehicle_gps_position", "home_position"))
+    ulog, _ = _open(path, ("vehicle_global_position", "vehicle_gps_position", "home_position", "vehicle_local_position"))
     topics = {d.name: d.data for d in ulog.data_list if d.multi_id == 0}
     notes: list[str] = []
     track = None
@@ -176,16 +194,19 @@ def _ulog_geo(path: str) -> Geo:
         idx = np.clip(np.searchsorted(t_home, track.t_s, side="right") - 1, 0, len(t_home) - 1)
         track = Track(track.t_s, track.lat_deg, track.lon_deg, track.alt_m, track.source,
                       np.asarray(home["alt"], float)[idx])
+    lpos = topics.get("vehicle_local_position")
+    local = (_local(np.asarray(lpos["timestamp"], float) * 1e-6, -np.asarray(lpos["z"], float),
+                    "vehicle_local_position.z") if lpos is not None and "z" in lpos else None)
     gps = topics.get("vehicle_gps_position")
     if gps is None or "time_utc_usec" not in gps:
-        return Geo(track, None, "no GPS time in the log (no vehicle_gps_position.time_utc_usec)", tuple(notes))
+        return Geo(track, None, "no GPS time in the log (no vehicle_gps_position.time_utc_usec)", tuple(notes), local)
     utc = np.asarray(gps["time_utc_usec"], float) * 1e-6
     stamp = np.asarray(gps["timestamp"], float) * 1e-6
     good = utc > MIN_UTC_S
     if not good.any():
-        return Geo(track, None, "no GPS time in the log (time_utc_usec never set)", tuple(notes))
+        return Geo(track, None, "no GPS time in the log (time_utc_usec never set)", tuple(notes), local)
     offset = float(np.median(utc[good] - stamp[good]))
-    return Geo(track, offset, f"vehicle_gps_position.time_utc_usec ({int(good.sum())} messages)", tuple(notes))
+    return Geo(track, offset, f"vehicle_gps_position.time_utc_usec ({int(good.sum())} messages)", tuple(notes), local)
 
 
 def _csv_geo(columns: dict[str, np.ndarray]) -> Geo:
@@ -222,6 +243,14 @@ def on_rows(track: Track, t: np.ndarray, landed: np.ndarray | None = None) -> Ro
         return RowPosition(lat, lon, alt, alt - home, f"{track.source} altitude above home")
     ground = _takeoff_altitude(alt, landed)
     return RowPosition(lat, lon, alt, alt - ground[0], ground[1])
+
+
+def local_height_on_rows(local: LocalHeight, t: np.ndarray, landed: np.ndarray | None = None) -> tuple[np.ndarray, str]:
+    """Height above take-off from the estimator's up position, when the log has no global position."""
+    ok = _near_sample(local.t_s, t)
+    up = np.where(ok, np.interp(t, local.t_s, local.up_m), np.nan)
+    ground, how = _takeoff_altitude(up, landed)
+    return up - ground, f"{local.source} (no global position): {how.replace('altitude', 'up position')}"
 
 
 def _takeoff_altitude(alt: np.ndarray, landed: np.ndarray | None) -> tuple[float, str]:

@@ -129,7 +129,7 @@ def flight_samples(af: Airframe, path: str, backend: str = "python", precision: 
                    rate_hz: float | None = None, allow: int = 0) -> Samples:
     """One log through the estimator, its rows put at their height above take-off, trusted rows kept."""
     from dobwind.autopilot import is_autopilot_log
-    from dobwind.position import on_rows, read_geo
+    from dobwind.position import local_height_on_rows, on_rows, read_geo
     from dobwind.replay import replay, replay_ulog
 
     notes: list[str] = []
@@ -143,11 +143,14 @@ def flight_samples(af: Airframe, path: str, backend: str = "python", precision: 
     if geo.track is not None:
         pos = on_rows(geo.track, t, landed)
         height, notes = pos.height_m, [f"height: {pos.height_source}"]
+    elif geo.local is not None:
+        height, how = local_height_on_rows(geo.local, t, landed)
+        notes.append(f"height: {how}")
     elif columns is not None:
         height = _integrated_height(t, columns["vel_d"])
         notes.append("height: integrated from vel_d (no lat, lon, alt columns): the first row is the take-off point")
     else:
-        raise InputError(path, None, "no global position in the log: a profile needs the height of each row")
+        raise InputError(path, None, "no global or local position in the log: a profile needs the height of each row")
     keep = (np.asarray(traj.status).astype(np.int64) & ~allow) == 0
     out = traj.outputs
     return Samples(height[keep], out[keep][:, model.outputs.slice("wind_ned")],

@@ -147,7 +147,7 @@ def _write_netcdf(path: Path, stats: dict[str, np.ndarray], args: argparse.Names
         "upward_air_velocity_standard_error": var(stats["sigma_up_mps"], "upward_air_velocity standard_error",
                                                   "m s-1", "mean calibrated 1-sigma of one vertical estimate"),
         "count": ("height", stats["count"].astype(np.int32),
-                  {"standard_name": "wind_speed number_of_observations", "units": "1",
+                  {"standard_name": "number_of_observations", "units": "1",
                    "long_name": "trusted estimate rows in the bin"}),
         "height_bnds": (("height", "nv"), np.column_stack([stats["height_bottom_m"], stats["height_top_m"]]), {}),
     }

@@ -25,7 +25,7 @@ UTC0 = dt.datetime(1980, 1, 6, tzinfo=dt.timezone.utc) + dt.timedelta(weeks=GPS_
     - dt.timedelta(seconds=18)
 
 MESSAGES = {
-    "XKF1": ("QBfff", ["TimeUS", "C", "VN", "VE", "VD"]),
+    "XKF1": ("QBffff", ["TimeUS", "C", "VN", "VE", "VD", "PD"]),
     "XKQ": ("QBffff", ["TimeUS", "C", "Q1", "Q2", "Q3", "Q4"]),
     "PSCN": ("Qf", ["TimeUS", "AN"]), "PSCE": ("Qf", ["TimeUS", "AE"]), "PSCD": ("Qf", ["TimeUS", "AD"]),
     "ESC": ("QBf", ["TimeUS", "Instance", "RPM"]),
@@ -47,11 +47,18 @@ def track(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray
     return LAT0 + DLAT_PER_S * t, LON0 + DLON_PER_S * t, ALT0 + CLIMB_MPS * t, CLIMB_MPS * t
 
 
-def write_log(path: Path, cols: dict, position: bool = True, gps_time: bool = True) -> Path:
+EKF_ORIGIN_BELOW_HOME_M = 3.0  # XKF1.PD is relative to the EKF origin, which need not be the take-off point
+
+
+def write_log(path: Path, cols: dict, position: bool = True, gps_time: bool = True, local: bool = True) -> Path:
+    """position: POS and GPS carry a fix; gps_time: GPS has week and milliseconds; local: XKF1.PD is
+    logged (NaN otherwise)."""
     rows = [("EV", {"TimeUS": BOOT_US, "Id": 10}), ("EV", {"TimeUS": BOOT_US, "Id": 28})]
     for k, t in enumerate(cols["t"]):
         us = BOOT_US + int(round(t * 1e6))
-        rows.append(("XKF1", {"TimeUS": us, "C": 0, "VN": cols["vel_n"][k], "VE": cols["vel_e"][k], "VD": cols["vel_d"][k]}))
+        pd = -(EKF_ORIGIN_BELOW_HOME_M + track(t)[3]) if local else float("nan")
+        rows.append(("XKF1", {"TimeUS": us, "C": 0, "VN": cols["vel_n"][k], "VE": cols["vel_e"][k],
+                              "VD": cols["vel_d"][k], "PD": pd}))
         rows.append(("XKQ", {"TimeUS": us, "C": 0, **{f"Q{i + 1}": cols[f"q_{c}"][k] for i, c in enumerate("wxyz")}}))
         for name, field, key in (("PSCN", "AN", "acc_n"), ("PSCE", "AE", "acc_e"), ("PSCD", "AD", "acc_d")):
             rows.append((name, {"TimeUS": us, field: cols[key][k]}))

@@ -152,15 +152,24 @@ def test_profile_netcdf_and_plot(two_flights, capsys):
         np.testing.assert_allclose(ds["wind_speed"].values, ref["speed_mean_mps"], rtol=1e-5, equal_nan=True)
 
 
-def test_profile_refuses_an_unknown_output_kind_and_a_log_without_height(tmp_path, capsys):
+def test_without_global_position_the_ekf_height_serves_and_without_both_it_refuses(tmp_path, capsys):
     pytest.importorskip("pymavlink")
     _, cols = atmos_logs.flight(hold_s=1.0)
     log = atmos_logs.write_log(tmp_path / "nopos.bin", cols, position=False)
     assert main(["profile", str(M300), str(log), "-o", str(tmp_path / "p.txt")]) == 2
     assert "csv or .nc" in capsys.readouterr().err
-    assert main(["profile", str(M300), str(log), "-o", str(tmp_path / "p.csv")]) == 2
+    assert main(["profile", str(M300), str(log), "-o", str(tmp_path / "p.csv"), "--bin", "2"]) == 0
+    assert "XKF1.PD" in capsys.readouterr().out
+    # The EKF's up position less its value at take-off: the same 2 m/s climb as the POS track gives.
+    with_pos = atmos_logs.write_log(tmp_path / "pos.bin", cols)
+    assert main(["profile", str(M300), str(with_pos), "-o", str(tmp_path / "ref.csv"), "--bin", "2"]) == 0
+    got, ref = _read(tmp_path / "p.csv"), _read(tmp_path / "ref.csv")
+    assert got["count"].sum() >= ref["count"].sum() > 0  # the EKF rows reach past the last POS sample
+    np.testing.assert_array_equal(got["count"][:-1], ref["count"][:-1])
+    bare = atmos_logs.write_log(tmp_path / "bare.bin", cols, position=False, local=False)
+    assert main(["profile", str(M300), str(bare), "-o", str(tmp_path / "q.csv")]) == 2
     err = capsys.readouterr().err
-    assert "no global position" in err and "nopos.bin" in err and not (tmp_path / "p.csv").exists()
+    assert "no global or local position" in err and "bare.bin" in err and not (tmp_path / "q.csv").exists()
 
 
 def test_csv_log_with_position_columns_to_netcdf_and_profile(tmp_path, capsys):
