@@ -2,7 +2,7 @@
 
 One home for them, so the replay file, the profile file and the tests agree. Standard names are from
 the CF standard name table; a 1-sigma error is the "standard_error" modifier of the quantity's name
-(CF 1.8, appendix C), a sample count "number_of_observations".
+(CF 1.8, appendix C); a sample count has the standard name "number_of_observations".
 """
 from __future__ import annotations
 

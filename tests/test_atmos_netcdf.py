@@ -211,3 +211,32 @@ def test_the_sitl_log_has_utc_position_and_home(tmp_path):
     assert np.datetime64("2020-01-01") < when < np.datetime64("2030-01-01")
     height = geo.track.alt_m - geo.track.home_alt_m
     assert 25.0 < height.max() < 40.0 and abs(height[0]) < 1.0  # the README: up to 33 m, from the ground
+
+
+def test_px4_ulog_replay_to_netcdf_end_to_end(tmp_path):
+    """A whole PX4 flight (the ULog tests' writer) with a global position track and GPS time beside it:
+    the NetCDF rows carry UTC and the position at their own instants."""
+    pytest.importorskip("pyulog")
+    from tests.test_ulog import _flight, _ulog
+    from tests.ulog_writer import Topic
+
+    _, cols = _flight(rate=50.0)
+    t0_us, utc0 = 1_000_000, 1_650_000_000.0
+    stamps = t0_us + np.arange(0, int(cols["t"][-1] * 1e6), 100_000)  # 10 Hz
+    gpos = Topic("vehicle_global_position", [("uint64_t", "timestamp"), ("double", "lat"), ("double", "lon"),
+                                             ("float", "alt")],
+                 [{"timestamp": s, "lat": 52.0 + 1e-7 * (s - t0_us) * 1e-3, "lon": 13.0, "alt": 40.0 + 1.5e-6 * (s - t0_us)}
+                  for s in stamps])
+    gps = Topic("vehicle_gps_position", [("uint64_t", "timestamp"), ("uint64_t", "time_utc_usec")],
+                [{"timestamp": s, "time_utc_usec": round(utc0 * 1e6) + s} for s in stamps])
+    log = _ulog(tmp_path / "f.ulg", cols, extra=(gpos, gps))
+    assert main(["replay", str(M300), str(log), "-o", str(tmp_path / "f.nc")]) == 0
+    with xr.open_dataset(tmp_path / "f.nc", decode_times=False) as ds:
+        boot_s = ds["log_time"].values
+        np.testing.assert_allclose(ds["time"].values, utc0 + boot_s, atol=1e-3)
+        inside = boot_s <= stamps[-1] * 1e-6
+        np.testing.assert_allclose(ds["lat"].values[inside], 52.0 + 1e-4 * (boot_s[inside] - 1.0), atol=1e-9)
+        # No home_position and no landed rows before the first airborne one: above the first position.
+        np.testing.assert_allclose(ds["height"].values[inside], 1.5 * (boot_s[inside] - 1.0) - 1.5 * (boot_s[0] - 1.0),
+                                   atol=1e-4)
+        assert "vehicle_global_position" in ds.attrs["position_note"]
