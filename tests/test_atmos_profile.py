@@ -199,3 +199,14 @@ def test_csv_log_with_position_columns_to_netcdf_and_profile(tmp_path, capsys):
     height = (3.0 * (t - t[0]))[trusted(traj.status)]
     expected = np.bincount(np.floor(height / 10.0).astype(int))
     assert got["count"].astype(int).tolist() == expected[expected.nonzero()[0][0]:].tolist()
+
+
+def test_profilecheck_law_and_verdict(two_flights, capsys):
+    from dobwind.profilecheck import law, main as check
+
+    np.testing.assert_allclose(law(np.array([0.0, 15.0, 60.0, 90.0]), 10.0, 60.0, 0.5), [0.0, 5.0, 10.0, 10.0])
+    _, logs, _ = two_flights
+    args = [str(M300), str(logs[0]), "--min-height", "0", "--from-deg", "0"]
+    assert check(args) == 1  # a 10 m/s square-root law is not this flight's wind
+    assert check(args + ["--max-speed-error", "100", "--max-direction-error", "180"]) == 0
+    assert "PASS" in capsys.readouterr().out

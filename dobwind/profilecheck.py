@@ -1,7 +1,7 @@
 """The profile against a known wind law (issue #35's SITL goal): each bin's mean speed and vector-mean
 direction against a power law u(h) = U (min(h, H) / H)^p from a fixed direction, above a minimum height.
 
-    .venv/bin/python -m dobwind.harness.profile_check AIRFRAME LOG... [--speed 10] [--height 60]
+    .venv/bin/python -m dobwind.profilecheck AIRFRAME LOG... [--speed 10] [--height 60]
         [--exponent 0.5] [--from-deg 180] [--min-height 10] [--bin 5] [--allow FLAG]
 
 The defaults are ArduPilot SITL's wind as the field log arducopter_sitl_wind10_from180.bin was flown
