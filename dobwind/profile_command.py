@@ -21,7 +21,8 @@ CSV_COLUMNS = ("height_bottom_m", "height_top_m", "height_m", "count", "speed_me
                "eastward_mean_mps", "up_mean_mps", "up_std_mps", "sigma_h_mps", "sigma_up_mps")
 
 
-def _job(airframe: str, log: str, bin_m: float, backend: str, precision: str, rate, allow: int) -> Done:
+def _job(airframe: str, log: str, bin_m: float, backend: str, precision: str, rate: float | None,
+         allow: int) -> Done:
     try:
         return Done(log, flight_sums(airframe, log, bin_m, backend, precision, rate, allow))
     except InputError as exc:
