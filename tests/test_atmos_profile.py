@@ -210,3 +210,14 @@ def test_profilecheck_law_and_verdict(two_flights, capsys):
     assert check(args) == 1  # a 10 m/s square-root law is not this flight's wind
     assert check(args + ["--max-speed-error", "100", "--max-direction-error", "180"]) == 0
     assert "PASS" in capsys.readouterr().out
+
+
+def test_a_failing_log_is_left_out_and_the_exit_says_so(two_flights, tmp_path, capsys):
+    folder, logs, _ = two_flights
+    alone, mixed = tmp_path / "alone.csv", tmp_path / "mixed.csv"
+    assert main(["profile", str(M300), str(logs[0]), "-o", str(alone), "--jobs", "1"]) == 0
+    capsys.readouterr()
+    code = main(["profile", str(M300), str(logs[0]), str(tmp_path / "gone.bin"), "-o", str(mixed), "--jobs", "2"])
+    err = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert code == 2 and len(err) == 1 and "gone.bin" in err[0]
+    assert mixed.read_bytes().split(b"\n", 1)[1] == alone.read_bytes().split(b"\n", 1)[1]  # the same bins
