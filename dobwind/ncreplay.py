@@ -44,18 +44,42 @@ class CsvReplay:
     scored: bool
 
 
-def replay_csv_netcdf(args: argparse.Namespace, af: Airframe, out) -> CsvReplay:
-    """A CSV log to NetCDF: in memory (the file is written whole), scored as the streaming path scores."""
+def replay_csv_netcdf(args: argparse.Namespace, af: Airframe, out, block_bytes: int | None = None) -> CsvReplay:
+    """A CSV log to NetCDF, streamed (dobwind/ncstream.py) and scored as ``replay_stream`` scores it."""
+    from dobwind.backends import Runner
+    from dobwind.csvchunks import BLOCK_BYTES
+    from dobwind.logs import iter_log, required_columns, step_inputs
     from dobwind.model.status import accepted
-    from dobwind.replay import replay, score
+    from dobwind.model.step import build_step
+    from dobwind.ncstream import stream_csv_netcdf
+    from dobwind.scoring import WindScore
 
-    model, log, traj = replay(af, str(args.log), args.backend, args.precision)
-    write_replay_netcdf(out.stage(args.output), af, args, log.time_s, traj, columns=log.columns)
+    model = build_step(af)
+    runner = Runner(model, args.backend, args.precision)
+    scorer, counts, kept = WindScore(), {"rows": 0, "rejected_rows": 0}, []
+    last: dict[str, float | None] = {"t": None, "truth": None}  # the previous chunk's last time; true wind seen
+
+    def step(log):
+        traj = runner.run(step_inputs(model, log, last["t"]))
+        last["t"] = float(log.time_s[-1])
+        wind = traj.outputs[:, model.outputs.slice("wind_ned")]
+        if log.true_wind is not None:
+            scorer.add(log.time_s, wind, log.true_wind, traj.status, log.columns.get("segment"))
+            last["truth"] = 1.0
+        counts["rows"] += log.rows
+        counts["rejected_rows"] += int((~accepted(traj.status)).sum())
+        if args.plot is not None:
+            kept.append((log.time_s, wind, log.true_wind))
+        return traj
+
+    chunks = (c.log for c in iter_log(str(args.log), required_columns(af), block_bytes or BLOCK_BYTES))
+    stream_csv_netcdf(out.stage(args.output), Source(af, str(args.airframe), str(args.log), args.backend), chunks,
+                      step, lambda geo: warn_without_position("replay", str(args.log), geo))
+    scored = last["truth"] is not None
     if args.plot is not None:
         from dobwind.plots import replay_plot
 
-        replay_plot(log.time_s, traj.outputs[:, model.outputs.slice("wind_ned")], log.true_wind,
+        truth = None if kept[0][2] is None else np.concatenate([k[2] for k in kept])
+        replay_plot(np.concatenate([k[0] for k in kept]), np.concatenate([k[1] for k in kept]), truth,
                     f"{af.name}: wind estimated over {os.path.basename(args.log)}", str(out.stage(args.plot)))
-    if log.true_wind is not None:
-        return CsvReplay(score(log, traj, model), True)
-    return CsvReplay({"rows": log.rows, "rejected_rows": int((~accepted(traj.status)).sum())}, False)
+    return CsvReplay(scorer.result() if scored else counts, scored)

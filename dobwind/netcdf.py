@@ -72,13 +72,22 @@ def global_attrs(src: Source, geo: Geo, title: str) -> dict[str, str]:
             "time_source": geo.time_source}
 
 
-def _time(t_log: np.ndarray, geo: Geo) -> tuple[np.ndarray, dict[str, str]]:
+def row_dimension(geo: Geo) -> str:
+    return "time" if geo.utc_offset_s is not None else "log_time"
+
+
+def _coords(t_log: np.ndarray, geo: Geo) -> dict[str, tuple]:
+    """``time`` (UTC) where the log has GPS time, and always ``log_time``, the log's own clock. Without a
+    reference date there is no CF time coordinate at all (a coordinate named time in plain seconds is an
+    error to CF checkers): the rows' dimension is then ``log_time``, and every variable runs along it."""
+    dim = row_dimension(geo)
+    coords = {"log_time": (dim, t_log, {"long_name": "the log's own clock (time since the autopilot booted)",
+                                        "units": "s"})}
     if geo.utc_offset_s is not None:
-        return t_log + geo.utc_offset_s, {"standard_name": "time", "long_name": "time (UTC)", "axis": "T",
-                                          "units": "seconds since 1970-01-01 00:00:00", "calendar": "standard"}
-    # No reference date is known, so this is not a CF time coordinate: a plain coordinate in seconds.
-    return t_log.copy(), {"long_name": "time since the autopilot booted (the log's own clock; no GPS time)",
-                          "units": "s", "axis": "T"}
+        coords["time"] = ("time", t_log + geo.utc_offset_s,
+                          {"standard_name": "time", "long_name": "time (UTC)", "axis": "T",
+                           "units": "seconds since 1970-01-01 00:00:00", "calendar": "standard"})
+    return coords
 
 
 def _sigma(values: np.ndarray) -> np.ndarray:
@@ -88,10 +97,7 @@ def _sigma(values: np.ndarray) -> np.ndarray:
 def estimate_dataset(cols: dict[str, np.ndarray], t_log: np.ndarray, pos: RowPosition | None, geo: Geo,
                      src: Source, xr):
     """The xarray Dataset of one replay. ``cols``: the estimate CSV's columns by name (logs.ESTIMATE_COLUMNS)."""
-    time, time_attrs = _time(t_log, geo)
-    coords = {"time": ("time", time, time_attrs),
-              "log_time": ("time", t_log, {"long_name": "the log's own clock (time since the autopilot booted)",
-                                           "units": "s"})}
+    coords, dim = _coords(t_log, geo), row_dimension(geo)
     data = {}
     names = {"eastward_wind": cols["wind_e"], "northward_wind": cols["wind_n"],
              "upward_air_velocity": cols["wind_speed_up"], "wind_speed": cols["wind_speed_h"],
@@ -100,30 +106,30 @@ def estimate_dataset(cols: dict[str, np.ndarray], t_log: np.ndarray, pos: RowPos
     for var, values in names.items():
         std, units, long = cfnames.WIND[var]
         anc = ancillary.replace("wind_speed_", "upward_air_velocity_") if var == "upward_air_velocity" else ancillary
-        data[var] = ("time", values.astype(np.float32), {"standard_name": std, "units": units, "long_name": long,
+        data[var] = (dim, values.astype(np.float32), {"standard_name": std, "units": units, "long_name": long,
                                                          "ancillary_variables": anc})
     for var, column in (("wind_speed_standard_error", "wind_sigma_h"),
                         ("upward_air_velocity_standard_error", "wind_sigma_up")):
         std, units, long = cfnames.SIGMA[var]
-        data[var] = ("time", _sigma(cols[column]).astype(np.float32), {"standard_name": std, "units": units,
+        data[var] = (dim, _sigma(cols[column]).astype(np.float32), {"standard_name": std, "units": units,
                                                                        "long_name": long})
     for axis in "ned":
-        data[f"force_{axis}"] = ("time", cols[f"force_{axis}"].astype(np.float32),
+        data[f"force_{axis}"] = (dim, cols[f"force_{axis}"].astype(np.float32),
                                  {"long_name": f"filtered external force on the vehicle, {dict(n='north', e='east', d='down')[axis]}",
                                   "units": "N"})
-    data["status"] = ("time", cols["status"].astype(np.int32), cfnames.flag_attrs())
-    attrs = {"position_note": _position(coords, pos, geo)}
+    data["status"] = (dim, cols["status"].astype(np.int32), cfnames.flag_attrs())
+    attrs = {"position_note": _position(coords, pos, geo, dim)}
     ds = xr.Dataset(data, coords=coords, attrs=attrs)
     if pos is not None:
         ds.attrs["featureType"] = "trajectory"
         ds["trajectory"] = ((), Path(src.log_path).name, {"cf_role": "trajectory_id", "long_name": "flight log"})
         for var in ds.data_vars:
-            if ds[var].dims == ("time",):
-                ds[var].attrs["coordinates"] = "time lat lon alt height"
+            if ds[var].dims == (dim,):
+                ds[var].attrs["coordinates"] = f"{dim} lat lon alt height"
     return ds
 
 
-def _position(coords: dict, pos: RowPosition | None, geo: Geo) -> str:
+def _position(coords: dict, pos: RowPosition | None, geo: Geo, dim: str) -> str:
     if pos is None:
         return "; ".join(geo.notes) or "no global position in the log"
     for var, values in (("lat", pos.lat_deg), ("lon", pos.lon_deg), ("alt", pos.alt_m), ("height", pos.height_m)):
@@ -132,7 +138,7 @@ def _position(coords: dict, pos: RowPosition | None, geo: Geo) -> str:
         attrs.update({"axis": "Y"} if var == "lat" else {"axis": "X"} if var == "lon" else {"positive": "up"})
         if var == "height":
             attrs["comment"] = pos.height_source
-        coords[var] = ("time", values, attrs)
+        coords[var] = (dim, values, attrs)
     return f"position from {geo.track.source}; height: {pos.height_source}" if geo.track else ""
 
 

@@ -130,12 +130,14 @@ def test_without_position_it_says_so_and_writes_no_coordinates(tmp_path, capsys)
     with xr.open_dataset(tmp_path / "nopos.nc", decode_times=False) as ds:
         assert "lat" not in ds.variables and "lon" not in ds.variables and "featureType" not in ds.attrs
         assert "no global position" in ds.attrs["position_note"]
-        assert ds["time"].attrs["units"] == "s"  # seconds since boot: the log's own clock, no reference date
-        np.testing.assert_allclose(ds["time"].values[0], atmos_logs.BOOT_US * 1e-6, atol=1e-6)
+        # No GPS time: no CF time coordinate, the rows are on the log's own clock (seconds since boot).
+        assert "time" not in ds.variables and ds["log_time"].attrs["units"] == "s"
+        np.testing.assert_allclose(ds["log_time"].values[0], atmos_logs.BOOT_US * 1e-6, atol=1e-6)
+    cf_check(tmp_path / "nopos.nc")
 
 
 def test_csv_log_to_netcdf_and_a_failed_write_loses_nothing(tmp_path, monkeypatch):
-    from dobwind import ncreplay
+    from dobwind import ncstream
     from dobwind.logs import write_csv
 
     _, cols = atmos_logs.flight(hold_s=1.0)
@@ -144,14 +146,14 @@ def test_csv_log_to_netcdf_and_a_failed_write_loses_nothing(tmp_path, monkeypatc
     out = tmp_path / "f.nc"
     assert main(["replay", str(M300), str(tmp_path / "f.csv"), "-o", str(out)]) == 0
     with xr.open_dataset(out, decode_times=False) as ds:
-        assert ds.sizes["time"] == len(cols["t"]) and "lat" not in ds.variables
+        assert ds.sizes["log_time"] == len(cols["t"]) and "lat" not in ds.variables
     before = out.read_bytes()
 
-    def half_then_full_disk(path, ds):  # a disk that fills up halfway through the file
+    def half_then_full_disk(path, *args):  # a disk that fills up halfway through the file
         path.write_bytes(b"CDF partial")
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(ncreplay, "write_dataset", half_then_full_disk)
+    monkeypatch.setattr(ncstream, "stream_csv_netcdf", half_then_full_disk)
     assert main(["replay", str(M300), str(tmp_path / "f.csv"), "-o", str(out)]) == 2
     assert out.read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["f.csv", "f.nc"]  # no temporary left behind
@@ -240,3 +242,35 @@ def test_px4_ulog_replay_to_netcdf_end_to_end(tmp_path):
         np.testing.assert_allclose(ds["height"].values[inside], 1.5 * (boot_s[inside] - 1.0) - 1.5 * (boot_s[0] - 1.0),
                                    atol=1e-4)
         assert "vehicle_global_position" in ds.attrs["position_note"]
+
+
+def test_a_csv_log_streamed_in_small_chunks_gives_the_same_file_content(tmp_path):
+    """The NetCDF of a CSV log is appended chunk by chunk: many chunks hold what one chunk holds."""
+    import argparse
+
+    from dobwind.logs import write_csv
+    from dobwind.model.airframe import load_airframe
+    from dobwind.ncreplay import replay_csv_netcdf
+    from dobwind.outputs import OutputFiles, Target
+
+    _, cols = atmos_logs.flight(hold_s=1.0)
+    t = cols["t"]
+    cols = {k: v for k, v in cols.items() if k != "segment"}
+    cols.update(lat=np.full_like(t, 47.0), lon=np.full_like(t, 8.0), alt=500.0 + t)
+    names = list(cols)
+    write_csv(tmp_path / "f.csv", names, np.column_stack([cols[n] for n in names]), ["%.17g"] * len(names))
+    af = load_airframe(M300)
+    for name, block in (("one.nc", None), ("many.nc", 4096)):
+        args = argparse.Namespace(airframe=str(M300), log=str(tmp_path / "f.csv"), backend="python",
+                                  precision="single", plot=None, output=str(tmp_path / name))
+        with OutputFiles([Target("-o", args.output)]) as out:
+            result = replay_csv_netcdf(args, af, out, block_bytes=block)
+        assert result.metrics["rows"] == len(t)
+    with xr.open_dataset(tmp_path / "one.nc", decode_times=False) as one, \
+            xr.open_dataset(tmp_path / "many.nc", decode_times=False) as many:
+        assert many.sizes["log_time"] == len(t)
+        for var in one.variables:
+            np.testing.assert_array_equal(many[var].values, one[var].values, err_msg=var)
+        np.testing.assert_allclose(many["height"].values, t - t[0], atol=1e-9)
+        assert many.attrs == one.attrs
+    cf_check(tmp_path / "many.nc")  # no GPS time in a CSV log: log_time is the rows' coordinate
