@@ -29,8 +29,9 @@ def warn_without_position(command: str, log_path: str, geo: Geo) -> None:
 
 
 def write_replay_netcdf(staged: Path, af: Airframe, args: argparse.Namespace, t_log: np.ndarray, traj: Trajectory,
-                        landed: np.ndarray | None = None, columns: dict[str, np.ndarray] | None = None) -> None:
-    geo = read_geo(str(args.log), columns)
+                        landed: np.ndarray | None = None) -> None:
+    """An autopilot log's replay (held whole, as replay_ulog returns it) to NetCDF."""
+    geo = read_geo(str(args.log))
     warn_without_position("replay", str(args.log), geo)
     ds = replay_dataset(t_log, traj.outputs, traj.status, geo, Source(af, str(args.airframe), str(args.log),
                                                                       args.backend), landed)
