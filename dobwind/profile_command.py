@@ -79,10 +79,8 @@ def profile_command(args: argparse.Namespace) -> int:
 
 
 def _as_json(stats: dict[str, np.ndarray], done: list[Done], args: argparse.Namespace) -> dict:
-    def clean(v):
-        return None if isinstance(v, float) and not np.isfinite(v) else v
-
-    bins = [{c: clean(stats[c][k].item()) for c in CSV_COLUMNS} for k in range(len(stats["count"]))]
+    # NaN (no spread from one sample, an unknown sigma) becomes null through print_json, which lists where.
+    bins = [{c: stats[c][k].item() for c in CSV_COLUMNS} for k in range(len(stats["count"]))]
     logs = [{"log": r.log, "exit": r.code, "error": r.error,
              "trusted_rows": None if r.value is None else r.value[1],
              "notes": [] if r.value is None else list(r.value[2])} for r in done]

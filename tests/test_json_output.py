@@ -22,7 +22,7 @@ def strict_loads(text: str):
 
 
 # The subcommands with --json that the tests below run; the walk over the parser below keeps it complete.
-JSON_COMMANDS = {"analyze", "check", "fit", "replay", "verify"}
+JSON_COMMANDS = {"analyze", "check", "fit", "replay", "verify", "profile"}
 
 
 def _json_run(argv: list[str], capsys) -> tuple[int, dict]:
@@ -112,6 +112,17 @@ def test_replay_json_with_nan_true_wind(tmp_path, capsys):
     code, report = _json_run(["replay", str(M300), str(log), "--json"], capsys)
     assert code == 0 and report["rows"] > 0
     assert report["per_sample"]["speed_mean"] is None and "per_sample.speed_mean" in report[NULL_PATHS_KEY]
+
+
+def test_profile_json_with_unknown_sigmas(tmp_path, capsys):
+    log = tmp_path / "vertical.csv"
+    assert main(["simulate", "vertical", "--hold", "2", "--rate", "50", "-o", str(log)]) == 0
+    capsys.readouterr()
+    code, report = _json_run(["profile", str(M300), str(log), "-o", str(tmp_path / "p.csv"), "--json"], capsys)
+    assert code == 0 and sum(b["count"] for b in report["bins"]) > 0
+    # m300 records no [uncertainty] table: every bin's sigma is unknown, null and named as such
+    assert all(b["sigma_h_mps"] is None for b in report["bins"])
+    assert "bins[0].sigma_h_mps" in report[NULL_PATHS_KEY]
 
 
 def test_fit_json_with_a_non_finite_figure(tmp_path, capsys, monkeypatch):
