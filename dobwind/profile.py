@@ -38,6 +38,7 @@ class Samples:
     sigma_h: np.ndarray
     sigma_up: np.ndarray
     notes: tuple[str, ...] = ()
+    utc_s: tuple[float, float] | None = None  # Unix seconds of the first and last kept row, with GPS time
 
 
 def bin_sums(samples: Samples, bin_m: float) -> dict[int, np.ndarray]:
@@ -153,9 +154,12 @@ def flight_samples(af: Airframe, path: str, backend: str = "python", precision: 
         raise InputError(path, None, "no global or local position in the log: a profile needs the height of each row")
     keep = (np.asarray(traj.status).astype(np.int64) & ~allow) == 0
     out = traj.outputs
+    kept_t = t[keep & np.isfinite(height)]
+    utc = (float(kept_t[0] + geo.utc_offset_s), float(kept_t[-1] + geo.utc_offset_s)) \
+        if geo.utc_offset_s is not None and kept_t.size else None
     return Samples(height[keep], out[keep][:, model.outputs.slice("wind_ned")],
                    out[keep][:, model.outputs.slice("wind_sigma_h")][:, 0],
-                   out[keep][:, model.outputs.slice("wind_sigma_up")][:, 0], tuple(notes))
+                   out[keep][:, model.outputs.slice("wind_sigma_up")][:, 0], tuple(notes), utc)
 
 
 def _integrated_height(t: np.ndarray, vel_d: np.ndarray) -> np.ndarray:
@@ -165,9 +169,23 @@ def _integrated_height(t: np.ndarray, vel_d: np.ndarray) -> np.ndarray:
 
 
 def flight_sums(airframe_path: str, path: str, bin_m: float, backend: str, precision: str,
-                rate_hz: float | None, allow: int) -> tuple[dict[int, np.ndarray], int, tuple[str, ...]]:
-    """A worker's job (top level, so a process pool can call it): (per-bin sums, trusted rows, notes)."""
+                rate_hz: float | None, allow: int) -> tuple[dict[int, np.ndarray], int, tuple[str, ...],
+                                                            tuple[float, float] | None]:
+    """A worker's job (top level, so a process pool can call it): (per-bin sums, trusted rows, notes, UTC
+    span of the trusted rows or None)."""
     from dobwind.model.airframe import load_airframe
 
     samples = flight_samples(load_airframe(airframe_path), path, backend, precision, rate_hz, allow)
-    return bin_sums(samples, bin_m), len(samples.height_m), samples.notes
+    return bin_sums(samples, bin_m), len(samples.height_m), samples.notes, samples.utc_s
+
+
+def coverage(spans: list[tuple[float, float] | None]) -> tuple[str, str] | None:
+    """ISO 8601 UTC start and end over the flights that have GPS time (None: none has)."""
+    import datetime as dt
+
+    known = [s for s in spans if s is not None]
+    if not known:
+        return None
+    iso = [dt.datetime.fromtimestamp(x, dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+           for x in (min(s[0] for s in known), max(s[1] for s in known))]
+    return iso[0], iso[1]

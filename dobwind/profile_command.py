@@ -13,7 +13,7 @@ from dobwind.campaign import Done, expand_logs, format_table, run_all
 from dobwind.errors import InputError
 from dobwind.netcdf import is_netcdf
 from dobwind.outputs import OutputFiles, Target, check_targets
-from dobwind.profile import allowed_mask, combine, flight_sums, table
+from dobwind.profile import allowed_mask, combine, coverage, flight_sums, table
 from dobwind.progress import wanted
 
 CSV_COLUMNS = ("height_bottom_m", "height_top_m", "height_m", "count", "speed_mean_mps", "speed_std_mps",
@@ -59,12 +59,13 @@ def profile_command(args: argparse.Namespace) -> int:
         where = ", ".join(logs[:3]) + (" ..." if len(logs) > 3 else "")
         raise InputError(where, None, "no trusted estimate with a height in any log: nothing written (--allow "
                          "admits quality-flagged rows)")
+    span = coverage([r.value[3] for r in good])
     with OutputFiles(targets) as out:
         staged = out.stage(args.output)
         if is_netcdf(args.output):
-            _write_netcdf(staged, stats, args, af, logs)
+            _write_netcdf(staged, stats, args, af, logs, span)
         else:
-            _write_csv(staged, stats, args, af)
+            _write_csv(staged, stats, args, af, span)
         if args.plot:
             from dobwind.profileplot import profile_plot
 
@@ -72,7 +73,7 @@ def profile_command(args: argparse.Namespace) -> int:
     if args.json:
         from dobwind.jsonout import print_json
 
-        print_json(_as_json(stats, done, args))
+        print_json({**_as_json(stats, done, args), "time_coverage_utc": list(span) if span else None})
     else:
         print(_text(stats, done))
     return max(r.code for r in done)
@@ -101,17 +102,20 @@ def _text(stats: dict[str, np.ndarray], done: list[Done]) -> str:
                                    rows), *flights])
 
 
-def _write_csv(path: Path, stats: dict[str, np.ndarray], args: argparse.Namespace, af) -> None:
+def _write_csv(path: Path, stats: dict[str, np.ndarray], args: argparse.Namespace, af,
+               span: tuple[str, str] | None) -> None:
     from dobwind.logs import write_csv
 
     formats = ["%.6g"] * len(CSV_COLUMNS)
     formats[CSV_COLUMNS.index("count")] = "%d"
     comments = [f"dobwind profile: airframe {af.name} ({Path(args.airframe).name}), bin {args.bin:g} m, "
-                "height above the take-off point; trusted rows only"]
+                "height above the take-off point; trusted rows only",
+                f"UTC {span[0]} to {span[1]}" if span else "no GPS time in the logs: UTC unknown"]
     write_csv(path, list(CSV_COLUMNS), np.column_stack([stats[c] for c in CSV_COLUMNS]), formats, comments)
 
 
-def _write_netcdf(path: Path, stats: dict[str, np.ndarray], args: argparse.Namespace, af, logs: list[str]) -> None:
+def _write_netcdf(path: Path, stats: dict[str, np.ndarray], args: argparse.Namespace, af, logs: list[str],
+                  span: tuple[str, str] | None) -> None:
     import xarray as xr
 
     from dobwind.netcdf import calibration_text, write_dataset
@@ -158,4 +162,6 @@ def _write_netcdf(path: Path, stats: dict[str, np.ndarray], args: argparse.Names
                 "dobwind_airframe": af.name, "dobwind_airframe_file": Path(args.airframe).name,
                 "dobwind_airframe_sha256": af.content_sha256, "dobwind_calibration": calibration_text(af),
                 "dobwind_logs": ", ".join(Path(log).name for log in logs), "dobwind_bin_m": float(args.bin)}
+    if span:
+        ds.attrs.update(time_coverage_start=span[0], time_coverage_end=span[1])
     write_dataset(path, ds)

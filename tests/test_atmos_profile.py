@@ -145,7 +145,14 @@ def test_profile_netcdf_and_plot(two_flights, capsys):
     ref = _read(csv)
     assert [b["count"] for b in report["bins"]] == ref["count"].astype(int).tolist()
     assert [entry["exit"] for entry in report["logs"]] == [0, 0]
+    assert report["time_coverage_utc"][0] == ds_start_iso(out)
     with xr.open_dataset(out) as ds:
+        # The flights' GPS time: both start at UTC0 (the synthetic logs share their clock), end within 16 s.
+        start = np.datetime64(ds.attrs["time_coverage_start"].rstrip("Z"))
+        end = np.datetime64(ds.attrs["time_coverage_end"].rstrip("Z"))
+        utc0 = np.datetime64(atmos_logs.UTC0.replace(tzinfo=None))
+        assert utc0 - np.timedelta64(1, "s") <= start <= utc0 + np.timedelta64(5, "s")
+        assert start < end <= utc0 + np.timedelta64(17, "s")
         assert ds["height"].attrs["standard_name"] == "height" and ds["height"].attrs["positive"] == "up"
         assert ds["wind_from_direction"].attrs["standard_name"] == "wind_from_direction"
         np.testing.assert_array_equal(ds["count"].values, ref["count"])  # two workers = one process
@@ -221,3 +228,9 @@ def test_a_failing_log_is_left_out_and_the_exit_says_so(two_flights, tmp_path, c
     err = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
     assert code == 2 and len(err) == 1 and "gone.bin" in err[0]
     assert mixed.read_bytes().split(b"\n", 1)[1] == alone.read_bytes().split(b"\n", 1)[1]  # the same bins
+
+
+def ds_start_iso(path):
+    xr = pytest.importorskip("xarray")
+    with xr.open_dataset(path) as ds:
+        return ds.attrs["time_coverage_start"]
