@@ -17,7 +17,7 @@ system-deps:
 $(STAMP): pyproject.toml | system-deps
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
-	$(BIN)/pip install --quiet -e '.[dev,ulog,ardupilot,rosbag]'
+	$(BIN)/pip install --quiet -e '.[dev,ulog,ardupilot,rosbag,netcdf,cfcheck]'
 	touch $(STAMP)
 
 test: system-deps $(STAMP)

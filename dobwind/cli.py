@@ -218,8 +218,18 @@ def _fit_verdict(args: argparse.Namespace, report) -> int:
 def cmd_replay(args: argparse.Namespace) -> int:
     from dobwind.model.airframe import load_airframe
     from dobwind.replay import text_report
+    from dobwind.campaign import is_many
 
+    if is_many(args.log):  # several logs or a folder of them: dobwind/replaymany.py
+        from dobwind.replaymany import replay_many
+
+        return replay_many(args)
+    args.log = args.log[0]
     check_targets(_replay_targets(args), [args.airframe, args.log])
+    if _netcdf(args.output):
+        from dobwind.ncreplay import require_netcdf
+
+        require_netcdf(args.output)
     af = load_airframe(args.airframe)
     _warn_uncalibrated(af, args.airframe)
     if args.backend == "c" and args.precision == "single":
@@ -235,7 +245,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
             raise InputError(args.log, option, "only applies to autopilot logs (CSV logs keep their own clock)")
     if args.px4_wind is not None:
         raise InputError(args.log, "--px4-wind", "only applies to autopilot logs (.ulg, .bin, ROS 2 bags)")
-    result = _replay_csv(args, af)
+    result = _replay_csv_netcdf(args, af) if _netcdf(args.output) else _replay_csv(args, af)
     metrics = result.metrics
     for finding in result.findings:
         sys.stderr.write(f"dobwind replay: warning: {args.log}: {finding.message}\n")
@@ -280,6 +290,20 @@ def _replay_csv(args: argparse.Namespace, af):
     return result
 
 
+def _netcdf(output: str | None) -> bool:
+    from dobwind.netcdf import is_netcdf
+
+    return is_netcdf(output)
+
+
+def _replay_csv_netcdf(args: argparse.Namespace, af):
+    """-o OUT.nc: the estimate as a CF-NetCDF trajectory (dobwind/ncreplay.py)."""
+    from dobwind.ncreplay import replay_csv_netcdf
+
+    with OutputFiles(_replay_targets(args)) as out:
+        return replay_csv_netcdf(args, af, out)
+
+
 @contextlib.contextmanager
 def _no_file():
     yield None
@@ -313,7 +337,11 @@ def _replay_ulog(args: argparse.Namespace, af) -> int:
     valid = accepted(traj.status)  # quality-flagged samples are estimates too; status_counts shows the flags
     summary = autopilot_summary(af.name, str(args.log), args.backend, model, flight, traj)
     with OutputFiles(_replay_targets(args)) as out:
-        if args.output is not None:
+        if args.output is not None and _netcdf(args.output):
+            from dobwind.ncreplay import write_replay_netcdf
+
+            write_replay_netcdf(out.stage(args.output), af, args, flight.t0_s + log.time_s, traj, flight.landed)
+        elif args.output is not None:
             write_output(out.stage(args.output), log, traj, flight.t0_s)
         if args.px4_wind is not None:
             from dobwind.autopilot import px4_wind_rows, write_px4_wind
@@ -386,6 +414,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_fit(command)
     _add_replay(command)
     _add_simulate(command)
+    _add_profile(command)
     _add_report(command)
     _add_demo(command)
     _add_inspect(command)
@@ -512,8 +541,11 @@ def _add_fit(command: _Command) -> None:
 def _add_replay(command: _Command) -> None:
     p = command("replay", "run the estimator over a flight log")
     p.add_argument("airframe", help=AIRFRAME_HELP)
-    p.add_argument("log", help="flight log: CSV (docs/formats.md) or PX4 ULog (.ulg)")
-    p.add_argument("-o", "--output", help="estimate CSV, one row per log row (docs/formats.md) (default: none, not written)")
+    p.add_argument("log", nargs="+", help="flight log: CSV (docs/formats.md), PX4 ULog (.ulg), ArduPilot DataFlash "
+                   "(.bin) or ROS 2 bag; several logs or a folder of logs are replayed in parallel (docs/atmospheric.md)")
+    p.add_argument("-o", "--output", help="estimate CSV, one row per log row (docs/formats.md), or CF-NetCDF when the "
+                   "name ends in .nc; with several logs a folder, one file per log named after it (default: none, "
+                   "not written)")
     p.add_argument("--backend", choices=("python", "c"), default="python",
                    help="run the CasADi reference (python) or the generated C, compiled on the fly (c)")
     p.add_argument("--precision", choices=("single", "double"), default="single", help="C backend precision")
@@ -528,7 +560,50 @@ def _add_replay(command: _Command) -> None:
     p.add_argument("--plot", help="PNG of the estimated wind against the truth or the autopilot's wind "
                    "(default: none, not drawn)")
     p.add_argument("--json", action="store_true", help=JSON_HELP)
+    _add_many_options(p, "replay")
+    p.add_argument("--format", choices=("csv", "nc"), default="csv",
+                   help="several logs: the format of each estimate file in the -o folder (default: csv)")
     p.set_defaults(func=cmd_replay)
+
+
+def _add_many_options(p: argparse.ArgumentParser, what: str) -> None:
+    from dobwind.campaign import JOBS, default_jobs
+
+    p.add_argument("--jobs", type=JOBS, default=default_jobs(), metavar="N",
+                   help=f"several logs: {what} N logs at once in worker processes ({JOBS.text()}; default: one "
+                   "per core)")
+
+
+def _add_profile(command: _Command) -> None:
+    from dobwind.profile import BIN
+
+    p = command("profile", "wind speed, direction and vertical wind binned by height above take-off, over "
+                "one or many flights")
+    p.add_argument("airframe", help=AIRFRAME_HELP)
+    p.add_argument("logs", nargs="+", help="flight logs (autopilot logs with global position; CSV logs with "
+                   "lat, lon, alt columns, else height from vel_d) or folders of them")
+    p.add_argument("-o", "--output", required=True, help="the profile to write: .csv or CF-NetCDF .nc (required)")
+    p.add_argument("--bin", type=BIN, default=5.0, metavar="M", help=f"height bin, m ({BIN.text()}; default 5)")
+    p.add_argument("--plot", help="PNG of speed, direction and vertical wind against height with wind barbs "
+                   "(default: none, not drawn)")
+    p.add_argument("--allow", action="append", metavar="FLAG",
+                   help="also use rows carrying this quality flag (e.g. extrapolated; repeatable; default: none, "
+                   "status 0 rows only)")
+    p.add_argument("--backend", choices=("python", "c"), default="python",
+                   help="run the CasADi reference (python) or the generated C, compiled on the fly (c)")
+    p.add_argument("--precision", choices=("single", "double"), default="single", help="C backend precision")
+    p.add_argument("--rate", type=opt.ULOG_RATE,
+                   help=f"autopilot logs only: resample at this rate, Hz ({opt.ULOG_RATE.text()}) (default: none, "
+                   "the attitude's clock)")
+    p.add_argument("--json", action="store_true", help=JSON_HELP)
+    _add_many_options(p, "profile")
+    p.set_defaults(func=cmd_profile)
+
+
+def cmd_profile(args: argparse.Namespace) -> int:
+    from dobwind.profile_command import profile_command
+
+    return profile_command(args)
 
 
 def _add_simulate(command: _Command) -> None:

@@ -22,7 +22,7 @@ def strict_loads(text: str):
 
 
 # The subcommands with --json that the tests below run; the walk over the parser below keeps it complete.
-JSON_COMMANDS = {"analyze", "check", "fit", "replay", "verify", "inspect", "init"}
+JSON_COMMANDS = {"analyze", "check", "fit", "replay", "verify", "inspect", "init", "profile"}
 
 
 def _json_run(argv: list[str], capsys) -> tuple[int, dict]:
@@ -122,6 +122,17 @@ def test_inspect_and_init_json(tmp_path, capsys):
     assert code == 0 and report["format"] == "csv" and report["roles"]["rpm"]["source"].startswith("rpm_1")
     code, report = _json_run(["init", str(log), "--mass", "8", "-o", str(tmp_path / "v.toml"), "--json"], capsys)
     assert code == 0 and report["calibration"] == "prior" and report["choices"]["rate_hz"] == 50.0
+
+
+def test_profile_json_with_unknown_sigmas(tmp_path, capsys):
+    log = tmp_path / "vertical.csv"
+    assert main(["simulate", "vertical", "--hold", "2", "--rate", "50", "-o", str(log)]) == 0
+    capsys.readouterr()
+    code, report = _json_run(["profile", str(M300), str(log), "-o", str(tmp_path / "p.csv"), "--json"], capsys)
+    assert code == 0 and sum(b["count"] for b in report["bins"]) > 0
+    # m300 records no [uncertainty] table: every bin's sigma is unknown, null and named as such
+    assert all(b["sigma_h_mps"] is None for b in report["bins"])
+    assert "bins[0].sigma_h_mps" in report[NULL_PATHS_KEY]
 
 
 def test_fit_json_with_a_non_finite_figure(tmp_path, capsys, monkeypatch):
