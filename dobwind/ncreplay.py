@@ -43,6 +43,7 @@ class CsvReplay:
     """What cmd_replay prints for a CSV log, as ``replay_stream``'s result gives it."""
     metrics: dict
     scored: bool
+    findings: tuple = ()  # plausibility findings, as replay_stream gives them for a CSV output
 
 
 def replay_csv_netcdf(args: argparse.Namespace, af: Airframe, out, block_bytes: int | None = None) -> CsvReplay:
@@ -53,9 +54,11 @@ def replay_csv_netcdf(args: argparse.Namespace, af: Airframe, out, block_bytes: 
     from dobwind.model.status import accepted
     from dobwind.model.step import build_step
     from dobwind.ncstream import stream_csv_netcdf
+    from dobwind.plausibility import FlightSeries, StreamedChecks
     from dobwind.scoring import WindScore
 
     model = build_step(af)
+    checks = StreamedChecks(af)
     runner = Runner(model, args.backend, args.precision)
     scorer, counts, kept = WindScore(), {"rows": 0, "rejected_rows": 0}, []
     last: dict[str, float | None] = {"t": None, "truth": None}  # the previous chunk's last time; true wind seen
@@ -64,6 +67,8 @@ def replay_csv_netcdf(args: argparse.Namespace, af: Airframe, out, block_bytes: 
         traj = runner.run(step_inputs(model, log, last["t"]))
         last["t"] = float(log.time_s[-1])
         wind = traj.outputs[:, model.outputs.slice("wind_ned")]
+        checks.add(FlightSeries(log.time_s, log.stack("vel_n", "vel_e", "vel_d"),
+                                traj.outputs[:, model.outputs.slice("force_ned")], wind, traj.status))
         if log.true_wind is not None:
             scorer.add(log.time_s, wind, log.true_wind, traj.status, log.columns.get("segment"))
             last["truth"] = 1.0
@@ -83,4 +88,4 @@ def replay_csv_netcdf(args: argparse.Namespace, af: Airframe, out, block_bytes: 
         truth = None if kept[0][2] is None else np.concatenate([k[2] for k in kept])
         replay_plot(np.concatenate([k[0] for k in kept]), np.concatenate([k[1] for k in kept]), truth,
                     f"{af.name}: wind estimated over {os.path.basename(args.log)}", str(out.stage(args.plot)))
-    return CsvReplay(scorer.result() if scored else counts, scored)
+    return CsvReplay(scorer.result() if scored else counts, scored, tuple(checks.findings()))

@@ -172,7 +172,9 @@ def test_without_global_position_the_ekf_height_serves_and_without_both_it_refus
     assert main(["profile", str(M300), str(with_pos), "-o", str(tmp_path / "ref.csv"), "--bin", "2"]) == 0
     got, ref = _read(tmp_path / "p.csv"), _read(tmp_path / "ref.csv")
     assert got["count"].sum() >= ref["count"].sum() > 0  # the EKF rows reach past the last POS sample
-    np.testing.assert_array_equal(got["count"][:-1], ref["count"][:-1])
+    # A row at a bin edge may fall either side: the two heights are interpolated from different messages.
+    np.testing.assert_allclose(got["count"][:-1], ref["count"][:-1], atol=1)
+    assert got["count"][:-1].sum() == ref["count"][:-1].sum()
     bare = atmos_logs.write_log(tmp_path / "bare.bin", cols, position=False, local=False)
     assert main(["profile", str(M300), str(bare), "-o", str(tmp_path / "q.csv")]) == 2
     err = capsys.readouterr().err
