@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Callable
 
 from dobwind.atomic import write_text_atomically
 from dobwind.codegen.generate import generate_code, is_generated_name
@@ -10,13 +11,16 @@ from dobwind.outputs import Target, check_replaceable, staged_folder
 
 
 def generate_to_dir(af: Airframe, out_dir: str | Path, precision: str = "single", option: str = "-o",
-                    source: str | None = None) -> list[Path]:
+                    source: str | None = None, gate: Callable[[Path], None] | None = None) -> list[Path]:
     """Renders everything, then replaces ``out_dir`` as a whole (a sibling folder swapped in), so a
-    full disk or a signal leaves either the old folder or the new one, never a mix."""
+    full disk or a signal leaves either the old folder or the new one, never a mix. ``gate`` checks the
+    rendered folder before the swap (generate's self-test): if it raises, nothing is written."""
     target = Target(option, str(out_dir), "dir")
     check_replaceable(target, is_generated_name)
     with staged_folder(target) as work:  # the render runs inside: a signal then removes the folder too
         code = generate_code(af, precision, source=source)
         for name, text in code.files.items():
             write_text_atomically(work / name, lambda handle, text=text: handle.write(text))
+        if gate is not None:
+            gate(work)
     return [Path(out_dir) / name for name in code.files]

@@ -29,6 +29,10 @@ from dobwind.model.step import StepModel
 # Float32 ulps between a single-precision row and the flip of a computed limit: well above the few ulps
 # by which a float sum of squares differs from its double value.
 COMPUTED_MARGIN_ULPS = 16
+# The rounding error of a float cos(tilt) test (w^2 - x^2 - y^2 + z^2 against cos(max_tilt) * |q|^2):
+# a few ulps of 1. Near a small max_tilt the crossing moves fast with that error (d r33 / dx = 2x(1 + cos)
+# is small), so the rows must stand this far in r33, not 16 ulps of x, off the flip.
+TILT_R33_ERROR = 64 * 2.0 ** -24
 _BISECTION_STEPS = 70
 
 Row = tuple[np.ndarray, np.ndarray]  # (state, input)
@@ -102,13 +106,16 @@ def _flip(model: StepModel, family: Family, lo: float, hi: float, precision: str
     return a, b
 
 
-def _crossing(model: StepModel, family: Family, lo: float, hi: float, precision: str, computed: bool) -> list[Row]:
+def _crossing(model: StepModel, family: Family, lo: float, hi: float, precision: str, computed: bool,
+              relative_margin: float = 0.0) -> list[Row]:
     found = _flip(model, family, lo, hi, precision)
     if found is None:
         return []
     a, b = found
     if computed and precision == "single":
-        offsets = (a - COMPUTED_MARGIN_ULPS, b + COMPUTED_MARGIN_ULPS)
+        below = _as_bits(_from_bits(a, precision) * (1 - relative_margin), precision)
+        above = _as_bits(_from_bits(b, precision) * (1 + relative_margin), precision)
+        offsets = (min(a - COMPUTED_MARGIN_ULPS, below), max(b + COMPUTED_MARGIN_ULPS, above))
     else:
         offsets = (a - 1, a, b, b + 1)
     return [family(_from_bits(bits, precision)) for bits in offsets]
@@ -185,11 +192,19 @@ def _sign_rows(model: StepModel, base: Row, precision: str) -> tuple[list[str], 
     return labels, rows
 
 
+def _tilt_relative_margin(max_tilt_deg: float) -> float:
+    """Relative step of the varied quaternion component x that moves r33 by TILT_R33_ERROR at the flip."""
+    x = math.sin(math.radians(max_tilt_deg) / 2)
+    return TILT_R33_ERROR / (2 * x * x * (1 + math.cos(math.radians(max_tilt_deg))))
+
+
 def boundary_cases(model: StepModel, precision: str) -> BoundaryCases:
     base = neutral_row(model)
     labels, rows = _sign_rows(model, base, precision)
+    tilt_margin = _tilt_relative_margin(model.airframe.limits.max_tilt_deg)
     for label, family, lo, hi, computed in _limit_families(model, base):
-        crossing = _crossing(model, family, lo, hi, precision, computed)
+        margin = tilt_margin if label.startswith("tilt") else 0.0
+        crossing = _crossing(model, family, lo, hi, precision, computed, margin)
         labels += [label] * len(crossing)
         rows += crossing
     dtype = _dtype(precision)
