@@ -96,6 +96,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     af = load_airframe(args.airframe)
     require_stable(af, "generate would refuse it", args.airframe)
     model = build_step(af)
+    _refuse_what_generate_refuses(af, model, args.airframe)
     summary = {
         "name": af.name,
         "mass_kg": af.mass_kg,
@@ -112,6 +113,15 @@ def cmd_check(args: argparse.Namespace) -> int:
         for key, value in summary.items():
             print(f"{key:18s} {value}")
     return 0
+
+
+def _refuse_what_generate_refuses(af: Any, model: Any, source: str) -> None:
+    """Renders the C in both precisions and discards it: every static refusal of `generate` (a constant
+    that rounds to 0 in a float, an ill-conditioned term) then stops `check` too, with the same line."""
+    from dobwind.codegen.generate import generate_code
+
+    for precision in ("single", "double"):
+        generate_code(af, precision, model, source=source)
 
 
 def _default_airframe() -> str:
