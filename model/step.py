@@ -29,6 +29,7 @@ from dobwind.model import forceair
 from dobwind.model.discretization import first_order
 from dobwind.model.dynamics import quaternion_to_rotation_any_norm, solve_external_force
 from dobwind.model.layout import Field, Layout
+from dobwind.model.plausibility import implausible_inputs, implausible_result
 from dobwind.model.settling import settling_time_s
 from dobwind.model.status import (DT_TOLERANCE, INPUT_MAGNITUDE_LIMIT, MIN_DT_S, QUATERNION_NORM_TOLERANCE,
                                   RESULT_MAGNITUDE_LIMIT, STATUS_BITS)
@@ -216,8 +217,10 @@ def _validate(af: Airframe, lin: Layout, s: Signals) -> Signals:
         thrust_ok = _all([rpm[i] >= 0 for i in range(rpm.numel())])
     else:
         thrust_ok = s["in.thrust"] >= 0
+    plausible = ca.logic_not(implausible_inputs(s, af.mass_kg, af.gravity_mps2, af.thrust.max_rpm))
     status = (
-        ca.if_else(finite, 0, bits["NONFINITE"])
+        ca.if_else(plausible, 0, bits["IMPLAUSIBLE"])
+        + ca.if_else(finite, 0, bits["NONFINITE"])
         + ca.if_else(dt_ok, 0, bits["BAD_DT"])
         + ca.if_else(q_ok, 0, bits["BAD_QUATERNION"])
         + ca.if_else(tilt_ok, 0, bits["TILT"])
@@ -225,7 +228,7 @@ def _validate(af: Airframe, lin: Layout, s: Signals) -> Signals:
     )
     # The same tests as one truth value: the C checks this alone and assembles the status bits only
     # for a rejected sample (validation then costs a few instructions per input).
-    accepted = _all([finite, dt_ok, q_ok, tilt_ok, thrust_ok])
+    accepted = _all([finite, dt_ok, q_ok, tilt_ok, thrust_ok, plausible])
     return {"status": status, "accepted": accepted}
 
 
@@ -443,17 +446,18 @@ def _committed(af: Airframe) -> list[str]:
 
 def _add_result_check(b: _Builder, af: Airframe) -> None:
     committed = _committed(af)
-    b.add("check_result", "an accepted sample must give a finite result, else it is rejected too", committed,
-          partial(_check_result, committed))
+    b.add("check_result", "an accepted sample must give a finite and physically plausible result, else it is "
+          "rejected too", committed + ["f_e"], partial(_check_result, af, committed))
 
 
-def _check_result(committed: list[str], s: Signals) -> Signals:
+def _check_result(af: Airframe, committed: list[str], s: Signals) -> Signals:
     # One sum: NaN and infinity propagate into it, and so does any overflow. The wind speed is a square
     # root, never negative, so it needs no fabs.
     values = [ca.fabs(s[name]) if name != "wind_speed_h" else s[name] for name in committed]
     ok = ca.sum1(ca.vertcat(*values)) <= RESULT_MAGNITUDE_LIMIT
-    bit = next(b.value for b in STATUS_BITS if b.name == "NUMERIC")
-    return {"result_status": ca.if_else(ok, 0, bit)}
+    bits = {bit.name: bit.value for bit in STATUS_BITS}
+    implausible = implausible_result(s["f_e"], s["wind_ned"], af.mass_kg, af.gravity_mps2)
+    return {"result_status": ca.if_else(ok, ca.if_else(implausible, bits["IMPLAUSIBLE"], 0), bits["NUMERIC"])}
 
 
 def _compose(af: Airframe, signals: Signals, next_state: tuple[tuple[str, str], ...], x: ca.SX, u: ca.SX,
