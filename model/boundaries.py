@@ -22,6 +22,8 @@ from typing import Callable
 import numpy as np
 
 from dobwind.model.numeric import rpm_for_rotor_thrust
+from dobwind.model.plausibility import MAX_ACCELERATION_MPS2, MAX_GROUND_SPEED_MPS, MAX_RPM_FRACTION, \
+    MAX_THRUST_TO_WEIGHT
 from dobwind.model.status import INPUT_MAGNITUDE_LIMIT, MIN_DT_S, DT_TOLERANCE, QUATERNION_NORM_TOLERANCE, \
     RESULT_MAGNITUDE_LIMIT
 from dobwind.model.step import StepModel
@@ -171,11 +173,38 @@ def _limit_families(model: StepModel, base: Row) -> list[tuple[str, Family, floa
     for axis in (1, 2):
         out.append((f"tilt about q[{axis}] <= max_tilt", _with_quaternion(base, model, {0: w}, axis),
                     0.85 * math.sin(half), 1.15 * math.sin(half), True))
+    out += _plausibility_families(model, base)
     out.append(("result sum <= RESULT_MAGNITUDE_LIMIT", _with_state(base, model, ("f_obs", "f_filt"), 2),
                 RESULT_MAGNITUDE_LIMIT / 10, RESULT_MAGNITUDE_LIMIT * 10, True))
     settle, step = model.settling_time_s, af.observer.sample_time_s
     out.append(("run_s + dt < settling time", _with_state(base, model, ("run_s",), 0), settle - 3 * step,
                 settle, True))
+    return out
+
+
+def _plausibility_families(model: StepModel, base: Row) -> list[tuple[str, Family, float, float, bool]]:
+    """IMPLAUSIBLE's input bounds (model/plausibility.py), each crossed from the neutral sample. The flip
+    found may be another bound met first on the way (a fast ground speed or a strong acceleration is also
+    a large external force): still a status flip C and reference must agree on. Computed (squared norms)."""
+    lin, af = model.inputs, model.airframe
+
+    def hover(index: int) -> float:  # the neutral sample's own value: plausible, the crossing lies above
+        return float(base[1][index])
+
+    out: list[tuple[str, Family, float, float, bool]] = [
+        ("|vel_ned| <= MAX_GROUND_SPEED", _with_input(base, model, lin.offset("vel_ned")), 1e-6, 2 * MAX_GROUND_SPEED_MPS, True)]
+    for name in ("acc_ned", "specific_force"):
+        if name in lin:
+            out.append((f"|{name}| <= MAX_ACCELERATION", _with_input(base, model, lin.offset(name)), 1e-6,
+                        2 * MAX_ACCELERATION_MPS2, True))
+    if "rotor_rpm" in lin:
+        top = MAX_RPM_FRACTION * af.thrust.max_rpm
+        out.append(("rpm <= MAX_RPM_FRACTION max_rpm", _with_input(base, model, lin.offset("rotor_rpm")), hover(lin.offset("rotor_rpm")),
+                    top * 2, True))
+    if "thrust" in lin:
+        top = MAX_THRUST_TO_WEIGHT * af.mass_kg * af.gravity_mps2
+        out.append(("thrust <= MAX_THRUST_TO_WEIGHT weight", _with_input(base, model, lin.offset("thrust")), hover(lin.offset("thrust")),
+                    top * 2, True))
     return out
 
 

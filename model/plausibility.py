@@ -11,10 +11,12 @@ Two checks run at two places in the step:
 
 - on the inputs (the validate stage): ground speed, the acceleration input, rotor speed against
   ``max_rpm`` (rpm airframes) or collective thrust against weight (thrust airframes);
-- on the result (the result check, beside NUMERIC): the raw external force against the weight, and the
-  wind. Both follow from plausible-looking inputs that together cannot be this vehicle (an acceleration
-  glitch, rpm logged in the wrong unit, a thrust curve that does not fit), and the wind bound is the
-  promise that a trusted output never exceeds it.
+- on the result (the result check, beside NUMERIC): the raw external force against the weight, which
+  follows from plausible-looking inputs that together cannot be this vehicle (rpm logged in the wrong
+  unit, a thrust curve that does not fit).
+
+The wind bound (MAX_WIND_MPS) is a quality flag instead (EXTRAPOLATED, see ``wind_beyond_bound``): the
+promise that a trusted output never exceeds it.
 
 Each comparison is written as "value > bound" so that NaN (which fails every comparison) is left to
 NONFINITE; an infinite input is then both NONFINITE and IMPLAUSIBLE.
@@ -41,6 +43,11 @@ MAX_THRUST_TO_WEIGHT = 20.0
 # at most tan(max_tilt) weights of drag (1.7 at 60 deg), and its observer sees little more in a dive;
 # four weights is no wind a multirotor survives, but an attitude glitch or a wrong thrust curve.
 MAX_EXTERNAL_FORCE_WEIGHTS = 4.0
+# The acceleration-bias estimate (observer.acceleration_bias_time) follows the difference between the
+# acceleration input and the velocity's derivative, clipped per axis to this: a real bias is mm/s^2 to a
+# few tenths (1 deg of attitude error is 0.17 m/s^2), so a larger difference is a glitch or a manoeuvre
+# the velocity has not shown yet, and half a second of -5 m/s^2 must not leave a bias behind.
+MAX_BIAS_UPDATE_MPS2 = 0.5
 # No multirotor flies in a 50 m/s (180 km/h) wind; a trusted estimate never exceeds it.
 MAX_WIND_MPS = 50.0
 
@@ -72,7 +79,14 @@ def implausible_inputs(s: dict[str, ca.SX], mass_kg: float, gravity_mps2: float,
     return _any(tests)
 
 
-def implausible_result(f_e: ca.SX, wind_ned: ca.SX, mass_kg: float, gravity_mps2: float) -> ca.SX:
-    """True when the raw external force or the wind of an accepted sample cannot be this vehicle's."""
-    weight = mass_kg * gravity_mps2
-    return ca.logic_or(_above(f_e, MAX_EXTERNAL_FORCE_WEIGHTS * weight), _above(wind_ned, MAX_WIND_MPS))
+def implausible_result(f_e: ca.SX, mass_kg: float, gravity_mps2: float) -> ca.SX:
+    """True when the raw external force of a sample cannot be this vehicle's. It is the sample's own
+    force, not the filtered state, so rejecting it cannot lock the estimate."""
+    return _above(f_e, MAX_EXTERNAL_FORCE_WEIGHTS * mass_kg * gravity_mps2)
+
+
+def wind_beyond_bound(wind_ned: ca.SX) -> ca.SX:
+    """A wind beyond MAX_WIND_MPS: flagged EXTRAPOLATED (a quality bit), never rejected. The wind comes
+    from the filtered state; rejecting it would freeze that state above the bound for good (each next
+    proposal starts from the frozen state), while flagging lets the filters decay as usual."""
+    return _above(wind_ned, MAX_WIND_MPS)

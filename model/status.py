@@ -32,10 +32,10 @@ STATUS_BITS: tuple[StatusBit, ...] = (
     StatusBit("SETTLING", 1 << 6, "accepted, but within one settling time of the first sample or of a gap "
               "(a rejected sample): the filters have not caught up yet", rejects=False),
     StatusBit("EXTRAPOLATED", 1 << 7, "accepted, but the heading-frame force or the model's airflow speed is "
-              "outside the envelope calibrated by fit", rejects=False),
+              "outside the envelope calibrated by fit, or the wind exceeds 50 m/s", rejects=False),
     StatusBit("IMPLAUSIBLE", 1 << 11, "physically implausible for a multirotor (model/plausibility.py): ground "
               "speed > 150 m/s, acceleration > 10 g, a rotor > 1.5 max_rpm, thrust > 20 weights, or the "
-              "sample's external force > 4 weights or wind > 50 m/s"),
+              "sample's external force > 4 weights"),
 )
 # The bits that mean "rejected"; an autopilot that accepts quality-flagged samples tests these only.
 REJECTED_MASK = sum(bit.value for bit in STATUS_BITS if bit.rejects)

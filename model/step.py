@@ -29,7 +29,7 @@ from dobwind.model import forceair
 from dobwind.model.discretization import first_order
 from dobwind.model.dynamics import quaternion_to_rotation_any_norm, solve_external_force
 from dobwind.model.layout import Field, Layout
-from dobwind.model.plausibility import implausible_inputs, implausible_result
+from dobwind.model.plausibility import MAX_BIAS_UPDATE_MPS2, implausible_inputs, implausible_result, wind_beyond_bound
 from dobwind.model.settling import settling_time_s
 from dobwind.model.status import (DT_TOLERANCE, INPUT_MAGNITUDE_LIMIT, MIN_DT_S, QUATERNION_NORM_TOLERANCE,
                                   RESULT_MAGNITUDE_LIMIT, STATUS_BITS)
@@ -313,7 +313,9 @@ def _acceleration(af: Airframe, s: Signals) -> Signals:
     difference = measured - (s["in.vel_ned"] - s["state.vel_prev"]) / s["in.dt"]
     weight = follows * -ca.expm1(-s["in.dt"] / obs.acceleration_bias_time_s)  # no bias update across a gap
     bias = s["state.acc_bias"]
-    return {"p_ddot": measured - bias, "acc_bias_new": bias + weight * (difference - bias)}
+    # Clipped: a glitch or a manoeuvre the velocity has not shown yet must not drag the bias along.
+    step = ca.fmin(ca.fmax(difference - bias, -MAX_BIAS_UPDATE_MPS2), MAX_BIAS_UPDATE_MPS2)
+    return {"p_ddot": measured - bias, "acc_bias_new": bias + weight * step}
 
 
 # --- observer and low-pass, applied alike to the force and to the ground velocity -------------------
@@ -456,7 +458,7 @@ def _check_result(af: Airframe, committed: list[str], s: Signals) -> Signals:
     values = [ca.fabs(s[name]) if name != "wind_speed_h" else s[name] for name in committed]
     ok = ca.sum1(ca.vertcat(*values)) <= RESULT_MAGNITUDE_LIMIT
     bits = {bit.name: bit.value for bit in STATUS_BITS}
-    implausible = implausible_result(s["f_e"], s["wind_ned"], af.mass_kg, af.gravity_mps2)
+    implausible = implausible_result(s["f_e"], af.mass_kg, af.gravity_mps2)
     return {"result_status": ca.if_else(ok, ca.if_else(implausible, bits["IMPLAUSIBLE"], 0), bits["NUMERIC"])}
 
 
@@ -494,15 +496,17 @@ def _add_quality_stages(b: _Builder, af: Airframe, settle_s: float) -> None:
         # Capped so that the sum stays exact and small; reaching the cap ends SETTLING for good.
         run_s = ca.fmin(s["state.run_s"] + s["in.dt"], settle_s)
         status = ca.if_else(run_s < settle_s, bits["SETTLING"], 0)
+        outside = wind_beyond_bound(s["wind_ned"])  # no calibration reaches it (plausibility.py)
         if env is not None:
             f = s["force_heading"]
             fh = forceair.horizontal_force(f[0], f[1])
             inside = _all([fh <= env.force_h_max_n, f[2] >= env.force_z_n[0], f[2] <= env.force_z_n[1],
                            s["airflow_speed_h"] <= env.airflow_h_max_mps])
-            status = status + ca.if_else(inside, 0, bits["EXTRAPOLATED"])
+            outside = ca.logic_or(outside, ca.logic_not(inside))
+        status = status + ca.if_else(outside, bits["EXTRAPOLATED"], 0)
         return {"run_s_new": run_s, "quality_status": status}
 
-    inputs = ["state.run_s", "in.dt"] + (["force_heading", "airflow_speed_h"] if env is not None else [])
+    inputs = ["state.run_s", "in.dt", "wind_ned"] + (["force_heading", "airflow_speed_h"] if env is not None else [])
     b.add("quality", f"quality bits of an accepted sample: SETTLING for {settle_s:g} s after the start or a gap"
           + (", EXTRAPOLATED outside the calibrated envelope" if env is not None else ""), inputs, quality)
     unc = af.uncertainty

@@ -5,8 +5,8 @@
  * d9fe9baff7b6cfef8d666b58101c13ced95956e1653f591ef4ca4a5757c1bf1d.
  * DO NOT EDIT: regenerate with `dobwind generate <airframe file>`.
  *
- * Total ops per accepted step: 280 (31 math-library calls), of which
- * 76 validate the input and 21 check the result.
+ * Total ops per accepted step: 326 (31 math-library calls), of which
+ * 99 validate the input and 30 check the result.
  */
 #include "m300_wind.h"
 
@@ -142,103 +142,128 @@ void m300_wind_init(m300_wind_state_t *state)
 
 int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_wind_output_t *out)
 {
-    /* ---- validate: reject NaN/inf, bad dt, non-unit quaternion, excessive tilt, negative thrust (76 ops) ---- */
+    /* ---- validate: reject NaN/inf, bad dt, non-unit quaternion, excessive tilt, negative thrust (99 ops) ---- */
     {
-        const float t0 = fabsf(in->dt);
-        const int t1 = t0 <= 1000000.0f;
-        const float t2 = fabsf(in->vel_ned[0]);
-        const int t3 = t2 <= 1000000.0f;
-        const int t4 = t1 & t3;
-        const float t5 = fabsf(in->vel_ned[1]);
-        const int t6 = t5 <= 1000000.0f;
-        const int t7 = t4 & t6;
-        const float t8 = fabsf(in->vel_ned[2]);
-        const int t9 = t8 <= 1000000.0f;
-        const int t10 = t7 & t9;
-        const float t11 = fabsf(in->acc_ned[0]);
-        const int t12 = t11 <= 1000000.0f;
-        const int t13 = t10 & t12;
-        const float t14 = fabsf(in->acc_ned[1]);
-        const int t15 = t14 <= 1000000.0f;
-        const int t16 = t13 & t15;
-        const float t17 = fabsf(in->acc_ned[2]);
-        const int t18 = t17 <= 1000000.0f;
-        const int t19 = t16 & t18;
-        const float t20 = fabsf(in->q[0]);
-        const int t21 = t20 <= 1000000.0f;
-        const int t22 = t19 & t21;
-        const float t23 = fabsf(in->q[1]);
-        const int t24 = t23 <= 1000000.0f;
-        const int t25 = t22 & t24;
-        const float t26 = fabsf(in->q[2]);
-        const int t27 = t26 <= 1000000.0f;
-        const int t28 = t25 & t27;
-        const float t29 = fabsf(in->q[3]);
-        const int t30 = t29 <= 1000000.0f;
-        const int t31 = t28 & t30;
-        const float t32 = fabsf(in->rotor_rpm[0]);
-        const int t33 = t32 <= 1000000.0f;
-        const int t34 = t31 & t33;
-        const float t35 = fabsf(in->rotor_rpm[1]);
-        const int t36 = t35 <= 1000000.0f;
-        const int t37 = t34 & t36;
-        const float t38 = fabsf(in->rotor_rpm[2]);
-        const int t39 = t38 <= 1000000.0f;
-        const int t40 = t37 & t39;
-        const float t41 = fabsf(in->rotor_rpm[3]);
-        const int t42 = t41 <= 1000000.0f;
-        const int t43 = t40 & t42;
-        const float t44 = fabsf(in->yaw_ref);
-        const int t45 = t44 <= 1000000.0f;
-        const int t46 = t43 & t45;
-        const int t49 = 1.00000007e-05f <= in->dt;
-        const int t50 = in->dt <= 0.100009993f;
-        const int t51 = t49 & t50;
-        const float t55 = in->q[0] * in->q[0];
-        const float t56 = in->q[1] * in->q[1];
-        const float t57 = t55 + t56;
-        const float t58 = in->q[2] * in->q[2];
-        const float t59 = t57 + t58;
-        const float t60 = in->q[3] * in->q[3];
-        const float t61 = t59 + t60;
-        const int t62 = 0.810000002f <= t61;
-        const int t63 = t61 <= 1.20999992f;
-        const int t64 = t62 & t63;
-        const float t68 = 0.5f * t61;
-        const float t69 = t55 - t56;
-        const float t70 = t69 - t58;
-        const float t71 = t70 + t60;
-        const int t72 = t68 <= t71;
-        const int t76 = 0.0f <= in->rotor_rpm[0];
-        const int t77 = 0.0f <= in->rotor_rpm[1];
-        const int t78 = t76 & t77;
-        const int t79 = 0.0f <= in->rotor_rpm[2];
-        const int t80 = t78 & t79;
-        const int t81 = 0.0f <= in->rotor_rpm[3];
-        const int t82 = t80 & t81;
-        const int t86 = t46 & t51;
-        const int t87 = t86 & t64;
-        const int t88 = t87 & t72;
-        const int t89 = t88 & t82;
-        if (!(t89)) {
+        const float t0 = in->vel_ned[0] * in->vel_ned[0];
+        const float t1 = in->vel_ned[1] * in->vel_ned[1];
+        const float t2 = t0 + t1;
+        const float t3 = in->vel_ned[2] * in->vel_ned[2];
+        const float t4 = t2 + t3;
+        const int t5 = 22500.0f < t4;
+        const float t6 = in->acc_ned[0] * in->acc_ned[0];
+        const float t7 = in->acc_ned[1] * in->acc_ned[1];
+        const float t8 = t6 + t7;
+        const float t9 = in->acc_ned[2] * in->acc_ned[2];
+        const float t10 = t8 + t9;
+        const int t11 = 9617.03809f < t10;
+        const int t12 = t5 | t11;
+        const int t13 = 18000.0f < in->rotor_rpm[0];
+        const int t14 = t12 | t13;
+        const int t15 = 18000.0f < in->rotor_rpm[1];
+        const int t16 = t14 | t15;
+        const int t17 = 18000.0f < in->rotor_rpm[2];
+        const int t18 = t16 | t17;
+        const int t19 = 18000.0f < in->rotor_rpm[3];
+        const int t20 = t18 | t19;
+        const float t22 = fabsf(in->dt);
+        const int t23 = t22 <= 1000000.0f;
+        const float t24 = fabsf(in->vel_ned[0]);
+        const int t25 = t24 <= 1000000.0f;
+        const int t26 = t23 & t25;
+        const float t27 = fabsf(in->vel_ned[1]);
+        const int t28 = t27 <= 1000000.0f;
+        const int t29 = t26 & t28;
+        const float t30 = fabsf(in->vel_ned[2]);
+        const int t31 = t30 <= 1000000.0f;
+        const int t32 = t29 & t31;
+        const float t33 = fabsf(in->acc_ned[0]);
+        const int t34 = t33 <= 1000000.0f;
+        const int t35 = t32 & t34;
+        const float t36 = fabsf(in->acc_ned[1]);
+        const int t37 = t36 <= 1000000.0f;
+        const int t38 = t35 & t37;
+        const float t39 = fabsf(in->acc_ned[2]);
+        const int t40 = t39 <= 1000000.0f;
+        const int t41 = t38 & t40;
+        const float t42 = fabsf(in->q[0]);
+        const int t43 = t42 <= 1000000.0f;
+        const int t44 = t41 & t43;
+        const float t45 = fabsf(in->q[1]);
+        const int t46 = t45 <= 1000000.0f;
+        const int t47 = t44 & t46;
+        const float t48 = fabsf(in->q[2]);
+        const int t49 = t48 <= 1000000.0f;
+        const int t50 = t47 & t49;
+        const float t51 = fabsf(in->q[3]);
+        const int t52 = t51 <= 1000000.0f;
+        const int t53 = t50 & t52;
+        const float t54 = fabsf(in->rotor_rpm[0]);
+        const int t55 = t54 <= 1000000.0f;
+        const int t56 = t53 & t55;
+        const float t57 = fabsf(in->rotor_rpm[1]);
+        const int t58 = t57 <= 1000000.0f;
+        const int t59 = t56 & t58;
+        const float t60 = fabsf(in->rotor_rpm[2]);
+        const int t61 = t60 <= 1000000.0f;
+        const int t62 = t59 & t61;
+        const float t63 = fabsf(in->rotor_rpm[3]);
+        const int t64 = t63 <= 1000000.0f;
+        const int t65 = t62 & t64;
+        const float t66 = fabsf(in->yaw_ref);
+        const int t67 = t66 <= 1000000.0f;
+        const int t68 = t65 & t67;
+        const int t72 = 1.00000007e-05f <= in->dt;
+        const int t73 = in->dt <= 0.100009993f;
+        const int t74 = t72 & t73;
+        const float t78 = in->q[0] * in->q[0];
+        const float t79 = in->q[1] * in->q[1];
+        const float t80 = t78 + t79;
+        const float t81 = in->q[2] * in->q[2];
+        const float t82 = t80 + t81;
+        const float t83 = in->q[3] * in->q[3];
+        const float t84 = t82 + t83;
+        const int t85 = 0.810000002f <= t84;
+        const int t86 = t84 <= 1.20999992f;
+        const int t87 = t85 & t86;
+        const float t91 = 0.5f * t84;
+        const float t92 = t78 - t79;
+        const float t93 = t92 - t81;
+        const float t94 = t93 + t83;
+        const int t95 = t91 <= t94;
+        const int t99 = 0.0f <= in->rotor_rpm[0];
+        const int t100 = 0.0f <= in->rotor_rpm[1];
+        const int t101 = t99 & t100;
+        const int t102 = 0.0f <= in->rotor_rpm[2];
+        const int t103 = t101 & t102;
+        const int t104 = 0.0f <= in->rotor_rpm[3];
+        const int t105 = t103 & t104;
+        const int t109 = t68 & t74;
+        const int t110 = t109 & t87;
+        const int t111 = t110 & t95;
+        const int t112 = t111 & t105;
+        const int t113 = !t20;
+        const int t114 = t112 & t113;
+        if (!(t114)) {
             /* rejected: the estimate is untouched and the last accepted output repeated; only the gap
              * bookkeeping records that this sample was missed. The status bits are assembled here only. */
             float status;
-            const int t47 = !t46;
-            const float t48 = (t47 ? 1.0f : 0.0f);
-            const int t52 = !t51;
-            const float t53 = (t52 ? 2.0f : 0.0f);
-            const float t54 = t48 + t53;
-            const int t65 = !t64;
-            const float t66 = (t65 ? 4.0f : 0.0f);
-            const float t67 = t54 + t66;
-            const int t73 = !t72;
-            const float t74 = (t73 ? 8.0f : 0.0f);
-            const float t75 = t67 + t74;
-            const int t83 = !t82;
-            const float t84 = (t83 ? 16.0f : 0.0f);
-            const float t85 = t75 + t84;
-            status = t85;
+            const float t21 = (t20 ? 2048.0f : 0.0f);
+            const int t69 = !t68;
+            const float t70 = (t69 ? 1.0f : 0.0f);
+            const float t71 = t21 + t70;
+            const int t75 = !t74;
+            const float t76 = (t75 ? 2.0f : 0.0f);
+            const float t77 = t71 + t76;
+            const int t88 = !t87;
+            const float t89 = (t88 ? 4.0f : 0.0f);
+            const float t90 = t77 + t89;
+            const int t96 = !t95;
+            const float t97 = (t96 ? 8.0f : 0.0f);
+            const float t98 = t90 + t97;
+            const int t106 = !t105;
+            const float t107 = (t106 ? 16.0f : 0.0f);
+            const float t108 = t98 + t107;
+            status = t108;
             state->run_s = 0.0f;
             *out = state->last;
             return (int)status;
@@ -295,7 +320,7 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         u_f = t13;
     }
 
-    /* ---- acceleration: kinematic acceleration p'' (m/s^2, NED), minus its velocity-aided bias (time constant 20 s) (32 ops, 1 math calls) ---- */
+    /* ---- acceleration: kinematic acceleration p'' (m/s^2, NED), minus its velocity-aided bias (time constant 20 s) (38 ops, 1 math calls) ---- */
     float p_ddot[3];
     float acc_bias_new[3];
     {
@@ -314,29 +339,35 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const float t9 = t7 * t8;
         const float t10 = in->acc_ned[0] - t9;
         const float t11 = t10 - state->acc_bias[0];
-        const float t12 = t6 * t11;
-        const float t13 = -t12;
-        const float t14 = (t3 ? t13 : 0.0f);
-        const float t15 = state->acc_bias[0] + t14;
-        acc_bias_new[0] = t15;
-        const float t16 = in->vel_ned[1] - state->vel_prev[1];
-        const float t17 = t16 * t8;
-        const float t18 = in->acc_ned[1] - t17;
-        const float t19 = t18 - state->acc_bias[1];
-        const float t20 = t6 * t19;
-        const float t21 = -t20;
-        const float t22 = (t3 ? t21 : 0.0f);
-        const float t23 = state->acc_bias[1] + t22;
-        acc_bias_new[1] = t23;
-        const float t24 = in->vel_ned[2] - state->vel_prev[2];
-        const float t25 = t24 * t8;
-        const float t26 = in->acc_ned[2] - t25;
-        const float t27 = t26 - state->acc_bias[2];
-        const float t28 = t6 * t27;
-        const float t29 = -t28;
-        const float t30 = (t3 ? t29 : 0.0f);
-        const float t31 = state->acc_bias[2] + t30;
-        acc_bias_new[2] = t31;
+        const float t12 = (t11 > (-0.5f) ? t11 : (-0.5f));
+        const float t13 = (t12 < 0.5f ? t12 : 0.5f);
+        const float t14 = t6 * t13;
+        const float t15 = -t14;
+        const float t16 = (t3 ? t15 : 0.0f);
+        const float t17 = state->acc_bias[0] + t16;
+        acc_bias_new[0] = t17;
+        const float t18 = in->vel_ned[1] - state->vel_prev[1];
+        const float t19 = t18 * t8;
+        const float t20 = in->acc_ned[1] - t19;
+        const float t21 = t20 - state->acc_bias[1];
+        const float t22 = (t21 > (-0.5f) ? t21 : (-0.5f));
+        const float t23 = (t22 < 0.5f ? t22 : 0.5f);
+        const float t24 = t6 * t23;
+        const float t25 = -t24;
+        const float t26 = (t3 ? t25 : 0.0f);
+        const float t27 = state->acc_bias[1] + t26;
+        acc_bias_new[1] = t27;
+        const float t28 = in->vel_ned[2] - state->vel_prev[2];
+        const float t29 = t28 * t8;
+        const float t30 = in->acc_ned[2] - t29;
+        const float t31 = t30 - state->acc_bias[2];
+        const float t32 = (t31 > (-0.5f) ? t31 : (-0.5f));
+        const float t33 = (t32 < 0.5f ? t32 : 0.5f);
+        const float t34 = t6 * t33;
+        const float t35 = -t34;
+        const float t36 = (t3 ? t35 : 0.0f);
+        const float t37 = state->acc_bias[2] + t36;
+        acc_bias_new[2] = t37;
     }
 
     /* ---- external_force: f_e solved from m p'' = -u_f z_b + m g e3 + f_e (N, NED) (10 ops) ---- */
@@ -506,16 +537,24 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         wind_from_deg = t17;
     }
 
-    /* ---- quality: quality bits of an accepted sample: SETTLING for 3.50562 s after the start or a gap (4 ops) ---- */
+    /* ---- quality: quality bits of an accepted sample: SETTLING for 3.50562 s after the start or a gap (12 ops) ---- */
     float run_s_new;
     float quality_status;
     {
         const float t0 = state->run_s + in->dt;
-        const float t1 = (t0 < 3.505618f ? t0 : 3.505618f);
+        const float t1 = (t0 < 3.5056181f ? t0 : 3.5056181f);
         run_s_new = t1;
-        const int t2 = t1 < 3.505618f;
+        const int t2 = t1 < 3.5056181f;
         const float t3 = (t2 ? 64.0f : 0.0f);
-        quality_status = t3;
+        const float t4 = wind_ned[0] * wind_ned[0];
+        const float t5 = wind_ned[1] * wind_ned[1];
+        const float t6 = t4 + t5;
+        const float t7 = wind_ned[2] * wind_ned[2];
+        const float t8 = t6 + t7;
+        const int t9 = 2500.0f < t8;
+        const float t10 = (t9 ? 128.0f : 0.0f);
+        const float t11 = t3 + t10;
+        quality_status = t11;
     }
 
     /* ---- uncertainty: no [uncertainty] table: sigma outputs are -1 (unknown) (0 ops) ---- */
@@ -526,7 +565,7 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         wind_sigma_up = (-1.0f);
     }
 
-    /* ---- check_result: an accepted sample must give a finite result, else it is rejected too (21 ops) ---- */
+    /* ---- check_result: an accepted sample must give a finite and physically plausible result, else it is rejected too (30 ops) ---- */
     float result_status;
     {
         const float t0 = fabsf(f_filt_new[0]);
@@ -548,9 +587,18 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const float t16 = fabsf(acc_bias_new[2]);
         const float t17 = t15 + t16;
         const int t18 = t17 <= 9.99999939e+29f;
-        const int t19 = !t18;
-        const float t20 = (t19 ? 32.0f : 0.0f);
-        result_status = t20;
+        const float t19 = f_e[0] * f_e[0];
+        const float t20 = f_e[1] * f_e[1];
+        const float t21 = t19 + t20;
+        const float t22 = f_e[2] * f_e[2];
+        const float t23 = t21 + t22;
+        const int t24 = 98478.4688f < t23;
+        const float t25 = (t24 ? 2048.0f : 0.0f);
+        const float t26 = (t18 ? t25 : 0.0f);
+        const int t27 = !t18;
+        const float t28 = (t27 ? 32.0f : 0.0f);
+        const float t29 = t26 + t28;
+        result_status = t29;
     }
     if (result_status != 0.0f) {
         state->run_s = 0.0f;
