@@ -559,6 +559,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         try:
             args = parser.parse_args(argv)
             command = args.command
+            _refuse_closed_stdout_and_special_files(args)
             status = int(args.func(args))
             if caught.signo is not None:  # its exception was swallowed (CasADi): still a stop
                 raise Interrupted(caught.signo)
@@ -572,12 +573,26 @@ def main(argv: Sequence[str] | None = None) -> int:
             return EXIT_CHECK_FAILED
         except BrokenPipeError:
             return _reader_went_away()
+        except OSError as exc:  # a write that failed outside the atomic writers: stdout on a full disk
+            if caught.signo is not None:
+                raise
+            sys.stderr.write(f"dobwind {command}: {exc.filename or 'stdout'}: {exc.strerror or exc}\n")
+            _reader_went_away()  # the buffered rest would fail again at exit
+            return EXIT_BAD_INPUT
         except BaseException:
             if caught.signo is None:
                 raise
             # The `with` blocks on the way out have removed every temporary; earlier outputs are untouched.
             sys.stderr.write(f"dobwind {command}: stopped by {caught.name}; no partial output left\n")
             return 128 + caught.signo
+
+
+def _refuse_closed_stdout_and_special_files(args: argparse.Namespace) -> None:
+    from dobwind.specialfiles import refuse_special_inputs
+
+    if sys.stdout is None:  # started with fd 1 closed: Python then has no stdout at all
+        raise InputError("stdout", None, "is closed; run with an open standard output (e.g. >/dev/null)")
+    refuse_special_inputs(args)
 
 
 def _reader_went_away() -> int:

@@ -20,6 +20,7 @@ from dobwind.model.forceair import (DRAG_FRAMES, EXPONENT_RANGE, HORIZONTAL_DRAG
 from dobwind.model.ranges import (MAX_TERMS, MAX_FACTOR_POWER, MAX_TERM_DEGREE, MAX_THRUST_COEFFICIENTS,
                                   MIN_SPEED_GAP_MPS, NAME_MAX_CHARS, RANGES, Range, single_precision_ok)
 from dobwind.model.terms import Term, TermError, parse_term, range_problem
+from dobwind.specialfiles import read_bounded
 
 DISCRETIZATIONS = ("paper", "euler", "zoh", "tustin")
 ACCELERATION_MODES = ("ned", "specific_force", "velocity")
@@ -507,7 +508,7 @@ def parse_airframe(text: str, source: str) -> Airframe:
 def load_airframe(path: str | Path) -> Airframe:
     path = Path(path)
     try:
-        data = path.read_bytes()
+        data = read_bounded(str(path))
     except OSError as exc:
         raise InputError(str(path), None, f"cannot read: {exc.strerror}") from None
     try:
