@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import errno
 import os
 import sys
 from pathlib import Path
@@ -576,7 +577,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         except OSError as exc:  # a write that failed outside the atomic writers: stdout on a full disk
             if caught.signo is not None:
                 raise
-            sys.stderr.write(f"dobwind {command}: {exc.filename or 'stdout'}: {exc.strerror or exc}\n")
+            where = exc.filename or ("stdout" if exc.errno in _WRITE_ERRNOS else "error")
+            sys.stderr.write(f"dobwind {command}: {where}: {exc.strerror or exc}\n")
             _reader_went_away()  # the buffered rest would fail again at exit
             return EXIT_BAD_INPUT
         except BaseException:
@@ -585,6 +587,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             # The `with` blocks on the way out have removed every temporary; earlier outputs are untouched.
             sys.stderr.write(f"dobwind {command}: stopped by {caught.name}; no partial output left\n")
             return 128 + caught.signo
+
+
+# Errors of a write to an ordinary stream (the OSError then names no file): full disk, quota, I/O, closed.
+_WRITE_ERRNOS = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO, errno.EBADF)
 
 
 def _refuse_closed_stdout_and_special_files(args: argparse.Namespace) -> None:

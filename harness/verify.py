@@ -131,7 +131,8 @@ def verify_precision(model: StepModel, precision: str, steps: int, seed: int, wo
         run([system_compiler(), "-std=c99", "-O2", str(code_dir / f"{name}_wind.c"), str(code_dir / f"{name}_wind_selftest.c"),
              "-o", str(exe), "-lm"])
         done = run([str(exe)])
-        report.selftest, report.selftest_ok = done.stdout.strip().splitlines()[-1], True
+        last = (done.stdout.strip().splitlines() or [""])[-1]
+        report.selftest, report.selftest_ok = last or "no output", last.startswith("PASS")
     except CheckFailed as exc:
         report.selftest = str(exc).strip().splitlines()[-1]
     cstep = CStep(model, build_shared_library(model, precision, code_dir, work))
