@@ -1,0 +1,201 @@
+"""Issue #37: physical plausibility in the step (IMPLAUSIBLE), recovery after glitches, generate's
+self-test gate, special files refused by type, stdout errors and failed designs on one line."""
+from __future__ import annotations
+
+import os
+import shutil
+import stat
+import subprocess
+import sys
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from dobwind.cli import main
+from dobwind.inputs import step_inputs
+from dobwind.logs import FlightLog
+from dobwind.model import plausibility as P
+from dobwind.model import reference
+from dobwind.model.airframe import load_airframe
+from dobwind.model.status import REJECTED_MASK, STATUS_BITS
+from dobwind.model.step import build_step
+from dobwind.simulate import simulate
+from tests.helpers import M300, ROOT
+
+BITS = {b.name: b.value for b in STATUS_BITS}
+IMPLAUSIBLE, EXTRAPOLATED = BITS["IMPLAUSIBLE"], BITS["EXTRAPOLATED"]
+HAS_CC = shutil.which(os.environ.get("CC", "cc")) is not None
+
+
+def test_implausible_is_the_preallocated_rejection_bit():
+    assert IMPLAUSIBLE == 1 << 11 and REJECTED_MASK & IMPLAUSIBLE
+    assert not REJECTED_MASK & EXTRAPOLATED  # the wind bound is a quality flag, never a rejection
+
+
+@pytest.mark.parametrize("signal, size, bound", [
+    ("in.vel_ned", 3, P.MAX_GROUND_SPEED_MPS),
+    ("in.acc_ned", 3, P.MAX_ACCELERATION_MPS2),
+    ("in.specific_force", 3, P.MAX_ACCELERATION_MPS2),
+    ("in.rotor_rpm", 4, P.MAX_RPM_FRACTION * 1000.0),
+    ("in.thrust", 1, P.MAX_THRUST_TO_WEIGHT * 2.0 * 9.81),
+])
+def test_each_input_bound_flips_at_its_documented_value(signal, size, bound):
+    """Vector bounds are on the norm: (b/sqrt(3)) * 1.01 on each axis crosses, 0.99 does not."""
+    s = {"in.vel_ned": ca.SX.zeros(3), signal: ca.SX.sym("x", size)}
+    f = ca.Function("f", [s[signal]], [P.implausible_inputs(s, 2.0, 9.81, 1000.0)])
+    per_axis = bound / np.sqrt(size) if size == 3 else bound
+    assert not bool(f(np.full(size, 0.99 * per_axis)))
+    assert bool(f(np.full(size, 1.01 * per_axis)))
+    assert not bool(f(np.full(size, np.nan)))  # NaN is NONFINITE's, not a plausibility question
+
+
+def _simulated(af, hold_s=2.0):
+    model = build_step(af)
+    inputs = step_inputs(model, FlightLog("sim", simulate(af, "outdoor", seed=1, hold_s=hold_s)))
+    return model, inputs
+
+
+def _wind(traj):
+    return traj.outputs[:, 3:6]
+
+
+@pytest.mark.parametrize("airframe", ["m300", "nf_quad"])
+def test_velocity_glitch_is_rejected_and_the_estimate_recovers_within_one_settling_time(airframe):
+    """0.5 s of ground velocity at 1e6 m/s (inside NONFINITE's 1e6): before, 1,000 trusted rows up to 2.5e9 m/s
+    and no recovery; now every glitch row is IMPLAUSIBLE and one settling time later the estimate is the
+    clean run's."""
+    model, clean_in = _simulated(load_airframe(ROOT / "airframes" / f"{airframe}.toml"))
+    dt = model.airframe.observer.sample_time_s
+    start, length = len(clean_in) // 3, int(round(0.5 / dt))
+    glitch = clean_in.copy()
+    glitch[start:start + length, model.inputs.slice("vel_ned")] = 1e6
+    clean, hit = reference.run(model, clean_in), reference.run(model, glitch)
+    assert np.all(hit.status[start:start + length] & IMPLAUSIBLE)
+    trusted = hit.status == 0
+    assert np.all(np.linalg.norm(_wind(hit)[trusted], axis=1) <= P.MAX_WIND_MPS)
+    after = start + length + int(np.ceil(model.settling_time_s / dt))
+    assert np.abs(_wind(hit)[after:] - _wind(clean)[after:]).max() < 0.05
+
+
+def test_acceleration_glitch_never_gives_a_trusted_wind_beyond_the_bound():
+    """-5 m/s^2 on all axes for 0.5 s is a plausible input: accepted, but no trusted row beyond 50 m/s
+    (before: trusted rows up to 62 m/s), and the clipped bias update leaves no lasting offset."""
+    model, clean_in = _simulated(load_airframe(M300), hold_s=4.0)
+    dt = model.airframe.observer.sample_time_s
+    start, length = len(clean_in) // 3, int(round(0.5 / dt))
+    glitch = clean_in.copy()
+    glitch[start:start + length, model.inputs.slice("acc_ned")] = -5.0
+    clean, hit = reference.run(model, clean_in), reference.run(model, glitch)
+    trusted = hit.status == 0
+    assert np.all(np.linalg.norm(_wind(hit)[trusted], axis=1) <= P.MAX_WIND_MPS)
+    assert np.any(hit.status[start:] & EXTRAPOLATED)  # the glitch did push the wind beyond the bound
+    bias = model.state.slice("acc_bias")
+    assert np.abs(hit.states[-1, bias] - clean.states[-1, bias]).max() < 0.05  # m/s^2: no bias left behind
+
+
+def test_rpm_in_the_wrong_unit_is_rejected():
+    """rpm logged x60 (Hz taken for rev/s): every sample IMPLAUSIBLE, the estimate never moves."""
+    model, inputs = _simulated(load_airframe(M300))
+    inputs[:, model.inputs.slice("rotor_rpm")] *= 60.0
+    traj = reference.run(model, inputs)
+    assert np.all(traj.status & IMPLAUSIBLE)
+    assert np.all(traj.outputs == 0.0)
+
+
+# --- generate's self-test gate -----------------------------------------------------------------
+
+def _variant(tmp_path, old: str, new: str):
+    text = M300.read_text()
+    assert old in text
+    path = tmp_path / "v.toml"
+    path.write_text(text.replace(old, new))
+    return path
+
+
+@pytest.mark.skipif(not HAS_CC, reason="no host C compiler")
+@pytest.mark.parametrize("old, new", [
+    ("max_tilt_deg = 60.0", "max_tilt_deg = 1.0"),       # the low edge of limits.max_tilt_deg
+    ("mass = 8.0 ", "mass = 10000.0 "),                 # the high edge of mass (a 1,566 s settling time)
+    ("cutoffs = [0.2, 0.35, 0.5]", "cutoffs = [0.001, 0.001, 0.001]"),  # the low edge of filter.cutoffs
+])
+def test_edge_of_range_airframes_pass_generate_and_its_self_test(tmp_path, capsys, old, new):
+    """Each failed its own self-test before (boundary rows too close to a float flip)."""
+    assert main(["generate", str(_variant(tmp_path, old, new)), "-o", str(tmp_path / "c")]) == 0
+    assert (tmp_path / "c" / "m300_wind.c").is_file()
+
+
+def _fake_compiler(tmp_path, program: str):
+    """A "compiler" that writes `program` as the output executable: a self-test that lies."""
+    script = tmp_path / "fakecc"
+    script.write_text("#!/bin/sh\nwhile [ $# -gt 0 ]; do if [ \"$1\" = -o ]; then out=$2; fi; shift; done\n"
+                      f"printf '%s\\n' '#!/bin/sh' '{program}' > \"$out\"; chmod +x \"$out\"\n")
+    script.chmod(script.stat().st_mode | stat.S_IXUSR)
+    return str(script)
+
+
+@pytest.mark.parametrize("program, expected", [
+    ("echo FAIL: 3 mismatches; exit 1", 1),   # C that disagrees with its golden vectors
+    ("exit 0", 1),                             # exits 0 without its PASS line
+    ("echo PASS: all steps; exit 0", 0),
+])
+def test_generate_writes_nothing_when_the_self_test_fails(tmp_path, capsys, monkeypatch, program, expected):
+    monkeypatch.setenv("CC", _fake_compiler(tmp_path, program))
+    out = tmp_path / "out"
+    assert main(["generate", str(M300), "-o", str(out)]) == expected
+    err = capsys.readouterr().err
+    assert out.exists() == (expected == 0)
+    if expected:
+        assert len(err.strip().splitlines()) == 1 and "self-test" in err
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".dobwind-tmp")]
+
+
+def test_generate_without_a_compiler_warns_and_writes(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("CC", "no-such-compiler-dobwind")
+    assert main(["generate", str(M300), "-o", str(tmp_path / "c")]) == 0
+    assert "self-test was not run" in capsys.readouterr().err
+    assert (tmp_path / "c" / "m300_wind_selftest.c").is_file()
+
+
+def test_check_makes_generate_s_static_refusals(tmp_path, capsys):
+    """A drag coefficient of 1e-30 squares to 1e-60 in the step: a float 0. check now refuses it too."""
+    text = M300.read_text()
+    start, end = text.index("[force_air.horizontal]"), text.index("[filter]")
+    drag = '[force_air]\nmodel = "drag"\n\n[force_air.drag]\nl0 = 0.5\nq0 = 0.1\nlz = 1e-30\nqz = 0.2\n\n'
+    path = tmp_path / "drag.toml"
+    path.write_text(text[:start] + drag + text[end:])
+    assert main(["check", str(path)]) == 2
+    assert "would round to 0" in capsys.readouterr().err
+    path.write_text(text[:start] + drag.replace("1e-30", "0.3") + text[end:])
+    assert main(["check", str(path)]) == 0
+
+
+# --- special files and stdout ------------------------------------------------------------------
+
+@pytest.mark.parametrize("argv", [
+    ["check", "{fifo}"], ["replay", str(M300), "{fifo}", "-o", "{tmp}/e.csv"], ["check", "/dev/zero"],
+    ["simulate", "sweep", "--airframe", "/dev/zero", "-o", "{tmp}/s.csv"], ["verify", "{fifo}"],
+])
+def test_special_files_are_refused_by_type_without_blocking(tmp_path, capsys, argv):
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    args = [a.format(fifo=fifo, tmp=tmp_path) for a in argv]
+    assert main(args) == 2  # would hang forever (FIFO) or run out of memory (/dev/zero)
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "not a regular file" in err
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="no /dev/full")
+def test_stdout_on_a_full_device_is_one_line_exit_2():
+    with open("/dev/full", "w") as full:
+        done = subprocess.run([sys.executable, "-m", "dobwind.cli", "check", str(M300)], stdout=full,
+                              stderr=subprocess.PIPE, text=True, timeout=120)
+    assert done.returncode == 2
+    assert done.stderr.strip().splitlines() == ["dobwind check: stdout: No space left on device"]
+
+
+def test_closed_stdout_is_one_line_exit_2():
+    done = subprocess.run([sys.executable, "-m", "dobwind.cli", "check", str(M300)], stdout=subprocess.DEVNULL,
+                          stderr=subprocess.PIPE, text=True, timeout=120, preexec_fn=lambda: os.close(1))
+    assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1
+    assert "stdout" in done.stderr
