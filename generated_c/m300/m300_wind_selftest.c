@@ -874,6 +874,58 @@ static void load_state(m300_wind_state_t *state, const float *x)
     state->run_s = x[30];
 }
 
+/* The header's macros against the model: an autopilot tests its status with them, so an edited or
+ * stale header (a mask missing a bit, a wrong settling time) must fail here like a wrong output. */
+static int check_macros(void)
+{
+    int failures = 0;
+    if (!(M300_WIND_STATUS_NONFINITE == 0x01u)) {
+        printf("macro M300_WIND_STATUS_NONFINITE differs from the model (expected 0x01)\n");
+        ++failures;
+    }
+    if (!(M300_WIND_STATUS_BAD_DT == 0x02u)) {
+        printf("macro M300_WIND_STATUS_BAD_DT differs from the model (expected 0x02)\n");
+        ++failures;
+    }
+    if (!(M300_WIND_STATUS_BAD_QUATERNION == 0x04u)) {
+        printf("macro M300_WIND_STATUS_BAD_QUATERNION differs from the model (expected 0x04)\n");
+        ++failures;
+    }
+    if (!(M300_WIND_STATUS_TILT == 0x08u)) {
+        printf("macro M300_WIND_STATUS_TILT differs from the model (expected 0x08)\n");
+        ++failures;
+    }
+    if (!(M300_WIND_STATUS_BAD_THRUST == 0x10u)) {
+        printf("macro M300_WIND_STATUS_BAD_THRUST differs from the model (expected 0x10)\n");
+        ++failures;
+    }
+    if (!(M300_WIND_STATUS_NUMERIC == 0x20u)) {
+        printf("macro M300_WIND_STATUS_NUMERIC differs from the model (expected 0x20)\n");
+        ++failures;
+    }
+    if (!(M300_WIND_STATUS_SETTLING == 0x40u)) {
+        printf("macro M300_WIND_STATUS_SETTLING differs from the model (expected 0x40)\n");
+        ++failures;
+    }
+    if (!(M300_WIND_STATUS_EXTRAPOLATED == 0x80u)) {
+        printf("macro M300_WIND_STATUS_EXTRAPOLATED differs from the model (expected 0x80)\n");
+        ++failures;
+    }
+    if (!(M300_WIND_STATUS_IMPLAUSIBLE == 0x800u)) {
+        printf("macro M300_WIND_STATUS_IMPLAUSIBLE differs from the model (expected 0x800)\n");
+        ++failures;
+    }
+    if (!(M300_WIND_REJECTED_MASK == 0x83Fu)) {
+        printf("macro M300_WIND_REJECTED_MASK differs from the model (expected 0x83F)\n");
+        ++failures;
+    }
+    if (!(fabs((double)M300_WIND_SETTLING_TIME_S - 3.505618095397949) <= 3.505618095397949 * 1e-6)) {
+        printf("macro M300_WIND_SETTLING_TIME_S differs from the model (expected 3.5056181)\n");
+        ++failures;
+    }
+    return failures;
+}
+
 /* The mismatches of one step: its status and every output. */
 static int check_step(const char *part, int row, int status, int want_status, const m300_wind_output_t *out,
                       const float *y)
@@ -936,6 +988,7 @@ int main(void)
     m300_wind_input_t in;
     m300_wind_output_t out;
     int row, failures = 0;
+    failures += check_macros();
     m300_wind_init(&state);
     for (row = 0; row < ROWS; ++row) {
         load_input(&in, inputs[row]);
