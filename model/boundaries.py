@@ -205,7 +205,66 @@ def _plausibility_families(model: StepModel, base: Row) -> list[tuple[str, Famil
         top = MAX_THRUST_TO_WEIGHT * af.mass_kg * af.gravity_mps2
         out.append(("thrust <= MAX_THRUST_TO_WEIGHT weight", _with_input(base, model, lin.offset("thrust")), hover(lin.offset("thrust")),
                     top * 2, True))
+    return out + _steady_families(model, base)
+
+
+def _steady_families(model: StepModel, base: Row) -> list[tuple[str, Family, float, float, bool]]:
+    """The same bounds crossed with the other inputs matched, so that the external force stays zero and
+    the crossing is the bound itself (not the 4-weight force bound met first): a steady fast flight, a
+    climb at acceleration p with the thrust that drives it, a thrust p with the acceleration it drives."""
+    lin, lst, af = model.inputs, model.state, model.airframe
+    m, g = af.mass_kg, af.gravity_mps2
+
+    def speed(state: np.ndarray, row: np.ndarray, p: float) -> None:
+        row[lin.offset("vel_ned")] = p
+        if "vel_prev" in lst:
+            state[lst.offset("vel_prev")] = p
+
+    def climb(state: np.ndarray, row: np.ndarray, p: float) -> None:  # p: upward acceleration
+        _set_thrust(model, row, m * (g + p))
+        _set_acceleration(model, state, row, p)
+
+    def thrust(state: np.ndarray, row: np.ndarray, p: float) -> None:  # p: collective thrust
+        row[lin.offset("thrust")] = p
+        _set_acceleration(model, state, row, p * af.thrust.scale / m - g)
+
+    out = [("|vel_ned| <= MAX_GROUND_SPEED (steady)", _matched(base, speed), 1e-6, 2 * MAX_GROUND_SPEED_MPS, True)]
+    if "acc_ned" in lin or "specific_force" in lin:
+        out.append(("|acceleration| <= MAX_ACCELERATION (climb)", _matched(base, climb), 1e-6,
+                    2 * MAX_ACCELERATION_MPS2, True))
+    if "thrust" in lin:
+        top = MAX_THRUST_TO_WEIGHT * m * g
+        out.append(("thrust <= MAX_THRUST_TO_WEIGHT weight (climb)", _matched(base, thrust), m * g, 2 * top, True))
     return out
+
+
+def _matched(base: Row, setter: Callable[[np.ndarray, np.ndarray, float], None]) -> Family:
+    def family(p: float) -> Row:
+        state, row = base[0].copy(), base[1].copy()
+        setter(state, row, p)
+        return state, row
+    return family
+
+
+def _set_thrust(model: StepModel, row: np.ndarray, total_n: float) -> None:
+    af, lin = model.airframe, model.inputs
+    if "rotor_rpm" in lin:
+        per_rotor = np.array([total_n / (af.thrust.rotors * af.thrust.scale)])
+        row[lin.slice("rotor_rpm")] = float(rpm_for_rotor_thrust(af.thrust.coefficients, af.thrust.max_rpm, per_rotor)[0])
+    else:
+        row[lin.offset("thrust")] = total_n / af.thrust.scale
+
+
+def _set_acceleration(model: StepModel, state: np.ndarray, row: np.ndarray, up: float) -> None:
+    """An upward kinematic acceleration ``up`` (m/s^2) in whichever form the step takes it, level."""
+    lin, lst, g = model.inputs, model.state, model.airframe.gravity_mps2
+    if "acc_ned" in lin:
+        row[lin.offset("acc_ned") + 2] = -up
+    elif "specific_force" in lin:
+        row[lin.offset("specific_force") + 2] = -(g + up)
+    else:  # differenced velocity: the previous sample was up * dt slower downwards
+        state[lst.offset("vel_prev") + 2] = 0.0
+        row[lin.offset("vel_ned") + 2] = -up * float(row[lin.offset("dt")])
 
 
 def _sign_rows(model: StepModel, base: Row, precision: str) -> tuple[list[str], list[Row]]:
