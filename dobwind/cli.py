@@ -226,6 +226,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
         raise InputError(args.log, "--px4-wind", "only applies to autopilot logs (.ulg, .bin, ROS 2 bags)")
     result = _replay_csv(args, af)
     metrics = result.metrics
+    _warn_mostly_rejected(args.log, metrics, af)
     if args.json:
         _print_json({"airframe": af.name, "log": str(args.log), "backend": args.backend, **metrics})
     elif result.scored:
@@ -256,6 +257,17 @@ def _replay_csv(args: argparse.Namespace, af):
             replay_plot(series.t, series.wind, series.truth,
                         f"{af.name}: wind estimated over {os.path.basename(args.log)}", str(out.stage(args.plot)))
     return result
+
+
+# Above this share of rejected rows a replay "succeeds" with next to no estimate: say so on stderr.
+MOSTLY_REJECTED = 0.9
+
+
+def _warn_mostly_rejected(log: str, metrics: dict, af: Any) -> None:
+    rows, rejected = int(metrics.get("rows", 0)), int(metrics.get("rejected_rows", 0))
+    if rows and rejected > MOSTLY_REJECTED * rows:
+        sys.stderr.write(f"dobwind replay: warning: {log}: {rejected} of {rows} rows rejected (see the status column; "
+                         f"a log slower than 1/limits.max_dt = {1 / af.limits.max_dt_s:g} Hz is rejected as BAD_DT)\n")
 
 
 @contextlib.contextmanager
