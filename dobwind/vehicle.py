@@ -61,7 +61,7 @@ import numpy as np
 
 from dobwind.errors import InputError
 from dobwind.model.airframe import STANDARD_GRAVITY, _Reader
-from dobwind.specialfiles import read_bounded
+from dobwind.model.inputfiles import read_bounded
 
 
 @dataclass(frozen=True)

@@ -20,7 +20,8 @@ from dobwind.model.forceair import (DRAG_FRAMES, EXPONENT_RANGE, HORIZONTAL_DRAG
 from dobwind.model.ranges import (MAX_TERMS, MAX_FACTOR_POWER, MAX_TERM_DEGREE, MAX_THRUST_COEFFICIENTS,
                                   MIN_SPEED_GAP_MPS, NAME_MAX_CHARS, RANGES, Range, single_precision_ok)
 from dobwind.model.terms import Term, TermError, parse_term, range_problem
-from dobwind.specialfiles import read_bounded
+from dobwind.model.inputfiles import read_bounded
+from dobwind.model.plausibility import hover_problem
 
 DISCRETIZATIONS = ("paper", "euler", "zoh", "tustin")
 ACCELERATION_MODES = ("ned", "specific_force", "velocity")
@@ -479,6 +480,10 @@ def parse_airframe(text: str, source: str) -> Airframe:
     gravity = top.number("gravity", default=STANDARD_GRAVITY, positive=True)
     top.within("gravity", gravity, "gravity")
     thrust = _thrust(top.table_of("thrust", THRUST_KEYS))  # type: ignore[arg-type]
+    if thrust.source == "rpm":
+        problem = hover_problem(thrust.rotors, thrust.max_rpm, thrust.coefficients, thrust.scale, mass * gravity)
+        if problem is not None:
+            raise InputError(source, "thrust.coefficients", problem)
     observer = _observer(top.table_of("observer", OBSERVER_KEYS))  # type: ignore[arg-type]
     horizontal, vertical, drag = _force_air_tables(top.table_of("force_air", FORCE_AIR_KEYS))  # type: ignore[arg-type]
     schedule = _filter(top.table_of("filter", FILTER_KEYS), observer.sample_time_s)  # type: ignore[arg-type]

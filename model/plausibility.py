@@ -24,6 +24,7 @@ NONFINITE; an infinite input is then both NONFINITE and IMPLAUSIBLE.
 from __future__ import annotations
 
 import casadi as ca
+import numpy as np
 
 # Standard gravity: accelerations are bounded in g regardless of the airframe's gravity setting, since
 # they are limited by structures, people and sensors, not by the planet.
@@ -90,3 +91,21 @@ def wind_beyond_bound(wind_ned: ca.SX) -> ca.SX:
     from the filtered state; rejecting it would freeze that state above the bound for good (each next
     proposal starts from the frozen state), while flagging lets the filters decay as usual."""
     return _above(wind_ned, MAX_WIND_MPS)
+
+
+def hover_problem(rotors: int, max_rpm: float, coefficients: tuple[float, ...], scale: float,
+                  weight_n: float) -> str | None:
+    """Why an rpm airframe cannot hover inside the plausible rotor speeds, or None.
+
+    Hover needs the rotors' thrust to equal the weight at some speed in [0, MAX_RPM_FRACTION max_rpm]:
+    a curve that lifts more than the weight at rest, or less than it at 1.5 max_rpm, describes another
+    vehicle, and every hovering sample of a real flight would be rejected as IMPLAUSIBLE."""
+    fractions = np.linspace(0.0, MAX_RPM_FRACTION, 301)
+    total = rotors * scale * np.polynomial.polynomial.polyval(fractions, coefficients)
+    if total.min() > weight_n:
+        return (f"the rotors give at least {total.min():.4g} N at every speed up to {MAX_RPM_FRACTION:g} max_rpm, "
+                f"more than the weight ({weight_n:.4g} N): the vehicle could not hover")
+    if total.max() < weight_n:
+        return (f"the rotors give at most {total.max():.4g} N up to {MAX_RPM_FRACTION:g} max_rpm, less than the "
+                f"weight ({weight_n:.4g} N): the vehicle could not hover")
+    return None
