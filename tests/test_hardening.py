@@ -201,3 +201,31 @@ def test_closed_stdout_is_one_line_exit_2():
                           stderr=subprocess.PIPE, text=True, timeout=120, preexec_fn=lambda: os.close(1))
     assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1
     assert "stdout" in done.stderr
+
+
+def test_replay_of_a_log_in_absurd_units_never_trusts_an_absurd_wind(tmp_path, capsys):
+    """The campaign's log classes through `dobwind replay`: rpm logged x60 over a third of the log and a
+    0.5 s block of ground velocity at 1e6. Every trusted row of the estimate file stays below 50 m/s."""
+    log = tmp_path / "log.csv"
+    assert main(["simulate", "outdoor", "--hold", "2", "--rate", "100", "-o", str(log)]) == 0
+    lines = log.read_text().splitlines()
+    header = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    columns = lines[header].split(",")
+    rows = [line.split(",") for line in lines[header + 1:]]
+    third = len(rows) // 3
+    for row in rows[third:2 * third]:
+        for name in ("rpm_1", "rpm_2", "rpm_3", "rpm_4"):
+            row[columns.index(name)] = repr(float(row[columns.index(name)]) * 60)
+    for row in rows[2 * third:2 * third + 50]:
+        row[columns.index("vel_n")] = "1e6"
+    log.write_text("\n".join(lines[:header + 1] + [",".join(r) for r in rows]) + "\n")
+    out = tmp_path / "est.csv"
+    assert main(["replay", str(M300), str(log), "-o", str(out)]) == 0
+    est = np.genfromtxt(out, delimiter=",", names=True, comments="#")
+    status = est["status"].astype(int)
+    wind = np.stack([est["wind_n"], est["wind_e"], est["wind_d"]], axis=1)
+    assert np.all(status[third:2 * third] & IMPLAUSIBLE)
+    assert np.all(status[2 * third:2 * third + 50] & IMPLAUSIBLE)
+    trusted = status == 0
+    assert trusted.sum() > len(rows) // 4  # the sane parts are still estimated
+    assert np.all(np.linalg.norm(wind[trusted], axis=1) <= P.MAX_WIND_MPS)
