@@ -44,11 +44,6 @@ MAX_THRUST_TO_WEIGHT = 20.0
 # at most tan(max_tilt) weights of drag (1.7 at 60 deg), and its observer sees little more in a dive;
 # four weights is no wind a multirotor survives, but an attitude glitch or a wrong thrust curve.
 MAX_EXTERNAL_FORCE_WEIGHTS = 4.0
-# The acceleration-bias estimate (observer.acceleration_bias_time) follows the difference between the
-# acceleration input and the velocity's derivative, clipped per axis to this: a real bias is mm/s^2 to a
-# few tenths (1 deg of attitude error is 0.17 m/s^2), so a larger difference is a glitch or a manoeuvre
-# the velocity has not shown yet, and half a second of -5 m/s^2 must not leave a bias behind.
-MAX_BIAS_UPDATE_MPS2 = 0.5
 # No multirotor flies in a 50 m/s (180 km/h) wind; a trusted estimate never exceeds it.
 MAX_WIND_MPS = 50.0
 

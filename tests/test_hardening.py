@@ -80,20 +80,19 @@ def test_velocity_glitch_is_rejected_and_the_estimate_recovers_within_one_settli
 
 def test_acceleration_glitch_never_gives_a_trusted_wind_beyond_the_bound():
     """-5 m/s^2 on all axes for 0.5 s is a plausible input: accepted, but no trusted row beyond 50 m/s
-    (before: trusted rows up to 62 m/s), and the clipped bias update leaves no lasting offset."""
+    (before: trusted rows up to 62 m/s)."""
     model, clean_in = _simulated(load_airframe(M300), hold_s=4.0)
     dt = model.airframe.observer.sample_time_s
     start, length = len(clean_in) // 3, int(round(0.5 / dt))
     glitch = clean_in.copy()
     glitch[start:start + length, model.inputs.slice("acc_ned")] = -5.0
-    clean, hit = reference.run(model, clean_in), reference.run(model, glitch)
+    hit = reference.run(model, glitch)
     trusted = hit.status == 0
     assert np.all(np.linalg.norm(_wind(hit)[trusted], axis=1) <= P.MAX_WIND_MPS)
     assert np.any(hit.status[start:] & EXTRAPOLATED)  # the glitch did push the wind beyond the bound
-    bias = model.state.slice("acc_bias")
-    end = start + length  # right after the glitch: clipped at 0.5 m/s^2 for 0.5 s of a 20 s average
-    # each run moves its bias by at most 0.5 m/s^2 x 0.5 s / 20 s, in opposite directions at worst
-    assert np.abs(hit.states[end, bias] - clean.states[end, bias]).max() <= 2 * 0.5 * 0.5 / 20 * 1.05
+    # What this does not promise: the velocity-aided bias estimate (a 20 s average of acceleration minus
+    # the velocity's derivative, whose per-sample noise is +-1.4 m/s^2 at 100 Hz) takes in part of the
+    # glitch, as it would a real bias change, and lets it go over its own time constant.
 
 
 def test_rpm_in_the_wrong_unit_is_rejected():
@@ -108,17 +107,21 @@ def test_rpm_in_the_wrong_unit_is_rejected():
 # --- generate's self-test gate -----------------------------------------------------------------
 
 def _variant(tmp_path, old: str, new: str):
+    """m300 with ``old`` replaced by ``new`` (several pairs joined by " | ")."""
     text = M300.read_text()
-    assert old in text
+    for before, after in zip(old.split(" | "), new.split(" | ")):
+        assert before in text
+        text = text.replace(before, after)
     path = tmp_path / "v.toml"
-    path.write_text(text.replace(old, new))
+    path.write_text(text)
     return path
 
 
 @pytest.mark.skipif(not HAS_CC, reason="no host C compiler")
 @pytest.mark.parametrize("old, new", [
     ("max_tilt_deg = 60.0", "max_tilt_deg = 1.0"),       # the low edge of limits.max_tilt_deg
-    ("mass = 8.0 ", "mass = 10000.0 "),                 # the high edge of mass (a 1,566 s settling time)
+    # the high edge of mass (a 1,566 s settling time), with rotors that can lift it
+    ("mass = 8.0  | [0.01315, 11.34, 207.0]", "mass = 10000.0  | [0.0, 11.34, 3e5]"),
     ("cutoffs = [0.2, 0.35, 0.5]", "cutoffs = [0.001, 0.001, 0.001]"),  # the low edge of filter.cutoffs
 ])
 def test_edge_of_range_airframes_pass_generate_and_its_self_test(tmp_path, capsys, old, new):

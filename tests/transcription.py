@@ -177,7 +177,7 @@ def step(af: Airframe, st: dict[str, np.ndarray], inp: dict[str, np.ndarray]):
         bias = st["acc_bias"].copy()
         if follows:
             disagreement = kinematic - (v - st["vel_prev"]) / dt
-            bias = bias + (1 - math.exp(-dt / tau)) * np.clip(disagreement - bias, -0.5, 0.5)
+            bias = bias + (1 - math.exp(-dt / tau)) * (disagreement - bias)
 
     w = np.asarray(af.observer.gains) / m
     disc = af.observer.discretization

@@ -5,7 +5,7 @@
  * d9fe9baff7b6cfef8d666b58101c13ced95956e1653f591ef4ca4a5757c1bf1d.
  * DO NOT EDIT: regenerate with `dobwind generate <airframe file>`.
  *
- * Total ops per accepted step: 326 (31 math-library calls), of which
+ * Total ops per accepted step: 320 (31 math-library calls), of which
  * 99 validate the input and 30 check the result.
  */
 #include "m300_wind.h"
@@ -320,7 +320,7 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         u_f = t13;
     }
 
-    /* ---- acceleration: kinematic acceleration p'' (m/s^2, NED), minus its velocity-aided bias (time constant 20 s) (38 ops, 1 math calls) ---- */
+    /* ---- acceleration: kinematic acceleration p'' (m/s^2, NED), minus its velocity-aided bias (time constant 20 s) (32 ops, 1 math calls) ---- */
     float p_ddot[3];
     float acc_bias_new[3];
     {
@@ -339,35 +339,29 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const float t9 = t7 * t8;
         const float t10 = in->acc_ned[0] - t9;
         const float t11 = t10 - state->acc_bias[0];
-        const float t12 = (t11 > (-0.5f) ? t11 : (-0.5f));
-        const float t13 = (t12 < 0.5f ? t12 : 0.5f);
-        const float t14 = t6 * t13;
-        const float t15 = -t14;
-        const float t16 = (t3 ? t15 : 0.0f);
-        const float t17 = state->acc_bias[0] + t16;
-        acc_bias_new[0] = t17;
-        const float t18 = in->vel_ned[1] - state->vel_prev[1];
-        const float t19 = t18 * t8;
-        const float t20 = in->acc_ned[1] - t19;
-        const float t21 = t20 - state->acc_bias[1];
-        const float t22 = (t21 > (-0.5f) ? t21 : (-0.5f));
-        const float t23 = (t22 < 0.5f ? t22 : 0.5f);
-        const float t24 = t6 * t23;
-        const float t25 = -t24;
-        const float t26 = (t3 ? t25 : 0.0f);
-        const float t27 = state->acc_bias[1] + t26;
-        acc_bias_new[1] = t27;
-        const float t28 = in->vel_ned[2] - state->vel_prev[2];
-        const float t29 = t28 * t8;
-        const float t30 = in->acc_ned[2] - t29;
-        const float t31 = t30 - state->acc_bias[2];
-        const float t32 = (t31 > (-0.5f) ? t31 : (-0.5f));
-        const float t33 = (t32 < 0.5f ? t32 : 0.5f);
-        const float t34 = t6 * t33;
-        const float t35 = -t34;
-        const float t36 = (t3 ? t35 : 0.0f);
-        const float t37 = state->acc_bias[2] + t36;
-        acc_bias_new[2] = t37;
+        const float t12 = t6 * t11;
+        const float t13 = -t12;
+        const float t14 = (t3 ? t13 : 0.0f);
+        const float t15 = state->acc_bias[0] + t14;
+        acc_bias_new[0] = t15;
+        const float t16 = in->vel_ned[1] - state->vel_prev[1];
+        const float t17 = t16 * t8;
+        const float t18 = in->acc_ned[1] - t17;
+        const float t19 = t18 - state->acc_bias[1];
+        const float t20 = t6 * t19;
+        const float t21 = -t20;
+        const float t22 = (t3 ? t21 : 0.0f);
+        const float t23 = state->acc_bias[1] + t22;
+        acc_bias_new[1] = t23;
+        const float t24 = in->vel_ned[2] - state->vel_prev[2];
+        const float t25 = t24 * t8;
+        const float t26 = in->acc_ned[2] - t25;
+        const float t27 = t26 - state->acc_bias[2];
+        const float t28 = t6 * t27;
+        const float t29 = -t28;
+        const float t30 = (t3 ? t29 : 0.0f);
+        const float t31 = state->acc_bias[2] + t30;
+        acc_bias_new[2] = t31;
     }
 
     /* ---- external_force: f_e solved from m p'' = -u_f z_b + m g e3 + f_e (N, NED) (10 ops) ---- */
