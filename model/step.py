@@ -29,7 +29,7 @@ from dobwind.model import forceair
 from dobwind.model.discretization import first_order
 from dobwind.model.dynamics import quaternion_to_rotation_any_norm, solve_external_force
 from dobwind.model.layout import Field, Layout
-from dobwind.model.plausibility import MAX_BIAS_UPDATE_MPS2, implausible_inputs, implausible_result, wind_beyond_bound
+from dobwind.model.plausibility import implausible_inputs, implausible_result, wind_beyond_bound
 from dobwind.model.settling import settling_time_s
 from dobwind.model.status import (DT_TOLERANCE, INPUT_MAGNITUDE_LIMIT, MIN_DT_S, QUATERNION_NORM_TOLERANCE,
                                   RESULT_MAGNITUDE_LIMIT, STATUS_BITS)
@@ -313,9 +313,7 @@ def _acceleration(af: Airframe, s: Signals) -> Signals:
     difference = measured - (s["in.vel_ned"] - s["state.vel_prev"]) / s["in.dt"]
     weight = follows * -ca.expm1(-s["in.dt"] / obs.acceleration_bias_time_s)  # no bias update across a gap
     bias = s["state.acc_bias"]
-    # Clipped: a glitch or a manoeuvre the velocity has not shown yet must not drag the bias along.
-    step = ca.fmin(ca.fmax(difference - bias, -MAX_BIAS_UPDATE_MPS2), MAX_BIAS_UPDATE_MPS2)
-    return {"p_ddot": measured - bias, "acc_bias_new": bias + weight * step}
+    return {"p_ddot": measured - bias, "acc_bias_new": bias + weight * (difference - bias)}
 
 
 # --- observer and low-pass, applied alike to the force and to the ground velocity -------------------
