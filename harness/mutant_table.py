@@ -51,7 +51,7 @@ MODEL_TESTS = ("tests/test_model.py", "tests/test_limits_pinned.py")
 def c_mutants(af: Airframe) -> list[CMutant]:
     """Every C mutant for ``af``, in the order the table is reported."""
     return (_validation_mutants(af) + _estimate_mutants(af) + _commit_mutants() + _kernel_mutants()
-            + _bias_mutants(af) + _header_mutants(af) + _plausibility_mutants(af))
+            + _bias_mutants(af) + _header_mutants(af) + _plausibility_mutants(af) + _envelope_mutants(af))
 
 
 def _validation_mutants(af: Airframe) -> list[CMutant]:
@@ -185,6 +185,18 @@ def _plausibility_mutants(af: Airframe) -> list[CMutant]:
                            near=MAX_THRUST_TO_WEIGHT * af.mass_kg * af.gravity_mps2, scale=1.1))
     # No rpm-bound mutant: for a thrust curve as strong as m300's, 1.5 max_rpm lies beyond the 10 g and
     # 4-weight bounds whatever the other inputs, so moving it changes no status (an equivalent mutant).
+    return out
+
+
+def _envelope_mutants(af: Airframe) -> list[CMutant]:
+    """EXTRAPOLATED's envelope bounds (issue #37's survivors), for an airframe fit gave an envelope."""
+    env = af.envelope
+    if env is None:
+        return []
+    out = [CMutant("envelope: force_h_max x1.01", "quality", near=env.force_h_max_n, scale=1.01, count=None)]
+    for label, value in (("low", env.force_z_n[0]), ("high", env.force_z_n[1])):
+        if value != 0.0:
+            out.append(CMutant(f"envelope: force_z {label} x1.01", "quality", near=value, scale=1.01, count=None))
     return out
 
 

@@ -205,7 +205,27 @@ def _plausibility_families(model: StepModel, base: Row) -> list[tuple[str, Famil
         top = MAX_THRUST_TO_WEIGHT * af.mass_kg * af.gravity_mps2
         out.append(("thrust <= MAX_THRUST_TO_WEIGHT weight", _with_input(base, model, lin.offset("thrust")), hover(lin.offset("thrust")),
                     top * 2, True))
-    return out + _steady_families(model, base)
+    return out + _steady_families(model, base) + _envelope_families(model, base)
+
+
+def _envelope_families(model: StepModel, base: Row) -> list[tuple[str, Family, float, float, bool]]:
+    """EXTRAPOLATED's envelope (force_h_max, force_z low and high, airflow_h_max), crossed by the filtered
+    force of the state: issue #37 found its bounds checked by nothing. The flip may be another quality
+    bound met first (the airflow, the 50 m/s wind); each is a status both must agree on."""
+    env, lst = model.airframe.envelope, model.state
+    if env is None:
+        return []
+
+    def force(axis: int, sign: float) -> Family:
+        def setter(state: np.ndarray, row: np.ndarray, p: float) -> None:
+            for name in ("f_obs", "f_filt"):
+                state[lst.offset(name) + axis] = sign * p
+        return _matched(base, setter)
+
+    top = max(env.force_h_max_n, abs(env.force_z_n[0]), abs(env.force_z_n[1]))
+    return [("|force_h| <= envelope.force_h_max", force(0, 1.0), 1e-6, 4 * top, True),
+            ("force_z >= envelope.force_z low", force(2, -1.0), 1e-6, 4 * top, True),
+            ("force_z <= envelope.force_z high", force(2, 1.0), 1e-6, 4 * top, True)]
 
 
 def _steady_families(model: StepModel, base: Row) -> list[tuple[str, Family, float, float, bool]]:
