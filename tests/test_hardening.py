@@ -18,6 +18,7 @@ from dobwind.logs import FlightLog
 from dobwind.model import plausibility as P
 from dobwind.model import reference
 from dobwind.model.airframe import load_airframe
+from dobwind.model.errors import CheckFailed
 from dobwind.model.status import REJECTED_MASK, STATUS_BITS
 from dobwind.model.step import build_step
 from dobwind.simulate import simulate
@@ -251,3 +252,33 @@ def test_fuzzed_step_never_trusts_a_wind_beyond_the_bound_or_nan(airframe):
     wind = outputs[trusted][:, model.outputs.slice("wind_ned")]
     assert trusted.sum() > 50  # trusted samples remain (nf_quad differences its velocity: most are IMPLAUSIBLE)
     assert np.all(np.isfinite(outputs[trusted])) and np.all(np.linalg.norm(wind, axis=1) <= P.MAX_WIND_MPS)
+
+
+_ENVELOPE = "\n[envelope]\nforce_h_max = 15.0\nforce_z = [-20.0, 15.0]\nairflow_h_max = 40.0\n"
+
+
+@pytest.mark.skipif(not HAS_CC, reason="no host C compiler")
+@pytest.mark.parametrize("name", ["header: REJECTED_MASK loses NUMERIC (0x20)", "header: SETTLING_TIME_S x1.1",
+                                  "envelope: force_h_max x1.01", "envelope: force_z low x1.01",
+                                  "plausible: ground speed bound x1.1"])
+def test_issue_37_surviving_mutants_fail_the_generated_self_test(tmp_path, name):
+    """The header's macros and the envelope were checked by nothing; the plausibility bounds are new.
+    Each mutant (harness/mutant_table.py) applied to fresh C must fail the self-test that generate runs."""
+    from dobwind.codegen.generate import generate_code, write_files
+    from dobwind.harness.mutant_table import c_mutants
+    from dobwind.harness.mutants import apply_c_mutant
+    from dobwind.model.airframe import parse_airframe
+    from dobwind.selftest_gate import run_selftest
+
+    af = parse_airframe(M300.read_text() + _ENVELOPE, "m300+envelope")
+    files = generate_code(af, "single").files
+    (tmp_path / "clean").mkdir()
+    (tmp_path / "mutant").mkdir()
+    write_files(files, tmp_path / "clean")
+    assert run_selftest(tmp_path / "clean", af.name, os.environ.get("CC", "cc")).ran  # the unmutated C passes
+    mutant = next(m for m in c_mutants(af) if m.name == name)
+    target = f"{af.name}_wind.h" if mutant.region == "header" else f"{af.name}_wind.c"
+    write_files(dict(files, **{target: apply_c_mutant(files[target], mutant, "single", f"{af.name}_wind_")}),
+                tmp_path / "mutant")
+    with pytest.raises(CheckFailed, match="self-test"):
+        run_selftest(tmp_path / "mutant", af.name, os.environ.get("CC", "cc"))
