@@ -282,3 +282,43 @@ def test_issue_37_surviving_mutants_fail_the_generated_self_test(tmp_path, name)
                 tmp_path / "mutant")
     with pytest.raises(CheckFailed, match="self-test"):
         run_selftest(tmp_path / "mutant", af.name, os.environ.get("CC", "cc"))
+
+
+def test_verify_with_a_compiler_that_writes_nothing_is_one_line_exit_1(tmp_path, capsys, monkeypatch):
+    """A "compiler" that exits 0 without output (issue #37: an IndexError, then a ctypes OSError)."""
+    true = shutil.which("true")
+    if true is None:
+        pytest.skip("no true(1)")
+    monkeypatch.setenv("CC", true)
+    assert main(["verify", str(M300), "--precision", "single", "--steps", "200"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "wrote no" in err[0]
+
+
+def test_a_csv_named_bin_is_refused_in_one_line(tmp_path, capsys):
+    """pymavlink printed 1.9 million "bad header" lines for it."""
+    log = tmp_path / "flight.bin"
+    log.write_text("t,vel_n\n0,0\n" * 1000)
+    assert main(["replay", str(M300), str(log), "-o", str(tmp_path / "e.csv")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "0xA3 0x95" in err[0]
+
+
+def test_failed_outputs_leave_no_temporaries(tmp_path, capsys):
+    """generate -o LINK-TO-FOLDER writes into the linked folder; fit -o DIR/ is refused up front."""
+    real = tmp_path / "real"
+    real.mkdir()
+    (tmp_path / "link").symlink_to(real)
+    assert main(["generate", str(M300), "-o", str(tmp_path / "link"), "--no-selftest"]) == 0
+    assert (tmp_path / "link").is_symlink() and (real / "m300_wind.c").is_file()
+    assert main(["fit", str(M300), str(M300), "-o", str(tmp_path / "new") + "/"]) == 2
+    assert "ends with a slash" in capsys.readouterr().err
+    assert not [p.name for p in tmp_path.iterdir() if p.name.startswith(".dobwind-tmp")]
+
+
+def test_a_log_slower_than_max_dt_warns(tmp_path, capsys):
+    log = tmp_path / "slow.csv"
+    assert main(["simulate", "outdoor", "--hold", "2", "--rate", "5", "-o", str(log)]) == 0
+    capsys.readouterr()
+    assert main(["replay", str(M300), str(log)]) == 0
+    assert "rows rejected" in capsys.readouterr().err
