@@ -63,7 +63,11 @@ def analyze_command(args: argparse.Namespace) -> int:
     if design is not None:
         report["design"] = design[1]
         report["gains"] = design[1]["gains"]  # the key `analyze --bandwidth --json` printed before the design block
-    if target is not None:
+        if not report["stable"]:
+            design[1]["airframe_file"] = None  # refused below: say so in the design text and the JSON
+    # A designed airframe that is unstable would be refused by check and generate: the failed design is
+    # reported, and its file is not written (a command writes nothing unless it succeeds).
+    if target is not None and not (designing and not report["stable"]):
         with OutputFiles([target]) as out:
             if designing:
                 text_toml = designed_text(args.airframe, af, design[1]["bandwidth_hz"])
@@ -77,7 +81,9 @@ def analyze_command(args: argparse.Namespace) -> int:
             print(_design_text(design[1]))
         print(text(report, list(args.freq)))
     if not report["stable"]:
-        sys.stderr.write(f"dobwind analyze: {af.name}: unstable: {report['unstable_reason'] or 'a pole is outside the unit circle'}\n")
+        unwritten = f" ({args.output} not written)" if designing and args.output is not None else ""
+        sys.stderr.write(f"dobwind analyze: {af.name}: unstable: {report['unstable_reason'] or 'a pole is outside the unit circle'}"
+                         f"{unwritten}\n")
         return EXIT_CHECK_FAILED
     return 0
 
@@ -124,7 +130,7 @@ def designed_text(source: str, af: Airframe, bandwidth_hz: float) -> str:
 
 def _design_text(design: dict[str, Any]) -> str:
     g = design["gains_kg_per_s"][0]
-    where = f"; written to {design['airframe_file']}" if design["airframe_file"] else " (not written: no -o)"
+    where = f"; written to {design['airframe_file']}" if design["airframe_file"] else " (not written)"
     if "target" in design:
         t = design["target"]
         return (f"designed observer gains for a wind {t['kind']} of {t['value']:g} {t['unit']} at "

@@ -6,9 +6,11 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import errno
 import os
 import sys
 from pathlib import Path
+from functools import partial
 
 import numpy as np
 from typing import Any, Callable, NoReturn, Sequence
@@ -49,10 +51,21 @@ def cmd_generate(args: argparse.Namespace) -> int:
     target = Target("-o", out_dir, "dir")
     check_targets([target], [args.airframe])
     check_replaceable(target, is_generated_name)
-    files = generate_to_dir(af, out_dir, args.precision, source=args.airframe, integration=args.target)
+    gate = None if args.no_selftest else partial(_selftest_gate, af.name)
+    files = generate_to_dir(af, out_dir, args.precision, source=args.airframe, integration=args.target,
+                            gate=gate)
     for path in files:
         print(path)
     return 0
+
+
+def _selftest_gate(name: str, folder: Path) -> None:
+    from dobwind.harness.build import system_compiler
+    from dobwind.selftest_gate import run_selftest
+
+    result = run_selftest(folder, name, system_compiler())
+    if not result.ran:
+        sys.stderr.write(f"dobwind generate: warning: {result.summary}\n")
 
 
 def cmd_verify(args: argparse.Namespace) -> int:
@@ -91,6 +104,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     af = load_airframe(args.airframe)
     require_stable(af, "generate would refuse it", args.airframe)
     model = build_step(af)
+    _refuse_what_generate_refuses(af, model, args.airframe)
     summary = {
         "name": af.name,
         "mass_kg": af.mass_kg,
@@ -108,6 +122,15 @@ def cmd_check(args: argparse.Namespace) -> int:
         for key, value in summary.items():
             print(f"{key:18s} {value}")
     return 0
+
+
+def _refuse_what_generate_refuses(af: Any, model: Any, source: str) -> None:
+    """Renders the C in both precisions and discards it: every static refusal of `generate` (a constant
+    that rounds to 0 in a float, an ill-conditioned term) then stops `check` too, with the same line."""
+    from dobwind.codegen.generate import generate_code
+
+    for precision in ("single", "double"):
+        generate_code(af, precision, model, source=source)
 
 
 def _default_airframe() -> str:
@@ -249,6 +272,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     metrics = result.metrics
     for finding in result.findings:
         sys.stderr.write(f"dobwind replay: warning: {args.log}: {finding.message}\n")
+    _warn_mostly_rejected(args.log, metrics, af)
     if args.json:
         _print_json({"airframe": af.name, "log": str(args.log), "backend": args.backend, **metrics,
                      "plausibility": [f.as_dict() for f in result.findings]})
@@ -302,6 +326,17 @@ def _replay_csv_netcdf(args: argparse.Namespace, af):
 
     with OutputFiles(_replay_targets(args)) as out:
         return replay_csv_netcdf(args, af, out)
+
+
+# Above this share of rejected rows a replay "succeeds" with next to no estimate: say so on stderr.
+MOSTLY_REJECTED = 0.9
+
+
+def _warn_mostly_rejected(log: str, metrics: dict, af: Any) -> None:
+    rows, rejected = int(metrics.get("rows", 0)), int(metrics.get("rejected_rows", 0))
+    if rows and rejected > MOSTLY_REJECTED * rows:
+        sys.stderr.write(f"dobwind replay: warning: {log}: {rejected} of {rows} rows rejected (see the status column; "
+                         f"a log slower than 1/limits.max_dt = {1 / af.limits.max_dt_s:g} Hz is rejected as BAD_DT)\n")
 
 
 @contextlib.contextmanager
@@ -438,6 +473,10 @@ def _add_generate(command: _Command) -> None:
     p.add_argument("--target", choices=("px4", "ardupilot"), help="also write that autopilot's integration "
                    "beside the C: px4/ (a PX4 work-queue module, its .msg and parameter) or AP_DOBWind/ (an "
                    "ArduPilot library with its DataFlash message); single precision (default: the C only)")
+    p.add_argument("--no-selftest", action="store_true",
+                   help="skip the final gate: by default the generated C and its self-test are compiled with the "
+                   "host compiler ($CC, default cc) and run, and C that fails its golden vectors is refused "
+                   "(exit 1, nothing written); without a host compiler generate warns on stderr and still writes")
     p.set_defaults(func=cmd_generate)
 
 
@@ -711,6 +750,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         try:
             args = parser.parse_args(argv)
             command = args.command
+            _refuse_closed_stdout_and_special_files(args)
             status = int(args.func(args))
             if caught.signo is not None:  # its exception was swallowed (CasADi): still a stop
                 raise Interrupted(caught.signo)
@@ -724,12 +764,31 @@ def main(argv: Sequence[str] | None = None) -> int:
             return EXIT_CHECK_FAILED
         except BrokenPipeError:
             return _reader_went_away()
+        except OSError as exc:  # a write that failed outside the atomic writers: stdout on a full disk
+            if caught.signo is not None:
+                raise
+            where = exc.filename or ("stdout" if exc.errno in _WRITE_ERRNOS else "error")
+            sys.stderr.write(f"dobwind {command}: {where}: {exc.strerror or exc}\n")
+            _reader_went_away()  # the buffered rest would fail again at exit
+            return EXIT_BAD_INPUT
         except BaseException:
             if caught.signo is None:
                 raise
             # The `with` blocks on the way out have removed every temporary; earlier outputs are untouched.
             sys.stderr.write(f"dobwind {command}: stopped by {caught.name}; no partial output left\n")
             return 128 + caught.signo
+
+
+# Errors of a write to an ordinary stream (the OSError then names no file): full disk, quota, I/O, closed.
+_WRITE_ERRNOS = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO, errno.EBADF)
+
+
+def _refuse_closed_stdout_and_special_files(args: argparse.Namespace) -> None:
+    from dobwind.specialfiles import refuse_special_inputs
+
+    if sys.stdout is None:  # started with fd 1 closed: Python then has no stdout at all
+        raise InputError("stdout", None, "is closed; run with an open standard output (e.g. >/dev/null)")
+    refuse_special_inputs(args)
 
 
 def _reader_went_away() -> int:

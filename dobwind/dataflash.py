@@ -27,7 +27,7 @@ airborne: NO_DATA, named).
 from __future__ import annotations
 
 import contextlib
-import io
+import os
 
 import numpy as np
 
@@ -54,9 +54,12 @@ def _load(path: str, wanted: tuple[str, ...] = WANTED) -> dict[str, list[dict]]:
         from pymavlink import DFReader
     except ImportError:  # pragma: no cover - the ardupilot extra is part of `make setup`
         raise InputError(path, None, "reading DataFlash needs pymavlink (pip install 'dobwind[ardupilot]')") from None
+    _require_magic(path)
     out: dict[str, list[dict]] = {name: [] for name in wanted}
     try:
-        with contextlib.redirect_stdout(io.StringIO()):
+        # DFReader prints a line per skipped byte of a corrupt log ("bad header ...", to stderr): hundreds
+        # of thousands for a damaged file. The outcome is judged from the messages found instead.
+        with open(os.devnull, "w") as sink, contextlib.redirect_stdout(sink), contextlib.redirect_stderr(sink):
             reader = DFReader.DFReader_binary(path, zero_time_base=False)
             while True:
                 msg = reader.recv_match(type=list(wanted))
@@ -69,6 +72,22 @@ def _load(path: str, wanted: tuple[str, ...] = WANTED) -> dict[str, list[dict]]:
     except Exception as exc:  # DFReader raises many kinds on corrupt files
         raise InputError(path, None, f"not a readable DataFlash log ({type(exc).__name__}: {str(exc)[:80]})") from None
     return out
+
+
+# Every DataFlash message starts with these two bytes (the format is public: ArduPilot's LogStructure.h).
+DATAFLASH_MAGIC = b"\xa3\x95"
+
+
+def _require_magic(path: str) -> None:
+    """A file that does not start like a DataFlash log (a CSV renamed .bin, say) is refused in one line
+    before DFReader scans it byte by byte."""
+    try:
+        with open(path, "rb") as handle:
+            head = handle.read(len(DATAFLASH_MAGIC))
+    except OSError as exc:
+        raise InputError(path, None, f"cannot read: {exc.strerror}") from None
+    if head != DATAFLASH_MAGIC:
+        raise InputError(path, None, "not a DataFlash log: it does not start with the 0xA3 0x95 message header")
 
 
 def _close(reader) -> None:

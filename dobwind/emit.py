@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Callable
 
 from dobwind.atomic import write_text_atomically
 from dobwind.codegen.generate import generate_code, is_generated_name
@@ -10,10 +11,12 @@ from dobwind.outputs import Target, check_replaceable, staged_folder
 
 
 def generate_to_dir(af: Airframe, out_dir: str | Path, precision: str = "single", option: str = "-o",
-                    source: str | None = None, integration: str | None = None) -> list[Path]:
+                    source: str | None = None, integration: str | None = None,
+                    gate: Callable[[Path], None] | None = None) -> list[Path]:
     """Renders everything, then replaces ``out_dir`` as a whole (a sibling folder swapped in), so a
     full disk or a signal leaves either the old folder or the new one, never a mix. ``integration``:
-    "px4" or "ardupilot" adds that autopilot's folder (codegen/targets.py)."""
+    "px4" or "ardupilot" adds that autopilot's folder (codegen/targets.py). ``gate`` checks the
+    rendered folder before the swap (generate's self-test): if it raises, nothing is written."""
     target = Target(option, str(out_dir), "dir")
     check_replaceable(target, is_generated_name)
     with staged_folder(target) as work:  # the render runs inside: a signal then removes the folder too
@@ -21,4 +24,6 @@ def generate_to_dir(af: Airframe, out_dir: str | Path, precision: str = "single"
         for name, text in code.files.items():
             (work / name).parent.mkdir(parents=True, exist_ok=True)  # a --target folder
             write_text_atomically(work / name, lambda handle, text=text: handle.write(text))
+        if gate is not None:
+            gate(work)
     return [Path(out_dir) / name for name in code.files]

@@ -73,6 +73,8 @@ def check_target(target: Target, inputs: Sequence[str] = ()) -> None:
     """Raises InputError (naming the option and the path) unless ``target`` can be written."""
     if not target.path:
         raise _refuse(target, "empty path")
+    if target.kind == "file" and target.path.endswith(os.sep):  # Path() would drop the slash: "x/" is "x"
+        raise _refuse(target, "ends with a slash, which names a folder; a file is expected")
     path = Path(target.path)
     try:
         st = _stat(path)
@@ -165,7 +167,11 @@ class OutputFiles:
                     backup = None
                     if final.exists():
                         backup = new_temp_file(final.parent, final.name)
-                        os.replace(final, backup)
+                        try:
+                            os.replace(final, backup)
+                        except BaseException:
+                            backup.unlink(missing_ok=True)  # not yet a backup: only a stray placeholder
+                            raise
                     backups.append((final, backup))
                     os.replace(tmp, final)
             except BaseException:
@@ -202,7 +208,11 @@ def _swap_in(new: Path, final: Path) -> None:
         old = None
         if final.exists():
             old = Path(tempfile.mkdtemp(prefix=temp_prefix(), suffix=f"-old-{final.name}", dir=final.parent))
-            os.replace(final, old)  # onto the empty placeholder folder
+            try:
+                os.replace(final, old)  # onto the empty placeholder folder
+            except BaseException:
+                os.rmdir(old)  # no stray placeholder beside the untouched target
+                raise
         try:
             os.rename(new, final)
         except BaseException:
@@ -215,8 +225,11 @@ def _swap_in(new: Path, final: Path) -> None:
 
 @contextmanager
 def staged_folder(target: Target) -> Iterator[Path]:
-    """Yields an empty sibling folder to fill; on a clean exit it replaces ``target`` as a whole."""
+    """Yields an empty sibling folder to fill; on a clean exit it replaces ``target`` as a whole. A target
+    that is a symbolic link to a folder replaces the folder it points to (the link stays as it is)."""
     final = Path(target.path)
+    if final.is_symlink() and final.is_dir():
+        final = final.resolve()
     try:
         final.parent.mkdir(parents=True, exist_ok=True)
         remove_stale(final.parent)

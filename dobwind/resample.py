@@ -175,7 +175,8 @@ def quaternions(t_src: np.ndarray, q: np.ndarray, t: np.ndarray) -> np.ndarray:
     flips = np.cumsum(np.r_[0, np.einsum("ij,ij->i", q[1:], q[:-1]) < 0]) % 2
     aligned = np.where((flips == 1)[:, None], -q, q)
     out = np.column_stack([np.interp(t, t_src, aligned[:, i]) for i in range(4)])
-    return out / np.linalg.norm(out, axis=1)[:, None]
+    with np.errstate(invalid="ignore", divide="ignore"):  # a zero quaternion (a corrupt log) becomes NaN,
+        return out / np.linalg.norm(out, axis=1)[:, None]  # which the step rejects: no RuntimeWarning
 
 
 def blank(cols: dict[str, np.ndarray], skip: np.ndarray) -> dict[str, np.ndarray]:

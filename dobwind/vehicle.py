@@ -61,6 +61,7 @@ import numpy as np
 
 from dobwind.errors import InputError
 from dobwind.model.airframe import STANDARD_GRAVITY, _Reader
+from dobwind.model.inputfiles import read_bounded
 
 
 @dataclass(frozen=True)
@@ -190,7 +191,7 @@ def parse_vehicle(text: str, source: str) -> VehicleSpec:
 def load_vehicle(path: str | Path) -> VehicleSpec:
     path = Path(path)
     try:
-        text = path.read_bytes().decode("utf-8")
+        text = read_bounded(str(path)).decode("utf-8")
     except OSError as exc:
         raise InputError(str(path), None, f"cannot read: {exc.strerror}") from None
     except UnicodeDecodeError:

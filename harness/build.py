@@ -51,7 +51,10 @@ def available_compilers() -> list[Compiler]:
 
 
 def run(cmd: list[str], cwd: Path | None = None) -> subprocess.CompletedProcess:
-    done = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True)
+    try:
+        done = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, errors="replace")
+    except OSError as exc:  # a compiler that exited 0 without writing its program, a missing tool
+        raise CheckFailed(f"{cmd[0]}: cannot run: {exc.strerror or exc}") from None
     if done.returncode != 0:
         raise CheckFailed(f"{' '.join(cmd)} failed:\n{done.stdout}{done.stderr}".rstrip())
     return done
@@ -89,4 +92,6 @@ def build_shared_library(model: StepModel, precision: str, code_dir: Path, out_d
     library = out_dir / f"lib{model.airframe.name}_{precision}.so"
     run([system_compiler(), C_STD, *STRICT_FLAGS, "-O2", "-fPIC", "-shared", *extra_flags, f"-I{code_dir}",
          str(code_dir / f"{model.airframe.name}_wind.c"), str(shim), "-o", str(library), "-lm"])
+    if not library.is_file():
+        raise CheckFailed(f"{system_compiler()} exited 0 but wrote no {library.name}")
     return library

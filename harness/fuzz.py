@@ -8,6 +8,7 @@ import numpy as np
 from dobwind.codegen.generate import generate_code, write_files
 from dobwind.harness.build import HARNESS_TEMPLATES, run, system_compiler
 from dobwind.model.exercise import flight_inputs
+from dobwind.model.plausibility import MAX_WIND_MPS
 from dobwind.model.step import StepModel
 
 SANITIZE = ("-fsanitize=address,undefined,float-cast-overflow,float-divide-by-zero", "-fno-sanitize-recover=all",
@@ -24,6 +25,7 @@ def build_fuzzer(model: StepModel, precision: str, work: Path) -> Path:
     text = HARNESS_TEMPLATES.get_template("fuzz.c.j2").render(
         name=name, prefix=f"{name}_wind_", real=real, n_in=model.inputs.size, elements=model.inputs.element_names(),
         base=", ".join(literal(v) for v in base), denormal="1e-40f" if precision == "single" else "4e-320",
+        max_wind=repr(MAX_WIND_MPS),
     )
     source = work / "fuzz.c"
     source.write_text(text)

@@ -15,7 +15,8 @@ import math
 from dataclasses import dataclass
 
 from dobwind.model.airframe import Airframe
-from dobwind.model.status import DT_TOLERANCE, INPUT_MAGNITUDE_LIMIT, QUATERNION_NORM_TOLERANCE
+from dobwind.model.plausibility import MAX_ACCELERATION_MPS2, MAX_GROUND_SPEED_MPS, MAX_THRUST_TO_WEIGHT
+from dobwind.model.status import DT_TOLERANCE, INPUT_MAGNITUDE_LIMIT, QUATERNION_NORM_TOLERANCE, REJECTED_MASK
 from dobwind.model.settling import settling_time_s
 
 BOTH = ("single", "double")
@@ -50,7 +51,7 @@ MODEL_TESTS = ("tests/test_model.py", "tests/test_limits_pinned.py")
 def c_mutants(af: Airframe) -> list[CMutant]:
     """Every C mutant for ``af``, in the order the table is reported."""
     return (_validation_mutants(af) + _estimate_mutants(af) + _commit_mutants() + _kernel_mutants()
-            + _bias_mutants(af))
+            + _bias_mutants(af) + _header_mutants(af) + _plausibility_mutants(af) + _envelope_mutants(af))
 
 
 def _validation_mutants(af: Airframe) -> list[CMutant]:
@@ -162,6 +163,44 @@ def _bias_mutants(af: Airframe) -> list[CMutant]:
                 near=1.0 / af.observer.acceleration_bias_time_s, scale=2.0, precisions=("single",)),
         CMutant("bias gate 0 < run_s becomes <=", "acceleration", r"0\.0f? < state->run_s", "({real})0 <= state->run_s"),
     ]
+
+
+def _header_mutants(af: Airframe) -> list[CMutant]:
+    """The header's macros (issue #37: nothing checked them): the self-test compares each with the model."""
+    mask = f"0x{REJECTED_MASK:02X}u"
+    return [
+        CMutant("header: REJECTED_MASK loses NUMERIC (0x20)", "header", rf"(REJECTED_MASK ){mask}",
+                rf"\g<1>0x{REJECTED_MASK & ~0x20:02X}u"),
+        CMutant("header: EXTRAPOLATED 0x80 -> 0x40", "header", r"(STATUS_EXTRAPOLATED )0x80u", r"\g<1>0x40u"),
+        CMutant("header: IMPLAUSIBLE 0x800 -> 0x400", "header", r"(STATUS_IMPLAUSIBLE )0x800u", r"\g<1>0x400u"),
+        CMutant("header: SETTLING_TIME_S x1.1", "header", r"(SETTLING_TIME_S )([\d.e+-]+f?)", r"\g<1>(\2 * ({real})1.1)"),
+    ]
+
+
+def _plausibility_mutants(af: Airframe) -> list[CMutant]:
+    """The IMPLAUSIBLE bounds (model/plausibility.py), crossed by the self-test's boundary rows."""
+    out = [CMutant("plausible: ground speed bound x1.1", "validate", near=MAX_GROUND_SPEED_MPS ** 2, scale=1.21),
+           CMutant("plausible: IMPLAUSIBLE bit dropped", "validate", r"\? 2048\.0f? :", "? ({real})0 :")]
+    if af.observer.acceleration == "ned":
+        out.append(CMutant("plausible: acceleration bound x1.1", "validate", near=MAX_ACCELERATION_MPS2 ** 2, scale=1.21))
+    if af.thrust.source == "collective":
+        out.append(CMutant("plausible: thrust bound x1.1", "validate",
+                           near=MAX_THRUST_TO_WEIGHT * af.mass_kg * af.gravity_mps2, scale=1.1))
+    # No rpm-bound mutant: for a thrust curve as strong as m300's, 1.5 max_rpm lies beyond the 10 g and
+    # 4-weight bounds whatever the other inputs, so moving it changes no status (an equivalent mutant).
+    return out
+
+
+def _envelope_mutants(af: Airframe) -> list[CMutant]:
+    """EXTRAPOLATED's envelope bounds (issue #37's survivors), for an airframe fit gave an envelope."""
+    env = af.envelope
+    if env is None:
+        return []
+    out = [CMutant("envelope: force_h_max x1.01", "quality", near=env.force_h_max_n, scale=1.01, count=None)]
+    for label, value in (("low", env.force_z_n[0]), ("high", env.force_z_n[1])):
+        if value != 0.0:
+            out.append(CMutant(f"envelope: force_z {label} x1.01", "quality", near=value, scale=1.01, count=None))
+    return out
 
 
 def model_mutants() -> list[ModelMutant]:

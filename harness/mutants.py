@@ -55,7 +55,7 @@ class Outcome:
 def region_span(text: str, region: str, prefix: str) -> tuple[int, int]:
     """Start and end of a labelled section ("/* ---- name:"), of a single-precision kernel
     ("kernel:sincos" is the function <prefix>sincos), or of the file."""
-    if region == "file":
+    if region in ("file", "header"):  # "header": the whole of <name>_wind.h
         return 0, len(text)
     if region.startswith("kernel:"):
         start = text.find(f" {prefix}{region.removeprefix('kernel:')}(")
@@ -156,7 +156,8 @@ def run_c_mutants(model: StepModel, steps: int, root: Path, only: str | None) ->
         for k, mutant in enumerate(m for m in c_mutants(af) if precision in m.precisions):
             if only and only not in mutant.name:
                 continue
-            mutated = dict(files, **{source: apply_c_mutant(files[source], mutant, precision, prefix)})
+            target = f"{af.name}_wind.h" if mutant.region == "header" else source
+            mutated = dict(files, **{target: apply_c_mutant(files[target], mutant, precision, prefix)})
             found = check_c(model, mutated, precision, steps, root, f"{precision}-{k}", references,
                             kernels=mutant.region.startswith("kernel:") and af.name == "m300")  # the tests probe m300
             outcomes.append(Outcome(mutant.name, f"C {precision}: {mutant.region}", found))

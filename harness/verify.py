@@ -161,7 +161,8 @@ def verify_precision(model: StepModel, precision: str, steps: int, seed: int, wo
         _flag_set_builds(report, flags, code_dir, name, work)
     try:
         done = run([str(_selftest_build(code_dir, name, work, flags))])
-        report.selftest, report.selftest_ok = done.stdout.strip().splitlines()[-1], True
+        last = (done.stdout.strip().splitlines() or [""])[-1]
+        report.selftest, report.selftest_ok = last or "no output", last.startswith("PASS")
     except CheckFailed as exc:
         report.selftest = str(exc).strip().splitlines()[-1]
     extra = () if flags is None else tuple(f for f in flags.c if f not in ("-Werror", "-Wfatal-errors"))

@@ -20,6 +20,8 @@ from dobwind.model.forceair import (DRAG_FRAMES, EXPONENT_RANGE, HORIZONTAL_DRAG
 from dobwind.model.ranges import (MAX_TERMS, MAX_FACTOR_POWER, MAX_TERM_DEGREE, MAX_THRUST_COEFFICIENTS,
                                   MIN_SPEED_GAP_MPS, NAME_MAX_CHARS, RANGES, Range, single_precision_ok)
 from dobwind.model.terms import Term, TermError, parse_term, range_problem
+from dobwind.model.inputfiles import read_bounded
+from dobwind.model.plausibility import hover_problem
 
 DISCRETIZATIONS = ("paper", "euler", "zoh", "tustin")
 ACCELERATION_MODES = ("ned", "specific_force", "velocity")
@@ -512,6 +514,10 @@ def parse_airframe(text: str, source: str) -> Airframe:
     gravity = top.number("gravity", default=STANDARD_GRAVITY, positive=True)
     top.within("gravity", gravity, "gravity")
     thrust = _thrust(top.table_of("thrust", THRUST_KEYS))  # type: ignore[arg-type]
+    if thrust.source == "rpm":
+        problem = hover_problem(thrust.rotors, thrust.max_rpm, thrust.coefficients, thrust.scale, mass * gravity)
+        if problem is not None:
+            raise InputError(source, "thrust.coefficients", problem)
     observer = _observer(top.table_of("observer", OBSERVER_KEYS))  # type: ignore[arg-type]
     force_air = top.table_of("force_air", FORCE_AIR_KEYS)
     vertical_law = _vertical_law(force_air)  # type: ignore[arg-type]
@@ -574,7 +580,7 @@ def resolve_airframe_path(path: str | Path) -> Path:
 def load_airframe(path: str | Path) -> Airframe:
     path = resolve_airframe_path(path)
     try:
-        data = path.read_bytes()
+        data = read_bounded(str(path))
     except OSError as exc:
         shipped = "" if len(path.parts) != 1 else " (nor is it the name of a shipped airframe)"
         raise InputError(str(path), None, f"cannot read: {exc.strerror}{shipped}") from None

@@ -22,6 +22,8 @@ from typing import Callable
 import numpy as np
 
 from dobwind.model.numeric import rpm_for_rotor_thrust
+from dobwind.model.plausibility import MAX_ACCELERATION_MPS2, MAX_GROUND_SPEED_MPS, MAX_RPM_FRACTION, \
+    MAX_THRUST_TO_WEIGHT
 from dobwind.model.status import INPUT_MAGNITUDE_LIMIT, MIN_DT_S, DT_TOLERANCE, QUATERNION_NORM_TOLERANCE, \
     RESULT_MAGNITUDE_LIMIT
 from dobwind.model.step import StepModel
@@ -29,6 +31,10 @@ from dobwind.model.step import StepModel
 # Float32 ulps between a single-precision row and the flip of a computed limit: well above the few ulps
 # by which a float sum of squares differs from its double value.
 COMPUTED_MARGIN_ULPS = 16
+# The rounding error of a float cos(tilt) test (w^2 - x^2 - y^2 + z^2 against cos(max_tilt) * |q|^2):
+# a few ulps of 1. Near a small max_tilt the crossing moves fast with that error (d r33 / dx = 2x(1 + cos)
+# is small), so the rows must stand this far in r33, not 16 ulps of x, off the flip.
+TILT_R33_ERROR = 64 * 2.0 ** -24
 _BISECTION_STEPS = 70
 
 Row = tuple[np.ndarray, np.ndarray]  # (state, input)
@@ -102,13 +108,16 @@ def _flip(model: StepModel, family: Family, lo: float, hi: float, precision: str
     return a, b
 
 
-def _crossing(model: StepModel, family: Family, lo: float, hi: float, precision: str, computed: bool) -> list[Row]:
+def _crossing(model: StepModel, family: Family, lo: float, hi: float, precision: str, computed: bool,
+              relative_margin: float = 0.0) -> list[Row]:
     found = _flip(model, family, lo, hi, precision)
     if found is None:
         return []
     a, b = found
     if computed and precision == "single":
-        offsets = (a - COMPUTED_MARGIN_ULPS, b + COMPUTED_MARGIN_ULPS)
+        below = _as_bits(_from_bits(a, precision) * (1 - relative_margin), precision)
+        above = _as_bits(_from_bits(b, precision) * (1 + relative_margin), precision)
+        offsets = (min(a - COMPUTED_MARGIN_ULPS, below), max(b + COMPUTED_MARGIN_ULPS, above))
     else:
         offsets = (a - 1, a, b, b + 1)
     return [family(_from_bits(bits, precision)) for bits in offsets]
@@ -164,12 +173,118 @@ def _limit_families(model: StepModel, base: Row) -> list[tuple[str, Family, floa
     for axis in (1, 2):
         out.append((f"tilt about q[{axis}] <= max_tilt", _with_quaternion(base, model, {0: w}, axis),
                     0.85 * math.sin(half), 1.15 * math.sin(half), True))
+    out += _plausibility_families(model, base)
     out.append(("result sum <= RESULT_MAGNITUDE_LIMIT", _with_state(base, model, ("f_obs", "f_filt"), 2),
                 RESULT_MAGNITUDE_LIMIT / 10, RESULT_MAGNITUDE_LIMIT * 10, True))
     settle, step = model.settling_time_s, af.observer.sample_time_s
     out.append(("run_s + dt < settling time", _with_state(base, model, ("run_s",), 0), settle - 3 * step,
                 settle, True))
     return out
+
+
+def _plausibility_families(model: StepModel, base: Row) -> list[tuple[str, Family, float, float, bool]]:
+    """IMPLAUSIBLE's input bounds (model/plausibility.py), each crossed from the neutral sample. The flip
+    found may be another bound met first on the way (a fast ground speed or a strong acceleration is also
+    a large external force): still a status flip C and reference must agree on. Computed (squared norms)."""
+    lin, af = model.inputs, model.airframe
+
+    def hover(index: int) -> float:  # the neutral sample's own value: plausible, the crossing lies above
+        return float(base[1][index])
+
+    out: list[tuple[str, Family, float, float, bool]] = [
+        ("|vel_ned| <= MAX_GROUND_SPEED", _with_input(base, model, lin.offset("vel_ned")), 1e-6, 2 * MAX_GROUND_SPEED_MPS, True)]
+    for name in ("acc_ned", "specific_force"):
+        if name in lin:
+            out.append((f"|{name}| <= MAX_ACCELERATION", _with_input(base, model, lin.offset(name)), 1e-6,
+                        2 * MAX_ACCELERATION_MPS2, True))
+    if "rotor_rpm" in lin:
+        top = MAX_RPM_FRACTION * af.thrust.max_rpm
+        out.append(("rpm <= MAX_RPM_FRACTION max_rpm", _with_input(base, model, lin.offset("rotor_rpm")), hover(lin.offset("rotor_rpm")),
+                    top * 2, True))
+    if "thrust" in lin:
+        top = MAX_THRUST_TO_WEIGHT * af.mass_kg * af.gravity_mps2
+        out.append(("thrust <= MAX_THRUST_TO_WEIGHT weight", _with_input(base, model, lin.offset("thrust")), hover(lin.offset("thrust")),
+                    top * 2, True))
+    return out + _steady_families(model, base) + _envelope_families(model, base)
+
+
+def _envelope_families(model: StepModel, base: Row) -> list[tuple[str, Family, float, float, bool]]:
+    """EXTRAPOLATED's envelope (force_h_max, force_z low and high, airflow_h_max), crossed by the filtered
+    force of the state: issue #37 found its bounds checked by nothing. The flip may be another quality
+    bound met first (the airflow, the 50 m/s wind); each is a status both must agree on."""
+    env, lst = model.airframe.envelope, model.state
+    if env is None:
+        return []
+
+    def force(axis: int, sign: float) -> Family:
+        def setter(state: np.ndarray, row: np.ndarray, p: float) -> None:
+            for name in ("f_obs", "f_filt"):
+                state[lst.offset(name) + axis] = sign * p
+        return _matched(base, setter)
+
+    top = max(env.force_h_max_n, abs(env.force_z_n[0]), abs(env.force_z_n[1]))
+    return [("|force_h| <= envelope.force_h_max", force(0, 1.0), 1e-6, 4 * top, True),
+            ("force_z >= envelope.force_z low", force(2, -1.0), 1e-6, 4 * top, True),
+            ("force_z <= envelope.force_z high", force(2, 1.0), 1e-6, 4 * top, True)]
+
+
+def _steady_families(model: StepModel, base: Row) -> list[tuple[str, Family, float, float, bool]]:
+    """The same bounds crossed with the other inputs matched, so that the external force stays zero and
+    the crossing is the bound itself (not the 4-weight force bound met first): a steady fast flight, a
+    climb at acceleration p with the thrust that drives it, a thrust p with the acceleration it drives."""
+    lin, lst, af = model.inputs, model.state, model.airframe
+    m, g = af.mass_kg, af.gravity_mps2
+
+    def speed(state: np.ndarray, row: np.ndarray, p: float) -> None:
+        row[lin.offset("vel_ned")] = p
+        if "vel_prev" in lst:
+            state[lst.offset("vel_prev")] = p
+
+    def climb(state: np.ndarray, row: np.ndarray, p: float) -> None:  # p: upward acceleration
+        _set_thrust(model, row, m * (g + p))
+        _set_acceleration(model, state, row, p)
+
+    def thrust(state: np.ndarray, row: np.ndarray, p: float) -> None:  # p: collective thrust
+        row[lin.offset("thrust")] = p
+        _set_acceleration(model, state, row, p * af.thrust.scale / m - g)
+
+    out = [("|vel_ned| <= MAX_GROUND_SPEED (steady)", _matched(base, speed), 1e-6, 2 * MAX_GROUND_SPEED_MPS, True)]
+    if "acc_ned" in lin or "specific_force" in lin:
+        out.append(("|acceleration| <= MAX_ACCELERATION (climb)", _matched(base, climb), 1e-6,
+                    2 * MAX_ACCELERATION_MPS2, True))
+    if "thrust" in lin:
+        top = MAX_THRUST_TO_WEIGHT * m * g
+        out.append(("thrust <= MAX_THRUST_TO_WEIGHT weight (climb)", _matched(base, thrust), m * g, 2 * top, True))
+    return out
+
+
+def _matched(base: Row, setter: Callable[[np.ndarray, np.ndarray, float], None]) -> Family:
+    def family(p: float) -> Row:
+        state, row = base[0].copy(), base[1].copy()
+        setter(state, row, p)
+        return state, row
+    return family
+
+
+def _set_thrust(model: StepModel, row: np.ndarray, total_n: float) -> None:
+    af, lin = model.airframe, model.inputs
+    if "rotor_rpm" in lin:
+        per_rotor = np.array([total_n / (af.thrust.rotors * af.thrust.scale)])
+        row[lin.slice("rotor_rpm")] = float(rpm_for_rotor_thrust(af.thrust.coefficients, af.thrust.max_rpm, per_rotor)[0])
+    else:
+        row[lin.offset("thrust")] = total_n / af.thrust.scale
+
+
+def _set_acceleration(model: StepModel, state: np.ndarray, row: np.ndarray, up: float) -> None:
+    """An upward kinematic acceleration ``up`` (m/s^2) in whichever form the step takes it, level."""
+    lin, lst, g = model.inputs, model.state, model.airframe.gravity_mps2
+    if "acc_ned" in lin:
+        row[lin.offset("acc_ned") + 2] = -up
+    elif "specific_force" in lin:
+        row[lin.offset("specific_force") + 2] = -(g + up)
+    else:  # differenced velocity: the previous sample was up * dt slower downwards
+        state[lst.offset("vel_prev") + 2] = 0.0
+        row[lin.offset("vel_ned") + 2] = -up * float(row[lin.offset("dt")])
 
 
 def _sign_rows(model: StepModel, base: Row, precision: str) -> tuple[list[str], list[Row]]:
@@ -185,11 +300,19 @@ def _sign_rows(model: StepModel, base: Row, precision: str) -> tuple[list[str], 
     return labels, rows
 
 
+def _tilt_relative_margin(max_tilt_deg: float) -> float:
+    """Relative step of the varied quaternion component x that moves r33 by TILT_R33_ERROR at the flip."""
+    x = math.sin(math.radians(max_tilt_deg) / 2)
+    return TILT_R33_ERROR / (2 * x * x * (1 + math.cos(math.radians(max_tilt_deg))))
+
+
 def boundary_cases(model: StepModel, precision: str) -> BoundaryCases:
     base = neutral_row(model)
     labels, rows = _sign_rows(model, base, precision)
+    tilt_margin = _tilt_relative_margin(model.airframe.limits.max_tilt_deg)
     for label, family, lo, hi, computed in _limit_families(model, base):
-        crossing = _crossing(model, family, lo, hi, precision, computed)
+        margin = tilt_margin if label.startswith("tilt") else 0.0
+        crossing = _crossing(model, family, lo, hi, precision, computed, margin)
         labels += [label] * len(crossing)
         rows += crossing
     dtype = _dtype(precision)

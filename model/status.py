@@ -32,11 +32,14 @@ STATUS_BITS: tuple[StatusBit, ...] = (
     StatusBit("SETTLING", 1 << 6, "accepted, but within one settling time of the first sample or of a gap "
               "(a rejected sample): the filters have not caught up yet", rejects=False),
     StatusBit("EXTRAPOLATED", 1 << 7, "accepted, but the heading-frame force or the model's airflow speed is "
-              "outside the envelope calibrated by fit", rejects=False),
+              "outside the envelope calibrated by fit, or the wind exceeds 50 m/s", rejects=False),
     # 1 << 8 and 1 << 9 are replay's (STATUS_NO_DATA, STATUS_LANDED below): not the step's.
     StatusBit("UNCALIBRATED", 1 << 10, "accepted, but the airframe's force-air law is an uncalibrated prior "
               "([calibration] status = \"prior\", as `dobwind init` writes it): the wind is a rough guess until "
               "`dobwind fit` calibrates it", rejects=False),
+    StatusBit("IMPLAUSIBLE", 1 << 11, "physically implausible for a multirotor (model/plausibility.py): ground "
+              "speed > 150 m/s, acceleration > 10 g, a rotor > 1.5 max_rpm, thrust > 20 weights, or the "
+              "sample's external force > 4 weights"),
     StatusBit("VERTICAL_UNIDENTIFIED", 1 << 12, "accepted, but the airframe's vertical law is a fallback (fit did "
               "not identify it; force_air.vertical_law): the vertical wind is published as zero with sigma_up -1, "
               "the horizontal wind is estimated as usual", rejects=False),

@@ -29,6 +29,7 @@ from dobwind.model import forceair
 from dobwind.model.discretization import first_order
 from dobwind.model.dynamics import quaternion_to_rotation_any_norm, solve_external_force
 from dobwind.model.layout import Field, Layout
+from dobwind.model.plausibility import implausible_inputs, implausible_result, wind_beyond_bound
 from dobwind.model.settling import settling_time_s
 from dobwind.model.status import (DT_TOLERANCE, INPUT_MAGNITUDE_LIMIT, MIN_DT_S, QUATERNION_NORM_TOLERANCE,
                                   RESULT_MAGNITUDE_LIMIT, STATUS_BITS)
@@ -188,7 +189,9 @@ def build_step(af: Airframe) -> StepModel:
     _add_front_end(b, af)
     _add_observer_and_low_pass(b, af)
     _add_back_end(b, af)
-    settle = settling_time_s(af)
+    # Held as the nearest float: the single-precision C then compares run_s against the very value the
+    # reference uses (with a settling time above ~100 s a float run_s cannot tell settle from settle - 1e-5).
+    settle = float(np.float32(settling_time_s(af)))
     _add_quality_stages(b, af, settle)
     next_state = _next_state(lstate, signals)
     _add_result_check(b, af)
@@ -217,8 +220,10 @@ def _validate(af: Airframe, lin: Layout, s: Signals) -> Signals:
         thrust_ok = _all([rpm[i] >= 0 for i in range(rpm.numel())])
     else:
         thrust_ok = s["in.thrust"] >= 0
+    plausible = ca.logic_not(implausible_inputs(s, af.mass_kg, af.gravity_mps2, af.thrust.max_rpm))
     status = (
-        ca.if_else(finite, 0, bits["NONFINITE"])
+        ca.if_else(plausible, 0, bits["IMPLAUSIBLE"])
+        + ca.if_else(finite, 0, bits["NONFINITE"])
         + ca.if_else(dt_ok, 0, bits["BAD_DT"])
         + ca.if_else(q_ok, 0, bits["BAD_QUATERNION"])
         + ca.if_else(tilt_ok, 0, bits["TILT"])
@@ -226,7 +231,7 @@ def _validate(af: Airframe, lin: Layout, s: Signals) -> Signals:
     )
     # The same tests as one truth value: the C checks this alone and assembles the status bits only
     # for a rejected sample (validation then costs a few instructions per input).
-    accepted = _all([finite, dt_ok, q_ok, tilt_ok, thrust_ok])
+    accepted = _all([finite, dt_ok, q_ok, tilt_ok, thrust_ok, plausible])
     return {"status": status, "accepted": accepted}
 
 
@@ -466,17 +471,18 @@ def _committed(af: Airframe) -> list[str]:
 
 def _add_result_check(b: _Builder, af: Airframe) -> None:
     committed = _committed(af)
-    b.add("check_result", "an accepted sample must give a finite result, else it is rejected too", committed,
-          partial(_check_result, committed))
+    b.add("check_result", "an accepted sample must give a finite and physically plausible result, else it is "
+          "rejected too", committed + ["f_e"], partial(_check_result, af, committed))
 
 
-def _check_result(committed: list[str], s: Signals) -> Signals:
+def _check_result(af: Airframe, committed: list[str], s: Signals) -> Signals:
     # One sum: NaN and infinity propagate into it, and so does any overflow. The wind speed is a square
     # root, never negative, so it needs no fabs.
     values = [ca.fabs(s[name]) if name != "wind_speed_h" else s[name] for name in committed]
     ok = ca.sum1(ca.vertcat(*values)) <= RESULT_MAGNITUDE_LIMIT
-    bit = next(b.value for b in STATUS_BITS if b.name == "NUMERIC")
-    return {"result_status": ca.if_else(ok, 0, bit)}
+    bits = {bit.name: bit.value for bit in STATUS_BITS}
+    implausible = implausible_result(s["f_e"], af.mass_kg, af.gravity_mps2)
+    return {"result_status": ca.if_else(ok, ca.if_else(implausible, bits["IMPLAUSIBLE"], 0), bits["NUMERIC"])}
 
 
 def _compose(af: Airframe, signals: Signals, next_state: tuple[tuple[str, str], ...], x: ca.SX, u: ca.SX,
@@ -513,19 +519,21 @@ def _add_quality_stages(b: _Builder, af: Airframe, settle_s: float) -> None:
         # Capped so that the sum stays exact and small; reaching the cap ends SETTLING for good.
         run_s = ca.fmin(s["state.run_s"] + s["in.dt"], settle_s)
         status = ca.if_else(run_s < settle_s, bits["SETTLING"], 0)
+        outside = wind_beyond_bound(s["wind_ned"])  # no calibration reaches it (plausibility.py)
         if env is not None:
             f = s["force_heading"]
             fh = forceair.horizontal_force(f[0], f[1])
             inside = _all([fh <= env.force_h_max_n, f[2] >= env.force_z_n[0], f[2] <= env.force_z_n[1],
                            s["airflow_speed_h"] <= env.airflow_h_max_mps])
-            status = status + ca.if_else(inside, 0, bits["EXTRAPOLATED"])
+            outside = ca.logic_or(outside, ca.logic_not(inside))
+        status = status + ca.if_else(outside, bits["EXTRAPOLATED"], 0)
         if af.uncalibrated:  # a constant of the airframe, folded in: calibrated airframes' code is unchanged
             status = status + bits["UNCALIBRATED"]
         if af.vertical_law != "fitted":  # every accepted sample: its vertical wind is not an estimate
             status = status + bits["VERTICAL_UNIDENTIFIED"]
         return {"run_s_new": run_s, "quality_status": status}
 
-    inputs = ["state.run_s", "in.dt"] + (["force_heading", "airflow_speed_h"] if env is not None else [])
+    inputs = ["state.run_s", "in.dt", "wind_ned"] + (["force_heading", "airflow_speed_h"] if env is not None else [])
     b.add("quality", f"quality bits of an accepted sample: SETTLING for {settle_s:g} s after the start or a gap"
           + (", EXTRAPOLATED outside the calibrated envelope" if env is not None else "")
           + (", UNCALIBRATED always (the force-air law is a prior)" if af.uncalibrated else "")

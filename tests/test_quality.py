@@ -263,8 +263,12 @@ def test_observer_noise_is_the_scatter_about_each_segment_mean():
 
 def test_no_envelope_never_extrapolates_and_sigma_is_unknown():
     model = build_step(make_airframe())
-    _, y, status = model.step(model.initial_state(), _first_sample(model, [40.0, 0.0, 30.0]))
-    assert int(status) == SETTLING
+    _, y, status = model.step(model.initial_state(), _first_sample(model, [10.0, 0.0, 5.0]))
+    assert int(status) == SETTLING  # a strong force, 12 m/s of wind: no envelope to leave
+    # ... but a wind beyond 50 m/s (146 here) is beyond any calibration: flagged, never trusted
+    _, y_far, status_far = model.step(model.initial_state(), _first_sample(model, [40.0, 0.0, 30.0]))
+    assert np.linalg.norm(model.outputs.unpack(np.asarray(y_far).ravel())["wind_ned"]) > 50.0
+    assert int(status_far) == SETTLING | EXTRAPOLATED
     out = model.outputs.unpack(np.asarray(y).ravel())
     assert float(out["wind_sigma_h"][0]) == -1.0 and float(out["wind_sigma_up"][0]) == -1.0
 

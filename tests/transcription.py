@@ -55,8 +55,9 @@ def eval_poly(terms, coefficients, env) -> float:
 
 
 def settling_time(af: Airframe) -> float:
-    return _settling_time(af.observer.sample_time_s, min(af.observer.gains) / af.mass_kg,
-                          min(af.filter.cutoffs_hz), af.observer.discretization)
+    # Held as the nearest float32, so that single- and double-precision C decide SETTLING alike.
+    return float(np.float32(_settling_time(af.observer.sample_time_s, min(af.observer.gains) / af.mass_kg,
+                                           min(af.filter.cutoffs_hz), af.observer.discretization)))
 
 
 @functools.lru_cache(maxsize=64)
@@ -121,7 +122,23 @@ def status_of(af: Airframe, inp: dict[str, np.ndarray]) -> int:
     thrust = inp["rotor_rpm"] if af.thrust.source == "rpm" else inp["thrust"]
     if not np.all(np.asarray(thrust) >= 0):
         status |= 16
+    if _implausible(af, inp):
+        status |= 2048
     return status
+
+
+def _implausible(af: Airframe, inp: dict[str, np.ndarray]) -> bool:
+    """Issue #37's bounds: 150 m/s over ground, 10 standard g, 1.5 max_rpm, 20 weights of thrust."""
+    with np.errstate(invalid="ignore", over="ignore"):
+        tests = [np.linalg.norm(inp["vel_ned"]) > 150.0]
+        for name in ("acc_ned", "specific_force"):
+            if name in inp:
+                tests.append(np.linalg.norm(inp[name]) > 10 * 9.80665)
+        if af.thrust.source == "rpm":
+            tests.append(np.any(np.asarray(inp["rotor_rpm"], float) > 1.5 * af.thrust.max_rpm))
+        else:
+            tests.append(float(inp["thrust"]) > 20 * af.mass_kg * af.gravity_mps2)
+    return bool(any(tests))
 
 
 def step(af: Airframe, st: dict[str, np.ndarray], inp: dict[str, np.ndarray]):
@@ -216,6 +233,10 @@ def step(af: Airframe, st: dict[str, np.ndarray], inp: dict[str, np.ndarray]):
     checked = np.concatenate([f_filt, wind, [out["wind_speed_h"]]] + ([] if bias is None else [bias]))
     if not np.sum(np.abs(checked)) <= 1e30:
         return _rejected(st, 32)
+    if np.linalg.norm(f_e) > 4 * m * g:  # an external force no multirotor meets: rejected
+        return _rejected(st, 2048)
+    if np.linalg.norm(wind) > 50.0:  # beyond any calibration: flagged, not rejected
+        quality |= 128
     return new, out, quality
 
 

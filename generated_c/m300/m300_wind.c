@@ -5,8 +5,8 @@
  * d9fe9baff7b6cfef8d666b58101c13ced95956e1653f591ef4ca4a5757c1bf1d.
  * DO NOT EDIT: regenerate with `dobwind generate <airframe file>`.
  *
- * Total ops per accepted step: 280 (31 math-library calls), of which
- * 76 validate the input and 21 check the result.
+ * Total ops per accepted step: 320 (31 math-library calls), of which
+ * 99 validate the input and 30 check the result.
  */
 #include "m300_wind.h"
 
@@ -197,103 +197,128 @@ void m300_wind_init(m300_wind_state_t *state)
 
 int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_wind_output_t *out)
 {
-    /* ---- validate: reject NaN/inf, bad dt, non-unit quaternion, excessive tilt, negative thrust (76 ops) ---- */
+    /* ---- validate: reject NaN/inf, bad dt, non-unit quaternion, excessive tilt, negative thrust (99 ops) ---- */
     {
-        const float t0 = fabsf(in->dt);
-        const int t1 = m300_wind_magnitude(t0) <= m300_wind_bits(1000000.0f);
-        const float t2 = fabsf(in->vel_ned[0]);
-        const int t3 = m300_wind_magnitude(t2) <= m300_wind_bits(1000000.0f);
-        const int t4 = t1 & t3;
-        const float t5 = fabsf(in->vel_ned[1]);
-        const int t6 = m300_wind_magnitude(t5) <= m300_wind_bits(1000000.0f);
-        const int t7 = t4 & t6;
-        const float t8 = fabsf(in->vel_ned[2]);
-        const int t9 = m300_wind_magnitude(t8) <= m300_wind_bits(1000000.0f);
-        const int t10 = t7 & t9;
-        const float t11 = fabsf(in->acc_ned[0]);
-        const int t12 = m300_wind_magnitude(t11) <= m300_wind_bits(1000000.0f);
-        const int t13 = t10 & t12;
-        const float t14 = fabsf(in->acc_ned[1]);
-        const int t15 = m300_wind_magnitude(t14) <= m300_wind_bits(1000000.0f);
-        const int t16 = t13 & t15;
-        const float t17 = fabsf(in->acc_ned[2]);
-        const int t18 = m300_wind_magnitude(t17) <= m300_wind_bits(1000000.0f);
-        const int t19 = t16 & t18;
-        const float t20 = fabsf(in->q[0]);
-        const int t21 = m300_wind_magnitude(t20) <= m300_wind_bits(1000000.0f);
-        const int t22 = t19 & t21;
-        const float t23 = fabsf(in->q[1]);
-        const int t24 = m300_wind_magnitude(t23) <= m300_wind_bits(1000000.0f);
-        const int t25 = t22 & t24;
-        const float t26 = fabsf(in->q[2]);
-        const int t27 = m300_wind_magnitude(t26) <= m300_wind_bits(1000000.0f);
-        const int t28 = t25 & t27;
-        const float t29 = fabsf(in->q[3]);
-        const int t30 = m300_wind_magnitude(t29) <= m300_wind_bits(1000000.0f);
-        const int t31 = t28 & t30;
-        const float t32 = fabsf(in->rotor_rpm[0]);
-        const int t33 = m300_wind_magnitude(t32) <= m300_wind_bits(1000000.0f);
-        const int t34 = t31 & t33;
-        const float t35 = fabsf(in->rotor_rpm[1]);
-        const int t36 = m300_wind_magnitude(t35) <= m300_wind_bits(1000000.0f);
-        const int t37 = t34 & t36;
-        const float t38 = fabsf(in->rotor_rpm[2]);
-        const int t39 = m300_wind_magnitude(t38) <= m300_wind_bits(1000000.0f);
-        const int t40 = t37 & t39;
-        const float t41 = fabsf(in->rotor_rpm[3]);
-        const int t42 = m300_wind_magnitude(t41) <= m300_wind_bits(1000000.0f);
-        const int t43 = t40 & t42;
-        const float t44 = fabsf(in->yaw_ref);
-        const int t45 = m300_wind_magnitude(t44) <= m300_wind_bits(1000000.0f);
-        const int t46 = t43 & t45;
-        const int t49 = m300_wind_key(1.00000007e-05f, 0) <= m300_wind_key(in->dt, 0);
-        const int t50 = m300_wind_key(in->dt, 1) <= m300_wind_key(0.100009993f, 1);
-        const int t51 = t49 & t50;
-        const float t55 = in->q[0] * in->q[0];
-        const float t56 = in->q[1] * in->q[1];
-        const float t57 = t55 + t56;
-        const float t58 = in->q[2] * in->q[2];
-        const float t59 = t57 + t58;
-        const float t60 = in->q[3] * in->q[3];
-        const float t61 = t59 + t60;
-        const int t62 = m300_wind_key(0.810000002f, 0) <= m300_wind_key(t61, 0);
-        const int t63 = m300_wind_key(t61, 1) <= m300_wind_key(1.20999992f, 1);
-        const int t64 = t62 & t63;
-        const float t68 = 0.5f * t61;
-        const float t69 = t55 - t56;
-        const float t70 = t69 - t58;
-        const float t71 = t70 + t60;
-        const int t72 = t68 <= t71;
-        const int t76 = m300_wind_key(0.0f, 0) <= m300_wind_key(in->rotor_rpm[0], 0);
-        const int t77 = m300_wind_key(0.0f, 0) <= m300_wind_key(in->rotor_rpm[1], 0);
-        const int t78 = t76 & t77;
-        const int t79 = m300_wind_key(0.0f, 0) <= m300_wind_key(in->rotor_rpm[2], 0);
-        const int t80 = t78 & t79;
-        const int t81 = m300_wind_key(0.0f, 0) <= m300_wind_key(in->rotor_rpm[3], 0);
-        const int t82 = t80 & t81;
-        const int t86 = t46 & t51;
-        const int t87 = t86 & t64;
-        const int t88 = t87 & t72;
-        const int t89 = t88 & t82;
-        if (!(t89)) {
+        const float t0 = in->vel_ned[0] * in->vel_ned[0];
+        const float t1 = in->vel_ned[1] * in->vel_ned[1];
+        const float t2 = t0 + t1;
+        const float t3 = in->vel_ned[2] * in->vel_ned[2];
+        const float t4 = t2 + t3;
+        const int t5 = m300_wind_key(22500.0f, 0) < m300_wind_key(t4, 0);
+        const float t6 = in->acc_ned[0] * in->acc_ned[0];
+        const float t7 = in->acc_ned[1] * in->acc_ned[1];
+        const float t8 = t6 + t7;
+        const float t9 = in->acc_ned[2] * in->acc_ned[2];
+        const float t10 = t8 + t9;
+        const int t11 = m300_wind_key(9617.03809f, 0) < m300_wind_key(t10, 0);
+        const int t12 = t5 | t11;
+        const int t13 = m300_wind_key(18000.0f, 0) < m300_wind_key(in->rotor_rpm[0], 0);
+        const int t14 = t12 | t13;
+        const int t15 = m300_wind_key(18000.0f, 0) < m300_wind_key(in->rotor_rpm[1], 0);
+        const int t16 = t14 | t15;
+        const int t17 = m300_wind_key(18000.0f, 0) < m300_wind_key(in->rotor_rpm[2], 0);
+        const int t18 = t16 | t17;
+        const int t19 = m300_wind_key(18000.0f, 0) < m300_wind_key(in->rotor_rpm[3], 0);
+        const int t20 = t18 | t19;
+        const float t22 = fabsf(in->dt);
+        const int t23 = m300_wind_magnitude(t22) <= m300_wind_bits(1000000.0f);
+        const float t24 = fabsf(in->vel_ned[0]);
+        const int t25 = m300_wind_magnitude(t24) <= m300_wind_bits(1000000.0f);
+        const int t26 = t23 & t25;
+        const float t27 = fabsf(in->vel_ned[1]);
+        const int t28 = m300_wind_magnitude(t27) <= m300_wind_bits(1000000.0f);
+        const int t29 = t26 & t28;
+        const float t30 = fabsf(in->vel_ned[2]);
+        const int t31 = m300_wind_magnitude(t30) <= m300_wind_bits(1000000.0f);
+        const int t32 = t29 & t31;
+        const float t33 = fabsf(in->acc_ned[0]);
+        const int t34 = m300_wind_magnitude(t33) <= m300_wind_bits(1000000.0f);
+        const int t35 = t32 & t34;
+        const float t36 = fabsf(in->acc_ned[1]);
+        const int t37 = m300_wind_magnitude(t36) <= m300_wind_bits(1000000.0f);
+        const int t38 = t35 & t37;
+        const float t39 = fabsf(in->acc_ned[2]);
+        const int t40 = m300_wind_magnitude(t39) <= m300_wind_bits(1000000.0f);
+        const int t41 = t38 & t40;
+        const float t42 = fabsf(in->q[0]);
+        const int t43 = m300_wind_magnitude(t42) <= m300_wind_bits(1000000.0f);
+        const int t44 = t41 & t43;
+        const float t45 = fabsf(in->q[1]);
+        const int t46 = m300_wind_magnitude(t45) <= m300_wind_bits(1000000.0f);
+        const int t47 = t44 & t46;
+        const float t48 = fabsf(in->q[2]);
+        const int t49 = m300_wind_magnitude(t48) <= m300_wind_bits(1000000.0f);
+        const int t50 = t47 & t49;
+        const float t51 = fabsf(in->q[3]);
+        const int t52 = m300_wind_magnitude(t51) <= m300_wind_bits(1000000.0f);
+        const int t53 = t50 & t52;
+        const float t54 = fabsf(in->rotor_rpm[0]);
+        const int t55 = m300_wind_magnitude(t54) <= m300_wind_bits(1000000.0f);
+        const int t56 = t53 & t55;
+        const float t57 = fabsf(in->rotor_rpm[1]);
+        const int t58 = m300_wind_magnitude(t57) <= m300_wind_bits(1000000.0f);
+        const int t59 = t56 & t58;
+        const float t60 = fabsf(in->rotor_rpm[2]);
+        const int t61 = m300_wind_magnitude(t60) <= m300_wind_bits(1000000.0f);
+        const int t62 = t59 & t61;
+        const float t63 = fabsf(in->rotor_rpm[3]);
+        const int t64 = m300_wind_magnitude(t63) <= m300_wind_bits(1000000.0f);
+        const int t65 = t62 & t64;
+        const float t66 = fabsf(in->yaw_ref);
+        const int t67 = m300_wind_magnitude(t66) <= m300_wind_bits(1000000.0f);
+        const int t68 = t65 & t67;
+        const int t72 = m300_wind_key(1.00000007e-05f, 0) <= m300_wind_key(in->dt, 0);
+        const int t73 = m300_wind_key(in->dt, 1) <= m300_wind_key(0.100009993f, 1);
+        const int t74 = t72 & t73;
+        const float t78 = in->q[0] * in->q[0];
+        const float t79 = in->q[1] * in->q[1];
+        const float t80 = t78 + t79;
+        const float t81 = in->q[2] * in->q[2];
+        const float t82 = t80 + t81;
+        const float t83 = in->q[3] * in->q[3];
+        const float t84 = t82 + t83;
+        const int t85 = m300_wind_key(0.810000002f, 0) <= m300_wind_key(t84, 0);
+        const int t86 = m300_wind_key(t84, 1) <= m300_wind_key(1.20999992f, 1);
+        const int t87 = t85 & t86;
+        const float t91 = 0.5f * t84;
+        const float t92 = t78 - t79;
+        const float t93 = t92 - t81;
+        const float t94 = t93 + t83;
+        const int t95 = t91 <= t94;
+        const int t99 = m300_wind_key(0.0f, 0) <= m300_wind_key(in->rotor_rpm[0], 0);
+        const int t100 = m300_wind_key(0.0f, 0) <= m300_wind_key(in->rotor_rpm[1], 0);
+        const int t101 = t99 & t100;
+        const int t102 = m300_wind_key(0.0f, 0) <= m300_wind_key(in->rotor_rpm[2], 0);
+        const int t103 = t101 & t102;
+        const int t104 = m300_wind_key(0.0f, 0) <= m300_wind_key(in->rotor_rpm[3], 0);
+        const int t105 = t103 & t104;
+        const int t109 = t68 & t74;
+        const int t110 = t109 & t87;
+        const int t111 = t110 & t95;
+        const int t112 = t111 & t105;
+        const int t113 = !t20;
+        const int t114 = t112 & t113;
+        if (!(t114)) {
             /* rejected: the estimate is untouched and the last accepted output repeated; only the gap
              * bookkeeping records that this sample was missed. The status bits are assembled here only. */
             float status;
-            const int t47 = !t46;
-            const float t48 = (t47 ? 1.0f : 0.0f);
-            const int t52 = !t51;
-            const float t53 = (t52 ? 2.0f : 0.0f);
-            const float t54 = t48 + t53;
-            const int t65 = !t64;
-            const float t66 = (t65 ? 4.0f : 0.0f);
-            const float t67 = t54 + t66;
-            const int t73 = !t72;
-            const float t74 = (t73 ? 8.0f : 0.0f);
-            const float t75 = t67 + t74;
-            const int t83 = !t82;
-            const float t84 = (t83 ? 16.0f : 0.0f);
-            const float t85 = t75 + t84;
-            status = t85;
+            const float t21 = (t20 ? 2048.0f : 0.0f);
+            const int t69 = !t68;
+            const float t70 = (t69 ? 1.0f : 0.0f);
+            const float t71 = t21 + t70;
+            const int t75 = !t74;
+            const float t76 = (t75 ? 2.0f : 0.0f);
+            const float t77 = t71 + t76;
+            const int t88 = !t87;
+            const float t89 = (t88 ? 4.0f : 0.0f);
+            const float t90 = t77 + t89;
+            const int t96 = !t95;
+            const float t97 = (t96 ? 8.0f : 0.0f);
+            const float t98 = t90 + t97;
+            const int t106 = !t105;
+            const float t107 = (t106 ? 16.0f : 0.0f);
+            const float t108 = t98 + t107;
+            status = t108;
             state->run_s = 0.0f;
             *out = state->last;
             return (int)status;
@@ -561,16 +586,24 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         wind_from_deg = t17;
     }
 
-    /* ---- quality: quality bits of an accepted sample: SETTLING for 3.50562 s after the start or a gap (4 ops) ---- */
+    /* ---- quality: quality bits of an accepted sample: SETTLING for 3.50562 s after the start or a gap (12 ops) ---- */
     float run_s_new;
     float quality_status;
     {
         const float t0 = state->run_s + in->dt;
-        const float t1 = (t0 < 3.505618f ? t0 : 3.505618f);
+        const float t1 = (t0 < 3.5056181f ? t0 : 3.5056181f);
         run_s_new = t1;
-        const int t2 = t1 < 3.505618f;
+        const int t2 = t1 < 3.5056181f;
         const float t3 = (t2 ? 64.0f : 0.0f);
-        quality_status = t3;
+        const float t4 = wind_ned[0] * wind_ned[0];
+        const float t5 = wind_ned[1] * wind_ned[1];
+        const float t6 = t4 + t5;
+        const float t7 = wind_ned[2] * wind_ned[2];
+        const float t8 = t6 + t7;
+        const int t9 = 2500.0f < t8;
+        const float t10 = (t9 ? 128.0f : 0.0f);
+        const float t11 = t3 + t10;
+        quality_status = t11;
     }
 
     /* ---- uncertainty: no [uncertainty] table: sigma outputs are -1 (unknown) (0 ops) ---- */
@@ -581,7 +614,7 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         wind_sigma_up = (-1.0f);
     }
 
-    /* ---- check_result: an accepted sample must give a finite result, else it is rejected too (21 ops) ---- */
+    /* ---- check_result: an accepted sample must give a finite and physically plausible result, else it is rejected too (30 ops) ---- */
     float result_status;
     {
         const float t0 = fabsf(f_filt_new[0]);
@@ -603,9 +636,18 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const float t16 = fabsf(acc_bias_new[2]);
         const float t17 = t15 + t16;
         const int t18 = m300_wind_key(t17, 1) <= m300_wind_key(9.99999939e+29f, 1);
-        const int t19 = !t18;
-        const float t20 = (t19 ? 32.0f : 0.0f);
-        result_status = t20;
+        const float t19 = f_e[0] * f_e[0];
+        const float t20 = f_e[1] * f_e[1];
+        const float t21 = t19 + t20;
+        const float t22 = f_e[2] * f_e[2];
+        const float t23 = t21 + t22;
+        const int t24 = m300_wind_key(98478.4688f, 0) < m300_wind_key(t23, 0);
+        const float t25 = (t24 ? 2048.0f : 0.0f);
+        const float t26 = (t18 ? t25 : 0.0f);
+        const int t27 = !t18;
+        const float t28 = (t27 ? 32.0f : 0.0f);
+        const float t29 = t26 + t28;
+        result_status = t29;
     }
     if (result_status > 0.0f) { /* a sum of status bits: > 0, not != 0 (-Wfloat-equal) */
         state->run_s = 0.0f;

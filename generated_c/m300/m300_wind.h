@@ -50,11 +50,12 @@ extern "C" {
 #define M300_WIND_STATUS_BAD_THRUST 0x10u /* rejects: a rotor rpm or the collective thrust is negative */
 #define M300_WIND_STATUS_NUMERIC 0x20u /* rejects: the inputs were accepted but the result is not finite (sum of magnitudes beyond 1e30) */
 #define M300_WIND_STATUS_SETTLING 0x40u /* quality: accepted, but within one settling time of the first sample or of a gap (a rejected sample): the filters have not caught up yet */
-#define M300_WIND_STATUS_EXTRAPOLATED 0x80u /* quality: accepted, but the heading-frame force or the model's airflow speed is outside the envelope calibrated by fit */
+#define M300_WIND_STATUS_EXTRAPOLATED 0x80u /* quality: accepted, but the heading-frame force or the model's airflow speed is outside the envelope calibrated by fit, or the wind exceeds 50 m/s */
 #define M300_WIND_STATUS_UNCALIBRATED 0x400u /* quality: accepted, but the airframe's force-air law is an uncalibrated prior ([calibration] status = "prior", as `dobwind init` writes it): the wind is a rough guess until `dobwind fit` calibrates it */
+#define M300_WIND_STATUS_IMPLAUSIBLE 0x800u /* rejects: physically implausible for a multirotor (model/plausibility.py): ground speed > 150 m/s, acceleration > 10 g, a rotor > 1.5 max_rpm, thrust > 20 weights, or the sample's external force > 4 weights */
 #define M300_WIND_STATUS_VERTICAL_UNIDENTIFIED 0x1000u /* quality: accepted, but the airframe's vertical law is a fallback (fit did not identify it; force_air.vertical_law): the vertical wind is published as zero with sigma_up -1, the horizontal wind is estimated as usual */
-#define M300_WIND_REJECTED_MASK 0x3Fu /* every rejection bit */
-#define M300_WIND_SETTLING_TIME_S 3.505618f /* SETTLING lasts this long (s) after the start or a gap */
+#define M300_WIND_REJECTED_MASK 0x83Fu /* every rejection bit */
+#define M300_WIND_SETTLING_TIME_S 3.5056181f /* SETTLING lasts this long (s) after the start or a gap */
 
 typedef struct {
     float force_ned[3]; /* N: filtered external force, NED */
