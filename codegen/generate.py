@@ -149,7 +149,7 @@ def _macro_checks(model: StepModel, prefix: str) -> list[dict[str, str]]:
                    "test": f"{prefix}REJECTED_MASK == 0x{REJECTED_MASK:02X}u"})
     settle = model.settling_time_s  # a float already (model/step.py): printed in full, compared to 1e-6
     checks.append({"name": f"{prefix}SETTLING_TIME_S", "want": f"{settle:.9g}",
-                   "test": f"fabs((double){prefix}SETTLING_TIME_S - {settle!r}) <= {settle!r} * 1e-6"})
+                   "test": f"fabs((double){prefix}SETTLING_TIME_S - (double){settle!r}) <= (double){settle!r} * (double)1e-6"})
     return checks
 
 

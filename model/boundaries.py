@@ -36,6 +36,8 @@ COMPUTED_MARGIN_ULPS = 16
 # is small), so the rows must stand this far in r33, not 16 ulps of x, off the flip.
 TILT_R33_ERROR = 64 * 2.0 ** -24
 _BISECTION_STEPS = 70
+# Double ulps between a row and a flip that reassociation can move (see boundary_cases).
+REASSOCIATION_MARGIN_ULPS = 8
 
 Row = tuple[np.ndarray, np.ndarray]  # (state, input)
 Family = Callable[[float], Row]
@@ -109,12 +111,14 @@ def _flip(model: StepModel, family: Family, lo: float, hi: float, precision: str
 
 
 def _crossing(model: StepModel, family: Family, lo: float, hi: float, precision: str, computed: bool,
-              relative_margin: float = 0.0) -> list[Row]:
+              relative_margin: float = 0.0, double_margin_ulps: int = 0) -> list[Row]:
     found = _flip(model, family, lo, hi, precision)
     if found is None:
         return []
     a, b = found
-    if computed and precision == "single":
+    if computed and precision == "double" and double_margin_ulps:
+        offsets = (a - double_margin_ulps, b + double_margin_ulps)
+    elif computed and precision == "single":
         below = _as_bits(_from_bits(a, precision) * (1 - relative_margin), precision)
         above = _as_bits(_from_bits(b, precision) * (1 + relative_margin), precision)
         offsets = (min(a - COMPUTED_MARGIN_ULPS, below), max(b + COMPUTED_MARGIN_ULPS, above))
@@ -310,9 +314,14 @@ def boundary_cases(model: StepModel, precision: str) -> BoundaryCases:
     base = neutral_row(model)
     labels, rows = _sign_rows(model, base, precision)
     tilt_margin = _tilt_relative_margin(model.airframe.limits.max_tilt_deg)
+    # IMPLAUSIBLE's and the envelope's flips are sums over several inputs and the state (the external force
+    # met first on the way): a compiler allowed to reassociate (PX4's -funsafe-math-optimizations) moves
+    # them by an ulp or two even in double, so their rows stand a few ulps off the flip there too.
+    reassociable = {label for label, *_ in _plausibility_families(model, base)}
     for label, family, lo, hi, computed in _limit_families(model, base):
         margin = tilt_margin if label.startswith("tilt") else 0.0
-        crossing = _crossing(model, family, lo, hi, precision, computed, margin)
+        crossing = _crossing(model, family, lo, hi, precision, computed, margin,
+                             REASSOCIATION_MARGIN_ULPS if label in reassociable else 0)
         labels += [label] * len(crossing)
         rows += crossing
     dtype = _dtype(precision)

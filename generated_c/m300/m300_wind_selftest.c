@@ -939,7 +939,7 @@ static int check_macros(void)
         printf("macro M300_WIND_REJECTED_MASK differs from the model (expected 0x83F)\n");
         ++failures;
     }
-    if (!(fabs((double)M300_WIND_SETTLING_TIME_S - 3.505618095397949) <= 3.505618095397949 * 1e-6)) {
+    if (!(fabs((double)M300_WIND_SETTLING_TIME_S - (double)3.505618095397949) <= (double)3.505618095397949 * (double)1e-6)) {
         printf("macro M300_WIND_SETTLING_TIME_S differs from the model (expected 3.5056181)\n");
         ++failures;
     }
