@@ -142,11 +142,14 @@ def _selftest_context(model: StepModel, printer: CPrinter, precision: str) -> di
 
 
 def _macro_checks(model: StepModel, prefix: str) -> list[dict[str, str]]:
-    """The header macros the self-test compares with the model's values (status bits, mask, settling)."""
+    """The header macros the self-test compares with the model's values (status bits, mask, vertical, settling)."""
     checks = [{"name": f"{prefix}STATUS_{bit.name}", "want": f"0x{bit.value:02X}",
                "test": f"{prefix}STATUS_{bit.name} == 0x{bit.value:02X}u"} for bit in STATUS_BITS]
     checks.append({"name": f"{prefix}REJECTED_MASK", "want": f"0x{REJECTED_MASK:02X}",
                    "test": f"{prefix}REJECTED_MASK == 0x{REJECTED_MASK:02X}u"})
+    estimated = int(model.airframe.vertical_law == "fitted")
+    checks.append({"name": f"{prefix}VERTICAL_ESTIMATED", "want": str(estimated),
+                   "test": f"{prefix}VERTICAL_ESTIMATED == {estimated}"})
     settle = model.settling_time_s  # a float already (model/step.py): printed in full, compared to 1e-6
     checks.append({"name": f"{prefix}SETTLING_TIME_S", "want": f"{settle:.9g}",
                    "test": f"fabs((double){prefix}SETTLING_TIME_S - (double){settle!r}) <= (double){settle!r} * (double)1e-6"})

@@ -268,8 +268,8 @@ def _fit_once(af: Airframe, log_paths: list[str],
 
 
 VERTICAL_FALLBACK_NOTE = (f'; the fitted airframe says force_air.vertical_law = "{VERTICAL_FALLBACK}": its '
-                          "step publishes zero vertical wind with sigma_up -1 and the quality bit VERTICAL_UNIDENTIFIED "
-                          "(docs/c-api.md)")
+                          "step publishes zero vertical wind with sigma_up -1, and its C header says "
+                          "VERTICAL_ESTIMATED 0 (docs/c-api.md)")
 
 
 def vertical_warning(cv_v_mps: float | None, air_z_mps: np.ndarray) -> str | None:

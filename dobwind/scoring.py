@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from dobwind.model.forceair import wind_from_deg
-from dobwind.model.status import accepted, trusted, trusted_horizontal
+from dobwind.model.status import accepted, trusted
 
 WARMUP_S = 5.0           # the observer and filter start up: not scored
 SEGMENT_SETTLE_S = 5.0   # the start of every segment (a transition) is not scored per segment
@@ -123,7 +123,6 @@ class WindScore:
     def __init__(self) -> None:
         self._t0: float | None = None
         self._rows = self._rejected = self._trusted = 0
-        self._trusted_h = 0  # trusted but for VERTICAL_UNIDENTIFIED (model/status.py trusted_horizontal)
         self._speed, self._direction, self._vertical = _Sum(), _Sum(), _Sum()
         self._h, self._true_h, self._up = _Sum(), _Sum(), _Sum()
         self._segments = _Segments()
@@ -138,7 +137,6 @@ class WindScore:
         self._rows += len(t)
         self._rejected += int((~ok).sum())
         self._trusted += int(trusted(status[valid]).sum())
-        self._trusted_h += int(trusted_horizontal(status[valid]).sum())
         est, true = wind[valid], truth[valid]
         est_h, true_h = np.hypot(est[:, 0], est[:, 1]), np.hypot(true[:, 0], true[:, 1])
         self._speed.add(np.abs(est_h - true_h))
@@ -158,7 +156,6 @@ class WindScore:
         if not scored:
             return result
         result["trusted_share"] = self._trusted / scored
-        result["trusted_horizontal_share"] = self._trusted_h / scored
         result["per_sample"] = with_unit_keys({
             "speed_mean": self._speed.mean(), "speed_max": self._speed.peak,
             "direction_mean": self._direction.mean(), "direction_max": self._direction.peak if self._direction.count else None,

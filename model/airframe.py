@@ -143,8 +143,8 @@ class Airframe:
     def uncalibrated(self) -> bool:
         return self.calibration != CALIBRATED
     # [force_air] vertical_law: "fitted" (the law's vertical part is inverted), or VERTICAL_FALLBACK when
-    # the calibration did not identify it: the step then publishes zero vertical wind, sigma_up -1 and the
-    # quality bit VERTICAL_UNIDENTIFIED (model/status.py, docs/c-api.md).
+    # the calibration did not identify it: the step then publishes zero vertical wind and sigma_up -1, and
+    # the header says VERTICAL_ESTIMATED 0 (model/status.py, docs/c-api.md).
     vertical_law: str = "fitted"
 
     @property

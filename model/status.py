@@ -2,7 +2,7 @@
 
 Two kinds of bit. A REJECTION bit means the sample was rejected: the estimate (filters, bias, output)
 is unchanged and the output repeats the last accepted one; only the gap bookkeeping advances. A
-QUALITY bit (SETTLING, EXTRAPOLATED, UNCALIBRATED, VERTICAL_UNIDENTIFIED) marks an accepted sample (state and output updated) whose
+QUALITY bit (SETTLING, EXTRAPOLATED, UNCALIBRATED) marks an accepted sample (state and output updated) whose
 estimate should not be trusted yet or is outside the calibration. "Accepted" is therefore
 ``status & REJECTED_MASK == 0`` and "trusted" is ``status == 0``. Several bits may be set at once
 (a NaN dt is both non-finite and out of range); a rejected sample carries rejection bits only.
@@ -40,9 +40,6 @@ STATUS_BITS: tuple[StatusBit, ...] = (
     StatusBit("IMPLAUSIBLE", 1 << 11, "physically implausible for a multirotor (model/plausibility.py): ground "
               "speed > 150 m/s, acceleration > 10 g, a rotor > 1.5 max_rpm, thrust > 20 weights, or the "
               "sample's external force > 4 weights"),
-    StatusBit("VERTICAL_UNIDENTIFIED", 1 << 12, "accepted, but the airframe's vertical law is a fallback (fit did "
-              "not identify it; force_air.vertical_law): the vertical wind is published as zero with sigma_up -1, "
-              "the horizontal wind is estimated as usual", rejects=False),
 )
 # The bits that mean "rejected"; an autopilot that accepts quality-flagged samples tests these only.
 REJECTED_MASK = sum(bit.value for bit in STATUS_BITS if bit.rejects)
@@ -82,17 +79,10 @@ def trusted(status: np.ndarray) -> np.ndarray:
     return np.asarray(status) == 0
 
 
-# VERTICAL_UNIDENTIFIED is on EVERY accepted sample of an airframe whose vertical law is a fallback: it
-# says the vertical component is not estimated, not that this sample is doubtful. "Trusted" stays
-# status == 0 (the whole 3-D wind); a user of the horizontal wind only (most autopilots) masks the bit
-# out: trusted_horizontal. Counting it against the horizontal wind would make every row of such an
-# airframe untrusted (issue #36's trusted-row share on field logs).
-STATUS_VERTICAL_UNIDENTIFIED = 1 << 12
-
-
-def trusted_horizontal(status: np.ndarray) -> np.ndarray:
-    """Rows whose horizontal wind an autopilot can act on: trusted but for VERTICAL_UNIDENTIFIED."""
-    return (np.asarray(status).astype(np.int64) & ~STATUS_VERTICAL_UNIDENTIFIED) == 0
+# 1 << 12 stays unused by the step. An airframe whose vertical law is a fallback (force_air.vertical_law =
+# "zero-wind") says so once, in the generated header (NAME_WIND_VERTICAL_ESTIMATED 0), and on every sample
+# by wind_sigma_up = -1 (unknown) beside a vertical wind of exactly 0: a status bit set on every sample
+# would carry no information about the sample and would withdraw trust from the horizontal wind too.
 
 
 def describe(status: int) -> str:

@@ -11,7 +11,7 @@ them. A rejected sample (a rejection bit in the status) leaves the estimate unch
 repeats the last accepted one, which the state carries in its ``last.*`` fields. Only the gap
 bookkeeping ``run_s`` advances on rejection (it drops to 0), so that the next accepted sample knows it
 follows a gap: it must not difference the velocity across the gap, and it starts a SETTLING period.
-Quality bits (SETTLING, EXTRAPOLATED, UNCALIBRATED, VERTICAL_UNIDENTIFIED) flag accepted samples; see status.py. The frames, signs and
+Quality bits (SETTLING, EXTRAPOLATED, UNCALIBRATED) flag accepted samples; see status.py. The frames, signs and
 equations of every stage, and the paper's slips the stages correct, are in docs/model.md.
 """
 from __future__ import annotations
@@ -529,15 +529,12 @@ def _add_quality_stages(b: _Builder, af: Airframe, settle_s: float) -> None:
         status = status + ca.if_else(outside, bits["EXTRAPOLATED"], 0)
         if af.uncalibrated:  # a constant of the airframe, folded in: calibrated airframes' code is unchanged
             status = status + bits["UNCALIBRATED"]
-        if af.vertical_law != "fitted":  # every accepted sample: its vertical wind is not an estimate
-            status = status + bits["VERTICAL_UNIDENTIFIED"]
         return {"run_s_new": run_s, "quality_status": status}
 
     inputs = ["state.run_s", "in.dt", "wind_ned"] + (["force_heading", "airflow_speed_h"] if env is not None else [])
     b.add("quality", f"quality bits of an accepted sample: SETTLING for {settle_s:g} s after the start or a gap"
           + (", EXTRAPOLATED outside the calibrated envelope" if env is not None else "")
-          + (", UNCALIBRATED always (the force-air law is a prior)" if af.uncalibrated else "")
-          + (", VERTICAL_UNIDENTIFIED always (force_air.vertical_law)" if af.vertical_law != "fitted" else ""),
+          + (", UNCALIBRATED always (the force-air law is a prior)" if af.uncalibrated else ""),
           inputs, quality)
     unc = af.uncertainty
 

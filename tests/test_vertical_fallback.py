@@ -1,6 +1,6 @@
 """The vertical-law fallback (issue #31): an airframe with force_air.vertical_law = "zero-wind" publishes
-zero vertical wind, sigma_up -1 and the quality bit VERTICAL_UNIDENTIFIED on every accepted sample, and
-the same horizontal wind as the airframe with its fitted vertical law; through the Python reference and
+zero vertical wind and sigma_up -1 on every sample, says so in its header (VERTICAL_ESTIMATED 0), and
+the same horizontal wind and status as the airframe with its fitted vertical law; through the Python reference and
 the generated C."""
 from __future__ import annotations
 
@@ -14,7 +14,8 @@ from dobwind.errors import InputError
 from dobwind.model.airframe import VERTICAL_FALLBACK, Uncertainty, load_airframe, parse_airframe
 from dobwind.model.airframe_toml import dump_airframe
 from dobwind.model.exercise import flight_inputs
-from dobwind.model.status import REJECTED_MASK, STATUS_BITS, STATUS_VERTICAL_UNIDENTIFIED, trusted, trusted_horizontal
+from dobwind.codegen.generate import generate_code
+from dobwind.model.status import REJECTED_MASK, STATUS_BITS
 from dobwind.model.step import build_step
 from tests.helpers import M300
 
@@ -27,16 +28,18 @@ def _pair():
     return fitted, dataclasses.replace(fitted, vertical_law=VERTICAL_FALLBACK)
 
 
-def test_the_bit_is_the_preallocated_quality_bit():
-    assert BIT["VERTICAL_UNIDENTIFIED"] == 1 << 12 == STATUS_VERTICAL_UNIDENTIFIED
-    assert not REJECTED_MASK & STATUS_VERTICAL_UNIDENTIFIED
-    status = np.array([0, STATUS_VERTICAL_UNIDENTIFIED, STATUS_VERTICAL_UNIDENTIFIED | BIT["SETTLING"]])
-    assert trusted(status).tolist() == [True, False, False]
-    assert trusted_horizontal(status).tolist() == [True, True, False]
+def test_the_header_says_whether_the_vertical_wind_is_estimated():
+    """An airframe-level fact: one macro, compiled in, checked by the self-test; no status bit (one set on
+    every sample would say nothing of the sample and would withdraw trust from the horizontal wind)."""
+    fitted, fallback = _pair()
+    assert "VERTICAL_UNIDENTIFIED" not in BIT
+    for af, want in ((fitted, 1), (fallback, 0)):
+        header = generate_code(af, "single").files["m300_wind.h"]
+        assert f"#define M300_WIND_VERTICAL_ESTIMATED {want}\n" in header
 
 
 @pytest.mark.parametrize("backend", ["python", "c"])
-def test_fallback_zeroes_the_vertical_wind_and_flags_every_accepted_sample(backend):
+def test_fallback_zeroes_the_vertical_wind_and_keeps_the_status(backend):
     fitted, fallback = _pair()
     models = [build_step(af) for af in (fitted, fallback)]
     inputs = flight_inputs(models[0], 600, seed=3)      # a manoeuvring flight with some bad samples
@@ -55,9 +58,8 @@ def test_fallback_zeroes_the_vertical_wind_and_flags_every_accepted_sample(backe
         assert np.array_equal(runs[0].outputs[:, out.slice(key)], runs[1].outputs[:, out.slice(key)]), key
     horizontal = out.slice("wind_ned")
     assert np.array_equal(runs[0].outputs[:, horizontal][:, :2], runs[1].outputs[:, horizontal][:, :2])
-    # The bit is on every accepted sample and on no rejected one; the other bits are unchanged.
-    assert np.all(runs[1].status[accepted] == runs[0].status[accepted] | STATUS_VERTICAL_UNIDENTIFIED)
-    assert np.array_equal(runs[1].status[~accepted], runs[0].status[~accepted])
+    # The status is the fitted airframe's: the horizontal wind is as trusted as before.
+    assert np.array_equal(runs[1].status, runs[0].status)
 
 
 def test_the_key_round_trips_and_a_bad_value_names_it():

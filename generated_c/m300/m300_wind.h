@@ -38,7 +38,7 @@ extern "C" {
  * Rejection bits (in M300_WIND_REJECTED_MASK): the sample was rejected; the estimate is
  * unchanged and *out repeats the last accepted output. Only the gap bookkeeping (run_s) advances, so
  * that the next accepted sample knows it follows a gap.
- * Quality bits (SETTLING, EXTRAPOLATED, UNCALIBRATED, VERTICAL_UNIDENTIFIED): the sample WAS accepted (state and *out
+ * Quality bits (SETTLING, EXTRAPOLATED, UNCALIBRATED): the sample WAS accepted (state and *out
  * updated), but the estimate is not to be trusted yet, lies outside the calibration, comes from an
  * uncalibrated prior force-air law, or has no vertical estimate. Accepted means
  * (status & M300_WIND_REJECTED_MASK) == 0; an autopilot acting on wind should require
@@ -53,8 +53,11 @@ extern "C" {
 #define M300_WIND_STATUS_EXTRAPOLATED 0x80u /* quality: accepted, but the heading-frame force or the model's airflow speed is outside the envelope calibrated by fit, or the wind exceeds 50 m/s */
 #define M300_WIND_STATUS_UNCALIBRATED 0x400u /* quality: accepted, but the airframe's force-air law is an uncalibrated prior ([calibration] status = "prior", as `dobwind init` writes it): the wind is a rough guess until `dobwind fit` calibrates it */
 #define M300_WIND_STATUS_IMPLAUSIBLE 0x800u /* rejects: physically implausible for a multirotor (model/plausibility.py): ground speed > 150 m/s, acceleration > 10 g, a rotor > 1.5 max_rpm, thrust > 20 weights, or the sample's external force > 4 weights */
-#define M300_WIND_STATUS_VERTICAL_UNIDENTIFIED 0x1000u /* quality: accepted, but the airframe's vertical law is a fallback (fit did not identify it; force_air.vertical_law): the vertical wind is published as zero with sigma_up -1, the horizontal wind is estimated as usual */
 #define M300_WIND_REJECTED_MASK 0x83Fu /* every rejection bit */
+/* 1: the vertical wind is estimated. 0: the airframe's vertical law is a fallback (fit did not identify it;
+ * force_air.vertical_law = "zero-wind"): wind_ned[2] and wind_speed_up are 0 and wind_sigma_up is -1 on
+ * every sample, and status 0 vouches for the horizontal wind only. */
+#define M300_WIND_VERTICAL_ESTIMATED 1
 #define M300_WIND_SETTLING_TIME_S 3.5056181f /* SETTLING lasts this long (s) after the start or a gap */
 
 typedef struct {

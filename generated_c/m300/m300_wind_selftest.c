@@ -931,12 +931,12 @@ static int check_macros(void)
         printf("macro M300_WIND_STATUS_IMPLAUSIBLE differs from the model (expected 0x800)\n");
         ++failures;
     }
-    if (!(M300_WIND_STATUS_VERTICAL_UNIDENTIFIED == 0x1000u)) {
-        printf("macro M300_WIND_STATUS_VERTICAL_UNIDENTIFIED differs from the model (expected 0x1000)\n");
-        ++failures;
-    }
     if (!(M300_WIND_REJECTED_MASK == 0x83Fu)) {
         printf("macro M300_WIND_REJECTED_MASK differs from the model (expected 0x83F)\n");
+        ++failures;
+    }
+    if (!(M300_WIND_VERTICAL_ESTIMATED == 1)) {
+        printf("macro M300_WIND_VERTICAL_ESTIMATED differs from the model (expected 1)\n");
         ++failures;
     }
     if (!(fabs((double)M300_WIND_SETTLING_TIME_S - (double)3.505618095397949) <= (double)3.505618095397949 * (double)1e-6)) {
