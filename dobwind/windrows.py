@@ -1,0 +1,83 @@
+"""`fit --wind unknown`'s samples: every settled accepted airborne row, compared through the observer.
+
+The step's force (the calibration airframe's `force_ned`) is the raw external force f_e passed through two
+linear first-order filters: the disturbance observer (pole and gains from model/discretization.py's
+`first_order`) and the fixed-cutoff low-pass. Neither changes on a rejected row (a rejection only resets
+the gap bookkeeping), so over the sequence of accepted rows force_ned = H f_e, H one linear filter.
+Comparing force_ned with the law's force at the CURRENT airflow (what the steady-row sampling had to do)
+reads H's lag in manoeuvres as wind; comparing it with H applied to the law's force row by row,
+
+    force_ned(k) = H[ R(yaw)^T f_law(R(yaw) (w - v)) ](k) + H[noise](k),
+
+is exact for any law and any manoeuvre (H is linear), so every accepted row counts, not only the steady
+ones. The price is residuals correlated over H's time constant: they are decimated to SAMPLE_RATE_HZ and
+the 1-sigma is inflated for the remaining correlation (windsolve._inflation). Offline, so H may run over
+the whole log."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.signal import lfilter, lfilter_zi
+
+from dobwind import dragfit
+from dobwind.model.airframe import Airframe
+from dobwind.model.discretization import first_order
+from dobwind.model.forceair import heading_force, heading_to_ned
+
+SAMPLE_RATE_HZ = 5.0
+
+
+@dataclass(frozen=True)
+class LogRows:
+    """One log's accepted rows in order (the observer's own sequence) and which of them are fitted."""
+    force: np.ndarray      # (n, 2) the step's filtered force, north/east
+    vel: np.ndarray        # (n, 2) raw ground velocity, north/east
+    cos_yaw: np.ndarray    # heading of each row
+    sin_yaw: np.ndarray
+    group: np.ndarray      # (n,) wind group of each row
+    fitted: np.ndarray     # (n,) bool: settled after any rejection, decimated
+    filters: tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]  # (b, a) north, east
+
+
+def observer_filter(af: Airframe, dt: float, axis: int) -> tuple[np.ndarray, np.ndarray]:
+    """(b, a) of the calibration airframe's observer followed by its fixed-cutoff low-pass on one axis,
+    at the step ``dt`` (the logs are resampled: one dt per log)."""
+    c = first_order(af.observer.discretization, af.observer.gains[axis] / af.mass_kg, dt)
+    alpha = -math.expm1(-2 * math.pi * max(af.filter.cutoffs_hz) * dt)
+    b = np.convolve([float(c.b0), float(c.b1)], [alpha])
+    a = np.convolve([1.0, -float(c.pole)], [1.0, -(1.0 - alpha)])
+    return b, a
+
+
+def through_observer(rows: LogRows, force_ne: np.ndarray) -> np.ndarray:
+    """``force_ne`` (n, 2) as the step would have filtered it, starting at its first value (the step
+    starts its filters at the first accepted sample's input)."""
+    out = np.empty_like(force_ne)
+    for axis, (b, a) in enumerate(rows.filters):
+        x = force_ne[:, axis]
+        out[:, axis], _ = lfilter(b, a, x, zi=lfilter_zi(b, a) * x[0])
+    return out
+
+
+def law_force_ne(rows: LogRows, winds: np.ndarray, law: dict[str, float]) -> np.ndarray:
+    """(n, 2) the horizontal drag law's force at each row's airflow R(yaw) (w - v), north/east."""
+    air = winds[rows.group] - rows.vel
+    c, s = rows.cos_yaw, rows.sin_yaw
+    air_h = np.column_stack(heading_force(np.column_stack([air, np.zeros(len(c))]).T, c, s, (0.0, 0.0, 0.0)))
+    full = dragfit.basis(air_h)
+    f_h = sum(full[:, :2, dragfit.PARAMETERS.index(p)] * value for p, value in law.items())
+    return np.column_stack(heading_to_ned(f_h[:, 0], f_h[:, 1], c, s))
+
+
+def residual(rows: LogRows, winds: np.ndarray, law: dict[str, float]) -> np.ndarray:
+    """(m, 2) measured minus predicted filtered force at the fitted rows."""
+    predicted = through_observer(rows, law_force_ne(rows, winds, law))
+    return rows.force[rows.fitted] - predicted[rows.fitted]
+
+
+def decimation(t: np.ndarray) -> int:
+    """Rows per fitted sample for about SAMPLE_RATE_HZ (the filtered force changes slowly anyway)."""
+    dt = float(np.median(np.diff(t))) if len(t) > 1 else 1.0
+    return max(1, int(round(1.0 / (SAMPLE_RATE_HZ * dt))))
