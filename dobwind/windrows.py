@@ -19,7 +19,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import lfilter, lfilter_zi
+from scipy.signal import butter, lfilter, lfilter_zi, sosfiltfilt
 
 from dobwind import dragfit
 from dobwind.model.airframe import Airframe
@@ -27,6 +27,7 @@ from dobwind.model.discretization import first_order
 from dobwind.model.forceair import heading_force, heading_to_ned
 
 SAMPLE_RATE_HZ = 5.0
+SMOOTH_HZ = 0.15   # the zero-phase low-pass on measured and predicted force alike (see smooth)
 
 
 @dataclass(frozen=True)
@@ -36,9 +37,11 @@ class LogRows:
     vel: np.ndarray        # (n, 2) raw ground velocity, north/east
     cos_yaw: np.ndarray    # heading of each row
     sin_yaw: np.ndarray
+    thrust: np.ndarray     # (n, 2) the nominal thrust's horizontal part u_f z_b, north/east
     group: np.ndarray      # (n,) wind group of each row
     fitted: np.ndarray     # (n,) bool: settled after any rejection, decimated
     filters: tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]  # (b, a) north, east
+    sos: np.ndarray        # the zero-phase low-pass (second-order sections) at this log's step
 
 
 def observer_filter(af: Airframe, dt: float, axis: int) -> tuple[np.ndarray, np.ndarray]:
@@ -67,13 +70,28 @@ def law_force_ne(rows: LogRows, winds: np.ndarray, law: dict[str, float]) -> np.
     c, s = rows.cos_yaw, rows.sin_yaw
     air_h = np.column_stack(heading_force(np.column_stack([air, np.zeros(len(c))]).T, c, s, (0.0, 0.0, 0.0)))
     full = dragfit.basis(air_h)
-    f_h = sum(full[:, :2, dragfit.PARAMETERS.index(p)] * value for p, value in law.items())
-    return np.column_stack(heading_to_ned(f_h[:, 0], f_h[:, 1], c, s))
+    f_h = sum(full[:, :2, dragfit.PARAMETERS.index(p)] * value for p, value in law.items() if p != "kappa")
+    # kappa: a thrust-scale error shows as a force along the thrust's horizontal part, which in
+    # manoeuvres is not along the airflow (in steady flight it only rescales the drag law)
+    return np.column_stack(heading_to_ned(f_h[:, 0], f_h[:, 1], c, s)) + law.get("kappa", 0.0) * rows.thrust
+
+
+def smoothing(dt: float) -> np.ndarray:
+    """A second-order Butterworth at SMOOTH_HZ (below Nyquist whatever the log's rate)."""
+    return butter(2, min(SMOOTH_HZ, 0.4 / dt), fs=1.0 / dt, output="sos")
+
+
+def smooth(sos: np.ndarray, force_ne: np.ndarray) -> np.ndarray:
+    """Zero-phase: it adds no lag, and applied alike to the measured and the predicted force it keeps
+    the comparison exact (linear) while removing what the law cannot follow anyway (the thrust's and
+    the attitude's timing in fast manoeuvres, rotor noise). Offline, so it may look ahead."""
+    return sosfiltfilt(sos, force_ne, axis=0) if len(force_ne) > 12 else force_ne
 
 
 def residual(rows: LogRows, winds: np.ndarray, law: dict[str, float]) -> np.ndarray:
-    """(m, 2) measured minus predicted filtered force at the fitted rows."""
-    predicted = through_observer(rows, law_force_ne(rows, winds, law))
+    """(m, 2) measured minus predicted force, both filtered alike, at the fitted rows (``rows.force``
+    is smoothed already)."""
+    predicted = smooth(rows.sos, through_observer(rows, law_force_ne(rows, winds, law)))
     return rows.force[rows.fitted] - predicted[rows.fitted]
 
 

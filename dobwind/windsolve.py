@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from dobwind import windrows
+from dobwind import dragfit, windrows
 from dobwind.errors import CheckFailed
 from dobwind.fieldtruth import LogTime
 from dobwind.logs import FlightLog, heading_yaw
@@ -54,6 +54,7 @@ STEADY_SPEED_MPS = 0.3       # ground velocity change over a settling time that 
 STEADY_YAW_DEG = 5.0
 START_SPEEDS_MPS = (0.0, 5.0, 12.0)   # starting winds (and 4 directions for the non-zero ones)
 OFFSET_PRIOR_DEG = 1.0       # the force offset's prior 1-sigma, as the force of this tilt (see Prior)
+THRUST_PRIOR = 0.2           # the thrust scale's prior 1-sigma (init's hover-thrust calibration)
 LAW_PRIOR_SPREAD = 3.0       # the drag terms' prior 1-sigma, this many times the starter's value
 
 
@@ -141,9 +142,15 @@ def log_samples(af: Airframe, flights: list[tuple[str, LogTime]], segment_s: flo
 
 def _rows(cal: Airframe, log: FlightLog, force: np.ndarray, ok: np.ndarray, group: np.ndarray, fitted: np.ndarray,
           dt: float) -> LogRows:
-    yaw = heading_yaw(log, log.stack("q_w", "q_x", "q_y", "q_z"))[ok]
+    q = log.stack("q_w", "q_x", "q_y", "q_z")
+    yaw = heading_yaw(log, q)[ok]
+    rpm = log.stack(*[f"rpm_{i + 1}" for i in range(cal.thrust.rotors)])[ok] if cal.thrust.source == "rpm" else None
+    thrust = log.columns["thrust"][ok] if "thrust" in log.columns else None
+    t_ned = np.nan_to_num(dragfit.thrust_ned(cal, rpm, thrust, q[ok]))
     filters = (windrows.observer_filter(cal, dt, 0), windrows.observer_filter(cal, dt, 1))
-    return LogRows(force[:, :2], log.stack("vel_n", "vel_e")[ok], np.cos(yaw), np.sin(yaw), group, fitted, filters)
+    sos = windrows.smoothing(dt)
+    return LogRows(windrows.smooth(sos, force[:, :2]), log.stack("vel_n", "vel_e")[ok], np.cos(yaw), np.sin(yaw),
+                   t_ned[:, :2], group, fitted, filters, sos)
 
 
 @dataclass(frozen=True)
@@ -162,8 +169,8 @@ class Prior:
 def prior(af: Airframe) -> Prior:
     drag = af.drag
     tilt = af.mass_kg * af.gravity_mps2 * math.tan(math.radians(OFFSET_PRIOR_DEG))
-    mean = {"l0": 0.0, "q0": 0.0, "ox": 0.0, "oy": 0.0, "q2c": 0.0, "q2s": 0.0}
-    spread = {p: math.inf for p in LAW} | {"ox": tilt, "oy": tilt}
+    mean = {"l0": 0.0, "q0": 0.0, "ox": 0.0, "oy": 0.0, "q2c": 0.0, "q2s": 0.0, "kappa": 0.0}
+    spread = {p: math.inf for p in LAW} | {"ox": tilt, "oy": tilt, "kappa": THRUST_PRIOR}
     if drag is not None and drag.l0 > 0 and drag.q0 > 0:
         # the starter's drag terms within a factor of about 1 + LAW_PRIOR_SPREAD (weak: the data decide);
         # a starter without a positive drag law (a polynomial airframe) gives no prior on them
@@ -211,6 +218,20 @@ def _linear_law(problem: Problem, winds: np.ndarray) -> np.ndarray:
     return law
 
 
+def _loss(priors: int):
+    """Soft-L1 on the data (gusts are outliers of a steady wind), plain squares on the last ``priors``
+    residuals: a prior that the robust loss could shrug off would let the offset absorb the wind again."""
+    def loss(z: np.ndarray) -> np.ndarray:
+        rho = np.empty((3, len(z)))
+        t = 1 + z[:-priors]
+        rho[0, :-priors] = 2 * (np.sqrt(t) - 1)
+        rho[1, :-priors] = 1 / np.sqrt(t)
+        rho[2, :-priors] = -0.5 * t ** -1.5
+        rho[0, -priors:], rho[1, -priors:], rho[2, -priors:] = z[-priors:], 1.0, 0.0
+        return rho
+    return loss
+
+
 def solve(problem: Problem):
     """The joint least squares from several starting winds (the same for every group); the best."""
     from scipy.optimize import least_squares
@@ -224,7 +245,7 @@ def solve(problem: Problem):
             winds = np.tile([speed * math.cos(angle), speed * math.sin(angle)], (groups, 1))
             x0 = np.r_[winds.ravel(), _linear_law(problem, winds)]
             x0 = np.clip(x0, lower + 1e-9, upper - 1e-9)
-            result = least_squares(problem, x0, bounds=(lower, upper), loss="soft_l1", f_scale=problem.scale_n,
+            result = least_squares(problem, x0, bounds=(lower, upper), loss=_loss(len(LAW)), f_scale=problem.scale_n,
                                    x_scale="jac", max_nfev=200)
             if best is None or result.cost < best.cost:
                 best = result
