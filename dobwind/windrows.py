@@ -19,7 +19,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import butter, lfilter, lfilter_zi, sosfiltfilt
+from scipy.signal import butter, sosfiltfilt
 
 from dobwind import dragfit
 from dobwind.model.airframe import Airframe
@@ -40,28 +40,59 @@ class LogRows:
     thrust: np.ndarray     # (n, 2) the nominal thrust's horizontal part u_f z_b, north/east
     group: np.ndarray      # (n,) wind group of each row
     fitted: np.ndarray     # (n,) bool: settled after any rejection, decimated
-    filters: tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]  # (b, a) north, east
+    path: ObserverPath     # the step's filters at each row's dt
     sos: np.ndarray        # the zero-phase low-pass (second-order sections) at this log's step
 
 
-def observer_filter(af: Airframe, dt: float, axis: int) -> tuple[np.ndarray, np.ndarray]:
-    """(b, a) of the calibration airframe's observer followed by its fixed-cutoff low-pass on one axis,
-    at the step ``dt`` (the logs are resampled: one dt per log)."""
-    c = first_order(af.observer.discretization, af.observer.gains[axis] / af.mass_kg, dt)
-    alpha = -math.expm1(-2 * math.pi * max(af.filter.cutoffs_hz) * dt)
-    b = np.convolve([float(c.b0), float(c.b1)], [alpha])
-    a = np.convolve([1.0, -float(c.pole)], [1.0, -(1.0 - alpha)])
-    return b, a
+@dataclass(frozen=True)
+class ObserverPath:
+    """The calibration airframe's observer and fixed-cutoff low-pass as per-row coefficients, at each
+    accepted row's own dt (the step's): y_k = pole_k y_(k-1) + b0_k x_k + b1_k x_(k-1) on each axis,
+    then z_k = keep_k z_(k-1) + (1 - keep_k) y_k. Shapes (n, 2)."""
+    pole: np.ndarray
+    b0: np.ndarray
+    b1: np.ndarray
+    keep: np.ndarray
 
 
-def through_observer(rows: LogRows, force_ne: np.ndarray) -> np.ndarray:
-    """``force_ne`` (n, 2) as the step would have filtered it, starting at its first value (the step
-    starts its filters at the first accepted sample's input)."""
-    out = np.empty_like(force_ne)
-    for axis, (b, a) in enumerate(rows.filters):
-        x = force_ne[:, axis]
-        out[:, axis], _ = lfilter(b, a, x, zi=lfilter_zi(b, a) * x[0])
-    return out
+def observer_path(af: Airframe, dt: np.ndarray) -> ObserverPath:
+    """``dt`` (n,): the time since the previous accepted row (the first row's is unused)."""
+    rates = np.asarray(af.observer.gains[:2], dtype=float) / af.mass_kg
+    c = first_order(af.observer.discretization, rates[None, :], dt[:, None])
+    keep = np.exp(-2 * math.pi * max(af.filter.cutoffs_hz) * dt)
+    ones = np.ones((len(dt), 2))
+    return ObserverPath(c.pole * ones, c.b0 * ones, c.b1 * ones, np.repeat(keep[:, None], 2, axis=1))
+
+
+BLOCK = 16   # rows per block of the recursion below: the pole's products stay far from underflow
+
+
+def _recursion(pole: np.ndarray, u: np.ndarray, y0: np.ndarray) -> np.ndarray:
+    """y_k = pole_k y_(k-1) + u_k for k >= 1, y_0 given; (n, 2), vectorised within blocks of BLOCK rows
+    (y_k = P_k (y_start + sum_j u_j / P_j), P the running product of the poles since the block's start)."""
+    y = np.empty_like(u)
+    y[0] = y0
+    last = y0
+    for start in range(1, len(u), BLOCK):
+        p = pole[start:start + BLOCK]
+        if np.any(np.abs(p) < 0.05):   # a pole near zero: the products would divide by ~0; plain loop
+            for k in range(start, min(start + BLOCK, len(u))):
+                last = pole[k] * last + u[k]
+                y[k] = last
+            continue
+        prod = np.cumprod(p, axis=0)
+        y[start:start + BLOCK] = prod * (last + np.cumsum(u[start:start + BLOCK] / prod, axis=0))
+        last = y[min(start + BLOCK, len(u)) - 1]
+    return y
+
+
+def through_observer(path: ObserverPath, force_ne: np.ndarray) -> np.ndarray:
+    """``force_ne`` (n, 2) as the step would have filtered it, both stages starting at its first value
+    (the step starts its filters at the first accepted sample's input)."""
+    x = force_ne
+    previous = np.vstack([x[:1], x[:-1]])
+    observed = _recursion(path.pole, path.b0 * x + path.b1 * previous, x[0])
+    return _recursion(path.keep, (1 - path.keep) * observed, x[0])
 
 
 def law_force_ne(rows: LogRows, winds: np.ndarray, law: dict[str, float]) -> np.ndarray:
@@ -91,7 +122,7 @@ def smooth(sos: np.ndarray, force_ne: np.ndarray) -> np.ndarray:
 def residual(rows: LogRows, winds: np.ndarray, law: dict[str, float]) -> np.ndarray:
     """(m, 2) measured minus predicted force, both filtered alike, at the fitted rows (``rows.force``
     is smoothed already)."""
-    predicted = smooth(rows.sos, through_observer(rows, law_force_ne(rows, winds, law)))
+    predicted = smooth(rows.sos, through_observer(rows.path, law_force_ne(rows, winds, law)))
     return rows.force[rows.fitted] - predicted[rows.fitted]
 
 

@@ -147,10 +147,11 @@ def _rows(cal: Airframe, log: FlightLog, force: np.ndarray, ok: np.ndarray, grou
     rpm = log.stack(*[f"rpm_{i + 1}" for i in range(cal.thrust.rotors)])[ok] if cal.thrust.source == "rpm" else None
     thrust = log.columns["thrust"][ok] if "thrust" in log.columns else None
     t_ned = np.nan_to_num(dragfit.thrust_ned(cal, rpm, thrust, q[ok]))
-    filters = (windrows.observer_filter(cal, dt, 0), windrows.observer_filter(cal, dt, 1))
+    times = log.time_s[ok]
+    path = windrows.observer_path(cal, np.diff(times, prepend=times[0]))
     sos = windrows.smoothing(dt)
     return LogRows(windrows.smooth(sos, force[:, :2]), log.stack("vel_n", "vel_e")[ok], np.cos(yaw), np.sin(yaw),
-                   t_ned[:, :2], group, fitted, filters, sos)
+                   t_ned[:, :2], group, fitted, path, sos)
 
 
 @dataclass(frozen=True)
@@ -169,14 +170,15 @@ class Prior:
 def prior(af: Airframe) -> Prior:
     drag = af.drag
     tilt = af.mass_kg * af.gravity_mps2 * math.tan(math.radians(OFFSET_PRIOR_DEG))
-    mean = {"l0": 0.0, "q0": 0.0, "ox": 0.0, "oy": 0.0, "q2c": 0.0, "q2s": 0.0, "kappa": 0.0}
+    mean = {"l0": 0.0, "q0": 0.0, "ox": 0.0, "oy": 0.0, "q2c": 0.0, "q2s": 0.0, "q1c": 0.0, "kappa": 0.0}
     spread = {p: math.inf for p in LAW} | {"ox": tilt, "oy": tilt, "kappa": THRUST_PRIOR}
     if drag is not None and drag.l0 > 0 and drag.q0 > 0:
         # the starter's drag terms within a factor of about 1 + LAW_PRIOR_SPREAD (weak: the data decide);
         # a starter without a positive drag law (a polynomial airframe) gives no prior on them
         mean |= {"l0": drag.l0, "q0": drag.q0}
         spread |= {"l0": LAW_PRIOR_SPREAD * drag.l0, "q0": LAW_PRIOR_SPREAD * drag.q0,
-                   "q2c": LAW_PRIOR_SPREAD * drag.q0, "q2s": LAW_PRIOR_SPREAD * drag.q0}
+                   "q2c": LAW_PRIOR_SPREAD * drag.q0, "q2s": LAW_PRIOR_SPREAD * drag.q0,
+                   "q1c": LAW_PRIOR_SPREAD * drag.q0}
     return Prior(np.array([mean[p] for p in LAW]), np.array([spread[p] for p in LAW]))
 
 
@@ -358,17 +360,19 @@ def estimate_winds(af: Airframe, flights: list[tuple[str, LogTime]], segment_s: 
     condition, sigma = identification(result.x, problem)
     spanned = coverage(logs, winds)
     what = spanned.text()
+    data = problem.data(result.x)
+    misfit = 1.4826 * float(np.median(np.abs(data - np.median(data))))
     if spanned.lacking() or condition > MAX_CONDITION or not np.all(sigma <= MAX_WIND_SIGMA_MPS):
         worst = int(np.argmax(np.nan_to_num(sigma, nan=math.inf)))
         raise CheckFailed(
             f"--wind unknown: the flight does not identify the wind and the force-air law together (wind 1-sigma "
             f"{sigma[worst]:.2g} m/s for {spans[worst][0]}, limit {MAX_WIND_SIGMA_MPS:g}; Jacobian condition "
-            f"{condition:.3g}, limit {MAX_CONDITION:g}): {what}; fly several headings and speeds (boxes, circles, "
-            "back and forth in more than one direction); nothing written")
+            f"{condition:.3g}, limit {MAX_CONDITION:g}; force the law leaves unexplained {misfit:.2g} N, "
+            f"{misfit / (af.mass_kg * af.gravity_mps2):.1%} of the weight): {what}; fly several headings and "
+            "speeds (boxes, circles, back and forth in more than one direction); nothing written")
     found = tuple(WindGroup(path, start, end, (float(w[0]), float(w[1])), float(s), int(n))
                   for (path, start, end), w, s, n in zip(spans, winds, sigma, counts))
     law = dict(zip(LAW, (float(v) for v in result.x[2 * groups:])))
-    data = problem.data(result.x)
     rms = float(np.sqrt(np.mean(data ** 2)))
     return JointSolution(found, law, condition, rms, (what,))
 
