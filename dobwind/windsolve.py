@@ -338,6 +338,15 @@ def coverage(logs: list[LogRows], winds: np.ndarray) -> Coverage:
                     (float(np.percentile(ground, 5)), float(np.percentile(ground, 95))))
 
 
+def _advice(spanned: Coverage) -> str:
+    """What to change: the flight pattern, or (when it spanned enough) the law's misfit: the drag signal
+    is lost in force the law cannot explain (thrust-model or timing errors, gusts)."""
+    if spanned.lacking() or spanned.ground_speed_mps[1] < 2.0:
+        return "fly several headings and speeds (boxes, circles, back and forth in more than one direction)"
+    return ("the headings and speeds vary, but the force the drag law cannot explain hides the wind: longer legs "
+            "at steady speed, or a wind measured another way (--wind SPEED@FROM, --truth)")
+
+
 def _problem(af: Airframe, logs: list[LogRows], groups: int) -> Problem:
     # the data residuals' scale: a few percent of the weight (gusts, thrust-model error), not below 0.05 N
     scale = max(0.02 * af.mass_kg * af.gravity_mps2, 0.05)
@@ -368,8 +377,8 @@ def estimate_winds(af: Airframe, flights: list[tuple[str, LogTime]], segment_s: 
             f"--wind unknown: the flight does not identify the wind and the force-air law together (wind 1-sigma "
             f"{sigma[worst]:.2g} m/s for {spans[worst][0]}, limit {MAX_WIND_SIGMA_MPS:g}; Jacobian condition "
             f"{condition:.3g}, limit {MAX_CONDITION:g}; force the law leaves unexplained {misfit:.2g} N, "
-            f"{misfit / (af.mass_kg * af.gravity_mps2):.1%} of the weight): {what}; fly several headings and "
-            "speeds (boxes, circles, back and forth in more than one direction); nothing written")
+            f"{misfit / (af.mass_kg * af.gravity_mps2):.1%} of the weight): {what}; {_advice(spanned)}; "
+            "nothing written")
     found = tuple(WindGroup(path, start, end, (float(w[0]), float(w[1])), float(s), int(n))
                   for (path, start, end), w, s, n in zip(spans, winds, sigma, counts))
     law = dict(zip(LAW, (float(v) for v in result.x[2 * groups:])))
