@@ -5,27 +5,27 @@ attitude. What is not: the wind w. The relative airflow is a = R(yaw) (w - v), a
 force: f_h = l0 a_h + q0 |a_h| a_h + (q2c, q2s: the quadratic drag's fore-aft/lateral anisotropy) + o
 (dobwind/dragfit.py's `basis`, the force-air home's horizontal drag basis; o the heading-frame force
 offset). Unknowns: w per log or segment (north, east) and LAW; solved by nonlinear least squares (scipy,
-soft-L1 loss: gusts are outliers of a steady model). On simulated box flights (`dobwind simulate box
---hold 6 --rate 10`, seeds 5, 6, 7, a 3 kg collective-thrust quad, 3-7 m/s winds) the isotropic law
-(l0, q0, o) left 0.02-0.44 m/s of wind error and this one 0.11-0.22. A thrust-scale term is left out:
-in steady flight the thrust's horizontal part balances the drag, so it only rescales the law. The
+soft-L1 loss: gusts are outliers of a steady model), with priors on the offset and the law (Prior).
+On simulated box flights (`dobwind simulate box --hold 6 --rate 10`, seeds 5-9, a 3 kg
+collective-thrust quad, 4-7 m/s winds) the winds came out 0.03-0.08 m/s off. A thrust-scale term
+(kappa) is left out: it was tried, and on the SITL log it ran to 0.8 and dragged the wind with it. The
 vertical wind is assumed zero on average (a steady updraft is indistinguishable from a thrust-scale
 error), so the vertical law is left to the ordinary fit, which then calibrates on the winds found here.
 
 The flight must identify the wind. A constant offset o turns with the vehicle and a constant wind does
 not, so the headings must vary; a quadratic law in a speed that never changes sign makes wind and law
 trade (f = q0 (w - v)^2 + ... is a quadratic in v with as many coefficients as unknowns), so the speeds
-and directions must vary too. Both show in the Jacobian of the joint problem at the solution: its
-column-scaled condition number, and each wind's 1-sigma from the covariance (residual variance inflated
-for the residuals' correlation from sample to sample). That 1-sigma is statistical: the law's own misfit
-to the vehicle adds a bias it does not see (up to 0.45 m/s on half a simulated box flight). A flight
-that fails either, or spans too few headings or airflow directions (Coverage), is refused with what it
-lacks, instead of a guess.
+and directions must vary too (a back-and-forth at one heading whose airflow reverses pins the
+along-track wind through the |a| a kink, not the cross-track one). Both show in the Jacobian of the
+joint problem at the solution: its column-scaled condition number, and each wind's 1-sigma from the
+covariance (residual variance inflated for the residuals' correlation from sample to sample). That
+1-sigma is statistical: the law's own misfit to the vehicle adds a bias it does not see (1.0 m/s on a
+simulated 8 kg box flight). A flight that fails either, or spans too few headings or airflow
+directions (Coverage), is refused with what it lacks, instead of a guess.
 
-Samples: the calibration airframe's step (fit.calibration_run), rows it accepted at least a settling time
-after any rejection and steady over the settling time before them (`steady`: in manoeuvres the filtered
-force lags the airflow), decimated to about SAMPLE_RATE_HZ; the velocity is the step's delayed ground
-velocity v_filt, delay-matched to the filtered force (as fit.heading_rows does).
+Samples (dobwind/windrows.py): every row the calibration airframe's step (fit.calibration_run) accepted
+at least a settling time after any rejection, steady or not, decimated to about 5 Hz; the law's force
+is passed through the step's own observer filters before the comparison, so no lag remains.
 """
 from __future__ import annotations
 
@@ -50,8 +50,6 @@ MIN_AIRFLOW_SECTORS = 2
 MAX_CONDITION = 1e4          # column-scaled Jacobian: beyond it some combination is not identified
 MAX_WIND_SIGMA_MPS = 0.5     # each wind component's 1-sigma at the solution
 MIN_SAMPLES_PER_WIND = 30
-STEADY_SPEED_MPS = 0.3       # ground velocity change over a settling time that still counts as steady
-STEADY_YAW_DEG = 5.0
 START_SPEEDS_MPS = (0.0, 5.0, 12.0)   # starting winds (and 4 directions for the non-zero ones)
 OFFSET_PRIOR_DEG = 1.0       # the force offset's prior 1-sigma, as the force of this tilt (see Prior)
 THRUST_PRIOR = 0.2           # the thrust scale's prior 1-sigma (init's hover-thrust calibration)
@@ -94,22 +92,8 @@ def _usable(t: np.ndarray, status: np.ndarray, settle_s: float) -> np.ndarray:
     return ~rejected & (t - last >= settle_s)
 
 
-def steady(t: np.ndarray, log: FlightLog, window_s: float) -> np.ndarray:
-    """Rows whose ground velocity and heading changed little over the last ``window_s`` (the observer's
-    settling time): there the filtered force is the drag of the current airflow. In manoeuvres it lags,
-    and that lag, not the wind, is what a fit on every row would explain (it read a 3.3 m/s wind as 4.9
-    on a simulated box flight)."""
-    vel = log.stack("vel_n", "vel_e")
-    yaw = np.unwrap(np.nan_to_num(heading_yaw(log, log.stack("q_w", "q_x", "q_y", "q_z"))))
-    before = np.searchsorted(t, t - window_s)
-    inside = t - window_s >= t[0]
-    dv = np.hypot(*(vel - vel[before]).T)
-    dyaw = np.abs(yaw - yaw[before])
-    with np.errstate(invalid="ignore"):
-        return inside & (dv < STEADY_SPEED_MPS) & (dyaw < math.radians(STEADY_YAW_DEG))
-
-
-def log_samples(af: Airframe, flights: list[tuple[str, LogTime]], segment_s: float | None) -> tuple[list[LogRows], list[tuple[str, float, float]]]:
+def log_samples(af: Airframe, flights: list[tuple[str, LogTime]],
+                segment_s: float | None) -> tuple[list[LogRows], list[tuple[str, float, float]]]:
     """Every log's accepted rows (windrows.LogRows) and the wind groups' (path, start, end) in log time."""
     from dobwind.fit import calibration_run
 
@@ -118,7 +102,8 @@ def log_samples(af: Airframe, flights: list[tuple[str, LogTime]], segment_s: flo
     for (path, flight), force, status in zip(flights, run.force_ned, run.status):
         log = flight.log
         t = log.time_s
-        ok = accepted(status) & np.isfinite(force[:, :2]).all(axis=1) & np.isfinite(log.stack("vel_n", "vel_e")).all(axis=1)
+        ok = accepted(status) & np.isfinite(force[:, :2]).all(axis=1)
+        ok &= np.isfinite(log.stack("vel_n", "vel_e")).all(axis=1)
         fitted = _usable(t, status, run.model.settling_time_s)[ok]
         fitted &= (np.arange(int(ok.sum())) % windrows.decimation(t)) == 0
         if not fitted.any():
@@ -126,14 +111,13 @@ def log_samples(af: Airframe, flights: list[tuple[str, LogTime]], segment_s: flo
         times = t[ok]
         # Segments count from the log's first row, so that a segment boundary is where the user put it.
         label = np.floor((times - t[0]) / segment_s).astype(int) if segment_s else np.zeros(len(times), int)
-        group = np.zeros(len(times), int)
-        for value in np.unique(label[fitted]):
-            inside = label == value
-            spans.append((path, float(times[inside & fitted][0] + flight.t0_s), float(times[inside & fitted][-1] + flight.t0_s)))
-            group[inside] = len(spans) - 1
-        # rows of a segment without fitted rows take the previous group (their wind only feeds the filter)
-        group = np.maximum.accumulate(np.where(np.isin(label, np.unique(label[fitted])), group, -1))
-        group[group < 0] = group[group >= 0][0] if (group >= 0).any() else 0
+        used = np.unique(label[fitted])
+        # a row in a segment without fitted rows takes the last earlier group's wind (it only feeds the
+        # filter that the next fitted rows see)
+        group = len(spans) + np.clip(np.searchsorted(used, label, side="right") - 1, 0, len(used) - 1)
+        for value in used:
+            inside = times[(label == value) & fitted]
+            spans.append((path, float(inside[0] + flight.t0_s), float(inside[-1] + flight.t0_s)))
         logs.append(_rows(run.airframe, log, force[ok], ok, group, fitted, float(np.median(np.diff(times)))))
     if not logs:
         raise CheckFailed("--wind unknown: no accepted airborne rows in the logs")

@@ -73,3 +73,20 @@ def test_the_zero_phase_smoothing_adds_no_lag():
     assert np.abs(y - x)[middle].max() < 0.02
     lagged = np.sin(2 * np.pi * 0.03 * (t - 0.5))
     assert np.abs(lagged - x[:, 0])[middle].max() > 0.05
+
+
+def test_the_offset_prior_is_a_degree_of_tilt_and_the_robust_loss_spares_the_priors(flight):
+    """The offset's prior 1-sigma is m g tan(1 deg); a starter without a drag law puts no prior on the
+    drag terms; the loss is soft-L1 on the data (2 (sqrt(1 + z) - 1)) and plain z on the prior rows."""
+    import math
+
+    from dobwind import windsolve
+
+    af, _ = flight
+    p = windsolve.prior(af)
+    k = windsolve.LAW.index("ox")
+    assert p.mean[k] == 0 and math.isclose(p.sigma[k], af.mass_kg * af.gravity_mps2 * math.tan(math.radians(1)))
+    assert af.drag is None and np.isinf(p.sigma[windsolve.LAW.index("l0")])
+    z = np.array([3.0, 8.0, 3.0, 8.0])
+    rho = windsolve._loss(2)(z)
+    assert np.allclose(rho[0], [2.0, 4.0, 3.0, 8.0]) and np.allclose(rho[1, 2:], 1.0)
