@@ -19,7 +19,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import butter, sosfiltfilt
+from scipy.signal import butter, lfilter, sosfiltfilt
 
 from dobwind import dragfit
 from dobwind.model.airframe import Airframe
@@ -68,8 +68,16 @@ BLOCK = 16   # rows per block of the recursion below: the pole's products stay f
 
 
 def _recursion(pole: np.ndarray, u: np.ndarray, y0: np.ndarray) -> np.ndarray:
-    """y_k = pole_k y_(k-1) + u_k for k >= 1, y_0 given; (n, 2), vectorised within blocks of BLOCK rows
-    (y_k = P_k (y_start + sum_j u_j / P_j), P the running product of the poles since the block's start)."""
+    """y_k = pole_k y_(k-1) + u_k for k >= 1, y_0 given; (n, 2). One pole for all rows (a resampled log's
+    constant dt): scipy's lfilter. Otherwise vectorised within blocks of BLOCK rows (y_k = P_k (y_start
+    + sum_j u_j / P_j), P the running product of the poles since the block's start)."""
+    if len(u) > 1 and np.all(pole[1:] == pole[1]):
+        y = np.empty_like(u)
+        y[0] = y0
+        for axis in range(u.shape[1]):
+            p = float(pole[1, axis])
+            y[1:, axis], _ = lfilter([1.0], [1.0, -p], u[1:, axis], zi=[p * y0[axis]])
+        return y
     y = np.empty_like(u)
     y[0] = y0
     last = y0

@@ -58,6 +58,10 @@ def test_the_recursion_is_a_first_order_step_response_across_blocks():
     n, p = 5 * windrows.BLOCK + 3, 0.8
     y = windrows._recursion(np.full((n, 2), p), np.full((n, 2), 1 - p), np.zeros(2))
     assert np.allclose(y[:, 0], 1 - p ** np.arange(n), atol=1e-12, rtol=0)
+    poles = np.full((n, 2), p)
+    poles[-1] += 1e-13   # no longer one pole: the blocked path
+    y = windrows._recursion(poles, np.full((n, 2), 1 - p), np.zeros(2))
+    assert np.allclose(y[:, 0], 1 - p ** np.arange(n), atol=1e-9, rtol=0)
     u = np.random.default_rng(1).normal(size=(n, 2))
     assert np.allclose(windrows._recursion(np.zeros((n, 2)), u, u[0]), u)
 
