@@ -3,7 +3,7 @@
 The claim the all-rows fit rests on: the calibration step's filtered force is a fixed linear filter of
 the raw external force, so the law's force passed through the same filter is compared without lag. It
 is pinned here against the step itself, on the raw force computed in closed form from the log
-(MODEL.md: f_e = m p'' - m g e3 + u_f z_b), on a simulated flight with timestamp jitter."""
+(docs/model.md: f_e = m p'' - m g e3 + u_f z_b), on a simulated flight with timestamp jitter."""
 from __future__ import annotations
 
 import numpy as np
