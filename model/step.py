@@ -29,7 +29,7 @@ from dobwind.model import forceair
 from dobwind.model.discretization import first_order
 from dobwind.model.dynamics import quaternion_to_rotation_any_norm, solve_external_force
 from dobwind.model.layout import Field, Layout
-from dobwind.model.plausibility import implausible_inputs, implausible_result, wind_beyond_bound
+from dobwind.model.plausibility import implausible_inputs, wind_beyond_bound
 from dobwind.model.settling import settling_time_s
 from dobwind.model.status import (DT_TOLERANCE, INPUT_MAGNITUDE_LIMIT, MIN_DT_S, QUATERNION_NORM_TOLERANCE,
                                   RESULT_MAGNITUDE_LIMIT, STATUS_BITS)
@@ -471,18 +471,20 @@ def _committed(af: Airframe) -> list[str]:
 
 def _add_result_check(b: _Builder, af: Airframe) -> None:
     committed = _committed(af)
-    b.add("check_result", "an accepted sample must give a finite and physically plausible result, else it is "
-          "rejected too", committed + ["f_e"], partial(_check_result, af, committed))
+    b.add("check_result", "an accepted sample must give a finite result, else it is rejected too", committed,
+          partial(_check_result, committed))
 
 
-def _check_result(af: Airframe, committed: list[str], s: Signals) -> Signals:
+def _check_result(committed: list[str], s: Signals) -> Signals:
     # One sum: NaN and infinity propagate into it, and so does any overflow. The wind speed is a square
     # root, never negative, so it needs no fabs.
     values = [ca.fabs(s[name]) if name != "wind_speed_h" else s[name] for name in committed]
     ok = ca.sum1(ca.vertcat(*values)) <= RESULT_MAGNITUDE_LIMIT
     bits = {bit.name: bit.value for bit in STATUS_BITS}
-    implausible = implausible_result(s["f_e"], af.mass_kg, af.gravity_mps2)
-    return {"result_status": ca.if_else(ok, ca.if_else(implausible, bits["IMPLAUSIBLE"], 0), bits["NUMERIC"])}
+    # No bound on the sample's raw external force: it is a difference of noisy measurements divided by dt
+    # (velocity differentiated at 500 Hz reads several weights of noise), so bounding it rejected a quarter
+    # of a high-rate log. The input bounds (implausible_inputs) catch the glitches it was meant for.
+    return {"result_status": ca.if_else(ok, 0, bits["NUMERIC"])}
 
 
 def _compose(af: Airframe, signals: Signals, next_state: tuple[tuple[str, str], ...], x: ca.SX, u: ca.SX,

@@ -233,8 +233,6 @@ def step(af: Airframe, st: dict[str, np.ndarray], inp: dict[str, np.ndarray]):
     checked = np.concatenate([f_filt, wind, [out["wind_speed_h"]]] + ([] if bias is None else [bias]))
     if not np.sum(np.abs(checked)) <= 1e30:
         return _rejected(st, 32)
-    if np.linalg.norm(f_e) > 4 * m * g:  # an external force no multirotor meets: rejected
-        return _rejected(st, 2048)
     if np.linalg.norm(wind) > 50.0:  # beyond any calibration: flagged, not rejected
         quality |= 128
     return new, out, quality

@@ -52,7 +52,7 @@ extern "C" {
 #define M300_WIND_STATUS_SETTLING 0x40u /* quality: accepted, but within one settling time of the first sample or of a gap (a rejected sample): the filters have not caught up yet */
 #define M300_WIND_STATUS_EXTRAPOLATED 0x80u /* quality: accepted, but the heading-frame force or the model's airflow speed is outside the envelope calibrated by fit, or the wind exceeds 50 m/s */
 #define M300_WIND_STATUS_UNCALIBRATED 0x400u /* quality: accepted, but the airframe's force-air law is an uncalibrated prior ([calibration] status = "prior", as `dobwind init` writes it): the wind is a rough guess until `dobwind fit` calibrates it */
-#define M300_WIND_STATUS_IMPLAUSIBLE 0x800u /* rejects: physically implausible for a multirotor (model/plausibility.py): ground speed > 150 m/s, acceleration > 10 g, a rotor > 1.5 max_rpm, thrust > 20 weights, or the sample's external force > 4 weights */
+#define M300_WIND_STATUS_IMPLAUSIBLE 0x800u /* rejects: physically implausible for a multirotor (model/plausibility.py): ground speed > 150 m/s, acceleration > 10 g, a rotor > 1.5 max_rpm or thrust > 20 weights */
 #define M300_WIND_REJECTED_MASK 0x83Fu /* every rejection bit */
 /* 1: the vertical wind is estimated. 0: the airframe's vertical law is a fallback (fit did not identify it;
  * force_air.vertical_law = "zero-wind"): wind_ned[2] and wind_speed_up are 0 and wind_sigma_up is -1 on
