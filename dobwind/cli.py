@@ -633,7 +633,7 @@ def _add_profile(command: _Command) -> None:
     p.add_argument("--precision", choices=("single", "double"), default="single", help="C backend precision")
     p.add_argument("--rate", type=opt.ULOG_RATE,
                    help=f"autopilot logs only: resample at this rate, Hz ({opt.ULOG_RATE.text()}) (default: none, "
-                   "the attitude's clock)")
+                   "the airframe's observer rate, 1/observer.sample_time)")
     p.add_argument("--json", action="store_true", help=JSON_HELP)
     _add_many_options(p, "profile")
     p.set_defaults(func=cmd_profile)

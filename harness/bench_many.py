@@ -18,8 +18,9 @@ import shutil
 import statistics
 import subprocess
 import sys
-import time
 from pathlib import Path
+
+from dobwind.harness.bench_replay import measure_process
 
 AIRFRAME = Path(__file__).resolve().parents[1] / "airframes" / "m300.toml"
 SWEEP_HOLDS = 324  # the sweep scenario's holds: --hold = duration / 324
@@ -45,18 +46,6 @@ def _folder(work: Path, logs: int, minutes: float, rate: float) -> Path:
     return folder
 
 
-def _measure(argv: list[str]) -> tuple[float, float, float]:
-    """(wall seconds, peak resident MB of the largest process in the tree, CPU seconds of the whole tree)."""
-    start = time.perf_counter()
-    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    _, status, usage = os.wait4(proc.pid, 0)
-    wall = time.perf_counter() - start
-    if os.waitstatus_to_exitcode(status) != 0:
-        raise SystemExit(f"{' '.join(argv)} failed: {proc.stderr.read().decode()[-500:]}")
-    proc.stderr.close()
-    return wall, usage.ru_maxrss / 1024.0, usage.ru_utime + usage.ru_stime
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--logs", type=int, default=20)
@@ -80,7 +69,7 @@ def main(argv: list[str] | None = None) -> int:
             out = work / f"estimates_jobs{jobs}"
             shutil.rmtree(out, ignore_errors=True)
             cmd = ["replay", str(AIRFRAME), str(folder), "--jobs", str(jobs), "--backend", args.backend]
-            wall, peak, cpu_s = _measure(_dobwind(*cmd, *(["-o", str(out)] if args.write else [])))
+            wall, peak, cpu_s = measure_process(_dobwind(*cmd, *(["-o", str(out)] if args.write else [])))
             times[jobs].append(wall)
             cpu[jobs].append(cpu_s)
             peaks[jobs] = max(peaks[jobs], peak)

@@ -54,8 +54,8 @@ def _log(work: Path, hours: int) -> Path:
     return path
 
 
-def _measure(argv: list[str]) -> tuple[float, float]:
-    """(wall seconds, peak resident MB) of one process."""
+def measure_process(argv: list[str]) -> tuple[float, float, float]:
+    """(wall seconds, peak resident MB of the largest process in the tree, CPU seconds of the whole tree)."""
     start = time.perf_counter()
     proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     _, status, usage = os.wait4(proc.pid, 0)
@@ -63,7 +63,7 @@ def _measure(argv: list[str]) -> tuple[float, float]:
     if os.waitstatus_to_exitcode(status) != 0:
         raise SystemExit(f"{' '.join(argv)} failed: {proc.stderr.read().decode()[-500:]}")
     proc.stderr.close()
-    return wall, usage.ru_maxrss / 1024.0
+    return wall, usage.ru_maxrss / 1024.0, usage.ru_utime + usage.ru_stime
 
 
 def replay_cases(work: Path, log: Path, suffix: str, python: str = sys.executable, prefix: str = "") -> list[Case]:
@@ -96,7 +96,7 @@ def run(rounds: int, work: Path, with_4h: bool, before: str | None = None) -> di
     peaks: dict[str, float] = {c.label: 0.0 for c in all_cases}
     for _ in range(rounds):
         for case in all_cases:
-            wall, peak = _measure(case.argv)
+            wall, peak, _ = measure_process(case.argv)
             times[case.label].append(wall)
             peaks[case.label] = max(peaks[case.label], peak)
     return {label: (statistics.median(times[label]), peaks[label]) for label in times}
@@ -108,7 +108,7 @@ def simulate_peaks(work: Path) -> dict[str, float]:
     for hours in (1, 4):
         hold = f"{hours * 3600 / SWEEP_HOLDS:.6f}"
         out = work / f"simulated_{hours}h.csv"
-        _, peaks[f"{hours} h"] = _measure(_dobwind("simulate", "sweep", "--rate", "100", "--hold", hold, "-o", str(out)))
+        peaks[f"{hours} h"] = measure_process(_dobwind("simulate", "sweep", "--rate", "100", "--hold", hold, "-o", str(out)))[1]
         out.unlink()
     return peaks
 
@@ -136,8 +136,8 @@ def fit_peaks(work: Path) -> dict[str, tuple[float, float]]:
     results = {}
     for hours in (1, 4):
         out = work / f"fit_{hours}h.toml"
-        results[f"{hours} h"] = _measure(_dobwind("fit", f"{FIT_VEHICLE}.airframe.toml", str(_fit_log(work, hours)),
-                                                  "-o", str(out), "--plot", str(work / f"fit_{hours}h.png")))
+        results[f"{hours} h"] = measure_process(_dobwind("fit", f"{FIT_VEHICLE}.airframe.toml", str(_fit_log(work, hours)),
+                                                  "-o", str(out), "--plot", str(work / f"fit_{hours}h.png")))[:2]
     return results
 
 
