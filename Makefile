@@ -32,36 +32,36 @@ demo: $(STAMP)
 
 # Refresh the checked-in C for every airframe in airframes/ (tests fail while it is stale).
 regen: $(STAMP)
-	$(BIN)/python -m dobwind.regen
+	$(BIN)/python -m tools.regen
 
 # docs/figures.md and its images, from the current code (tests/test_docfigures.py fails when stale).
 figures: $(STAMP)
-	$(BIN)/python -m dobwind.analysis.docfigures docs
+	$(BIN)/python -m tools.docfigures docs
 
 # The M4F cycle estimate needs Unicorn (the bench extra); without it the column shows "-".
 bench: $(STAMP)
 	$(BIN)/pip install --quiet -e '.[bench]'
-	$(BIN)/python -m dobwind.harness.bench
+	$(BIN)/python -m benchmarks.bench
 
 # Issue #13's replay goals: 1 h and 4 h logs at 100 Hz against a bare csv.reader pass (time, peak memory).
 bench-replay: $(STAMP)
-	$(BIN)/python -m dobwind.harness.bench_replay $(BENCH_REPLAY_ARGS)
+	$(BIN)/python -m benchmarks.bench_replay $(BENCH_REPLAY_ARGS)
 
 clean:
 	rm -rf $(VENV) out .pytest_cache
 
 # Optional: the real Neural-Fly runs beside the checkout (never copied into the project).
 realdata: $(STAMP)
-	$(BIN)/python -m dobwind.realdata
+	$(BIN)/python -m benchmarks.realdata
 
 # Issue #12's generalization benchmark: six simulated vehicles x 2 seeds through the whole command-line
 # workflow, a sample-rate study, and the real runs when present (4 min on 2 idle cores, 10-20 min when
 # loaded). ACCURACY_ARGS=--quick: one seed, three vehicles; --random N: N random vehicles.
 accuracy: $(STAMP)
-	$(BIN)/python -m dobwind.accuracy $(ACCURACY_ARGS)
+	$(BIN)/python -m benchmarks.accuracy $(ACCURACY_ARGS)
 
 # Issue #10/#16's mutation suite: single-point mutants of the generated C (both precisions) and of the
 # model, each expected to be caught by verify, the self-test or the tests; exit 1 on a survivor, 2 when
-# a mutant's anchor no longer matches (re-anchor in harness/mutant_table.py). About 20 min on a loaded 2-core machine.
+# a mutant's anchor no longer matches (re-anchor in tools/mutant_table.py). About 20 min on a loaded 2-core machine.
 mutants: $(STAMP)
-	$(BIN)/python -m dobwind.harness.mutants $(MUTANTS_ARGS)
+	$(BIN)/python -m tools.mutants $(MUTANTS_ARGS)

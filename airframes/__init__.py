@@ -1,2 +1,2 @@
-"""The shipped airframes (TOML package data, read through dobwind.resources). This file only makes the folder
+"""The shipped airframes (TOML package data, read through dobwind.core.resources). This file only makes the folder
 an importable package, which editable installs need to map it to dobwind.airframes."""

@@ -9,11 +9,11 @@ import argparse
 import json
 import numpy as np
 
-from dobwind.fieldtruth import LogTime
+from dobwind.calibrate.fieldtruth import LogTime
 from dobwind.model.airframe import load_airframe
 from dobwind.model.forceair import wind_from_deg
 from dobwind.model.status import accepted
-from dobwind.replay import replay_ulog
+from dobwind.replay.replay import replay_ulog
 
 
 def _direction_from(n: float, e: float) -> float:
@@ -35,7 +35,7 @@ def summary(airframe: str, log: str, sitl: bool, rate_hz: float | None) -> dict:
            "mean_abs_vertical_mps": float(np.mean(np.abs(wind[used, 2]))),
            "mean_vertical_up_mps": float(-mean[2])}
     if sitl:
-        from dobwind.sitlwind import read_sitl_log, sitl_wind_ned
+        from dobwind.calibrate.sitlwind import read_sitl_log, sitl_wind_ned
 
         truth = sitl_wind_ned(read_sitl_log(log), LogTime(flight.log, flight.t0_s).clock_s)
         tmean = truth[used].mean(axis=0)

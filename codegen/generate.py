@@ -250,7 +250,7 @@ def is_generated_name(name: str) -> bool:
 
 def write_files(files: dict[str, str], out_dir: str | Path) -> list[Path]:
     """Writes into a folder the caller owns (a build or staging folder); atomic replacement of a user's
-    folder is the applications' job (``dobwind.emit``)."""
+    folder is the applications' job (``dobwind.generate.emit``)."""
     paths = []
     for name, text in files.items():
         path = Path(out_dir) / name

@@ -36,7 +36,7 @@ MAX_ROTORS = 16
 # ("masss") is reported as unknown rather than as the correct key missing. Add new keys here.
 TOP_KEYS = ("name", "mass", "gravity", "thrust", "observer", "force_air", "filter", "limits", "envelope",
             "uncertainty", "ros2_topics", "calibration")
-# Roles of the ROS 2 bag reader (dobwind/rosbag.py) whose topic names [ros2_topics] may replace.
+# Roles of the ROS 2 bag reader (dobwind/io/rosbag.py) whose topic names [ros2_topics] may replace.
 ROS2_TOPIC_ROLES = ("velocity", "attitude", "imu", "esc", "thrust", "hover", "land", "wind")
 THRUST_KEYS = ("source", "scale", "rotors", "max_rpm", "coefficients")
 OBSERVER_KEYS = ("sample_time", "gains", "discretization", "acceleration", "force_offset", "acceleration_bias_time")
@@ -164,7 +164,7 @@ def _finite_float(value: Any) -> float | None:
     return number if math.isfinite(number) else None
 
 
-class _Reader:
+class TableReader:
     """Typed access to one TOML table, recording which keys were read so leftovers are errors."""
 
     def __init__(self, source: str, table: dict[str, Any], prefix: str = "",
@@ -244,13 +244,13 @@ class _Reader:
                 what = "|value|" if magnitude else "value"
                 raise self.fail(name, f"{what} must be {bounds.describe()}, got {value:g}")
 
-    def table_of(self, name: str, known: tuple[str, ...] | None = None, required: bool = True) -> "_Reader | None":
+    def table_of(self, name: str, known: tuple[str, ...] | None = None, required: bool = True) -> "TableReader | None":
         value = self.raw(name, required=required)
         if value is None:
             return None
         if not isinstance(value, dict):
             raise self.fail(name, "expected a table")
-        return _Reader(self.source, value, f"{self.key(name)}.", known)
+        return TableReader(self.source, value, f"{self.key(name)}.", known)
 
     def done(self) -> None:
         unknown = sorted(set(self.table) - self.used)
@@ -264,7 +264,7 @@ def _short(value: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def _force_air(reader: _Reader) -> ForceAirModel:
+def _force_air(reader: TableReader) -> ForceAirModel:
     raw_terms = reader.raw("terms")
     if not isinstance(raw_terms, list) or not raw_terms or not all(isinstance(t, str) for t in raw_terms):
         raise reader.fail("terms", "expected a non-empty list of strings")
@@ -291,7 +291,7 @@ def _force_air(reader: _Reader) -> ForceAirModel:
 DRAG_TABLE_KEYS = HORIZONTAL_DRAG_KEYS + (ROTOR_DRAG_KEY,) + VERTICAL_DRAG_KEYS + ("frame", "exponent")
 
 
-def _drag_law(reader: _Reader) -> DragLaw:
+def _drag_law(reader: TableReader) -> DragLaw:
     frame = reader.string("frame", DRAG_FRAMES, default="heading")
     values = {key: reader.number(key, default=0.0) for key in HORIZONTAL_DRAG_KEYS + VERTICAL_DRAG_KEYS}
     if frame == "body":
@@ -321,11 +321,11 @@ VERTICAL_LAWS = ("fitted", VERTICAL_FALLBACK)
 FORCE_AIR_KEYS = FORCE_AIR_KEYS + ("vertical_law",)
 
 
-def _vertical_law(fa: _Reader) -> str:
+def _vertical_law(fa: TableReader) -> str:
     return fa.string("vertical_law", VERTICAL_LAWS, default="fitted")
 
 
-def _force_air_tables(fa: _Reader) -> tuple[ForceAirModel, ForceAirModel, DragLaw | None]:
+def _force_air_tables(fa: TableReader) -> tuple[ForceAirModel, ForceAirModel, DragLaw | None]:
     model = fa.string("model", FORCE_AIR_MODELS, default="polynomial")
     if model == "drag":
         for key in ("horizontal", "vertical"):
@@ -342,7 +342,7 @@ def _force_air_tables(fa: _Reader) -> tuple[ForceAirModel, ForceAirModel, DragLa
     return horizontal, vertical, None
 
 
-def _thrust(reader: _Reader) -> Thrust:
+def _thrust(reader: TableReader) -> Thrust:
     source = reader.string("source", THRUST_SOURCES)
     scale = reader.number("scale", default=1.0, positive=True)
     reader.within("scale", scale, "thrust.scale")
@@ -371,7 +371,7 @@ def _thrust(reader: _Reader) -> Thrust:
     return Thrust("rpm", scale, rotors, max_rpm, coefficients)
 
 
-def _envelope(reader: _Reader) -> Envelope:
+def _envelope(reader: TableReader) -> Envelope:
     force_h_max = reader.number("force_h_max", positive=True)
     reader.within("force_h_max", force_h_max, "envelope.force_h_max")
     force_z = reader.numbers("force_z", length=2)
@@ -384,7 +384,7 @@ def _envelope(reader: _Reader) -> Envelope:
     return Envelope(force_h_max, (force_z[0], force_z[1]), airflow_h_max)
 
 
-def _uncertainty(reader: _Reader) -> Uncertainty:
+def _uncertainty(reader: TableReader) -> Uncertainty:
     speeds = reader.numbers("speeds")
     if speeds[0] < 0 or any(b <= a for a, b in zip(speeds, speeds[1:])):
         raise reader.fail("speeds", f"must be >= 0 and strictly increasing, got {_short(list(speeds))}")
@@ -410,7 +410,7 @@ def _uncertainty(reader: _Reader) -> Uncertainty:
     return Uncertainty(speeds, columns[0], columns[1], noise[0], noise[1])
 
 
-def _name(top: _Reader) -> str:
+def _name(top: TableReader) -> str:
     name = top.string("name")
     if len(name) > NAME_MAX_CHARS:
         raise top.fail("name", f"has {len(name)} characters; at most {NAME_MAX_CHARS} (it prefixes C symbols and file names)")
@@ -419,7 +419,7 @@ def _name(top: _Reader) -> str:
     return name
 
 
-def _observer(obs: _Reader) -> Observer:
+def _observer(obs: TableReader) -> Observer:
     sample_time = obs.number("sample_time", positive=True)
     obs.within("sample_time", sample_time, "observer.sample_time")
     gains = obs.numbers("gains", length=3, positive=True)
@@ -439,7 +439,7 @@ def _observer(obs: _Reader) -> Observer:
     return Observer(sample_time, gains, discretization, acceleration, offset, bias_time)  # type: ignore[arg-type]
 
 
-def _filter(flt: _Reader, sample_time: float) -> FilterSchedule:
+def _filter(flt: TableReader, sample_time: float) -> FilterSchedule:
     speeds = flt.numbers("speeds")
     if speeds[0] < 0:
         raise flt.fail("speeds", "must be >= 0")
@@ -460,7 +460,7 @@ def _filter(flt: _Reader, sample_time: float) -> FilterSchedule:
     return FilterSchedule(speeds, cutoffs)
 
 
-def _limits(lim: _Reader | None, sample_time: float, source: str) -> Limits:
+def _limits(lim: TableReader | None, sample_time: float, source: str) -> Limits:
     limits = Limits()
     if lim is not None:
         max_dt = lim.number("max_dt", default=DEFAULT_MAX_DT_S, positive=True)
@@ -476,7 +476,7 @@ def _limits(lim: _Reader | None, sample_time: float, source: str) -> Limits:
     return limits
 
 
-def _ros2_topics(ros: _Reader | None) -> tuple[tuple[str, str], ...]:
+def _ros2_topics(ros: TableReader | None) -> tuple[tuple[str, str], ...]:
     if ros is None:
         return ()
     topics = tuple((role, ros.string(role)) for role in ROS2_TOPIC_ROLES if ros.has(role))
@@ -487,7 +487,7 @@ def _ros2_topics(ros: _Reader | None) -> tuple[tuple[str, str], ...]:
     return topics
 
 
-def _calibration(cal: _Reader | None) -> str:
+def _calibration(cal: TableReader | None) -> str:
     if cal is None:
         return CALIBRATED
     status = cal.string("status", CALIBRATION_STATUSES, default=CALIBRATED)
@@ -507,7 +507,7 @@ def _document(text: str, source: str) -> dict[str, Any]:
 def parse_airframe(text: str, source: str) -> Airframe:
     """Validate airframe TOML text; ``source`` names the file in error messages. Every number is
     checked against its range in ``model/ranges.py`` before anything is built from it."""
-    top = _Reader(source, _document(text, source), known=TOP_KEYS)
+    top = TableReader(source, _document(text, source), known=TOP_KEYS)
     name = _name(top)
     mass = top.number("mass", positive=True)
     top.within("mass", mass, "mass")

@@ -48,7 +48,7 @@ REJECTED_MASK = sum(bit.value for bit in STATUS_BITS if bit.rejects)
 STATUS_NO_DATA = 1 << 8
 STATUS_LANDED = 1 << 9
 # Set by replay on rows (or, for a whole-flight finding, every row) where a plausibility check says the
-# airframe does not fit this flight (dobwind/plausibility.py): a quality flag, the estimate is still
+# airframe does not fit this flight (dobwind/replay/plausibility.py): a quality flag, the estimate is still
 # written, but it is not trusted. Not in NOT_ACCEPTED_MASK.
 STATUS_SUSPECT = 1 << 13
 # Bits under which a row's estimate was not updated: the step's rejections and replay's own reasons.

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from dobwind.model.airframe import load_airframe
-from dobwind.simulate import simulate
+from dobwind.simulate.simulate import simulate
 from tests.dataflash_writer import write_dataflash
 from tests.helpers import M300
 

@@ -15,7 +15,7 @@ import tomllib
 from dataclasses import dataclass, field
 from typing import Any
 
-from dobwind import options as opt
+from dobwind.core import options as opt
 
 
 @dataclass(frozen=True)

@@ -77,7 +77,7 @@ def observed_force(af: Airframe, rate_hz: float, force, noise_n: float, rng):
     axis, dragfit.observer_filter) with white noise of ``noise_n`` newtons added."""
     import numpy as np
 
-    from dobwind import dragfit
+    from dobwind.calibrate import dragfit
 
     observed = np.empty_like(force)
     for axis in range(3):
@@ -111,7 +111,7 @@ def hold_samples(force_of, noise_n: float = 0.05, seed: int = 3, frame: str = "h
 
     import numpy as np
 
-    from dobwind import dragfit
+    from dobwind.calibrate import dragfit
     from dobwind.model.airframe import load_airframe
 
     af = load_airframe(M300)
@@ -147,7 +147,7 @@ NOISY_AIRFRAME = {
 def noisy_flights(folder: Path, vehicle: dict[str, Any]) -> dict[str, str]:
     """A sweep (6 s holds), a vertical climb (8 s holds) and a still-air flight of ``vehicle`` simulated
     with NOISY_AIRFRAME into ``folder``: their paths by name, and the airframe's ("airframe")."""
-    from dobwind.cli import main   # the applications layer, only for the tests that fly
+    from dobwind.cli.app import main   # the applications layer, only for the tests that fly
     (folder / "v.toml").write_text(dumps(vehicle))
     (folder / "a.toml").write_text(dumps(NOISY_AIRFRAME))
     paths = {"airframe": str(folder / "a.toml")}

@@ -1,4 +1,4 @@
-"""The fit's blend of an acceleration input with the velocity's derivative (dobwind/accelroute.py): when
+"""The fit's blend of an acceleration input with the velocity's derivative (dobwind/calibrate/accelroute.py): when
 the noise at low airflow stays above the target with an acceleration input, the fit runs again with a
 short velocity-aided bias time, and keeps that fit only when it is clearly quieter and checks as well.
 End to end, on a simulated vehicle with a noisy acceleration input: the blend is kept, the written
@@ -10,14 +10,14 @@ import json
 
 import pytest
 
-from dobwind import fitfamily
-from dobwind.accelroute import BLEND_TIME_S, QUIETER_SHARE, blend_record, blended, keeps_blend, needs_blend_check
-from dobwind.cli import main
-from dobwind.errors import CheckFailed
-from dobwind.fitreport import _low_pass_line, _route_line
-from dobwind.hovernoise import HoverNoise
+from dobwind.calibrate import fitfamily
+from dobwind.calibrate.accelroute import BLEND_TIME_S, QUIETER_SHARE, blend_record, blended, keeps_blend, needs_blend_check
+from dobwind.cli.app import main
+from dobwind.core.errors import CheckFailed
+from dobwind.calibrate.fitreport import _low_pass_line, _route_line
+from dobwind.calibrate.hovernoise import HoverNoise
 from dobwind.model.airframe import load_airframe
-from dobwind.selfcheck import SelfCheck
+from dobwind.calibrate.selfcheck import SelfCheck
 from tests.helpers import make_airframe, noisy_flights
 
 

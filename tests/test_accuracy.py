@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from dobwind.accuracy import main
-from dobwind.accuracy_real import real_lines, real_runs
-from dobwind.accuracy_report import GOALS, per_run_ratio_line, worst
-from dobwind.accuracy_run import Job, run_job
+from benchmarks.accuracy import main
+from benchmarks.accuracy_real import real_lines, real_runs
+from benchmarks.accuracy_report import GOALS, per_run_ratio_line, worst
+from benchmarks.accuracy_run import Job, run_job
 from dobwind.model.airframe_toml import dumps
 from tests.helpers import ROOT
 
@@ -127,7 +127,7 @@ def test_benchmark_vehicles_cover_the_brief():
     """Six vehicles at least, masses 0.03 to 25 kg, rates 50 to 500 Hz, every acceleration mode and
     both thrust sources; one drag law outside the linear + quadratic family."""
     from dobwind.model.airframe import load_airframe
-    from dobwind.vehicle import load_vehicle
+    from dobwind.simulate.vehicle import load_vehicle
 
     folder = ROOT / "benchmarks" / "vehicles"
     names = [p.name.removesuffix(".vehicle.toml") for p in folder.glob("*.vehicle.toml")]
@@ -149,7 +149,7 @@ def test_benchmark_vehicles_cover_the_brief():
 def test_rate_study_fits_each_rate_and_measures_the_spread_of_one_tunnel(vehicle_dir, tmp_path):
     """The tiny vehicle calibrated at 20 and 40 Hz; both fits replay one tunnel flight, so the spread
     of a hold's estimate over rates is the difference of its two errors."""
-    from dobwind.accuracy_rates import RATE_GOAL, rate_lines, rate_study
+    from benchmarks.accuracy_rates import RATE_GOAL, rate_lines, rate_study
 
     study = rate_study(vehicle_dir, tmp_path / "rates", 7.0, 2, vehicle="tiny", rates_hz=(20.0, 40.0))
     low, high = study["rates"]
@@ -164,5 +164,5 @@ def test_rate_study_fits_each_rate_and_measures_the_spread_of_one_tunnel(vehicle
     assert verdict == {RATE_GOAL: study["spread_mps"] <= study["predicted_mps"]}
     assert any(line.strip().startswith("20  ") for line in lines) and any(line.strip().startswith("40  ") for line in lines)
     failed = {**study, "rates": [low, {"rate_hz": 40.0, "error": "fit: exit 1"}]}
-    from dobwind.accuracy_rates import spread
+    from benchmarks.accuracy_rates import spread
     assert spread(failed["rates"]) == (None, None)

@@ -5,10 +5,10 @@ import math
 
 import numpy as np
 
-from dobwind.accuracy import available_vehicles, parse_config
-from dobwind.accuracy_family import GAIN_PER_KG, GRAVITY_MPS2, write_random_vehicles
+from benchmarks.accuracy import available_vehicles, parse_config
+from benchmarks.accuracy_family import GAIN_PER_KG, GRAVITY_MPS2, write_random_vehicles
 from dobwind.model.airframe import load_airframe
-from dobwind.vehicle import load_vehicle
+from dobwind.simulate.vehicle import load_vehicle
 
 
 def test_vehicles_load_and_are_reproducible_by_seed(tmp_path):

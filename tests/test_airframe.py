@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from dobwind.cli import main
+from dobwind.cli.app import main
 from dobwind.model.airframe import load_airframe, parse_airframe
 from dobwind.model.airframe_toml import dump_airframe, dumps
 from tests.helpers import M300, airframe_dict, all_modes

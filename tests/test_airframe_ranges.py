@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from dobwind.cli import main
+from dobwind.cli.app import main
 from dobwind.model.airframe import parse_airframe
 from dobwind.model.airframe_toml import dumps
 from dobwind.model.errors import InputError

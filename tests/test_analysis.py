@@ -11,7 +11,7 @@ from dobwind.analysis.design import design_gain, observer_bandwidth_hz, with_gai
 from dobwind.analysis.figures import bandwidth_hz, group_delay_s, noise_gain
 from dobwind.analysis.linear import axis_system, continuous_observer, linearize
 from dobwind.analysis.ramp import ramp_experiment
-from dobwind.cli import main
+from dobwind.cli.app import main
 from dobwind.model.airframe import parse_airframe
 from dobwind.model.airframe_toml import dumps
 from dobwind.model.step import build_step

@@ -8,7 +8,7 @@ import types
 import pytest
 
 from codegen.generate import generate_code
-from dobwind import demo
+from dobwind.cli import demo
 from dobwind.model.airframe import parse_airframe
 from tests.families import FAMILIES, family_airframe
 
@@ -100,7 +100,7 @@ max_tilt_deg = 45.0
 
 
 def _design(tmp_path, capsys, text: str):
-    from dobwind.cli import main
+    from dobwind.cli.app import main
     from dobwind.model.airframe import load_airframe
 
     src, out = tmp_path / "in.toml", tmp_path / "out.toml"
@@ -135,7 +135,7 @@ def test_design_falls_back_to_the_dump_for_an_inline_table(tmp_path, capsys):
 
 
 def test_replace_array_edits_only_its_table():
-    from dobwind.tomledit import replace_array
+    from dobwind.io.tomledit import replace_array
 
     text = "[a]\ngains = [1]  # old\n[b]\ngains = [2]\n"
     assert replace_array(text, "b", "gains", "[3]") == "[a]\ngains = [1]  # old\n[b]\ngains = [3]\n"
@@ -144,7 +144,7 @@ def test_replace_array_edits_only_its_table():
 
 
 def test_a_shipped_airframe_is_named_without_its_path(tmp_path, monkeypatch, capsys):
-    from dobwind.cli import main
+    from dobwind.cli.app import main
 
     monkeypatch.chdir(tmp_path)
     assert main(["check", "m300"]) == 0

@@ -20,7 +20,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from dobwind.analysis.windunits import wind_units
-from dobwind.cli import main
+from dobwind.cli.app import main
 from dobwind.model import forceair, reference
 from dobwind.model.airframe import parse_airframe
 from dobwind.model.airframe_toml import dumps

@@ -7,10 +7,10 @@ import json
 import numpy as np
 import pytest
 
-from dobwind.cli import main
-from dobwind.logs import write_csv
+from dobwind.cli.app import main
+from dobwind.io.logs import write_csv
 from dobwind.model.airframe import load_airframe
-from dobwind.simulate import simulate
+from dobwind.simulate.simulate import simulate
 from tests.helpers import M300
 
 

@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dobwind.cli import main
-from dobwind.logs import ESTIMATE_COLUMNS
+from dobwind.cli.app import main
+from dobwind.io.logs import ESTIMATE_COLUMNS
 from dobwind.model.status import STATUS_BITS, STATUS_LANDED, STATUS_NO_DATA
 from tests import atmos_logs
 from tests.helpers import M300
@@ -137,8 +137,8 @@ def test_without_position_it_says_so_and_writes_no_coordinates(tmp_path, capsys)
 
 
 def test_csv_log_to_netcdf_and_a_failed_write_loses_nothing(tmp_path, monkeypatch):
-    from dobwind import ncstream
-    from dobwind.logs import write_csv
+    from dobwind.atmos import ncstream
+    from dobwind.io.logs import write_csv
 
     _, cols = atmos_logs.flight(hold_s=1.0)
     names = [n for n in cols if n != "segment"]
@@ -169,7 +169,7 @@ def test_px4_position_home_and_utc_from_a_ulog(tmp_path):
     """The PX4 reader alone: vehicle_global_position on the rows, home_position's altitude as the take-off
     point, time_utc_usec against its timestamp (rows before the receiver knew the time carry 0)."""
     pytest.importorskip("pyulog")
-    from dobwind.position import on_rows, read_geo
+    from dobwind.io.position import on_rows, read_geo
     from tests.ulog_writer import Topic, write_ulog
 
     stamps = np.arange(0, 20_000_000, 200_000) + 5_000_000  # 5 Hz from 5 s after boot
@@ -206,7 +206,7 @@ SITL = Path(__file__).resolve().parents[2] / "shared" / "data" / "field" / "ardu
 
 @pytest.mark.skipif(not SITL.exists(), reason="the field logs are not beside the checkout")
 def test_the_sitl_log_has_utc_position_and_home(tmp_path):
-    from dobwind.position import read_geo
+    from dobwind.io.position import read_geo
 
     geo = read_geo(str(SITL))
     when = np.datetime64(int(geo.utc_offset_s + geo.track.t_s[0]), "s")
@@ -248,10 +248,10 @@ def test_a_csv_log_streamed_in_small_chunks_gives_the_same_file_content(tmp_path
     """The NetCDF of a CSV log is appended chunk by chunk: many chunks hold what one chunk holds."""
     import argparse
 
-    from dobwind.logs import write_csv
+    from dobwind.io.logs import write_csv
     from dobwind.model.airframe import load_airframe
-    from dobwind.ncreplay import replay_csv_netcdf
-    from dobwind.outputs import OutputFiles, Target
+    from dobwind.atmos.ncreplay import replay_csv_netcdf
+    from dobwind.io.outputs import OutputFiles, Target
 
     _, cols = atmos_logs.flight(hold_s=1.0)
     t = cols["t"]

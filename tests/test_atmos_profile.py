@@ -7,8 +7,8 @@ import json
 import numpy as np
 import pytest
 
-from dobwind.cli import main
-from dobwind.profile import Samples, allowed_mask, bin_sums, combine, table
+from dobwind.cli.app import main
+from dobwind.atmos.profile import Samples, allowed_mask, bin_sums, combine, table
 from tests import atmos_logs
 from tests.helpers import M300
 
@@ -80,7 +80,7 @@ def test_flights_combine_exactly_in_any_order_and_gaps_stay_empty():
 
 
 def test_only_quality_flags_can_be_allowed():
-    from dobwind.errors import InputError
+    from dobwind.core.errors import InputError
     from dobwind.model.status import STATUS_BITS
 
     settling = next(b.value for b in STATUS_BITS if b.name == "SETTLING")
@@ -105,7 +105,7 @@ def two_flights(tmp_path_factory):
 def test_profile_command_bins_each_row_at_its_height(two_flights, capsys):
     from dobwind.model.airframe import load_airframe
     from dobwind.model.status import trusted
-    from dobwind.replay import replay_autopilot
+    from dobwind.replay.replay import replay_autopilot
 
     folder, logs, last = two_flights
     out = folder / "p.csv"
@@ -186,10 +186,10 @@ def test_csv_log_with_position_columns_to_netcdf_and_profile(tmp_path, capsys):
     the altitude above the first row (no landed rows in a CSV log: its first position is the take-off)."""
     xr = pytest.importorskip("xarray")
     pytest.importorskip("netCDF4")
-    from dobwind.logs import write_csv
+    from dobwind.io.logs import write_csv
     from dobwind.model.airframe import load_airframe
     from dobwind.model.status import trusted
-    from dobwind.replay import replay
+    from dobwind.replay.replay import replay
 
     _, cols = atmos_logs.flight(hold_s=1.0)
     t = cols["t"]
@@ -211,7 +211,7 @@ def test_csv_log_with_position_columns_to_netcdf_and_profile(tmp_path, capsys):
 
 
 def test_profilecheck_law_and_verdict(two_flights, capsys):
-    from dobwind.profilecheck import law, main as check
+    from benchmarks.profilecheck import law, main as check
 
     np.testing.assert_allclose(law(np.array([0.0, 15.0, 60.0, 90.0]), 10.0, 60.0, 0.5), [0.0, 5.0, 10.0, 10.0])
     _, logs, _ = two_flights

@@ -170,7 +170,7 @@ def test_a_stale_page_block_is_seen():
 
 
 def test_generate_target_from_the_command_line(tmp_path, capsys):
-    from dobwind.cli import main
+    from dobwind.cli.app import main
 
     assert main(["generate", str(M300), "--target", "px4", "-o", str(tmp_path / "c")]) == 0
     assert (tmp_path / "c" / "px4" / "DobWind.cpp").is_file() and (tmp_path / "c" / "m300_wind.c").is_file()
@@ -182,7 +182,7 @@ def test_generate_target_from_the_command_line(tmp_path, capsys):
 
 
 def test_verify_refuses_double_precision_with_ardupilot_flags(capsys):
-    from dobwind.cli import main
+    from dobwind.cli.app import main
 
     assert main(["verify", str(M300), "--flags", "ardupilot", "--precision", "double"]) == 2
     err = capsys.readouterr().err

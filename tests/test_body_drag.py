@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from dobwind import dragfit
+from dobwind.calibrate import dragfit
 from dobwind.model.airframe import load_airframe, parse_airframe
 from dobwind.model.airframe_toml import dump_airframe
 from dobwind.model.forceair import DragLaw, body_drag_airflow_numpy, body_drag_force

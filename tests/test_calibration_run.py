@@ -8,10 +8,10 @@ import dataclasses
 import numpy as np
 import pytest
 
-from dobwind.cli import main
-from dobwind.fit import calibration_airframe, calibration_points, calibration_run, read_calibration_logs
-from dobwind.fitfamily import drag_samples
-from dobwind.logs import step_inputs
+from dobwind.cli.app import main
+from dobwind.calibrate.fit import calibration_airframe, calibration_points, calibration_run, read_calibration_logs
+from dobwind.calibrate.fitfamily import drag_samples
+from dobwind.io.logs import step_inputs
 from dobwind.model import reference
 from dobwind.model.airframe import load_airframe
 from dobwind.model.step import build_step

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dobwind import backends
+from dobwind.replay import backends
 from dobwind.harness import casadi_lib
 from dobwind.model import reference
 from dobwind.model.airframe import load_airframe

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from dobwind.harness.cformat import row_formatter, row_layout
-from dobwind.logs import CsvWriter
+from dobwind.io.logs import CsvWriter
 
 pytestmark = pytest.mark.skipif(shutil.which("cc") is None, reason="needs a C compiler")
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-from dobwind.cli import main
+from dobwind.cli.app import main
 from dobwind.model.airframe_toml import dumps
 from tests.helpers import airframe_dict
 

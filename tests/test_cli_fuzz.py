@@ -1,5 +1,5 @@
 """Fuzz of the command line (issue #10): hundreds of bad invocations, each run in-process through
-``dobwind.cli.main``.
+``dobwind.cli.app.main``.
 
 Every case must end with exit status 2 (bad input; 1 only where a check ran and failed), exactly one
 non-empty stderr line, no traceback and no output file. The cases are generated from a few valid
@@ -18,7 +18,7 @@ from typing import Any, Callable
 
 import pytest
 
-from dobwind.cli import main
+from dobwind.cli.app import main
 from dobwind.model.airframe_toml import dumps
 from tests.helpers import M300, airframe_dict
 

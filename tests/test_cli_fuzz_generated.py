@@ -1,6 +1,6 @@
 """Generated fuzz of the command line (issue #16's goal): 1,050 seeded cases mutated from good airframe
 files, CSV logs and ULogs, and option values across and beyond their ranges (tests/fuzzgen.py), each
-run in-process through ``dobwind.cli.main`` under a time limit.
+run in-process through ``dobwind.cli.app.main`` under a time limit.
 
 Every case must end with an expected exit status, never a traceback or a hang; a failure prints its
 error as the last stderr line (after any warnings), a success only warnings. Outputs are judged too:
@@ -18,8 +18,8 @@ from pathlib import Path
 
 import pytest
 
-from dobwind.cli import main
-from dobwind.logs import ESTIMATE_COLUMNS
+from dobwind.cli.app import main
+from dobwind.io.logs import ESTIMATE_COLUMNS
 from dobwind.model.airframe import load_airframe
 from tests import fuzzgen
 from tests.helpers import M300

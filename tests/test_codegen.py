@@ -8,7 +8,7 @@ import subprocess
 
 import pytest
 
-from dobwind.cli import main
+from dobwind.cli.app import main
 from dobwind.codegen.generate import generate_code
 from dobwind.codegen.printer import CPrinter
 from dobwind.model.airframe import load_airframe

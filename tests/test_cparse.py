@@ -12,7 +12,7 @@ from decimal import Decimal, getcontext
 import numpy as np
 import pytest
 
-from dobwind.csvchunks import Header, read_blocks
+from dobwind.io.csvchunks import Header, read_blocks
 from dobwind.harness.cparse import block_parser
 
 pytestmark = pytest.mark.skipif(shutil.which("cc") is None, reason="needs a C compiler")
@@ -95,7 +95,7 @@ def test_anything_else_is_left_to_the_careful_pass(parser, text):
 
 @pytest.mark.parametrize("text", ["", "\n", "a", "a\n", "a\nb", "a\nb\n", "\n\n\n", "a\r\nb\r\n", "x" * 5000 + "\n" * 3])
 def test_line_count_is_the_readers(parser, text):
-    from dobwind.csvchunks import _line_count
+    from dobwind.io.csvchunks import _line_count
 
     data = text.encode() + b"tail after the end"
     assert parser.count_lines(data, len(text)) == (_line_count(data, len(text)) if text else 0)
@@ -135,7 +135,7 @@ def _body(text: str) -> io.BytesIO:
 
 
 def test_without_a_compiler_the_reader_uses_pandas(tmp_path, monkeypatch):
-    from dobwind.logs import read_log
+    from dobwind.io.logs import read_log
 
     monkeypatch.setenv("DOBWIND_CACHE", str(tmp_path / "cache"))
     monkeypatch.setenv("CC", "/nonexistent/cc")

@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dobwind.cli import main
-from dobwind.logs import write_csv
+from dobwind.cli.app import main
+from dobwind.io.logs import write_csv
 from dobwind.model.airframe import load_airframe, parse_airframe
 from dobwind.model.airframe_toml import dumps
 from dobwind.model.status import STATUS_LANDED, STATUS_NO_DATA, accepted
-from dobwind.replay import replay, replay_autopilot
-from dobwind.simulate import simulate
+from dobwind.replay.replay import replay, replay_autopilot
+from dobwind.simulate.simulate import simulate
 from tests.dataflash_writer import write_dataflash
 from tests.helpers import M300, ROOT, airframe_dict
 
@@ -223,7 +223,7 @@ def test_real_logs_parse_and_name_their_messages(name, present, absent, capsys):
     path = SHARED / name
     if not path.exists():
         pytest.skip(f"{name} is not beside this checkout")
-    from dobwind.dataflash import messages_found
+    from dobwind.io.dataflash import messages_found
 
     found = messages_found(str(path))
     assert all(found[m] > 0 for m in present) and all(found[m] == 0 for m in absent)

@@ -6,7 +6,7 @@ import re
 
 import numpy as np
 
-from dobwind.analysis import docfigures
+from tools import docfigures
 from tests.helpers import ROOT
 
 PAGE = ROOT / "docs" / "figures.md"

@@ -9,7 +9,7 @@ import subprocess
 
 import pytest
 
-from dobwind.logs import ESTIMATE_COLUMNS, TRUTH_COLUMNS, required_columns
+from dobwind.io.logs import ESTIMATE_COLUMNS, TRUTH_COLUMNS, required_columns
 from dobwind.model import airframe as airframe_module
 from dobwind.model.airframe import parse_airframe
 from dobwind.model.airframe_toml import dumps

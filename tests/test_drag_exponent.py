@@ -1,4 +1,4 @@
-"""The drag law's exponent (model/forceair.py, dobwind/dragexponent.py): the quadratic terms grow as s^p.
+"""The drag law's exponent (model/forceair.py, dobwind/calibrate/dragexponent.py): the quadratic terms grow as s^p.
 
 Pinned: the forward law against a transcription of its formula, the inversion at 1.5 <= p <= 2.5, a
 quadratic law's step without any power, the airframe key, the fit's columns for another exponent, and the
@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from dobwind import dragexponent, dragfit, holdcv
+from dobwind.calibrate import dragexponent, dragfit, holdcv
 from dobwind.model.airframe import load_airframe, parse_airframe
 from dobwind.model.airframe_toml import dump_airframe
 from dobwind.model.forceair import (DragLaw, body_drag_airflow_numpy, body_drag_basis, body_drag_force,
@@ -241,7 +241,7 @@ def test_rescaled_columns_are_the_exponents_own_in_steady_airflow(frame):
 def test_a_tie_between_families_goes_to_the_body_frame_law():
     """Figures of a random vehicle's fit (rand3_4): the heading-frame law won the tie on its hold means
     and read the tunnel's 10 m/s hold 0.20 m/s off; the body-frame law read it 0.04 m/s off."""
-    from dobwind.fitfamily import FAMILY_TIE, choose_family
+    from dobwind.calibrate.fitfamily import FAMILY_TIE, choose_family
     drag = {"score_mps": 0.226, "hold_cv_speed_mps": 0.076, "hold_extrapolation_speed_mps": 0.053}
     body = {"score_mps": 0.228, "hold_cv_speed_mps": 0.076, "hold_extrapolation_speed_mps": 0.068}
     assert choose_family(["drag", "drag-body"], {"drag": drag, "drag-body": body}) == "drag-body"
@@ -253,7 +253,7 @@ def test_a_tie_between_families_goes_to_the_body_frame_law():
 
 
 def test_without_the_body_frame_law_a_tie_goes_to_the_better_hold_means():
-    from dobwind.fitfamily import choose_family
+    from dobwind.calibrate.fitfamily import choose_family
     drag = {"score_mps": 0.226, "hold_cv_speed_mps": 0.076, "hold_extrapolation_speed_mps": 0.053}
     poly = {"score_mps": 0.2265, "hold_cv_speed_mps": 0.075, "hold_extrapolation_speed_mps": 0.039}
     assert choose_family(["drag", "polynomial"], {"drag": drag, "polynomial": poly}) == "polynomial"

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from dobwind import dragfit
+from dobwind.calibrate import dragfit
 from dobwind.model.airframe import load_airframe, parse_airframe
 from dobwind.model.airframe_toml import dump_airframe
 from dobwind.model.forceair import DragLaw, drag_airflow_numpy, drag_force

@@ -12,17 +12,17 @@ import math
 import numpy as np
 import pytest
 
-from dobwind.cli import main
-from dobwind.errors import CheckFailed, InputError
-from dobwind.fieldtruth import LogTime, SteadyWind, WindSeries, flight_of, parse_wind, read_truth_csv, with_truth
-from dobwind.logs import FlightLog, write_csv
+from dobwind.cli.app import main
+from dobwind.core.errors import CheckFailed, InputError
+from dobwind.calibrate.fieldtruth import LogTime, SteadyWind, WindSeries, flight_of, parse_wind, read_truth_csv, with_truth
+from dobwind.io.logs import FlightLog, write_csv
 from dobwind.model.airframe import load_airframe, parse_airframe
 from dobwind.model.airframe_toml import dumps
 from dobwind.model.status import accepted
-from dobwind.replay import replay_ulog
-from dobwind.simulate import simulate
-from dobwind.sitlwind import PROFILE_LINEAR, PROFILE_NONE, PROFILE_SQRT, profile_speed, read_sitl_log, sitl_wind_ned
-from dobwind.windsolve import GroupWinds, estimate_winds
+from dobwind.replay.replay import replay_ulog
+from dobwind.simulate.simulate import simulate
+from dobwind.calibrate.sitlwind import PROFILE_LINEAR, PROFILE_NONE, PROFILE_SQRT, profile_speed, read_sitl_log, sitl_wind_ned
+from dobwind.calibrate.windsolve import GroupWinds, estimate_winds
 from tests.dataflash_writer import write_dataflash
 from tests.helpers import airframe_dict
 
@@ -273,7 +273,7 @@ def test_fit_with_the_wind_unknown_calibrates_a_box_flight_end_to_end(box, capsy
     assert code == 0, printed.err
     assert "--wind unknown" in json.loads(printed.out)["wind_truth"]["truth"]
     assert "# wind truth: estimated jointly with the force-air law" in out.read_text()
-    from dobwind.replay import replay
+    from dobwind.replay.replay import replay
 
     model, _, traj = replay(load_airframe(out), str(csv))
     wind = traj.outputs[:, model.outputs.slice("wind_ned")][accepted(traj.status)]
@@ -281,7 +281,7 @@ def test_fit_with_the_wind_unknown_calibrates_a_box_flight_end_to_end(box, capsy
 
 
 def test_truth_sitl_needs_a_dataflash_log_and_a_truth_file_must_overlap_the_log(tmp_path):
-    from dobwind.sitlwind import read_sitl_log
+    from dobwind.calibrate.sitlwind import read_sitl_log
 
     with pytest.raises(InputError) as caught:
         read_sitl_log(str(tmp_path / "flight.ulg"))

@@ -9,14 +9,14 @@ import json
 import numpy as np
 import pytest
 
-from dobwind.cli import main
+from dobwind.cli.app import main
 from dobwind.model.airframe import load_airframe
 from dobwind.model.status import STATUS_LANDED, STATUS_NO_DATA, STATUS_SUSPECT, accepted
-from dobwind.plausibility import FlightSeries, PlausibilityLimits, check_flight, mark
-from dobwind.replay import replay_ulog
-from dobwind.resample import GapPolicy, topic_tolerances, uniform_clock, wind_active
-from dobwind.simulate import simulate
-from dobwind.ulog import compare_with_px4
+from dobwind.replay.plausibility import FlightSeries, PlausibilityLimits, check_flight, mark
+from dobwind.replay.replay import replay_ulog
+from dobwind.io.resample import GapPolicy, topic_tolerances, uniform_clock, wind_active
+from dobwind.simulate.simulate import simulate
+from dobwind.io.ulog import compare_with_px4
 from tests.helpers import M300
 from tests.ulog_writer import Topic, write_ulog
 
@@ -154,8 +154,8 @@ def test_estimate_csv_is_on_the_logs_clock_with_nan_before_the_first_estimate(tm
 
 
 def test_csv_replay_keeps_its_own_time_and_blanks_rows_before_the_first_estimate(tmp_path):
-    from dobwind.logs import write_csv
-    from dobwind.simulate import column_order
+    from dobwind.io.logs import write_csv
+    from dobwind.simulate.simulate import column_order
 
     af, cols = _flight()
     cols = {**cols, "t": cols["t"] + 100.0}
@@ -260,8 +260,8 @@ def test_report_on_a_dataflash_log(tmp_path, capsys):
 
 def test_csv_replay_warns_about_a_wrong_airframe_without_marking_rows(tmp_path, capsys):
     """A streamed CSV log: the same checks (streamed form), a warning and a note, no rows rewritten."""
-    from dobwind.logs import write_csv
-    from dobwind.simulate import column_order
+    from dobwind.io.logs import write_csv
+    from dobwind.simulate.simulate import column_order
 
     _, cols = _flight()
     names = column_order(cols)
@@ -281,7 +281,7 @@ def test_csv_replay_warns_about_a_wrong_airframe_without_marking_rows(tmp_path, 
 
 
 def test_streamed_checks_agree_with_the_whole_flight_checks():
-    from dobwind.plausibility import StreamedChecks
+    from dobwind.replay.plausibility import StreamedChecks
 
     af = load_airframe(M300)
     weight = af.mass_kg * af.gravity_mps2
@@ -298,7 +298,7 @@ def test_streamed_checks_agree_with_the_whole_flight_checks():
 
 
 def test_the_autopilots_speed_band_is_its_variance_along_the_wind():
-    from dobwind.resample import speed_band
+    from dobwind.io.resample import speed_band
 
     t = np.arange(4.0)
     wind = np.array([[3.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, -2.0, 0.0], [3.0, 4.0, 0.0]])
@@ -348,7 +348,7 @@ def test_px4_drag_fusion_log_is_compared_with_its_variances_and_slow_topics_are_
 def test_dataflash_with_the_ekf_at_10_hz_is_fed_everywhere(tmp_path):
     """ArduPilot logs its EKF (XKF1) at 10 Hz by default: the same policy as ULog, every row fed."""
     pytest.importorskip("pymavlink")
-    from dobwind.replay import replay_autopilot
+    from dobwind.replay.replay import replay_autopilot
     from tests.dataflash_writer import write_dataflash
     from tests.test_dataflash import MESSAGES, _flight as df_flight, _rows as df_rows
 
@@ -365,7 +365,7 @@ def test_report_reads_a_ros2_bag_on_its_own_clock(tmp_path):
     """report's replay of a bag (the figures are the same code as for the .bin above): the bag's clock,
     the autopilot's wind as reference, the comparison."""
     pytest.importorskip("rosbags")
-    from dobwind.report import load_flight
+    from dobwind.report.report import load_flight
     from tests.test_rosbag import _flight as bag_flight, _px4_bag
 
     af, cols = bag_flight()

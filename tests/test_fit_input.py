@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from dobwind.cli import main
-from dobwind.logs import TRUE_WIND_MAX_MPS
+from dobwind.cli.app import main
+from dobwind.io.logs import TRUE_WIND_MAX_MPS
 from dobwind.model.airframe import load_airframe
 from tests.helpers import M300
 
@@ -96,8 +96,8 @@ def test_a_log_too_short_to_calibrate_beside_a_good_one_is_handled(rows, good, t
 
 def test_a_fitted_airframe_the_loader_would_refuse_is_not_written():
     # fit's output goes through the loader first (a thrust scale of 20 from logs in the wrong unit).
-    from dobwind.cli import _refuse_out_of_range
-    from dobwind.errors import InputError
+    from dobwind.cli.app import _refuse_out_of_range
+    from dobwind.core.errors import InputError
     from dobwind.model.airframe_toml import dumps
     from tests.helpers import airframe_dict
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dobwind.fit import Points, _offset_from_directions, _opposing_directions
+from dobwind.calibrate.fit import Points, _offset_from_directions, _opposing_directions
 
 
 def _points(offset: tuple[float, float], speeds: np.ndarray, angles_deg: np.ndarray, c: float = 2.5) -> Points:

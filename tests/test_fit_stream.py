@@ -9,14 +9,14 @@ import math
 import numpy as np
 import pytest
 
-from dobwind import calpoints, calstream, dragfit, fit
-from dobwind.cli import main
-from dobwind.fitfamily import fit_airframe
-from dobwind.logs import FlightLog, iter_log, read_log
+from dobwind.calibrate import calpoints, calstream, dragfit, fit
+from dobwind.cli.app import main
+from dobwind.calibrate.fitfamily import fit_airframe
+from dobwind.io.logs import FlightLog, iter_log, read_log
 from dobwind.model.airframe import load_airframe
 from dobwind.model.airframe_toml import dump_airframe
 from dobwind.model.step import build_step
-from dobwind.selfcheck import check_log
+from dobwind.calibrate.selfcheck import check_log
 from tests.helpers import ROOT
 
 AIRFRAME = ROOT / "benchmarks" / "vehicles" / "px4quad.airframe.toml"
@@ -203,7 +203,7 @@ def test_a_capped_calibration_is_thinned_evenly_and_streams_byte_for_byte(logs, 
 def test_sparse_cv_windows_are_warned_of():
     """8 h of calibration with 8 s holds: 36,000 samples over 28,800 s is 1.25 Hz, and a hold scored
     from 5 s after its start holds 3 s, 3.75 samples: under 4, a warning; an hour (10 Hz) is not."""
-    from dobwind.holdcv import sparse_windows
+    from dobwind.calibrate.holdcv import sparse_windows
 
     rate_8h = dragfit.sample_rate_hz(8 * 3600.0)
     assert rate_8h == pytest.approx(1.25)

@@ -5,8 +5,8 @@ import math
 
 import pytest
 
-from dobwind.fit import FitReport
-from dobwind.fitreport import text_report
+from dobwind.calibrate.fit import FitReport
+from dobwind.calibrate.fitreport import text_report
 
 
 def _drag_report(model: str) -> FitReport:

@@ -1,5 +1,5 @@
 """The drag law's four-fold harmonics (q4c, q4s in model/forceair.py) and the simulator's per-axis drag
-(`[drag] speed = "axis"` in dobwind/vehicle.py) they are for.
+(`[drag] speed = "axis"` in dobwind/simulate/vehicle.py) they are for.
 
 Pinned: the simulator's per-axis force in closed form; the forward law against a polar transcription;
 what the harmonics can and cannot hold of a per-axis law (a least-squares fit on a direction grid, then
@@ -14,14 +14,14 @@ import math
 import numpy as np
 import pytest
 
-from dobwind import dragfit, holdcv
-from dobwind.errors import InputError
+from dobwind.calibrate import dragfit, holdcv
+from dobwind.core.errors import InputError
 from dobwind.model import forceair
 from dobwind.model.airframe import load_airframe, parse_airframe
 from dobwind.model.airframe_toml import dump_airframe
 from dobwind.model.forceair import (DragLaw, body_drag_airflow_numpy, body_drag_force, drag_airflow_numpy,
                                     drag_force, horizontal_drag_basis)
-from dobwind.vehicle import body_force, parse_vehicle
+from dobwind.simulate.vehicle import body_force, parse_vehicle
 from tests.helpers import M300, hold_samples, random_body_flight
 
 THETA = np.linspace(0.0, 2 * math.pi, 720, endpoint=False)

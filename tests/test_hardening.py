@@ -12,16 +12,16 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from dobwind.cli import main
-from dobwind.inputs import step_inputs
-from dobwind.logs import FlightLog
+from dobwind.cli.app import main
+from dobwind.io.inputs import step_inputs
+from dobwind.io.logs import FlightLog
 from dobwind.model import plausibility as P
 from dobwind.model import reference
 from dobwind.model.airframe import load_airframe
 from dobwind.model.errors import CheckFailed
 from dobwind.model.status import REJECTED_MASK, STATUS_BITS
 from dobwind.model.step import build_step
-from dobwind.simulate import simulate
+from dobwind.simulate.simulate import simulate
 from tests.helpers import M300, ROOT
 
 BITS = {b.name: b.value for b in STATUS_BITS}
@@ -263,12 +263,12 @@ _ENVELOPE = "\n[envelope]\nforce_h_max = 15.0\nforce_z = [-20.0, 15.0]\nairflow_
                                   "plausible: ground speed bound x1.1"])
 def test_issue_37_surviving_mutants_fail_the_generated_self_test(tmp_path, name):
     """The header's macros and the envelope were checked by nothing; the plausibility bounds are new.
-    Each mutant (harness/mutant_table.py) applied to fresh C must fail the self-test that generate runs."""
+    Each mutant (tools/mutant_table.py) applied to fresh C must fail the self-test that generate runs."""
     from dobwind.codegen.generate import generate_code, write_files
-    from dobwind.harness.mutant_table import c_mutants
-    from dobwind.harness.mutants import apply_c_mutant
+    from tools.mutant_table import c_mutants
+    from tools.mutants import apply_c_mutant
     from dobwind.model.airframe import parse_airframe
-    from dobwind.selftest_gate import run_selftest
+    from dobwind.generate.selftest_gate import run_selftest
 
     af = parse_airframe(M300.read_text() + _ENVELOPE, "m300+envelope")
     files = generate_code(af, "single").files

@@ -7,7 +7,7 @@ import re
 
 import pytest
 
-from dobwind.cli import build_parser, main
+from dobwind.cli.app import build_parser, main
 from dobwind.model.airframe import load_airframe
 from tests.helpers import M300, airframe_dict
 

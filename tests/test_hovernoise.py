@@ -1,4 +1,4 @@
-"""The low-pass at zero airflow chosen from the noise at low airflow (dobwind/hovernoise.py): the rule
+"""The low-pass at zero airflow chosen from the noise at low airflow (dobwind/calibrate/hovernoise.py): the rule
 against its closed form and limits, the premise it rests on (a first-order low-pass passes a white
 noise variance proportional to its cutoff), and `fit` on a noisy simulated vehicle, whose still-air
 flight then reads less wind."""
@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from scipy.signal import lfilter
 
-from dobwind.cli import main
-from dobwind.hovernoise import HoverNoise, quieter_schedule
+from dobwind.cli.app import main
+from dobwind.calibrate.hovernoise import HoverNoise, quieter_schedule
 from dobwind.model.airframe import FilterSchedule, load_airframe
 from tests.helpers import noisy_flights
 
@@ -49,7 +49,7 @@ def test_white_noise_through_h_has_variance_proportional_to_the_cutoff(cutoff_hz
     then the scheduled low-pass) with an observer well above the cutoff: the variance of white noise
     through it is alpha / (2 - alpha) of the input's (the discrete low-pass alone, alpha = 1 -
     e^(-2 pi f dt)), which is pi f dt to first order: proportional to the cutoff."""
-    from dobwind import dragfit
+    from dobwind.calibrate import dragfit
     from tests.helpers import make_airframe
 
     dt = 0.02
@@ -120,7 +120,7 @@ def test_the_text_report_says_what_the_fit_did_to_the_low_pass(noisy, tmp_path, 
 
 
 def _check(passed: bool, still: float | None, reasons: tuple[str, ...] = ()):
-    from dobwind.selfcheck import SelfCheck
+    from dobwind.calibrate.selfcheck import SelfCheck
 
     return SelfCheck(passed, list(reasons), 0.05, 8.0, 0.5, 0.5, 10.0, [], 0.05, 0.04, still)
 
@@ -128,7 +128,7 @@ def _check(passed: bool, still: float | None, reasons: tuple[str, ...] = ()):
 def test_each_pass_lowers_from_the_noise_the_last_check_measured():
     """Two rounds: 0.2 Hz at 0.14 m/s -> 0.05 Hz (floor 0.01); measured there 0.0875 (the observer's
     bandwidth keeps it above the first-order figure) -> 0.05 (0.07 / 0.0875)^2 = 0.032 Hz."""
-    from dobwind.fitfamily import _quiet_hover
+    from dobwind.calibrate.fitfamily import _quiet_hover
     from tests.helpers import make_airframe
 
     af = make_airframe(**{"filter.speeds": [0.0, 3.0, 10.0], "filter.cutoffs": [0.2, 0.35, 0.5]})
@@ -147,7 +147,7 @@ def test_each_pass_lowers_from_the_noise_the_last_check_measured():
 
 def test_a_lower_cutoff_that_fails_the_self_check_is_not_taken():
     """A slower low-pass settles later: short calibration holds may leave the check nothing to score."""
-    from dobwind.fitfamily import _quiet_hover
+    from dobwind.calibrate.fitfamily import _quiet_hover
     from tests.helpers import make_airframe
 
     af = make_airframe(**{"filter.speeds": [0.0, 3.0, 10.0], "filter.cutoffs": [0.2, 0.35, 0.5]})
@@ -169,8 +169,8 @@ def test_the_noise_at_low_airflow_comes_from_segments_slow_in_both_airflow_and_w
     segment where airflow and wind are both near zero, 0.02 on three that are not (wind 5 m/s; still
     air with the vehicle at 3 m/s; a 3 m/s wind that the vehicle drifts with, so its airflow is zero).
     Only the first may count."""
-    from dobwind import selfcheck
-    from dobwind.logs import FlightLog
+    from dobwind.calibrate import selfcheck
+    from dobwind.io.logs import FlightLog
     from tests.helpers import make_airframe
 
     rate, seconds = 20.0, 40.0
@@ -206,7 +206,7 @@ def test_the_noise_at_low_airflow_comes_from_segments_slow_in_both_airflow_and_w
 
 
 def test_noise_still_above_the_target_at_the_floor_is_a_warning():
-    from dobwind.fitfamily import _quiet_hover
+    from dobwind.calibrate.fitfamily import _quiet_hover
     from tests.helpers import make_airframe
 
     af = make_airframe(**{"filter.speeds": [0.0, 3.0, 10.0], "filter.cutoffs": [0.2, 0.35, 0.5]})
@@ -222,7 +222,7 @@ def test_a_lower_cutoff_that_is_not_quieter_is_not_taken():
     """Issue #31: on a real tunnel run the error at low airflow was a slow wander, and the floor's 0.05 Hz
     read 1.08 m/s against 0.81 at 0.2 Hz. A slower low-pass that is no quieter is not taken, and said;
     one that is quieter still is (the first round here), and the rounds stop at the first that is not."""
-    from dobwind.fitfamily import _quiet_hover
+    from dobwind.calibrate.fitfamily import _quiet_hover
     from tests.helpers import make_airframe
 
     af = make_airframe(**{"filter.speeds": [0.0, 3.0, 10.0], "filter.cutoffs": [0.2, 0.35, 0.5]})

@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dobwind.cli import main
-from dobwind.initframe import REFERENCE_MASS_KG, build_airframe, common_rate
-from dobwind.loginspect import inspect_log
+from dobwind.cli.app import main
+from dobwind.inspect.initframe import REFERENCE_MASS_KG, build_airframe, common_rate
+from dobwind.inspect.anylog import inspect_log
 from dobwind.model.airframe import PRIOR, load_airframe
 from tests.dataflash_writer import write_dataflash
 from tests.helpers import ROOT
@@ -280,7 +280,7 @@ def test_dataflash_rpm_init(tmp_path):
 
 
 def test_csv_inspect_and_init(tmp_path):
-    from dobwind.logs import write_csv
+    from dobwind.io.logs import write_csv
 
     t = np.arange(0, 10, 0.01)
     cols = {"t": t, "vel_n": t * 0, "vel_e": t * 0, "vel_d": t * 0, "acc_n": t * 0, "acc_e": t * 0, "acc_d": t * 0,
@@ -310,7 +310,7 @@ def test_real_logs_inspect_and_init(log, tmp_path, capsys):
 
 def test_rosbag_streams_airborne_esc_wind_and_init(tmp_path):
     pytest.importorskip("rosbags")
-    from dobwind.simulate import simulate
+    from dobwind.simulate.simulate import simulate
     from tests.helpers import M300
     from tests.test_rosbag import T0_US as BAG_T0_US, _px4_bag
 
@@ -332,12 +332,12 @@ def test_rosbag_streams_airborne_esc_wind_and_init(tmp_path):
 def test_inspect_names_only_what_the_readers_read(px4, tmp_path):
     """The roles' streams are topics the replay readers parse (ulog.TOPICS_READ, dataflash.WANTED): a
     reader that drops a topic must not leave inspect promising it."""
-    from dobwind.ulog import TOPICS_READ
+    from dobwind.io.ulog import TOPICS_READ
 
     for role in inspect_log(str(px4[0])).roles:
         assert role.stream is None or role.stream in TOPICS_READ, role
     pytest.importorskip("pymavlink")
-    from dobwind.dataflash import WANTED
+    from dobwind.io.dataflash import WANTED
 
     for role in inspect_log(str(_ardupilot_log(tmp_path / "a.bin", esc_rpm=True))).roles:
         assert role.stream is None or role.stream.split(" ")[0] in WANTED, role

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from dobwind.cli import main
-from dobwind.jsonout import NULL_PATHS_KEY, dumps
+from dobwind.cli.app import main
+from dobwind.io.jsonout import NULL_PATHS_KEY, dumps
 from dobwind.model.airframe_toml import dumps as toml_dumps
 from tests.helpers import M300, airframe_dict
 
@@ -38,7 +38,7 @@ def _json_run(argv: list[str], capsys) -> tuple[int, dict]:
 def test_every_command_with_json_is_tested_here():
     import argparse
 
-    from dobwind.cli import build_parser
+    from dobwind.cli.app import build_parser
 
     sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
     with_json = {name for name, p in sub.choices.items() if any("--json" in a.option_strings for a in p._actions)}
@@ -136,15 +136,15 @@ def test_profile_json_with_unknown_sigmas(tmp_path, capsys):
 
 
 def test_fit_json_with_a_non_finite_figure(tmp_path, capsys, monkeypatch):
-    import dobwind.fit as fit
-    import dobwind.fitfamily as fitfamily
-    import dobwind.fitreport as fitreport
+    import dobwind.calibrate.fit as fit
+    import dobwind.calibrate.fitfamily as fitfamily
+    import dobwind.calibrate.fitreport as fitreport
     from dobwind.model.airframe import load_airframe
 
     af = load_airframe(M300)
     from dataclasses import asdict
 
-    from dobwind.selfcheck import Thresholds, verdict
+    from dobwind.calibrate.selfcheck import Thresholds, verdict
 
     passed = asdict(verdict(af, [], 0.05, 8.0, Thresholds()))  # the self-check is not what this test is about
     monkeypatch.setattr(fitfamily, "fit_airframe", lambda *a, **k: (af, fit.FitReport(points=9, self_check=passed), None))
@@ -157,9 +157,9 @@ def test_fit_json_with_a_non_finite_figure(tmp_path, capsys, monkeypatch):
 
 def test_the_real_data_check_prints_strict_json(monkeypatch, capsys):
     """`make realdata --json` is not a subcommand, but its output is read by tools too."""
-    from dobwind import realdata
+    from benchmarks import realdata
 
-    from dobwind.runconsistency import RunForce
+    from benchmarks.runconsistency import RunForce
 
     run = RunForce("35wind", 4.2, 4.2, 0.0, math.inf)
     found = {"training_controller": "baseline", "runs": [run], "offset_n": [1.0, 0.5]}

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import json
 
-from dobwind.cli import main
-from dobwind.replay import UNIT_KEYS
+from dobwind.cli.app import main
+from dobwind.replay.replay import UNIT_KEYS
 from tests.helpers import M300
 
 

@@ -13,7 +13,7 @@ import pytest
 from dobwind.codegen.generate import generate_code
 from dobwind.codegen.kernels import fit_atan, fit_expm1
 from dobwind.harness.build import run
-from dobwind.harness.m4cycles import Instruction, cost
+from benchmarks.m4cycles import Instruction, cost
 from dobwind.model.airframe import load_airframe
 from tests.helpers import M300
 
@@ -39,7 +39,7 @@ int main(int argc, char **argv)
 @pytest.fixture(scope="module")
 def probe(tmp_path_factory):
     work = tmp_path_factory.mktemp("kernels")
-    # `make mutants` points this at a mutated copy of the generated C (harness/mutants.py).
+    # `make mutants` points this at a mutated copy of the generated C (tools/mutants.py).
     given = os.environ.get("DOBWIND_KERNEL_C_DIR")
     files = ({p.name: p.read_text() for p in Path(given).glob("m300_wind*")} if given
              else generate_code(load_airframe(M300), "single").files)

@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from dobwind import dragfit, holdcv
+from dobwind.calibrate import dragfit, holdcv
 from dobwind.model.airframe import load_airframe
 from dobwind.model.forceair import DragLaw, drag_airflow_numpy, drag_force, law_decreasing
 from tests.helpers import M300, observed_force
@@ -142,8 +142,8 @@ def test_a_set_whose_law_decreases_is_dropped_and_the_choice_made_again(quadrati
 
 
 def test_the_report_names_a_dropped_set():
-    from dobwind.fit import FitReport
-    from dobwind.fitreport import text_report
+    from dobwind.calibrate.fit import FitReport
+    from dobwind.calibrate.fitreport import text_report
 
     report = FitReport(model="drag", drag={"l0": 0.0, "q0": 0.05}, horizontal_rmse_mps=0.1, vertical_rmse_mps=0.1,
                        not_increasing=["l0+q0+l2c: the law decreases at 70 deg from x at 0.01 m/s"])
@@ -166,7 +166,7 @@ def test_linear_anisotropy_the_data_need_is_kept():
 def test_a_family_whose_every_law_decreases_is_refused_with_the_reason(quadratic_only, monkeypatch):
     """Only the full set offered and its law decreases: the drag family is not fitted, and the reason
     says where (fitfamily._drag_families, which fit then reports as a failure or falls back)."""
-    from dobwind import fitfamily
+    from dobwind.calibrate import fitfamily
 
     monkeypatch.setattr(dragfit, "HORIZONTAL_SETS", (("l0", "q0", "l2c", "q2c", "l2s", "q2s"),))
     families, scores, failures = fitfamily._drag_families(load_airframe(M300), {"heading": quadratic_only},
@@ -177,7 +177,7 @@ def test_a_family_whose_every_law_decreases_is_refused_with_the_reason(quadratic
 
 def test_no_vertical_drag_is_refused(quadratic_only):
     """lz = qz = 0 leaves the vertical inversion 2 r / max(0, 1e-9): the family is refused."""
-    from dobwind import fitfamily
+    from dobwind.calibrate import fitfamily
 
     choice = dragfit.choose_drag_law(quadratic_only, holdcv.prefer_on_holds)
     theta = choice.theta.copy()

@@ -1,6 +1,6 @@
 """The step's limits and the log reader's heading, pinned by numbers written here (the README's and
 the paper's conventions), never by the constants the code defines: a test that imported MIN_DT_S
-would move with it. The mutation suite (harness/mutants.py) relies on these to catch model mutants."""
+would move with it. The mutation suite (tools/mutants.py) relies on these to catch model mutants."""
 from __future__ import annotations
 
 import math

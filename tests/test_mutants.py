@@ -6,8 +6,8 @@ from __future__ import annotations
 import pytest
 
 from dobwind.codegen.generate import generate_code
-from dobwind.harness.mutant_table import CMutant, ModelMutant, c_mutants, model_mutants
-from dobwind.harness.mutants import AnchorError, Outcome, apply_c_mutant, check_c, run_model_mutant, table
+from tools.mutant_table import CMutant, ModelMutant, c_mutants, model_mutants
+from tools.mutants import AnchorError, Outcome, apply_c_mutant, check_c, run_model_mutant, table
 from dobwind.model.airframe import load_airframe
 from dobwind.model.step import build_step
 from tests.helpers import M300

@@ -18,8 +18,8 @@ from pathlib import Path
 
 import pytest
 
-from dobwind.atomic import TEMP_PREFIX
-from dobwind.cli import main
+from dobwind.io.atomic import TEMP_PREFIX
+from dobwind.cli.app import main
 from tests.helpers import M300, ROOT
 
 LIMIT_BYTES = 20_000   # every command's largest output is bigger (CSV logs, PNGs, the C self-test)
@@ -155,7 +155,7 @@ def test_the_next_run_removes_what_a_killed_run_left_and_nothing_else(logs, tmp_
 
 
 def test_a_live_runs_temporary_is_not_removed(tmp_path):
-    from dobwind.atomic import remove_stale
+    from dobwind.io.atomic import remove_stale
 
     sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
     try:

@@ -7,17 +7,17 @@ import math
 import numpy as np
 import pytest
 
-from dobwind import baseline
-from dobwind.cli import main
+from dobwind.replay import baseline
+from dobwind.cli.app import main
 from dobwind.codegen.tolerance import TOLERANCE
-from dobwind.fit import (VERTICAL_CANDIDATES, Points, _extrapolation_rmse, _term_matrix, fit_polynomial,
+from dobwind.calibrate.fit import (VERTICAL_CANDIDATES, Points, _extrapolation_rmse, _term_matrix, fit_polynomial,
                          read_calibration_logs, select_terms)
-from dobwind.fitfamily import FAMILY_TIE
-from dobwind.logs import ESTIMATE_COLUMNS, read_log, required_columns
+from dobwind.calibrate.fitfamily import FAMILY_TIE
+from dobwind.io.logs import ESTIMATE_COLUMNS, read_log, required_columns
 from dobwind.model.airframe import load_airframe
 from dobwind.model.status import REJECTED_MASK, STATUS_BITS, accepted
-from dobwind.replay import replay, score
-from dobwind.simulate import aerodynamic_force, simulate, true_vehicle
+from dobwind.replay.replay import replay, score
+from dobwind.simulate.simulate import aerodynamic_force, simulate, true_vehicle
 from tests.helpers import M300
 
 STATUS_SETTLING = next(bit.value for bit in STATUS_BITS if bit.name == "SETTLING")

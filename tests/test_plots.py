@@ -7,7 +7,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from dobwind import plots  # noqa: E402
+from dobwind.io import plots  # noqa: E402
 
 
 def _wind_from(deg: np.ndarray, speed: float = 5.0) -> np.ndarray:

@@ -6,7 +6,7 @@ import subprocess
 import casadi as ca
 import pytest
 
-from dobwind.cli import main
+from dobwind.cli.app import main
 from dobwind.codegen.printer import CPrinter, LiteralError
 from dobwind.harness.build import STRICT_FLAGS, system_compiler
 from dobwind.model.airframe_toml import dumps

@@ -10,10 +10,10 @@ import pytest
 
 from dobwind.analysis.figures import settling_time_s as analysis_settling_time
 from dobwind.analysis.linear import axis_system
-from dobwind.cli import main
-from dobwind.envelope import calibration_envelope, observer_noise, pooled_noise, uncertainty_table, with_observer_noise
-from dobwind.errors import InputError
-from dobwind.logs import read_log, required_columns, step_inputs
+from dobwind.cli.app import main
+from dobwind.calibrate.envelope import calibration_envelope, observer_noise, pooled_noise, uncertainty_table, with_observer_noise
+from dobwind.core.errors import InputError
+from dobwind.io.logs import read_log, required_columns, step_inputs
 from dobwind.model import reference
 from dobwind.model.airframe import Envelope, ForceAirModel, Uncertainty, load_airframe, parse_airframe
 from dobwind.model.airframe_toml import dump_airframe, dumps
@@ -23,8 +23,8 @@ from dobwind.model.settling import settling_time_s
 from dobwind.model.status import DT_TOLERANCE, REJECTED_MASK, STATUS_BITS
 from dobwind.model.step import build_step
 from dobwind.model.terms import parse_term
-from dobwind.replay import run_backend
-from dobwind.simulate import write_log
+from dobwind.replay.replay import run_backend
+from dobwind.simulate.simulate import write_log
 from tests.flight import accel_inputs, balance, thrust_inputs
 from tests.helpers import M300, airframe_dict, all_modes, make_airframe
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from dobwind import realdata, runconsistency
+from benchmarks import realdata, runconsistency
 
 
 @pytest.fixture(scope="module")

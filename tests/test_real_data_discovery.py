@@ -10,13 +10,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dobwind import accuracy_real, realdata
-from dobwind.accuracy_real import real_lines, real_runs
-from dobwind.accuracy_run import Child
-from dobwind.errors import InputError
-from dobwind.logs import read_log
+from benchmarks import accuracy_real, realdata
+from benchmarks.accuracy_real import real_lines, real_runs
+from benchmarks.accuracy_run import Child
+from dobwind.core.errors import InputError
+from dobwind.io.logs import read_log
 from dobwind.model.airframe import load_airframe
-from dobwind.tunnelruns import convert, convert_all, discover, read_run, training_controller
+from benchmarks.tunnelruns import convert, convert_all, discover, read_run, training_controller
 
 HEADER = ["", "t", "p", "p_d", "v", "v_d", "q", "R", "w", "T_sp", "q_sp", "hover_throttle", "fa", "pwm"]
 ROLL, PITCH, YAW = 0.1, -0.2, 0.7  # rad, body FLU to world (x, y, z up)

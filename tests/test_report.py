@@ -9,7 +9,7 @@ import subprocess
 
 import pytest
 
-from dobwind.cli import main
+from dobwind.cli.app import main
 from tests.helpers import M300
 
 # Injected into a copy of the page for the browser run only: records script errors and console.error

@@ -10,13 +10,13 @@ pytest.importorskip("rosbags")
 from rosbags.rosbag2 import StoragePlugin, Writer  # noqa: E402
 from scipy.spatial.transform import Rotation  # noqa: E402
 
-from dobwind.cli import main  # noqa: E402
-from dobwind.logs import write_csv  # noqa: E402
+from dobwind.cli.app import main  # noqa: E402
+from dobwind.io.logs import write_csv  # noqa: E402
 from dobwind.model.airframe import load_airframe  # noqa: E402
 from dobwind.model.status import STATUS_LANDED, accepted  # noqa: E402
-from dobwind.replay import replay, replay_autopilot  # noqa: E402
-from dobwind.rosbag import _typestore  # noqa: E402
-from dobwind.simulate import simulate  # noqa: E402
+from dobwind.replay.replay import replay, replay_autopilot  # noqa: E402
+from dobwind.io.rosbag import _typestore  # noqa: E402
+from dobwind.simulate.simulate import simulate  # noqa: E402
 from tests.helpers import M300  # noqa: E402
 
 T0_US = 5_000_000

@@ -1,4 +1,4 @@
-"""The runs' consistency check (dobwind/runconsistency.py), on runs made from a known convex law.
+"""The runs' consistency check (benchmarks/runconsistency.py), on runs made from a known convex law.
 
 A figure-8 sweeps the airflow sinusoidally about its mean, so for F = l s + q s^2 along the mean
 airflow the least-squares slope is exactly F'(s_mean) = l + 2 q s_mean (the quadratic's covariance with
@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from dobwind import runconsistency as rc
+from benchmarks import runconsistency as rc
 
 L, Q = 0.3, 0.08          # N/(m/s), N/(m/s)^2
 AMPLITUDE = 1.0           # m/s, the figure-8's sweep of the airflow

@@ -1,4 +1,4 @@
-"""The run-mean anchored drag fit (dobwind/runmeans.py, dragfit.anchor_on_runs), on synthetic runs.
+"""The run-mean anchored drag fit (dobwind/calibrate/runmeans.py, dragfit.anchor_on_runs), on synthetic runs.
 
 Each run is a tunnel setting: a figure-8 sweeps the airflow +-1 m/s about the run's mean speed along x
 (and 0.5 m/s vertically). The force follows a known heading-frame law exactly, so the regressor columns
@@ -13,9 +13,9 @@ import math
 import numpy as np
 import pytest
 
-from dobwind import dragfit, runmeans
-from dobwind.fitfamily import refit_without_outliers
-from dobwind.fit import FitReport
+from dobwind.calibrate import dragfit, runmeans
+from dobwind.calibrate.fitfamily import refit_without_outliers
+from dobwind.calibrate.fit import FitReport
 
 TRUE = {"l0": 0.3, "q0": 0.08, "ox": 1.0, "oy": -0.5, "lz": 0.4, "kappa": 0.02}
 SPEEDS = (0.0, 3.0, 6.0, 9.0, 12.0)
@@ -151,7 +151,7 @@ def test_only_a_minority_of_an_anchored_fits_outliers_is_exempt():
 
 def test_the_self_check_does_not_judge_an_exempt_log_but_judges_the_others():
     from dobwind.model.airframe import load_airframe
-    from dobwind.selfcheck import LogCheck, Thresholds, verdict
+    from dobwind.calibrate.selfcheck import LogCheck, Thresholds, verdict
     from tests.helpers import M300
 
     logs = [LogCheck(f"{k}.csv", 100, 50, 80, speed_rms_mps=rms, speed_max_mps=rms, direction_mean_deg=1.0)

@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dobwind import dragfit, fit, holdcv
-from dobwind.cli import main
+from dobwind.calibrate import dragfit, fit, holdcv
+from dobwind.cli.app import main
 from dobwind.model.airframe import load_airframe
 from tests.helpers import M300
 
@@ -224,7 +224,7 @@ def test_fit_with_a_log_without_a_valid_row(sweep, capsys):
 def test_the_streamed_fit_of_a_log_with_invalid_first_rows_is_the_whole_log_fit(tmp_path):
     """fit read a block at a time (blocks of about 60 rows) against the whole-log fit, the first 150 rows'
     wind and thrust missing: the invalid run spans blocks, the airframes and reports are equal."""
-    from dobwind.fitfamily import fit_airframe
+    from dobwind.calibrate.fitfamily import fit_airframe
     from dobwind.model.airframe_toml import dump_airframe
     from tests.test_fit_stream import AIRFRAME, BLOCK_BYTES, _simulate
 

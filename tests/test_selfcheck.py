@@ -9,11 +9,11 @@ import math
 import numpy as np
 import pytest
 
-from dobwind.cli import main
-from dobwind.holdcv import HoldCV, _window_ids, window_speed_errors
+from dobwind.cli.app import main
+from dobwind.calibrate.holdcv import HoldCV, _window_ids, window_speed_errors
 from dobwind.model.airframe import load_airframe
 from dobwind.model.airframe_toml import dumps
-from dobwind.selfcheck import LogCheck, Thresholds, check_log, text_table, verdict
+from dobwind.calibrate.selfcheck import LogCheck, Thresholds, check_log, text_table, verdict
 from tests.helpers import M300
 
 TINY_VEHICLE = {"mass": 2.0, "rate": 20.0, "drag": {"x": {"quadratic": 0.03}, "y": {"quadratic": 0.04},
@@ -58,7 +58,7 @@ def test_with_segments_each_hold_is_one_window_scored_after_its_transition():
     """Two logs of three 8 s segments at 10 Hz; the prediction is 1 m/s off during each segment's first
     5 s (the transition) and exact after it. Scored per segment after HOLD_SETTLE_S, the hold-mean
     errors are 0; the fixed 10 s windows, which straddle transitions, see the transitions' error."""
-    from dobwind import dragfit, holdcv
+    from dobwind.calibrate import dragfit, holdcv
 
     t = np.arange(240) / 10.0
     segment = (t // 8).astype(int)
@@ -83,7 +83,7 @@ def test_with_segments_each_hold_is_one_window_scored_after_its_transition():
 def _hold_samples(holds: int, rate_hz: float = 10.0, hold_s: float = 8.0):
     """One log of ``holds`` segments along heading x, at 1-8 m/s in turn; ``observed[:, 0]`` carries each
     sample's index so that a fake fit_predict can add a known error to it."""
-    from dobwind import dragfit
+    from dobwind.calibrate import dragfit
 
     t = np.arange(int(holds * hold_s * rate_hz)) / rate_hz
     hold, age = dragfit.segment_runs(t, (t // hold_s).astype(int))
@@ -105,7 +105,7 @@ def test_hold_cv_separates_a_bias_that_stays_from_noise_that_averages_out():
     variance 0.04 / n, so noise x sqrt(T) = 0.2 sqrt(0.1 s) whatever the window; the bias is 0.05. The
     scored part of an 8 s hold is 3 s, so on it the RMS error is sqrt(0.05^2 + 0.04 / 30), and on a
     hold scored for 15 s, sqrt(0.05^2 + 0.004 / 15)."""
-    from dobwind import holdcv
+    from dobwind.calibrate import holdcv
 
     samples = _hold_samples(600)
     noise = np.random.default_rng(3).normal(0.0, 0.2, len(samples))
@@ -129,7 +129,7 @@ def test_hold_cv_separates_a_bias_that_stays_from_noise_that_averages_out():
 def test_hold_cv_halves_are_halves_in_time():
     """+0.1 m/s in each scored window's first half, -0.1 in its second: every window's mean is exact,
     the halves differ by 0.2, so the split reads noise of variance 0.01 per window and no bias."""
-    from dobwind import holdcv
+    from dobwind.calibrate import holdcv
 
     samples = _hold_samples(100)
     scored_age = samples.hold_age_s - holdcv.HOLD_SETTLE_S
@@ -223,8 +223,8 @@ def test_a_good_fit_passes_and_its_replay_matches_replay(tiny, tmp_path, capsys)
     # The self-check runs the same step as `replay` (an independent path: its own reader, runner and
     # scoring). Scored from the same 5 s into each segment, the per-segment speed errors agree up to the
     # delay matching of the truth, which a steady hold's mean hardly sees.
-    from dobwind.logs import read_log
-    from dobwind.replay import replay, score
+    from dobwind.io.logs import read_log
+    from dobwind.replay.replay import replay, score
 
     fitted = load_airframe(out)
     model, log, traj = replay(fitted, tiny["vertical"])
@@ -240,8 +240,8 @@ def test_the_self_check_runs_the_compiled_double_step_or_without_a_compiler_the_
     every figure is the same either way."""
     import dataclasses as dc
 
-    from dobwind import selfcheck
-    from dobwind.logs import read_log
+    from dobwind.calibrate import selfcheck
+    from dobwind.io.logs import read_log
 
     fitted = load_airframe(tiny["airframe"])
     log = read_log(tiny["vertical"])
@@ -272,7 +272,7 @@ def test_fit_records_the_observer_noise_of_its_own_replay(tiny, tmp_path, capsys
     assert fitted.uncertainty.noise_h_mps == pytest.approx(check["noise_h_mps"], rel=1e-12)
     assert fitted.uncertainty.noise_up_mps == pytest.approx(check["noise_up_mps"], rel=1e-12)
     from dobwind.model.status import accepted
-    from dobwind.replay import replay
+    from dobwind.replay.replay import replay
 
     model, _, traj = replay(fitted, tiny["vertical"])
     sigma = traj.outputs[accepted(traj.status), model.outputs.slice("wind_sigma_h")][:, 0]
@@ -299,9 +299,9 @@ def test_a_log_that_contributes_nothing_fails_and_nothing_is_written(tiny, tmp_p
 
 def test_force_writes_a_model_that_failed_and_warns(tmp_path, capsys, monkeypatch):
     """--force: the same failed verdict is written, exit 0, one warning line with the reasons."""
-    import dobwind.fit as fit
-    import dobwind.fitfamily as fitfamily
-    import dobwind.fitreport as fitreport
+    import dobwind.calibrate.fit as fit
+    import dobwind.calibrate.fitfamily as fitfamily
+    import dobwind.calibrate.fitreport as fitreport
 
     af = load_airframe(M300)
     failed = verdict(af, [_log("a.csv", fit_samples=0)], 0.3, 10.0, Thresholds())

@@ -6,8 +6,8 @@ import pytest
 
 from dobwind.model.airframe import load_airframe, parse_airframe
 from dobwind.model.airframe_toml import dumps
-from dobwind.simulate import SCENARIOS, simulate, simulate_blocks, write_log
-from dobwind.vehicle import load_vehicle
+from dobwind.simulate.simulate import SCENARIOS, simulate, simulate_blocks, write_log
+from dobwind.simulate.vehicle import load_vehicle
 from tests.helpers import M300, ROOT, airframe_dict, collective
 
 

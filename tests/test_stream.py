@@ -9,13 +9,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dobwind.cli import main
-from dobwind.errors import InputError
-from dobwind.logs import CsvWriter, iter_log, read_log, required_columns, write_estimates
+from dobwind.cli.app import main
+from dobwind.core.errors import InputError
+from dobwind.io.logs import CsvWriter, iter_log, read_log, required_columns, write_estimates
 from dobwind.model.airframe import load_airframe
 from dobwind.model.status import accepted
-from dobwind.replay import replay, replay_stream, score
-from dobwind.simulate import write_log
+from dobwind.replay.replay import replay, replay_stream, score
+from dobwind.simulate.simulate import write_log
 
 M300 = Path(__file__).resolve().parents[1] / "airframes" / "m300.toml"
 # Block sizes (prime numbers of bytes) that cut rows at unrelated places: about 4 and 80 rows.

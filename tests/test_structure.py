@@ -80,8 +80,8 @@ def test_the_check_sees_a_long_function(tmp_path):
 # The simulator (simulate.py with its vehicle physics in vehicle.py) and the tilt-method baseline are
 # independent of the model on purpose, and so is the test transcription: they may restate the physics.
 # The mutation table quotes model source lines as its anchors; quoting is not defining.
-INDEPENDENT = {Path("dobwind/simulate.py"), Path("dobwind/vehicle.py"), Path("dobwind/baseline.py"),
-               Path("harness/mutant_table.py")}
+INDEPENDENT = {Path("dobwind/simulate/simulate.py"), Path("dobwind/simulate/vehicle.py"), Path("dobwind/replay/baseline.py"),
+               Path("tools/mutant_table.py")}
 LAYER_FOLDERS = ("model", "codegen", "harness", "dobwind")
 
 # equation -> (a regular expression that writes it out, the one file allowed to)
@@ -140,7 +140,8 @@ def test_the_one_home_check_sees_a_copy(tmp_path):
 
         "yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))\n"
         "y = np.cross(z, heading)\n")
-    (tmp_path / "dobwind" / "simulate.py").write_text("y = np.cross(z, heading)\n")  # independent: allowed
+    (tmp_path / "dobwind" / "simulate").mkdir()
+    (tmp_path / "dobwind" / "simulate" / "simulate.py").write_text("y = np.cross(z, heading)\n")  # independent: allowed
     sites = equation_sites(tmp_path)
     assert sites == {name: sorted([home, "dobwind/copies.py"]) for name, (_, home) in ONE_HOME.items()}
 

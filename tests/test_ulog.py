@@ -5,13 +5,13 @@ import os
 import numpy as np
 import pytest
 
-from dobwind.cli import main
+from dobwind.cli.app import main
 from dobwind.model.airframe import load_airframe, parse_airframe
 from dobwind.model.airframe_toml import dumps
 from dobwind.model.status import STATUS_BITS, STATUS_LANDED, STATUS_NO_DATA, accepted
-from dobwind.replay import replay, replay_ulog
-from dobwind.simulate import column_order, simulate
-from dobwind.logs import write_csv
+from dobwind.replay.replay import replay, replay_ulog
+from dobwind.simulate.simulate import column_order, simulate
+from dobwind.io.logs import write_csv
 from tests.helpers import M300, ROOT, airframe_dict
 from tests.ulog_writer import Topic, write_ulog
 
@@ -271,8 +271,8 @@ def test_corrupt_ulogs_end_quickly_with_one_line_or_one_json_object(tmp_path):
 
 
 def test_the_read_budget_stops_pyulogs_endless_loop(tmp_path):
-    from dobwind.errors import InputError
-    from dobwind.ulog import _open
+    from dobwind.core.errors import InputError
+    from dobwind.io.ulog import open_ulog
     import random
     import time
 
@@ -281,7 +281,7 @@ def test_the_read_budget_stops_pyulogs_endless_loop(tmp_path):
     path.write_bytes(good[:16] + random.Random(0).randbytes(100_000))
     start = time.monotonic()
     with pytest.raises(InputError, match="made no progress"):
-        _open(str(path))
+        open_ulog(str(path))
     assert time.monotonic() - start < 20
 
 
@@ -347,7 +347,7 @@ def test_truncated_ulog_replays_the_readable_part_with_a_warning(tmp_path, capsy
 def test_esc_status_at_4_hz_is_interpolated_not_no_data(tmp_path):
     """Rotor speeds reported every 0.25 s (PX4 SITL) against max_dt 0.1: interpolated, every row fed;
     a longer silence than ROTOR_MAX_GAP_S is still NO_DATA."""
-    from dobwind.resample import ROTOR_MAX_GAP_S
+    from dobwind.io.resample import ROTOR_MAX_GAP_S
 
     af, cols = _flight()
     model, flight, slow = replay_ulog(af, str(_ulog(tmp_path / "slow.ulg", cols, esc_every=25)))
@@ -412,7 +412,7 @@ def test_only_the_topics_read_are_parsed_and_the_flight_is_the_same(tmp_path, mo
     the two variants between them read every one)."""
     import pyulog
 
-    from dobwind import ulog
+    from dobwind.io import ulog
 
     af, cols = _flight()
     specific = variant.startswith("collective")
@@ -435,7 +435,7 @@ def test_only_the_topics_read_are_parsed_and_the_flight_is_the_same(tmp_path, mo
 
     monkeypatch.setattr(pyulog, "ULog", spy)
     filtered = ulog.read_ulog(str(path), af)
-    monkeypatch.setattr(ulog._open, "__defaults__", (None,))  # every topic
+    monkeypatch.setattr(ulog.open_ulog, "__defaults__", (None,))  # every topic
     whole = ulog.read_ulog(str(path), af)
     assert "sensor_gyro" in parsed[1] and "sensor_gyro" not in parsed[0]
     assert parsed[1] - parsed[0] == {"sensor_gyro"}

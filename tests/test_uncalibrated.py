@@ -10,14 +10,14 @@ import json
 import numpy as np
 import pytest
 
-from dobwind import fitfamily
-from dobwind.errors import InputError
-from dobwind.logs import write_csv
+from dobwind.calibrate import fitfamily
+from dobwind.core.errors import InputError
+from dobwind.io.logs import write_csv
 from dobwind.model.airframe import CALIBRATED, PRIOR, load_airframe, parse_airframe
 from dobwind.model.airframe_toml import dump_airframe, dumps
 from dobwind.model.status import NOT_ACCEPTED_MASK, STATUS_BITS, describe
-from dobwind.replay import replay
-from dobwind.simulate import simulate
+from dobwind.replay.replay import replay
+from dobwind.simulate.simulate import simulate
 from tests.helpers import M300, airframe_dict
 
 UNCALIBRATED = 1 << 10
@@ -81,7 +81,7 @@ def test_the_generated_c_sets_it_like_the_reference(flight):
 
 
 def test_the_c_header_and_check_name_it(tmp_path, capsys):
-    from dobwind.cli import main
+    from dobwind.cli.app import main
 
     (tmp_path / "p.toml").write_text(_prior_text())
     assert main(["generate", str(tmp_path / "p.toml"), "-o", str(tmp_path / "c")]) == 0
@@ -109,7 +109,7 @@ def test_fit_starts_from_the_calibrated_state(monkeypatch):
 
 
 def test_replay_warns_once(flight, tmp_path, capsys):
-    from dobwind.cli import main
+    from dobwind.cli.app import main
 
     _, prior, path = flight
     (tmp_path / "p.toml").write_text(M300.read_text() + '\n[calibration]\nstatus = "prior"\n')

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from dobwind.cli import main
+from dobwind.cli.app import main
 from dobwind.model.airframe import load_airframe
 from dobwind.model.airframe_toml import dumps
-from dobwind.simulate import simulate
-from dobwind.vehicle import AxisDrag, VehicleSpec, body_force, parse_vehicle
+from dobwind.simulate.simulate import simulate
+from dobwind.simulate.vehicle import AxisDrag, VehicleSpec, body_force, parse_vehicle
 from tests.helpers import M300, ROOT
 
 QUIET = {"vel_noise": 0.0, "acc_noise": 0.0, "acc_bias_ned": [0.0, 0.0, 0.0], "sf_bias_body": [0.0, 0.0, 0.0],

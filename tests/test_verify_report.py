@@ -29,7 +29,7 @@ def test_clang_present_is_claimed_once_it_ran():
 
 
 def test_verify_checks_a_given_folder_and_catches_a_hand_edit(tmp_path, capsys):
-    from dobwind.cli import main
+    from dobwind.cli.app import main
     from tests.helpers import ROOT
 
     checked_in = ROOT / "generated_c" / "m300"
@@ -50,7 +50,7 @@ def test_verify_checks_a_given_folder_and_catches_a_hand_edit(tmp_path, capsys):
 
 
 def test_verify_refuses_a_folder_without_the_airframes_c(tmp_path, capsys):
-    from dobwind.cli import main
+    from dobwind.cli.app import main
 
     assert main(["verify", str(M300), "--c-dir", str(tmp_path)]) == 2
     err = capsys.readouterr().err

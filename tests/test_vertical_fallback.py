@@ -9,8 +9,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from dobwind.backends import run_backend
-from dobwind.errors import InputError
+from dobwind.replay.backends import run_backend
+from dobwind.core.errors import InputError
 from dobwind.model.airframe import VERTICAL_FALLBACK, Uncertainty, load_airframe, parse_airframe
 from dobwind.model.airframe_toml import dump_airframe
 from dobwind.model.exercise import flight_inputs

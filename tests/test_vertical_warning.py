@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from dobwind.fitfamily import vertical_warning
+from dobwind.calibrate.fitfamily import vertical_warning
 
 AIR_Z = np.array([0.3, -0.4, 0.0, 0.5, -0.5, 0.4, -0.3, 0.0])   # RMS sqrt(1.0 / 8) = 0.35355 m/s
 

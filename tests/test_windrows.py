@@ -1,4 +1,4 @@
-"""--wind unknown's comparison through the observer (dobwind/windrows.py, issue #36).
+"""--wind unknown's comparison through the observer (dobwind/calibrate/windrows.py, issue #36).
 
 The claim the all-rows fit rests on: the calibration step's filtered force is a fixed linear filter of
 the raw external force, so the law's force passed through the same filter is compared without lag. It
@@ -9,12 +9,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dobwind import dragfit, windrows
-from dobwind.fieldtruth import flight_of
-from dobwind.fit import calibration_run
-from dobwind.logs import write_csv
+from dobwind.calibrate import dragfit, windrows
+from dobwind.calibrate.fieldtruth import flight_of
+from dobwind.calibrate.fit import calibration_run
+from dobwind.io.logs import write_csv
 from dobwind.model.status import accepted
-from dobwind.simulate import simulate
+from dobwind.simulate.simulate import simulate
 from tests.test_fieldcal import _airframe
 
 
@@ -84,7 +84,7 @@ def test_the_offset_prior_is_a_degree_of_tilt_and_the_robust_loss_spares_the_pri
     drag terms; the loss is soft-L1 on the data (2 (sqrt(1 + z) - 1)) and plain z on the prior rows."""
     import math
 
-    from dobwind import windsolve
+    from dobwind.calibrate import windsolve
 
     af, _ = flight
     p = windsolve.prior(af)

@@ -106,7 +106,7 @@ def test_wind_design_round_trip(family, kind, value):
 def _cli_json(args, capsys):
     import json
 
-    from dobwind.cli import main
+    from dobwind.cli.app import main
 
     code = main(args + ["--json"])
     out = capsys.readouterr()
@@ -152,7 +152,7 @@ def test_analyze_refuses_an_unreachable_or_malformed_target(tmp_path, capsys):
 
 
 def test_analyze_draws_the_wind_unit_figure_over_the_airspeeds_asked(tmp_path, capsys):
-    from dobwind.cli import main
+    from dobwind.cli.app import main
 
     assert main(["analyze", "nf_quad", "--airspeed", "1", "4", "--force-noise", "0.2", "-o", str(tmp_path / "a")]) == 0
     assert (tmp_path / "a" / "wind_units.png").stat().st_size > 10_000

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from dobwind.selfcheck import within_share
+from dobwind.calibrate.selfcheck import within_share
 
 
 def test_white_noise_and_long_segments_keep_it_all():

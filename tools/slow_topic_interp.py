@@ -7,10 +7,10 @@ from __future__ import annotations
 import numpy as np
 from scipy.interpolate import PchipInterpolator, CubicSpline, Akima1DInterpolator
 from dobwind.model.airframe import load_airframe
-from dobwind.simulate import simulate
+from dobwind.simulate.simulate import simulate
 from dobwind.model.step import build_step
-from dobwind.backends import run_backend
-from dobwind.logs import FlightLog, step_inputs
+from dobwind.replay.backends import run_backend
+from dobwind.io.logs import FlightLog, step_inputs
 
 
 def main() -> None:

@@ -11,7 +11,7 @@ import scipy.optimize
 from dobwind.analysis.figures import bandwidth_hz, group_delay_s, noise_gain
 from dobwind.analysis.linear import axis_system, linearize
 from dobwind.analysis.windunits import wind_scatter
-from dobwind.errors import InputError
+from dobwind.core.errors import InputError
 from dobwind.model.airframe import Airframe
 from dobwind.model.step import build_step
 

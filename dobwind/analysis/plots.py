@@ -12,7 +12,7 @@ import numpy as np  # noqa: E402
 
 from dobwind.analysis.figures import bandwidth_hz, response  # noqa: E402
 from dobwind.analysis.ramp import RampResult  # noqa: E402
-from dobwind.atomic import write_file_atomically  # noqa: E402
+from dobwind.io.atomic import write_file_atomically  # noqa: E402
 
 PAPER_BANDWIDTH_HZ = 0.5
 # Colour AND dash per line: euler and zoh nearly coincide, and only the dash tells them apart.

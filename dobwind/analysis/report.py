@@ -1,5 +1,5 @@
 """What `dobwind analyze` reports: tables, JSON and plots of the observer and the scheduled low-pass
-(the command around it, its arguments and exit code, is ``dobwind.analyze_command``)."""
+(the command around it, its arguments and exit code, is ``dobwind.cli.analyze``)."""
 from __future__ import annotations
 
 import dataclasses

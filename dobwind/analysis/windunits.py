@@ -34,7 +34,7 @@ import scipy.optimize
 from dobwind.analysis.figures import bandwidth_hz, gain_phase, group_delay_s, noise_gain
 from dobwind.analysis.linear import Linearization, jacobian_function, linearize
 from dobwind.analysis.ramp import RAMP_RATE_MPS2, force_for_airflow, hover_attitude
-from dobwind.errors import InputError
+from dobwind.core.errors import InputError
 from dobwind.model import forceair
 from dobwind.model.airframe import Airframe
 from dobwind.model.step import StepModel

@@ -1,0 +1,1 @@
+"""atmos: see docs/architecture.md for what lives here."""

@@ -1,0 +1,191 @@
+"""`dobwind profile`: the wind binned by height above the take-off point, over one or many flights.
+
+Per bin: the mean horizontal speed and its spread (sample standard deviation), the direction of the
+VECTOR mean (the mean of angles would put a northerly wind, 350 and 10 deg, at 180 deg) and the
+circular spread of the sample directions, the mean vertical wind and its spread, the mean calibrated
+1-sigma of the estimates, and the sample count. Only trusted rows (status 0, or quality flags the
+user allows) enter. Each flight is reduced to additive per-bin sums, so flights combine exactly
+whatever order the workers finish in.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from dobwind.core.errors import InputError
+from dobwind.core.options import Bound
+
+if TYPE_CHECKING:  # the model (CasADi) loads only when a profile runs, not with the parser (--bin)
+    from dobwind.model.airframe import Airframe
+
+BIN = Bound(0.1, 1000.0, "m")  # --bin: finer than GPS altitude is noise, coarser than 1 km is no profile
+
+# Below this horizontal speed a sample's direction is noise and does not enter the direction spread.
+MIN_SPEED_FOR_DIRECTION_MPS = 0.5
+# The per-bin sums, in this order.
+SUMS = ("count", "north", "east", "up", "up2", "speed", "speed2", "cos", "sin", "n_dir",
+        "sigma_h", "n_sigma_h", "sigma_up", "n_sigma_up")
+_I = {name: k for k, name in enumerate(SUMS)}
+
+
+@dataclass(frozen=True)
+class Samples:
+    """One flight's trusted rows: height above take-off (m), wind NED (m/s), the step's 1-sigmas."""
+    height_m: np.ndarray
+    wind_ned: np.ndarray
+    sigma_h: np.ndarray
+    sigma_up: np.ndarray
+    notes: tuple[str, ...] = ()
+    utc_s: tuple[float, float] | None = None  # Unix seconds of the first and last kept row, with GPS time
+
+
+def bin_sums(samples: Samples, bin_m: float) -> dict[int, np.ndarray]:
+    """{bin index k (heights [k bin, (k+1) bin)): the sums of SUMS over its samples}."""
+    ok = np.isfinite(samples.height_m) & np.all(np.isfinite(samples.wind_ned), axis=1)
+    h, w = samples.height_m[ok], samples.wind_ned[ok]
+    sh, su = samples.sigma_h[ok], samples.sigma_up[ok]
+    k = np.floor(h / bin_m).astype(np.int64)
+    speed = np.hypot(w[:, 0], w[:, 1])
+    strong = speed >= MIN_SPEED_FOR_DIRECTION_MPS
+    safe = np.where(strong, speed, 1.0)
+    # The unit vector of the direction the wind blows FROM: (north, east) = -wind / speed.
+    cos_from, sin_from = np.where(strong, -w[:, 0] / safe, 0.0), np.where(strong, -w[:, 1] / safe, 0.0)
+    known_h, known_up = sh >= 0, su >= 0  # -1: the airframe records no uncertainty
+    up = -w[:, 2]
+    columns = np.column_stack([np.ones_like(h), w[:, 0], w[:, 1], up, up * up, speed, speed * speed,
+                               cos_from, sin_from, strong, np.where(known_h, sh, 0.0), known_h,
+                               np.where(known_up, su, 0.0), known_up])
+    keys, inverse = np.unique(k, return_inverse=True)
+    sums = np.zeros((len(keys), len(SUMS)))
+    np.add.at(sums, inverse, columns)
+    return {int(key): sums[i] for i, key in enumerate(keys)}
+
+
+def combine(parts: list[dict[int, np.ndarray]]) -> dict[int, np.ndarray]:
+    total: dict[int, np.ndarray] = {}
+    for part in parts:
+        for key, sums in part.items():
+            total[key] = total[key] + sums if key in total else sums.copy()
+    return total
+
+
+def _std(s2: np.ndarray, s1: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """Sample standard deviation from sums (NaN below two samples)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        var = (s2 - s1 * s1 / n) / (n - 1)
+    return np.where(n > 1, np.sqrt(np.maximum(var, 0.0)), np.nan)
+
+
+def table(total: dict[int, np.ndarray], bin_m: float) -> dict[str, np.ndarray]:
+    """Per-bin statistics, every bin from the lowest to the highest with samples (empty ones: count 0)."""
+    from dobwind.model.forceair import wind_from_deg
+
+    if not total:
+        return {}
+    keys = np.arange(min(total), max(total) + 1)
+    s = np.array([total.get(int(k), np.zeros(len(SUMS))) for k in keys])
+    n = s[:, _I["count"]]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean_n, mean_e, mean_up = s[:, _I["north"]] / n, s[:, _I["east"]] / n, s[:, _I["up"]] / n
+        n_dir = s[:, _I["n_dir"]]
+        resultant = np.hypot(s[:, _I["cos"]], s[:, _I["sin"]]) / n_dir
+        spread = np.degrees(np.sqrt(-2.0 * np.log(np.clip(resultant, 1e-12, 1.0))))
+        sigma_h = s[:, _I["sigma_h"]] / s[:, _I["n_sigma_h"]]
+        sigma_up = s[:, _I["sigma_up"]] / s[:, _I["n_sigma_up"]]
+    return {
+        "height_bottom_m": keys * bin_m, "height_top_m": (keys + 1) * bin_m, "height_m": (keys + 0.5) * bin_m,
+        "count": n.astype(np.int64),
+        "speed_mean_mps": np.where(n > 0, s[:, _I["speed"]] / np.maximum(n, 1), np.nan),
+        "speed_std_mps": _std(s[:, _I["speed2"]], s[:, _I["speed"]], n),
+        "vector_speed_mps": np.hypot(mean_n, mean_e),
+        "direction_from_deg": np.where(n > 0, wind_from_deg(mean_n, mean_e), np.nan),
+        "direction_spread_deg": np.where(n_dir > 1, spread, np.nan),
+        "northward_mean_mps": mean_n, "eastward_mean_mps": mean_e,
+        "up_mean_mps": mean_up, "up_std_mps": _std(s[:, _I["up2"]], s[:, _I["up"]], n),
+        "sigma_h_mps": sigma_h, "sigma_up_mps": sigma_up,
+    }
+
+
+def allowed_mask(names: list[str]) -> int:
+    """The quality bits a user lets into the profile (--allow NAME). Rejection bits are never allowed:
+    their rows carry no new estimate."""
+    from dobwind.io.cfnames import status_flags
+    from dobwind.model.status import NOT_ACCEPTED_MASK
+
+    masks, meanings = status_flags()
+    by_name = dict(zip(meanings, masks))
+    mask = 0
+    for name in names:
+        value = by_name.get(name.strip().lower())
+        if value is None or value & NOT_ACCEPTED_MASK:
+            quality = [m for m, v in zip(meanings, masks) if not v & NOT_ACCEPTED_MASK]
+            raise InputError("--allow", None, f"{name!r} is not a quality flag (one of {', '.join(quality)})")
+        mask |= value
+    return mask
+
+
+def flight_samples(af: Airframe, path: str, backend: str = "python", precision: str = "single",
+                   rate_hz: float | None = None, allow: int = 0) -> Samples:
+    """One log through the estimator, its rows put at their height above take-off, trusted rows kept."""
+    from dobwind.io.autopilot import is_autopilot_log
+    from dobwind.io.position import local_height_on_rows, on_rows, read_geo
+    from dobwind.replay.replay import replay, replay_ulog
+
+    notes: list[str] = []
+    if is_autopilot_log(path):
+        model, flight, traj = replay_ulog(af, path, backend, precision, rate_hz)
+        t, landed, columns = flight.t0_s + flight.log.time_s, flight.landed, None
+    else:
+        model, log, traj = replay(af, path, backend, precision)
+        t, landed, columns = log.time_s, None, log.columns
+    geo = read_geo(path, columns)
+    if geo.track is not None:
+        pos = on_rows(geo.track, t, landed)
+        height, notes = pos.height_m, [f"height: {pos.height_source}"]
+    elif geo.local is not None:
+        height, how = local_height_on_rows(geo.local, t, landed)
+        notes.append(f"height: {how}")
+    elif columns is not None:
+        height = _integrated_height(t, columns["vel_d"])
+        notes.append("height: integrated from vel_d (no lat, lon, alt columns): the first row is the take-off point")
+    else:
+        raise InputError(path, None, "no global or local position in the log: a profile needs the height of each row")
+    keep = (np.asarray(traj.status).astype(np.int64) & ~allow) == 0
+    out = traj.outputs
+    kept_t = t[keep & np.isfinite(height)]
+    utc = (float(kept_t[0] + geo.utc_offset_s), float(kept_t[-1] + geo.utc_offset_s)) \
+        if geo.utc_offset_s is not None and kept_t.size else None
+    return Samples(height[keep], out[keep][:, model.outputs.slice("wind_ned")],
+                   out[keep][:, model.outputs.slice("wind_sigma_h")][:, 0],
+                   out[keep][:, model.outputs.slice("wind_sigma_up")][:, 0], tuple(notes), utc)
+
+
+def _integrated_height(t: np.ndarray, vel_d: np.ndarray) -> np.ndarray:
+    """Height above the first row by the trapezoid rule on -vel_d (NaN velocities count as 0)."""
+    up = -np.nan_to_num(np.asarray(vel_d, float))
+    return np.r_[0.0, np.cumsum(0.5 * (up[1:] + up[:-1]) * np.diff(t))]
+
+
+def flight_sums(airframe_path: str, path: str, bin_m: float, backend: str, precision: str,
+                rate_hz: float | None, allow: int) -> tuple[dict[int, np.ndarray], int, tuple[str, ...],
+                                                            tuple[float, float] | None]:
+    """A worker's job (top level, so a process pool can call it): (per-bin sums, trusted rows, notes, UTC
+    span of the trusted rows or None)."""
+    from dobwind.model.airframe import load_airframe
+
+    samples = flight_samples(load_airframe(airframe_path), path, backend, precision, rate_hz, allow)
+    return bin_sums(samples, bin_m), len(samples.height_m), samples.notes, samples.utc_s
+
+
+def coverage(spans: list[tuple[float, float] | None]) -> tuple[str, str] | None:
+    """ISO 8601 UTC start and end over the flights that have GPS time (None: none has)."""
+    import datetime as dt
+
+    known = [s for s in spans if s is not None]
+    if not known:
+        return None
+    iso = [dt.datetime.fromtimestamp(x, dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+           for x in (min(s[0] for s in known), max(s[1] for s in known))]
+    return iso[0], iso[1]

@@ -1,0 +1,1 @@
+"""calibrate: see docs/architecture.md for what lives here."""

@@ -1,0 +1,130 @@
+"""`fit`'s options for logs without wind columns (issue #36): which truth (--wind, --truth), checked, and
+how it reaches the one fit pipeline (a log reader, fitfamily.fit_airframe's ``log_reader``) and the
+written airframe (its provenance comment)."""
+from __future__ import annotations
+
+import argparse
+from dataclasses import dataclass, field
+
+from dobwind.core.errors import InputError
+from dobwind.calibrate.fieldtruth import LogReader, PerLogWind, Truth, flight_of, parse_wind, provenance, read_truth_csv, truth_reader
+from dobwind.model.airframe import Airframe
+from dobwind.core.options import Bound
+
+UNKNOWN = "unknown"
+SITL = "sitl"
+
+
+@dataclass(frozen=True)
+class FieldOptions:
+    wind: tuple[str, ...]   # --wind (repeatable): SPEED@FROM[,UP] once or once per log, or "unknown"
+    truth: str | None       # --truth: FILE.csv or "sitl"
+    rate_hz: float | None   # --rate: resample autopilot logs at this rate
+    segment_s: float | None  # --segment-s: one unknown wind per this many seconds
+    still_air: bool = False
+
+    @property
+    def given(self) -> bool:
+        return bool(self.wind) or self.truth is not None
+
+    def files(self) -> list[str]:
+        """Input files the options name (a truth file), for the output checks."""
+        return [self.truth] if self.truth is not None and self.truth != SITL else []
+
+
+@dataclass(frozen=True)
+class FieldTruth:
+    """The truth chosen, the reader the fit calls, and what to tell the user."""
+    truth: Truth
+    reader: LogReader
+    summary: list[str] = field(default_factory=list)   # printed with the fit report (the winds found)
+
+    def warnings(self) -> list[str]:
+        return list(getattr(self.truth, "warnings", []))
+
+    def header(self, log_paths: list[str]) -> str:
+        """The written airframe's provenance comment (TOML comment lines)."""
+        return "".join(f"# {line}\n" for line in provenance(log_paths, self.truth.describe()))
+
+    def record(self) -> dict:
+        """The truth for --json."""
+        return {"truth": self.truth.describe(), "summary": self.summary}
+
+
+def check_options(options: FieldOptions, logs: int) -> None:
+    if options.wind and options.truth is not None:
+        raise InputError("--truth", None, "give the wind one way: --wind or --truth, not both")
+    if options.still_air and options.given:
+        raise InputError("--still-air", None, "--still-air says the wind is zero: not with --wind or --truth")
+    if UNKNOWN in options.wind and len(options.wind) > 1:
+        raise InputError("--wind", None, "'unknown' is for every log: give --wind once")
+    if len(options.wind) > 1 and len(options.wind) != logs:
+        raise InputError("--wind", None, f"given {len(options.wind)} times for {logs} logs: once for every log, "
+                         "or once per log in the logs' order")
+    if options.segment_s is not None and options.wind != (UNKNOWN,):
+        raise InputError("--segment-s", None, "only with --wind unknown (one unknown wind per segment)")
+    if options.segment_s is not None and not options.segment_s > 0:
+        raise InputError("--segment-s", None, f"{options.segment_s:g} must be > 0 s")
+
+
+def field_truth(options: FieldOptions, af: Airframe, log_paths: list[str]) -> FieldTruth | None:
+    """The truth the options name (None: the logs' own wind columns, or --still-air). --wind unknown
+    solves for the winds here (CheckFailed when the flight does not identify them)."""
+    check_options(options, len(log_paths))
+    if options.rate_hz is not None:
+        from dobwind.io.autopilot import is_autopilot_log
+
+        if not options.given or not all(is_autopilot_log(p) for p in log_paths):
+            raise InputError("--rate", None, "only with --wind or --truth, for autopilot logs (CSV logs keep their "
+                             "own clock)")
+    if not options.given:
+        return None
+    summary: list[str] = []
+    if options.wind == (UNKNOWN,):
+        from dobwind.calibrate.windsolve import GroupWinds, estimate_winds
+
+        solution = estimate_winds(af, [(p, flight_of(p, af, options.rate_hz)) for p in log_paths], options.segment_s)
+        truth: Truth = GroupWinds(solution)
+        summary = [f"wind (--wind unknown) {g.path} t {g.t_start_s:.1f}-{g.t_end_s:.1f} s: {g.speed_mps:.2f} m/s from "
+                   f"{g.from_deg:.0f} deg, 1-sigma {g.sigma_mps:.2f} m/s ({g.samples} samples)" for g in solution.groups]
+        summary.append(f"joint solution: Jacobian condition {solution.condition:.3g}; {'; '.join(solution.notes)}")
+    elif len(options.wind) == 1:
+        truth = parse_wind(options.wind[0])
+    elif options.wind:
+        truth = PerLogWind(tuple(zip(log_paths, (parse_wind(text) for text in options.wind))))
+    elif options.truth == SITL:
+        from dobwind.calibrate.sitlwind import SitlTruth
+
+        truth = SitlTruth()
+    else:
+        truth = read_truth_csv(str(options.truth))
+    return FieldTruth(truth, truth_reader(truth, options.rate_hz), summary)
+
+
+SEGMENT_S = Bound(5.0, 36_000.0, "s")
+
+
+def add_options(p: argparse.ArgumentParser) -> None:
+    """fit's options for autopilot logs and their wind truth."""
+    from dobwind.core.options import ULOG_RATE
+
+    p.add_argument("--wind", metavar="SPEED@FROM[,UP]|unknown", action="append", default=[],
+                   help="the true wind for logs without wind columns (autopilot logs .ulg/.bin/ROS 2 bags, or CSV): a "
+                   "steady wind of SPEED m/s blowing FROM degrees clockwise from north, optional updraft UP m/s "
+                   "(e.g. 6.5@270 or 6.5@270,0.2), for every log, or repeated once per log in the logs' order; or 'unknown': one steady wind per log (or per "
+                   "--segment-s) estimated jointly with the force-air law from flight with varied headings and "
+                   "speeds, mean vertical wind taken as zero; refused (exit 1) when the flight does not identify it")
+    p.add_argument("--truth", metavar="FILE.csv|sitl",
+                   help="the true wind as a time series in each log's own time (docs/formats.md, wind truth: t and "
+                   "wind_n/wind_e/wind_d, or t, speed, from_deg [, up]); rows outside its span are not used; or "
+                   "'sitl': the wind an ArduPilot SITL log's simulator was given (SIM_WIND_* parameters, the "
+                   "square-root or linear profile on the barometer altitude)")
+    p.add_argument("--rate", type=ULOG_RATE,
+                   help=f"autopilot logs: resample at this rate, Hz ({ULOG_RATE.text()}) (default: the attitude's clock)")
+    p.add_argument("--segment-s", type=SEGMENT_S, metavar="SECONDS",
+                   help=f"with --wind unknown: one steady wind per this many seconds of each log ({SEGMENT_S.text()}; "
+                   "default: one per log)")
+
+
+def field_options(args: argparse.Namespace) -> FieldOptions:
+    return FieldOptions(tuple(args.wind), args.truth, args.rate, args.segment_s, args.still_air)

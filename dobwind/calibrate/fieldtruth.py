@@ -1,0 +1,179 @@
+"""The true wind for `fit` from an autopilot log (issue #36): a steady wind (`--wind SPEED@FROM[,UP]`),
+a time series in the log's own time (`--truth FILE.csv`) or, for an ArduPilot SITL log, the wind its
+simulator was told to blow (`--truth sitl`, dobwind/calibrate/sitlwind.py).
+
+Each calibration log becomes the same ``FlightLog`` a CSV log with wind columns is (docs/formats.md), so
+the one fit pipeline (fitfamily.fit_airframe) reads it: the autopilot log through the reader replay uses
+(dobwind/io/autopilot.py), its rows without data or on the ground already NaN (the step rejects them), and
+the rows where the truth is unknown (outside a truth file's span) made NaN too, so nothing is calibrated
+on a guess.
+"""
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from typing import Callable, Protocol
+
+import numpy as np
+
+from dobwind.core.errors import InputError
+from dobwind.io.logs import TRUE_WIND_MAX_MPS, TRUTH_COLUMNS, FlightLog, read_log, required_columns
+from dobwind.model.airframe import Airframe
+from dobwind.io.resample import blank
+
+
+def wind_from(speed_mps: np.ndarray | float, from_deg: np.ndarray | float) -> np.ndarray:
+    """North and east components (N, 2) of a horizontal wind of ``speed_mps`` blowing FROM ``from_deg``
+    (clockwise from north): the air moves towards from + 180 deg."""
+    speed, rad = np.broadcast_arrays(np.asarray(speed_mps, dtype=float), np.radians(from_deg))
+    return np.column_stack([-speed * np.cos(rad), -speed * np.sin(rad)])
+
+
+@dataclass(frozen=True)
+class LogTime:
+    """A calibration log as the fit reads it, and its own clock at row 0 (PX4: s since boot; ArduPilot:
+    TimeUS in s; a CSV log: 0, its `t` is the log time)."""
+    log: FlightLog
+    t0_s: float
+
+    @property
+    def clock_s(self) -> np.ndarray:
+        return self.log.time_s + self.t0_s
+
+
+class Truth(Protocol):
+    """A source of the true wind for one log: (N, 3) NED wind on the log's rows and which rows it knows."""
+
+    def wind(self, path: str, flight: LogTime) -> tuple[np.ndarray, np.ndarray]: ...
+
+    def describe(self) -> str: ...
+
+
+@dataclass(frozen=True)
+class SteadyWind:
+    """One steady wind for every log: SPEED m/s from FROM deg, UP m/s updraft (positive up)."""
+    speed_mps: float
+    from_deg: float
+    up_mps: float = 0.0
+
+    def vector(self) -> np.ndarray:
+        n, e = wind_from(self.speed_mps, self.from_deg)[0]
+        return np.array([n, e, -self.up_mps])
+
+    def wind(self, path: str, flight: LogTime) -> tuple[np.ndarray, np.ndarray]:
+        rows = flight.log.rows
+        return np.tile(self.vector(), (rows, 1)), np.ones(rows, dtype=bool)
+
+    def describe(self) -> str:
+        return f"steady wind {self.speed_mps:g} m/s from {self.from_deg:g} deg, updraft {self.up_mps:g} m/s (--wind)"
+
+
+@dataclass(frozen=True)
+class PerLogWind:
+    """A steady wind per log (`--wind` repeated once per log, in the logs' order)."""
+    winds: tuple[tuple[str, SteadyWind], ...]
+
+    def wind(self, path: str, flight: LogTime) -> tuple[np.ndarray, np.ndarray]:
+        return dict(self.winds)[path].wind(path, flight)
+
+    def describe(self) -> str:
+        return "; ".join(f"{path}: {wind.describe()}" for path, wind in self.winds)
+
+
+WIND_SYNTAX = "SPEED@FROM[,UP] (m/s, degrees the wind blows from clockwise from north, optional updraft m/s)"
+_NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
+_WIND = re.compile(rf"^\s*({_NUMBER})\s*@\s*({_NUMBER})\s*(?:,\s*({_NUMBER})\s*)?$")
+
+
+def parse_wind(text: str) -> SteadyWind:
+    """`--wind SPEED@FROM[,UP]`; a bad value is an InputError naming the option."""
+    match = _WIND.match(text)
+    if match is None:
+        raise InputError("--wind", None, f"{text!r} is not {WIND_SYNTAX}, nor 'unknown'")
+    speed, from_deg = float(match.group(1)), float(match.group(2))
+    up = float(match.group(3)) if match.group(3) is not None else 0.0
+    if not 0 <= speed <= TRUE_WIND_MAX_MPS or abs(up) > TRUE_WIND_MAX_MPS:
+        raise InputError("--wind", None, f"{text!r}: speed must be in [0, {TRUE_WIND_MAX_MPS:g}] m/s and "
+                         f"|updraft| at most {TRUE_WIND_MAX_MPS:g} m/s")
+    if not math.isfinite(from_deg):
+        raise InputError("--wind", None, f"{text!r}: the direction must be a finite number of degrees")
+    return SteadyWind(speed, from_deg % 360.0, up)
+
+
+@dataclass(frozen=True)
+class WindSeries:
+    """A wind time series in log time (a truth file): interpolated linearly onto the log's rows; rows
+    outside its span are unknown."""
+    path: str
+    t_s: np.ndarray
+    ned: np.ndarray   # (N, 3)
+
+    def wind(self, path: str, flight: LogTime) -> tuple[np.ndarray, np.ndarray]:
+        t = flight.clock_s
+        known = (t >= self.t_s[0]) & (t <= self.t_s[-1])
+        return np.column_stack([np.interp(t, self.t_s, self.ned[:, i]) for i in range(3)]), known
+
+    def describe(self) -> str:
+        return f"wind time series {self.path} (--truth, {len(self.t_s)} rows, t {self.t_s[0]:g}..{self.t_s[-1]:g} s)"
+
+
+TRUTH_FILE_FORMATS = ("t, wind_n, wind_e, wind_d", "t, speed, from_deg (and optionally up)")
+
+
+def read_truth_csv(path: str) -> WindSeries:
+    """A truth file (docs/formats.md, wind truth): `t` in the log's own time (s) and either NED
+    components (wind_n, wind_e, wind_d) or speed (m/s), from_deg (deg, clockwise from north) and
+    optionally up (m/s, positive up)."""
+    log = read_log(path, [("t", "time in the log's own clock, s")])
+    cols = log.columns
+    if log.has(*TRUTH_COLUMNS):
+        ned = log.stack(*TRUTH_COLUMNS)
+    elif log.has("speed", "from_deg"):
+        up = cols["up"] if log.has("up") else np.zeros(log.rows)
+        ned = np.column_stack([wind_from(cols["speed"], cols["from_deg"]), -up])
+    else:
+        raise InputError(path, "header", "a wind truth file needs the columns " + " or ".join(TRUTH_FILE_FORMATS))
+    bad = ~np.isfinite(ned).all(axis=1) | (np.abs(ned) > TRUE_WIND_MAX_MPS).any(axis=1)
+    if bad.any():
+        raise InputError(path, f"data row {int(np.flatnonzero(bad)[0]) + 1}",
+                         f"the wind must be finite and within +-{TRUE_WIND_MAX_MPS:g} m/s")
+    if log.rows < 2:
+        raise InputError(path, None, "a wind truth file needs at least two rows")
+    return WindSeries(path, log.time_s.copy(), ned)
+
+
+def flight_of(path: str, af: Airframe, rate_hz: float | None) -> LogTime:
+    """A calibration log, airborne accepted rows only: an autopilot log through replay's reader (rows
+    without data or on the ground are NaN), or a CSV log with the airframe's columns."""
+    from dobwind.io.autopilot import is_autopilot_log, read_autopilot
+
+    if is_autopilot_log(path):
+        flight = read_autopilot(path, af, rate_hz)
+        return LogTime(flight.log, flight.t0_s)
+    return LogTime(read_log(path, required_columns(af)), 0.0)
+
+
+def with_truth(path: str, flight: LogTime, truth: Truth) -> FlightLog:
+    """The log with the truth's wind columns; rows the truth does not know are NaN (the step rejects
+    them, the fit never sees them). A log the truth knows nowhere is an input error."""
+    wind, known = truth.wind(path, flight)
+    cols = {k: v for k, v in flight.log.columns.items() if k not in TRUTH_COLUMNS}
+    if not known.any():
+        raise InputError(path, None, f"no row of the log lies where the truth is known ({truth.describe()})")
+    cols = blank(cols, ~known)
+    cols.update({name: wind[:, i] for i, name in enumerate(TRUTH_COLUMNS)})
+    return FlightLog(flight.log.path, cols)
+
+
+LogReader = Callable[[str, Airframe], FlightLog]
+
+
+def truth_reader(truth: Truth, rate_hz: float | None = None) -> LogReader:
+    """What fitfamily.fit_airframe calls for each calibration log (``log_reader``)."""
+    return lambda path, af: with_truth(path, flight_of(path, af, rate_hz), truth)
+
+
+def provenance(log_paths: list[str], truth_text: str) -> list[str]:
+    """The airframe's comment lines recording how it was calibrated."""
+    return ["calibrated by `dobwind fit` from " + ", ".join(log_paths), "wind truth: " + truth_text]

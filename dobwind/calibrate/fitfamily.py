@@ -1,0 +1,456 @@
+"""`dobwind fit`: both force-air families fitted, scored alike, the better one chosen, then checked by
+replaying every calibration log through the new airframe's step."""
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import numpy as np
+
+from dobwind.calibrate import accelroute, calstream, dragexponent, dragfit, holdcv, runmeans
+from dobwind.io.csvchunks import BLOCK_BYTES
+from dobwind.calibrate.envelope import calibration_envelope, uncertainty_table, with_observer_noise
+from dobwind.core.errors import CheckFailed
+from dobwind.calibrate.hovernoise import HoverNoise, quieter_schedule
+from dobwind.calibrate.fit import (CalibrationRun, FitReport, Points, PointsOf, calibration_points, calibration_run, fit_polynomial,
+                         no_steady_data, points_from, read_calibration_logs)
+from dobwind.io.logs import FlightLog
+from dobwind.model.airframe import CALIBRATED, VERTICAL_FALLBACK, Airframe, ForceAirModel
+from dobwind.calibrate.selfcheck import SelfCheck, Thresholds, self_check, self_check_sources
+
+LogReader = Callable[[str, Airframe], FlightLog]  # a calibration log's path -> the log with its true wind
+
+MODELS = ("auto", "drag", "drag-heading", "drag-body", "polynomial")
+# --model -> the drag-law frames it fits (both drag frames are scored alike and the better one is kept).
+DRAG_FRAMES_OF = {"auto": ("heading", "body"), "drag": ("heading", "body"), "drag-heading": ("heading",),
+                  "drag-body": ("body",), "polynomial": ()}
+FAMILY_OF_FRAME = {"heading": "drag", "body": "drag-body"}
+
+
+def drag_samples(af: Airframe, logs: list[FlightLog], frames: tuple[str, ...] = ("heading",),
+                 run: CalibrationRun | None = None) -> tuple[dict[str, dragfit.DragSamples], list[int]]:
+    """Decimated per-sample calibration data from every log for each drag-law frame (the same samples
+    and blocks in each), and how many samples each log gave. ``run``: the calibration run of ``af``
+    over ``logs``, when already made."""
+    run = run if run is not None and run.serves(af, logs) else calibration_run(af, logs)
+    cal, model = run.airframe, run.model
+    parts: dict[str, list] = {frame: [] for frame in frames}
+    shapes = [calstream.LogShape(log.rows, dragfit.median_step(log.time_s, cal)) for log in logs]
+    rate_hz = calstream.sample_rate_hz(shapes)
+    for log, shape, force, status in zip(logs, shapes, run.force_ned, run.status):
+        reducer = calstream.DragReducer(cal, model.settling_time_s, shape.dt_s, frames, rate_hz)
+        reducer.add(log, force, status)
+        for frame in frames:
+            parts[frame].append(reducer.result(frame))
+    counts = [len(p["time"]) for p in parts[frames[0]]]
+    return {frame: dragfit.merge(parts[frame], frame) for frame in frames}, counts
+
+
+def drag_airframe(af: Airframe, choice: dragfit.DragChoice, samples: dragfit.DragSamples) -> Airframe:
+    """The airframe with the chosen law, its offset and thrust scale, the calibrated envelope (for the
+    step's EXTRAPOLATED bit) and the residuals' size over speed (for its sigma outputs)."""
+    values = dict(zip(samples.parameters, (float(v) for v in choice.theta)))
+    thrust = dataclasses.replace(af.thrust, scale=af.thrust.scale * (1 - values["kappa"]))
+    observer = dataclasses.replace(af.observer, force_offset_n=(values["ox"], values["oy"], 0.0))
+    law = dragfit.law_of(choice.theta, samples.frame, samples.exponent)
+    if law.frame == "body":
+        # The fit's rotor term uses the nominal thrust; the step's, the scaled one (a factor 1 - kappa).
+        law = dataclasses.replace(law, lr=law.lr / math.sqrt(1 - values["kappa"]))
+    predicted = dragfit.predicted_airflow(samples, choice.theta)
+    force = dragfit.heading_forces(samples, choice.theta)
+    speed_true = np.hypot(samples.airflow[:, 0], samples.airflow[:, 1])
+    speed_predicted = np.hypot(predicted[:, 0], predicted[:, 1])
+    return dataclasses.replace(
+        af, thrust=thrust, observer=observer, drag=law,
+        horizontal=ForceAirModel((), ()), vertical=ForceAirModel((), ()),
+        envelope=calibration_envelope(np.hypot(force[:, 0], force[:, 1]), force[:, 2], speed_predicted),
+        uncertainty=uncertainty_table(speed_true, speed_predicted, -samples.airflow[:, 2], -predicted[:, 2]))
+
+
+def _none(value: float) -> float | None:
+    return value if math.isfinite(value) else None
+
+
+def _family_scores(cv: tuple[float, float], extrapolation: float,
+                   hold: holdcv.HoldCV | None) -> dict[str, Any]:
+    """cv_h_mps: per-sample vector error (selects the terms); hold_cv_*: hold-mean speed errors on the
+    same folds, what replay's per-hold speed errors follow (dobwind/calibrate/holdcv.py)."""
+    scores: dict[str, Any] = {"cv_h_mps": _none(cv[0]), "cv_v_mps": _none(cv[1]),
+                              "extrapolation_h_mps": _none(extrapolation),
+                              "score_mps": _none(dragfit.combined(cv[0], extrapolation))}
+    if hold is not None:
+        scores.update({"hold_cv_speed_mps": _none(hold.rms_mps),
+                       "hold_cv_by_speed": hold.band_table(),
+                       "hold_extrapolation_speed_mps": _none(hold.extrapolation_mps)})
+    return scores
+
+
+def _polynomial_scores(fitted: Airframe, samples: dragfit.DragSamples) -> dict[str, Any]:
+    fit_predict = dragfit.polynomial_fit_predict(list(fitted.horizontal.terms), list(fitted.vertical.terms),
+                                                 fitted.observer.force_offset_n)
+    return _family_scores(dragfit.grouped_cv(samples, fit_predict), dragfit.extrapolation_error(samples, fit_predict),
+                          holdcv.hold_cv(samples, fit_predict))
+
+
+@dataclass(frozen=True)
+class _Calibration:
+    """What the fit reads of its logs, however they were read: each drag-law frame's merged samples, the
+    samples per log, the polynomial family's points of any airframe, and the self-check's replay."""
+    by_frame: dict[str, dragfit.DragSamples]
+    per_log: list[int]
+    points_of: PointsOf
+    check: Callable[[Airframe, float | None, float, Thresholds], SelfCheck]
+
+
+def _whole_logs(af: Airframe, log_paths: list[str], frames: tuple[str, ...], dynamic: bool,
+                still_air: bool, log_reader: LogReader | None = None) -> _Calibration:
+    """Every log read whole and reduced in one block (the reference the streamed fit is held to)."""
+    logs = read_calibration_logs(af, log_paths, still_air, log_reader)
+    run = calibration_run(af, logs)  # one reference pass for the drag samples and the polynomial family
+    by_frame, per_log = drag_samples(af, logs, frames, run)
+    return _Calibration(by_frame, per_log, lambda airframe: calibration_points(airframe, logs, dynamic, run),
+                        lambda new, cv, speed, limits: self_check(new, logs, per_log, cv, speed, limits))
+
+
+def _streamed_logs(af: Airframe, log_paths: list[str], frames: tuple[str, ...], dynamic: bool, still_air: bool,
+                   points: bool, block_bytes: int, log_reader: LogReader | None = None) -> _Calibration:
+    """Every log read ``block_bytes`` at a time, once for its shape, once for the calibration step (drag
+    samples and chunk means together), again for the points of a rescaled airframe and for the
+    self-check: the numbers of _whole_logs, with nothing kept at the logs' full rate. The decimated
+    samples are capped (dragfit.MAX_SAMPLES); the polynomial family's chunk means, a few per hold, still
+    grow with the logs' length."""
+    sources = calstream.calibration_sources(af, log_paths, still_air, block_bytes, log_reader)
+    shapes = [calstream.log_shape(source, af) for source in sources]
+    first = calstream.reduce_logs(af, sources, shapes, frames, dynamic, points)
+    per_log = [len(part["time"]) for part in first.samples[frames[0]]]
+    by_frame = {frame: dragfit.merge(first.samples.pop(frame), frame) for frame in frames}  # one copy kept
+    chunks = {af: (first.chunks, first.settle_s)}
+
+    def points_of(airframe: Airframe) -> tuple[Points, float]:
+        if airframe not in chunks:
+            reduced = calstream.reduce_logs(airframe, sources, shapes, (), dynamic, True)
+            chunks[airframe] = (reduced.chunks, reduced.settle_s)
+        found, settle = chunks[airframe]
+        if not found:
+            raise CheckFailed(no_steady_data(settle))
+        return points_from(found), settle
+
+    return _Calibration(by_frame, per_log, points_of, lambda new, cv, speed, limits: self_check_sources(
+        new, sources, shapes, per_log, cv, speed, limits))
+
+
+@dataclass(frozen=True)
+class FitOptions:
+    """The fit's choices besides the airframe and the logs, passed to both of fit_airframe's fits (its
+    signature holds the defaults)."""
+    terms: str
+    dynamic: bool
+    model: str
+    still_air: bool
+    limits: Thresholds
+    block_bytes: int | None
+    hover: HoverNoise
+    log_reader: LogReader | None = None  # each log with its truth read another way (dobwind/calibrate/fieldtruth.py)
+
+
+def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynamic: bool = False,
+                 model: str = "auto", still_air: bool = False, limits: Thresholds = Thresholds(),
+                 block_bytes: int | None = BLOCK_BYTES,
+                 hover: HoverNoise = HoverNoise(),
+                 log_reader: LogReader | None = None) -> tuple[Airframe, FitReport, Points | None]:
+    """Both families fitted and scored, the better one chosen, then the self-check (report.self_check;
+    the caller refuses to write a model that failed it unless forced), and the low-pass at zero airflow
+    lowered when the noise there is above ``hover.target_mps`` (dobwind/calibrate/hovernoise.py). When it stays
+    above with an acceleration input, the fit runs again with that input blended with the velocity's
+    derivative and keeps the better (dobwind/calibrate/accelroute.py). The logs are read ``block_bytes`` at a time
+    (None: each whole, in memory; the same airframe)."""
+    # What fit writes is calibrated: a prior (dobwind init's [calibration] status) stops being one here,
+    # and the self-check replays the new airframe without the UNCALIBRATED bit.
+    af = dataclasses.replace(af, calibration=CALIBRATED)
+    options = FitOptions(terms, dynamic, model, still_air, limits, block_bytes, hover)
+    # ``log_reader``: how each log is read with its true wind when not from its own columns (an autopilot
+    # log and a known wind: dobwind/calibrate/fieldtruth.py).
+    options = dataclasses.replace(options, log_reader=log_reader)
+    new, report, points, check = _fit_once(af, log_paths, options)
+    if accelroute.needs_blend_check(new, check, hover):
+        try:
+            other = _fit_once(accelroute.blended(af), log_paths, options)
+        except CheckFailed as exc:
+            report.acceleration_route = accelroute.blend_record(af, check, None, False, str(exc))
+            report.warnings.append(accelroute.failed_blend_warning(str(exc)))
+        else:
+            blend_check = other[3]
+            kept = accelroute.keeps_blend(check, blend_check)
+            record = accelroute.blend_record(af, check, blend_check, kept)
+            if kept:
+                new, report, points, check = other
+            report.acceleration_route = record
+    report.self_check = dataclasses.asdict(check)
+    # The self-check's replay measured the observer noise; the sigma outputs add it to the residuals (#10).
+    new = dataclasses.replace(new, uncertainty=with_observer_noise(new.uncertainty, check.noise_h_mps, check.noise_up_mps))
+    return new, report, points
+
+
+Fit = tuple[Airframe, FitReport, "Points | None"]
+
+
+def refit_without_outliers(first: Fit, log_paths: list[str], fit: Callable[[list[str]], Fit]) -> Fit:
+    """``first`` (the fit on every log) again without the logs it flagged as outliers (runmeans), by
+    ``fit`` on the rest; ``first`` itself when none is flagged or none would be left. The new report
+    names the logs left out (excluded_logs and a warning)."""
+    excluded = runmeans.outlier_logs(first[1].runs)
+    kept = [log for log in log_paths if log not in excluded]
+    if not excluded or not kept:
+        return first
+    new, report, points = fit(kept)
+    report.excluded_logs = excluded
+    report.warnings.append(f"--exclude-outliers: fitted without {', '.join(excluded)} (flagged as outliers by the fit "
+                           "on every log); the self-check replays only the logs kept")
+    return new, report, points
+
+
+def _fit_once(af: Airframe, log_paths: list[str],
+              options: FitOptions) -> tuple[Airframe, FitReport, Points | None, SelfCheck]:
+    """One fit of ``af``'s route: the families, the choice, the self-check and the low-pass at zero
+    airflow; the airframe, its report, its points and its last self-check."""
+    terms, dynamic, model, still_air = options.terms, options.dynamic, options.model, options.still_air
+    limits, block_bytes, hover = options.limits, options.block_bytes, options.hover
+    frames = DRAG_FRAMES_OF[model]
+    if block_bytes is None:
+        calibration = _whole_logs(af, log_paths, frames or ("heading",), dynamic, still_air, options.log_reader)
+    else:
+        calibration = _streamed_logs(af, log_paths, frames or ("heading",), dynamic, still_air,
+                                     model in ("polynomial", "auto"), block_bytes, options.log_reader)
+    by_frame, per_log = calibration.by_frame, calibration.per_log
+    samples = by_frame.get("heading", next(iter(by_frame.values())))
+    families, scores, failures = _drag_families(af, by_frame, frames, len(samples))
+    if model in ("polynomial", "auto"):
+        try:
+            fitted, report, points = fit_polynomial(af, [], terms, dynamic, points_of=calibration.points_of)
+            families["polynomial"] = (fitted, report, points)
+            scores["polynomial"] = _polynomial_scores(fitted, samples) if len(samples) >= 100 else {}
+        except CheckFailed as exc:
+            failures.append(f"polynomial family: {exc}")
+    if not families:
+        raise CheckFailed("; ".join(failures) or "no model could be fitted")
+    chosen = choose_family(list(families), scores)
+    new, report, points = families[chosen]
+    report.model, report.families, report.samples = chosen, scores, len(samples)
+    for key in ("hold_cv_speed_mps", "hold_cv_by_speed", "hold_extrapolation_speed_mps"):
+        setattr(report, key, scores.get(chosen, {}).get(key))
+    report.warnings += failures
+    sparse = holdcv.sparse_windows(report.hold_cv_by_speed, float(np.median(samples.rates_hz()))) if len(samples) else None
+    report.warnings += [sparse] if sparse else []
+    vertical = vertical_warning(report.vertical_cv_rmse_mps, samples.airflow[:, 2] if len(samples) else np.zeros(0))
+    report.warnings += [vertical + VERTICAL_FALLBACK_NOTE] if vertical else []
+    # Unidentified, the vertical law is not used: the step publishes zero vertical wind and flags it.
+    new = dataclasses.replace(new, vertical_law=VERTICAL_FALLBACK if vertical else "fitted")
+    for run in report.runs:
+        run["log"] = log_paths[run["log"]]  # the index into the logs given -> its path
+    for index, count in enumerate(per_log):
+        if count == 0:
+            report.warnings.append(f"{log_paths[index]}: contributed no usable sample")
+    speed_range = _speed_range(samples, points)
+    cv = report.hold_cv_speed_mps if report.hold_cv_speed_mps is not None else report.horizontal_cv_rmse_mps
+    exempt = (runmeans.exempt_outliers(report.runs, report.anchored)
+              if report.hold_cv_without_outliers_mps is not None else [])
+    if exempt:  # the fit's own outliers: judged on the logs that agree (runmeans.exempt_outliers)
+        cv = report.hold_cv_without_outliers_mps
+        limits = dataclasses.replace(limits, outlier_logs=tuple(exempt))
+        report.warnings.append(runmeans.exempt_warning(report.runs, exempt))
+    check = calibration.check(new, cv, speed_range, limits)
+    new, check, report.low_pass, quiet_warnings = _quiet_hover(
+        new, check, hover, lambda af_: calibration.check(af_, cv, speed_range, limits))
+    report.warnings += quiet_warnings
+    return new, report, points, check
+
+
+VERTICAL_FALLBACK_NOTE = (f'; the fitted airframe says force_air.vertical_law = "{VERTICAL_FALLBACK}": its '
+                          "step publishes zero vertical wind with sigma_up -1, and its C header says "
+                          "VERTICAL_ESTIMATED 0 (docs/c-api.md)")
+
+
+def vertical_warning(cv_v_mps: float | None, air_z_mps: np.ndarray) -> str | None:
+    """A warning when the chosen vertical law predicts held-out vertical airflow no better than zero does.
+    The logs then do not identify it (level flight, or a thrust model whose error swamps the vertical
+    drag), and the step, which inverts that law, turns the thrust error into vertical wind."""
+    if cv_v_mps is None or not len(air_z_mps):
+        return None
+    zero_mps = float(np.sqrt(np.mean(np.square(air_z_mps))))
+    if cv_v_mps < zero_mps:
+        return None
+    return (f"the vertical law predicts held-out vertical airflow no better than zero does (grouped CV {cv_v_mps:.3f} "
+            f"m/s, RMS of the true vertical airflow {zero_mps:.3f} m/s): these logs do not identify it and the "
+            "vertical wind is unreliable (fly climbs and descents; check the thrust model)")
+
+
+Family = tuple[Airframe, FitReport, "Points | None"]
+# Families whose per-sample scores lie within this share of the best tie (choose_family).
+FAMILY_TIE = 0.02
+# The family a tie goes to. The body-frame law acts on the airflow the airframe meets: an error of the
+# thrust model (inflow, the curve) lies along body z there, where the heading frame tilts part of it into
+# the horizontal force, more with every m/s. So it extrapolates: on the random vehicles the heading-frame
+# law won such ties on its hold means (by up to 30 %) four times in four, and read the tunnel's 10 m/s
+# hold, beyond the 8.4 m/s calibration, 0.11-0.51 m/s off, against 0.04-0.14 for the body-frame law.
+TIE_PREFERRED = "drag-body"
+
+
+def _hold_level(scores: dict[str, Any]) -> float:
+    cv, extra = scores.get("hold_cv_speed_mps"), scores.get("hold_extrapolation_speed_mps")
+    if cv is None:
+        return math.inf
+    return dragfit.combined(cv, math.nan if extra is None else extra)
+
+
+def choose_family(names: list[str], scores: dict[str, dict[str, Any]]) -> str:
+    """Families fitted on the run means (a "run_loss" score): the lowest of it. Else the family with the
+    lowest per-sample score (CV and extrapolation of the airflow). Among those
+    within FAMILY_TIE of it: the body-frame drag law when it is one of them (TIE_PREFERRED); else the
+    lowest hold-level score when it is FAMILY_TIE below the first's. The per-sample score carries each
+    sample's noise, so two frames of one vehicle often tie on it while their hold means, which replay's
+    per-hold errors follow, differ (0.066 against 0.060 m/s on a 1.8-exponent vehicle)."""
+    anchored = [k for k in names if scores.get(k, {}).get("run_loss") is not None]
+    if anchored:
+        # Fitted on the run means (runmeans.py): the per-sample scores measure the within-log scatter
+        # those fits do not let outvote the means, so the families are ranked as each fit ranked its
+        # own starts, by the robust loss of the logs' mean errors (on the four Neural-Fly runs the
+        # per-sample score took the body frame, 4.07 against 4.62 m/s, whose law left the zero-wind
+        # run 0.59 m/s off; the heading frame's left each kept run within 0.35 m/s).
+        return min(anchored, key=lambda k: scores[k]["run_loss"])
+    per_sample = {k: scores.get(k, {}).get("score_mps") or math.inf for k in names}
+    best = min(names, key=lambda k: per_sample[k])
+    if not math.isfinite(per_sample[best]):
+        return best
+    tied = [k for k in names if per_sample[k] <= per_sample[best] * (1 + FAMILY_TIE)]
+    if TIE_PREFERRED in tied:
+        return TIE_PREFERRED
+    challenger = min(tied, key=lambda k: (_hold_level(scores.get(k, {})), per_sample[k]))
+    # A tie on the hold level too keeps the per-sample choice (the demo's m300: polynomial 0.054 against
+    # drag-body 0.054 m/s; switching read its outdoor flight 0.145 instead of 0.077 m/s).
+    if _hold_level(scores.get(challenger, {})) < (1 - FAMILY_TIE) * _hold_level(scores.get(best, {})):
+        return challenger
+    return best
+
+
+def _drag_families(af: Airframe, by_frame: dict[str, dragfit.DragSamples], frames: tuple[str, ...],
+                   samples: int) -> tuple[dict[str, Family], dict[str, dict[str, Any]], list[str]]:
+    """Each drag frame's law chosen and scored, the body frame's with its exponent (dragexponent):
+    (fitted families, their scores, why a family was not)."""
+    families: dict[str, Family] = {}
+    scores: dict[str, dict[str, Any]] = {}
+    failures: list[str] = []
+    for frame in frames:
+        family = FAMILY_OF_FRAME[frame]
+        if samples < 100:
+            failures.append(f"{family} family: only {samples} usable samples (need 100)")
+            continue
+        # Logs whose means a per-sample fit cannot meet are fitted on their means (dobwind/calibrate/runmeans.py).
+        by_frame[frame] = dragfit.anchor_on_runs(by_frame[frame])
+        choice = dragfit.choose_drag_law(by_frame[frame], holdcv.prefer_on_holds)
+        reason = _uninvertible(by_frame[frame], choice)
+        if reason is not None:
+            failures.append(f"{family} family: {reason}")
+            continue
+        hold = holdcv.hold_cv(by_frame[frame], dragfit.drag_fit_predict(choice.active))
+        picked = dragexponent.ExponentChoice(2.0, by_frame[frame], choice, hold)
+        if frame == "body":  # the heading frame's exponent would absorb the tilt (dragexponent's note)
+            picked = dragexponent.choose_exponent(by_frame[frame], choice,
+                                                  lambda s, c: _uninvertible(s, c) is None, hold)
+        families[family], scores[family] = _drag_family(af, picked)
+    return families, scores, failures
+
+
+def _drag_family(af: Airframe, picked: dragexponent.ExponentChoice) -> tuple[Family, dict[str, Any]]:
+    fitted = drag_airframe(af, picked.choice, picked.samples)
+    report = _drag_report(picked.choice, picked.samples, fitted)
+    report.exponent_scores = {f"{p:g}": s for p, s in sorted(picked.scores.items())}
+    flagged = [run["log"] for run in report.runs if run["outlier"]]  # log indices here
+    if runmeans.exempt_outliers(report.runs, report.anchored):
+        # The hold-level CV the self-check judges when it leaves the flagged logs out (fitfamily._fit_once).
+        keep = ~np.isin(picked.samples.log_index, flagged)
+        hold = holdcv.hold_cv(picked.samples.select(keep), dragfit.drag_fit_predict(picked.choice.active))
+        report.hold_cv_without_outliers_mps = hold.rms_mps if hold is not None else None
+    scores = _family_scores((picked.choice.cv_h_mps, picked.choice.cv_v_mps), picked.choice.extrapolation_h_mps,
+                            picked.hold)
+    if report.anchored:
+        scores["run_loss"] = runmeans.cauchy_loss(np.array([run["error_mps"] for run in report.runs]))
+    return (fitted, report, None), {**scores, "exponent": picked.exponent}
+
+
+def _uninvertible(samples: dragfit.DragSamples, choice: dragfit.DragChoice) -> str | None:
+    """Why the step could not invert the chosen law, or None: a horizontal law that decreases somewhere
+    (every set's did), or no vertical drag at all (lz = qz = 0: the vertical airflow is then undefined)."""
+    where = dragfit.decreasing_at(samples, choice.theta)
+    if where is not None:
+        dropped = "; ".join(choice.dropped)
+        return f"the fitted law decreases at {where}" + (f" (and so did {dropped})" if dropped else "")
+    values = dict(zip(samples.parameters, choice.theta))
+    if not values["lz"] + values["qz"] > 0:
+        return "no vertical drag (lz = qz = 0): the calibration did not move the air vertically enough"
+    return None
+
+
+def _quiet_hover(af: Airframe, check: SelfCheck, hover: HoverNoise,
+                 recheck: Callable[[Airframe], SelfCheck]) -> tuple[Airframe, SelfCheck, dict[str, Any], list[str]]:
+    """The airframe with its first low-pass cutoff lowered until the self-check's noise at low airflow
+    meets the target (at most ``hover.rounds`` more self-check passes), that last check, what changed
+    (empty when nothing did) and warnings. A lower cutoff settles more slowly: a schedule that turns a
+    passing self-check into a failing one (short holds left with nothing to score, lag at wind changes)
+    is not taken, nor one whose check no longer finds a low-airflow segment to measure."""
+    before_hz, before_mps = af.filter.cutoffs_hz[0], check.still_noise_mps
+    warnings: list[str] = []
+    for _ in range(hover.rounds):
+        schedule = quieter_schedule(af.filter, check.still_noise_mps, hover)
+        if schedule is None:
+            break
+        lowered = dataclasses.replace(af, filter=schedule)
+        again = recheck(lowered)
+        if (check.passed and not again.passed) or again.still_noise_mps is None:
+            why = "; ".join(again.reasons) if again.still_noise_mps is not None else "no low-airflow segment is left"
+            warnings.append(f"the low-pass at zero airflow was not lowered below {af.filter.cutoffs_hz[0]:.3g} Hz (noise "
+                            f"at low airflow {check.still_noise_mps:.3f} m/s, --hover-noise {hover.target_mps:g}): at "
+                            f"{schedule.cutoffs_hz[0]:.3g} Hz the self-check fails ({why})")
+            break
+        if again.still_noise_mps >= check.still_noise_mps:
+            # Slower, and no quieter: what is left at low airflow is not noise the low-pass removes (a
+            # real tunnel run's slow wander read 0.81 -> 1.08 m/s from 0.2 to 0.05 Hz). Not taken.
+            warnings.append(f"the low-pass at zero airflow was not lowered below {af.filter.cutoffs_hz[0]:.3g} Hz: at "
+                            f"{schedule.cutoffs_hz[0]:.3g} Hz the noise at low airflow is {again.still_noise_mps:.3f} "
+                            f"m/s, not below {check.still_noise_mps:.3f} (slow error, not noise)")
+            break
+        af, check = lowered, again
+    noise = check.still_noise_mps
+    if noise is not None and 0 < hover.target_mps < noise * hover.min_change \
+            and af.filter.cutoffs_hz[0] <= hover.floor_hz and not warnings:
+        warnings.append(f"the noise at low airflow is {noise:.3f} m/s per axis with the low-pass at zero airflow at "
+                        f"its floor, {hover.floor_hz:g} Hz (--hover-noise {hover.target_mps:g})")
+    if af.filter.cutoffs_hz[0] == before_hz:
+        return af, check, {}, warnings
+    change = {"cutoff_hz": [before_hz, af.filter.cutoffs_hz[0]],
+              "still_noise_mps": [before_mps, check.still_noise_mps], "target_mps": hover.target_mps}
+    return af, check, change, warnings
+
+
+def _speed_range(samples: dragfit.DragSamples, points: Points | None) -> float:
+    """The largest true horizontal airflow speed calibrated on (m/s)."""
+    if len(samples):
+        return float(np.max(np.hypot(samples.airflow[:, 0], samples.airflow[:, 1])))
+    return float(np.max(points.speed_h)) if points is not None and len(points) else 0.0
+
+
+def _drag_report(choice: dragfit.DragChoice, samples: dragfit.DragSamples, fitted: Airframe) -> FitReport:
+    values = dict(zip(samples.parameters, (float(v) for v in choice.theta)))
+    report = FitReport(points=len(samples), thrust_scale=fitted.thrust.scale)
+    # As written to the airframe (the rotor term on the scaled thrust), with the offsets and kappa.
+    report.drag = {**{k: values[k] for k in samples.parameters}, **{
+        k: v for k, v in fitted.drag.as_dict().items() if k != "frame"}}  # type: ignore[union-attr]
+    report.force_offset_n = (values["ox"], values["oy"], 0.0)
+    report.horizontal_rmse_mps, report.horizontal_cv_rmse_mps = choice.rmse_h_mps, _none(choice.cv_h_mps)
+    report.horizontal_extrapolation_rmse_mps = _none(choice.extrapolation_h_mps)
+    report.vertical_rmse_mps, report.vertical_cv_rmse_mps = choice.rmse_v_mps, _none(choice.cv_v_mps)
+    report.not_increasing = list(choice.dropped)
+    report.anchored = samples.anchor
+    report.runs = [dataclasses.asdict(v) for v in dragfit.run_verdicts(samples, choice.active, choice.theta)]
+    return report

@@ -1,0 +1,167 @@
+"""`dobwind profile AIRFRAME LOG... -o PROFILE.nc|.csv [--bin M] [--plot PNG] [--jobs N]`: the command
+around dobwind/atmos/profile.py: logs to workers, the per-bin sums combined, the table written and drawn."""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from dobwind.io import cfnames
+from dobwind.cli.campaign import Done, expand_logs, format_table, run_all
+from dobwind.core.errors import InputError
+from dobwind.io.netcdf import is_netcdf
+from dobwind.io.outputs import OutputFiles, Target, check_targets
+from dobwind.atmos.profile import allowed_mask, combine, coverage, flight_sums, table
+from dobwind.core.progress import wanted
+
+CSV_COLUMNS = ("height_bottom_m", "height_top_m", "height_m", "count", "speed_mean_mps", "speed_std_mps",
+               "vector_speed_mps", "direction_from_deg", "direction_spread_deg", "northward_mean_mps",
+               "eastward_mean_mps", "up_mean_mps", "up_std_mps", "sigma_h_mps", "sigma_up_mps")
+
+
+def _job(airframe: str, log: str, bin_m: float, backend: str, precision: str, rate: float | None,
+         allow: int) -> Done:
+    try:
+        return Done(log, flight_sums(airframe, log, bin_m, backend, precision, rate, allow))
+    except InputError as exc:
+        return Done(log, None, f"dobwind profile: {exc}", 2)
+    except Exception as exc:  # noqa: BLE001 - a bug on one log must not lose the others' profile
+        return Done(log, None, f"dobwind profile: internal error on {log}: {type(exc).__name__}: {exc}", 1)
+
+
+def profile_command(args: argparse.Namespace) -> int:
+    from dobwind.model.airframe import load_airframe
+
+    logs = expand_logs(args.logs)
+    targets = [Target("-o", args.output)] + ([Target("--plot", args.plot)] if args.plot else [])
+    check_targets(targets, [args.airframe, *logs])
+    if not str(args.output).lower().endswith(".csv") and not is_netcdf(args.output):
+        raise InputError(f"-o {args.output}", None, "the profile is written as .csv or .nc (by its extension)")
+    if is_netcdf(args.output):
+        from dobwind.io.netcdf import require_xarray
+
+        require_xarray(args.output)
+    allow = allowed_mask(args.allow or [])
+    af = load_airframe(args.airframe)
+    import dobwind.replay.replay  # noqa: F401 - imported once here, inherited by every forked worker
+    done = run_all(_job, [(args.airframe, log, args.bin, args.backend, args.precision, args.rate, allow) for log in logs],
+                   logs, args.jobs, "profile", wanted(args.json))
+    for result in done:
+        if result.error:
+            sys.stderr.write(result.error + "\n")
+    good = [r for r in done if r.value is not None]
+    stats = table(combine([r.value[0] for r in good]), args.bin)
+    if not stats and not good:
+        return max(r.code for r in done)  # each log's reason is on stderr already: nothing written
+    if not stats:
+        where = ", ".join(logs[:3]) + (" ..." if len(logs) > 3 else "")
+        raise InputError(where, None, "no trusted estimate with a height in any log: nothing written (--allow "
+                         "admits quality-flagged rows)")
+    span = coverage([r.value[3] for r in good])
+    with OutputFiles(targets) as out:
+        staged = out.stage(args.output)
+        if is_netcdf(args.output):
+            _write_netcdf(staged, stats, args, af, logs, span)
+        else:
+            _write_csv(staged, stats, args, af, span)
+        if args.plot:
+            from dobwind.atmos.profileplot import profile_plot
+
+            profile_plot(stats, f"{af.name}: wind profile over {len(good)} flight(s)", str(out.stage(args.plot)))
+    if args.json:
+        from dobwind.io.jsonout import print_json
+
+        print_json({**_as_json(stats, done, args), "time_coverage_utc": list(span) if span else None})
+    else:
+        print(_text(stats, done))
+    return max(r.code for r in done)
+
+
+def _as_json(stats: dict[str, np.ndarray], done: list[Done], args: argparse.Namespace) -> dict:
+    # NaN (no spread from one sample, an unknown sigma) becomes null through print_json, which lists where.
+    bins = [{c: stats[c][k].item() for c in CSV_COLUMNS} for k in range(len(stats["count"]))]
+    logs = [{"log": r.log, "exit": r.code, "error": r.error,
+             "trusted_rows": None if r.value is None else r.value[1],
+             "notes": [] if r.value is None else list(r.value[2])} for r in done]
+    return {"airframe_file": str(args.airframe), "output": str(args.output), "bin_m": args.bin, "bins": bins,
+            "logs": logs}
+
+
+def _text(stats: dict[str, np.ndarray], done: list[Done]) -> str:
+    rows = []
+    for k in range(len(stats["count"])):
+        rows.append([f"{stats['height_bottom_m'][k]:g}-{stats['height_top_m'][k]:g}", str(stats["count"][k]),
+                     f"{stats['speed_mean_mps'][k]:.2f}", f"{stats['speed_std_mps'][k]:.2f}",
+                     f"{stats['direction_from_deg'][k]:.0f}", f"{stats['direction_spread_deg'][k]:.0f}",
+                     f"{stats['up_mean_mps'][k]:+.2f}", f"{stats['sigma_h_mps'][k]:.2f}"])
+    flights = [f"{r.log}: {r.value[1]} trusted rows" + "".join(f"; {n}" for n in r.value[2]) if r.value is not None
+               else f"{r.log}: failed" for r in done]
+    return "\n".join([format_table(["height m", "n", "speed", "spread", "from deg", "spread", "up m/s", "sigma_h"],
+                                   rows), *flights])
+
+
+def _write_csv(path: Path, stats: dict[str, np.ndarray], args: argparse.Namespace, af,
+               span: tuple[str, str] | None) -> None:
+    from dobwind.io.logs import write_csv
+
+    formats = ["%.6g"] * len(CSV_COLUMNS)
+    formats[CSV_COLUMNS.index("count")] = "%d"
+    comments = [f"dobwind profile: airframe {af.name} ({Path(args.airframe).name}), bin {args.bin:g} m, "
+                "height above the take-off point; trusted rows only",
+                f"UTC {span[0]} to {span[1]}" if span else "no GPS time in the logs: UTC unknown"]
+    write_csv(path, list(CSV_COLUMNS), np.column_stack([stats[c] for c in CSV_COLUMNS]), formats, comments)
+
+
+def _write_netcdf(path: Path, stats: dict[str, np.ndarray], args: argparse.Namespace, af, logs: list[str],
+                  span: tuple[str, str] | None) -> None:
+    import xarray as xr
+
+    from dobwind.io.netcdf import calibration_text, write_dataset
+    from dobwind import __version__
+
+    height_attrs = {"standard_name": "height", "units": "m", "positive": "up", "axis": "Z",
+                    "long_name": "height above the take-off point (bin centre)", "bounds": "height_bnds"}
+    method = "height: mean"  # each value is the mean over the estimates inside its height cell
+
+    def var(values, std, units, long, method_=method, **extra):
+        attrs = {"units": units, "long_name": long, "cell_methods": method_, **extra}
+        if std:
+            attrs["standard_name"] = std
+        return ("height", np.asarray(values, dtype=np.float64), attrs)
+
+    spread = "height: standard_deviation"
+    data = {
+        "wind_speed": var(stats["speed_mean_mps"], "wind_speed", "m s-1", "mean horizontal wind speed"),
+        "wind_speed_spread": var(stats["speed_std_mps"], None, "m s-1", "standard deviation of the horizontal "
+                                 "wind speed in the bin", spread),
+        "wind_from_direction": var(stats["direction_from_deg"], "wind_from_direction", "degree",
+                                   "direction of the vector-mean wind (blowing from, clockwise from north)"),
+        "wind_from_direction_spread": var(stats["direction_spread_deg"], None, "degree",
+                                          "circular standard deviation of the sample directions", spread),
+        "eastward_wind": var(stats["eastward_mean_mps"], "eastward_wind", "m s-1", "mean eastward wind"),
+        "northward_wind": var(stats["northward_mean_mps"], "northward_wind", "m s-1", "mean northward wind"),
+        "upward_air_velocity": var(stats["up_mean_mps"], "upward_air_velocity", "m s-1", "mean vertical wind"),
+        "upward_air_velocity_spread": var(stats["up_std_mps"], None, "m s-1", "standard deviation of the vertical "
+                                          "wind in the bin", spread),
+        "wind_speed_standard_error": var(stats["sigma_h_mps"], "wind_speed standard_error", "m s-1",
+                                         "mean calibrated 1-sigma of one horizontal estimate in the bin"),
+        "upward_air_velocity_standard_error": var(stats["sigma_up_mps"], "upward_air_velocity standard_error",
+                                                  "m s-1", "mean calibrated 1-sigma of one vertical estimate"),
+        "count": ("height", stats["count"].astype(np.int32),
+                  {"standard_name": "number_of_observations", "units": "1",
+                   "long_name": "trusted estimate rows in the bin"}),
+        "height_bnds": (("height", "nv"), np.column_stack([stats["height_bottom_m"], stats["height_top_m"]]), {}),
+    }
+    ds = xr.Dataset(data, coords={"height": ("height", stats["height_m"], height_attrs)})
+    ds.attrs = {"Conventions": cfnames.CONVENTIONS, "title": f"dobwind wind profile: {af.name}",
+                "source": f"dobwind {__version__} disturbance-observer wind estimates binned by height",
+                "history": f"dobwind {__version__} profile, bin {args.bin:g} m, {len(logs)} log(s)",
+                "references": "dobwind docs/atmospheric.md", "dobwind_version": __version__,
+                "dobwind_airframe": af.name, "dobwind_airframe_file": Path(args.airframe).name,
+                "dobwind_airframe_sha256": af.content_sha256, "dobwind_calibration": calibration_text(af),
+                "dobwind_logs": ", ".join(Path(log).name for log in logs), "dobwind_bin_m": float(args.bin)}
+    if span:
+        ds.attrs.update(time_coverage_start=span[0], time_coverage_end=span[1])
+    write_dataset(path, ds)

@@ -1,0 +1,1 @@
+"""generate: see docs/architecture.md for what lives here."""

@@ -1,0 +1,1 @@
+"""inspect: see docs/architecture.md for what lives here."""

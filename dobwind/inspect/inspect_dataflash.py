@@ -1,0 +1,195 @@
+"""`dobwind inspect` for ArduPilot DataFlash (.bin): the messages dobwind/io/dataflash.py reads, their rates,
+the vehicle, ArduPilot's wind and the SITL wind parameters.
+
+The message choices are dataflash.py's (VELOCITY, ATTITUDE, IMU, AP_WIND, EV_GROUND, the EKF3 primary
+core from XKF4.PI): a role listed here is the message replay reads for it.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from dobwind.io.dataflash import (AP_WIND, ATTITUDE, EV_GROUND, IMU, VELOCITY, WANTED, follow_primary, load_messages,
+                               pick_stream)
+from dobwind.core.errors import InputError
+from dobwind.inspect.loginspect import (AutopilotWind, LogSummary, Role, Vehicle, inside, intervals, quiet_stderr,
+                                stream_stats, total, wind_activity)
+
+PARAMETERS = ("MOT_THST_HOVER", "FRAME_CLASS", "FRAME_TYPE", "EK3_DRAG_BCOEF_X", "EK3_DRAG_BCOEF_Y",
+              "EK3_DRAG_MCOEF", "SIM_WIND_SPD", "SIM_WIND_DIR", "SIM_WIND_TURB", "SIM_WIND_T", "SIM_WIND_T_ALT")
+# ArduPilot FRAME_CLASS -> motors (AP_Motors: quad, hexa, octa, octaquad, Y6, tri, dodecahexa, deca).
+FRAME_CLASS_ROTORS = {1: 4, 2: 6, 3: 8, 4: 8, 5: 6, 7: 3, 12: 12, 14: 10}
+FRAME_CLASS_NAMES = {1: "quad", 2: "hexa", 3: "octa", 4: "octaquad", 5: "Y6", 7: "tri", 12: "dodecahexa", 14: "deca"}
+# SERVOn_FUNCTION values of motors: Motor1..8 are 33..40, Motor9..12 are 82..85 (ArduPilot SRV_Channel).
+MOTOR_FUNCTIONS = set(range(33, 41)) | set(range(82, 86))
+RPM_AIRBORNE_SHARE = 0.95
+MOTOR_PWM_US = 1100.0  # a spinning motor's output; idle and disarmed outputs sit near 1000 us
+
+
+def _parameters(rows: list[dict]) -> dict[str, float]:
+    """Each parameter's first logged value (the one the flight started with)."""
+    out: dict[str, float] = {}
+    for r in rows:
+        name = r.get("Name")
+        value = r.get("Value")
+        if isinstance(name, str) and name not in out and isinstance(value, (int, float)) and np.isfinite(value):
+            out[name] = float(value)
+    return out
+
+
+def _streams(msgs: dict) -> list:
+    out = []
+    for name, rows in msgs.items():
+        if not rows:
+            continue
+        inst = "C" if "C" in rows[0] else "I" if name == "IMU" and "I" in rows[0] else "Instance" if name == "ESC" else None
+        if inst is None:
+            out.append(stream_stats(name, np.array([r["TimeUS"] for r in rows]) * 1e-6))
+            continue
+        for k in sorted({int(r.get(inst, 0)) for r in rows}):
+            t = np.array([r["TimeUS"] for r in rows if int(r.get(inst, 0)) == k]) * 1e-6
+            label = "primary core" if inst == "C" else f"{inst} {k}"
+            if inst == "C" and k != 0:
+                continue  # the other cores' rows were dropped by follow_primary
+            out.append(stream_stats(f"{name} ({label})", t))
+    return out
+
+
+def _stream_name(msgs: dict, name: str) -> str:
+    rows = msgs.get(name) or [{}]
+    return f"{name} (primary core)" if "C" in rows[0] else f"{name} (I 0)" if name == "IMU" and "I" in rows[0] else name
+
+
+def _role(msgs: dict, role: str, candidates, fields: list[str], missing: str) -> Role:
+    found = pick_stream(msgs, candidates, fields)
+    if found is None:
+        return Role(role, None, None, missing)
+    return Role(role, f"{found[0]}.{fields[0]}..{fields[-1]}" if len(fields) > 1 else f"{found[0]}.{fields[0]}",
+                _stream_name(msgs, found[0]))
+
+
+def _roles(msgs: dict, params: dict) -> tuple[Role, ...]:
+    ctun = (("CTUN", None, 0),)
+    psc = pick_stream(msgs, (("PSCN", None, 0),), ["AN"])
+    imu = _role(msgs, "specific_force", IMU, ["AccX", "AccY", "AccZ"], "no IMU")
+    acc = (Role("acceleration", "PSCN.AN, PSCE.AE, PSCD.AD", "PSCN") if psc is not None else
+           Role("acceleration", "IMU specific force rotated by XKQ, plus gravity", imu.stream, "no PSCN/PSCE/PSCD")
+           if imu.source else Role("acceleration", None, None, "no PSCN and no IMU"))
+    hover = _role(msgs, "hover_thrust", ctun, ["ThH"], "no CTUN.ThH")
+    heading = _role(msgs, "heading", (("ATT", None, 0),), ["DesYaw"], "")
+    if heading.source is None:
+        heading = Role("heading", "XKQ (the vehicle's own yaw)", _stream_name(msgs, "XKQ"), "no ATT.DesYaw")
+    ground = (Role("ground", "EV landing events", "EV") if any(r.get("Id") in EV_GROUND for r in msgs["EV"]) else
+              Role("ground", "CTUN.ThO at 0", "CTUN", "no EV events") if msgs["CTUN"] else
+              Role("ground", None, None, "no EV events and no CTUN: replay treats every instant as airborne"))
+    return (_role(msgs, "velocity", VELOCITY, ["VN", "VE", "VD"], "no XKF1 (or NKF1)"), acc, imu,
+            _role(msgs, "attitude", ATTITUDE, ["Q1", "Q2", "Q3", "Q4"], "no XKQ (or NKQ1, NKQ)"),
+            _role(msgs, "rpm", (("ESC", None, 0),), ["RPM"], "no ESC telemetry"),
+            _role(msgs, "thrust", ctun, ["ThO"], "no CTUN.ThO"), hover, heading, ground,
+            _role(msgs, "autopilot_wind", AP_WIND, ["VWN", "VWE"], "no XKF2 (or NKF2)"))
+
+
+def _airborne(msgs: dict, end_s: float) -> tuple[tuple[tuple[float, float], ...], str]:
+    """As replay reads the ground: EV events (a log starts on the ground), else CTUN.ThO > 0."""
+    events = sorted((r["TimeUS"] * 1e-6, not EV_GROUND[r["Id"]]) for r in msgs["EV"] if r.get("Id") in EV_GROUND)
+    if events:
+        return intervals(np.array([e[0] for e in events]), np.array([e[1] for e in events]), end_s), "EV events"
+    ctun = pick_stream(msgs, (("CTUN", None, 0),), ["ThO"])
+    if ctun is not None:
+        return intervals(ctun[1]["t"], ctun[1]["ThO"] > 0, end_s), "CTUN.ThO above 0 (no EV events)"
+    return (), "unknown: no EV events and no CTUN"
+
+
+def _rotors(msgs: dict, params: dict, spans) -> tuple[int | None, str]:
+    motors = [k for k, v in params.items() if k.startswith("SERVO") and k.endswith("_FUNCTION") and int(v) in MOTOR_FUNCTIONS]
+    if motors:
+        return len(motors), "SERVOn_FUNCTION set to a motor"
+    frame = int(params.get("FRAME_CLASS", -1))
+    if frame in FRAME_CLASS_ROTORS:
+        return FRAME_CLASS_ROTORS[frame], f"FRAME_CLASS {frame}"
+    escs = {r.get("Instance") for r in msgs["ESC"]}
+    if escs:
+        return len(escs), "ESC telemetry instances"
+    driven = _driven_outputs(msgs.get("RCOU", []), spans)
+    if driven:
+        return driven, "RCOU channels above 1100 us while airborne (no parameters: servos would count too)"
+    return None, "no motor SERVOn_FUNCTION, FRAME_CLASS, ESC telemetry or driven RCOU channel"
+
+
+def _driven_outputs(rows: list[dict], spans) -> int:
+    """Output channels whose airborne median PWM is above 1100 us (motors idle at about 1000)."""
+    if not rows or not spans:
+        return 0
+    up = inside(np.array([r["TimeUS"] for r in rows]) * 1e-6, spans)
+    if not up.any():
+        return 0
+    picked = [r for r, u in zip(rows, up) if u]
+    return sum(1 for k in range(1, 33) if f"C{k}" in picked[0]
+               and np.median([r.get(f"C{k}", 0) for r in picked]) > MOTOR_PWM_US)
+
+
+def _rpm(msgs: dict, rotors: int | None, spans) -> tuple[bool, str, float | None, float | None]:
+    if not msgs["ESC"] or not rotors:
+        return False, "no ESC telemetry" if not msgs["ESC"] else "rotor count unknown", None, None
+    values, shares = [], []
+    for k in range(rotors):
+        rows = [(r["TimeUS"] * 1e-6, r.get("RPM", 0.0)) for r in msgs["ESC"] if r.get("Instance") == k]
+        if not rows:
+            return False, f"no ESC telemetry for motor {k + 1} (Instance {k})", None, None
+        t, rpm = np.array(rows).T
+        up = inside(t, spans)
+        if not up.any():
+            return False, "no ESC report while airborne", None, None
+        shares.append(float(np.mean(rpm[up] > 0)))
+        values.append(rpm[up])
+    share = min(shares)
+    rpm_all = np.concatenate(values)
+    note = f"rpm > 0 in at least {100 * share:.0f} % of each ESC's airborne reports"
+    return share >= RPM_AIRBORNE_SHARE, note, float(np.median(rpm_all)), float(np.max(rpm_all))
+
+
+def _hover(msgs: dict, params: dict, spans) -> tuple[float | None, str]:
+    ctun = pick_stream(msgs, (("CTUN", None, 0),), ["ThH"])
+    if ctun is not None:
+        up = inside(ctun[1]["t"], spans)
+        return float(np.median(ctun[1]["ThH"][up] if up.any() else ctun[1]["ThH"])), "CTUN.ThH (airborne median)"
+    if "MOT_THST_HOVER" in params:
+        return params["MOT_THST_HOVER"], "parameter MOT_THST_HOVER"
+    return None, ""
+
+
+def _ap_wind(msgs: dict, params: dict) -> AutopilotWind:
+    drag = params.get("EK3_DRAG_BCOEF_X", 0) > 0 or params.get("EK3_DRAG_BCOEF_Y", 0) > 0 or params.get("EK3_DRAG_MCOEF", 0) > 0
+    why = "EK3 drag fusion is on" if drag else "EK3 drag fusion is off (EK3_DRAG_BCOEF_X/Y and EK3_DRAG_MCOEF 0)"
+    found = pick_stream(msgs, AP_WIND, ["VWN", "VWE"])
+    if found is None:
+        return wind_activity(None, None, None, None, why)
+    return wind_activity(found[0], found[1]["t"], found[1]["VWN"], found[1]["VWE"], why)
+
+
+def inspect_dataflash(path: str) -> LogSummary:
+    notes: list[str] = []
+    with quiet_stderr():
+        loaded = load_messages(path, WANTED + ("PARM", "RCOU"))
+    msgs = follow_primary(loaded, notes)
+    params_all = _parameters(msgs.pop("PARM"))
+    params = {k: params_all[k] for k in PARAMETERS if k in params_all}
+    streams = _streams(msgs)
+    if not streams:
+        raise InputError(path, None, "no message the estimator reads is in the log")
+    start = min(s.start_s for s in streams if s.start_s is not None)
+    end = max(s.end_s for s in streams if s.end_s is not None)
+    spans, source = _airborne(msgs, end)
+    rotors, rotor_source = _rotors(msgs, params_all, spans)
+    rpm_ok, rpm_note, rpm_median, rpm_max = _rpm(msgs, rotors, spans)
+    hover, hover_source = _hover(msgs, params, spans)
+    frame = int(params.get("FRAME_CLASS", -1))
+    airframe = (f"ArduPilot FRAME_CLASS {frame} ({FRAME_CLASS_NAMES.get(frame, 'not a multirotor class')})"
+                if "FRAME_CLASS" in params else "ArduPilot (no FRAME_CLASS)")
+    vehicle = Vehicle(rotors, rotor_source, airframe, rpm_ok, rpm_note, hover, hover_source, rpm_median, rpm_max)
+    if "SIM_WIND_SPD" in params:
+        notes.append(f"SITL wind: {params['SIM_WIND_SPD']:g} m/s from {params.get('SIM_WIND_DIR', 0):g} deg"
+                     + (f", below {params.get('SIM_WIND_T_ALT', 0):g} m scaled by sqrt(height / SIM_WIND_T_ALT)"
+                        if params.get("SIM_WIND_T", 0) == 0 and params.get("SIM_WIND_T_ALT", 0) > 0 else ""))
+    return LogSummary(path, "dataflash", "ArduPilot", start, end, total(spans) if spans or "unknown" not in source else None,
+                      source, spans, tuple(streams), _roles(msgs, params), params, vehicle, _ap_wind(msgs, params),
+                      tuple(notes))

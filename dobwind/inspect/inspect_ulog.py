@@ -1,0 +1,169 @@
+"""`dobwind inspect` for PX4 ULog: the topics dobwind/io/ulog.py reads, their rates, the vehicle and PX4's wind.
+
+The topic choices are ulog.py's (TOPICS_READ, PX4_WIND_TOPICS and the fields read_ulog asks for): a
+role listed here is the topic replay reads for it, in the same order of preference.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from dobwind.core.errors import InputError
+from dobwind.inspect.loginspect import (AutopilotWind, LogSummary, Role, Vehicle, inside, intervals,
+                                stream_stats, total, wind_activity)
+from dobwind.io.ulog import PX4_WIND_TOPICS, TOPICS_READ, open_ulog, truncation
+
+# Read for the vehicle only (rotor count when esc_status is absent): not estimator inputs.
+EXTRA_TOPICS = ("actuator_motors", "actuator_outputs")
+PARAMETERS = ("MPC_THR_HOVER", "EKF2_AID_MASK", "EKF2_DRAG_CTRL", "EKF2_BCOEF_X", "EKF2_BCOEF_Y", "EKF2_MCOEF",
+              "SYS_AUTOSTART", "CA_ROTOR_COUNT", "MAV_TYPE")
+# MAV_TYPE (MAVLink) of multirotors -> rotor count: the last resort for the rotor count.
+MAV_TYPE_ROTORS = {2: 4, 13: 6, 14: 8, 15: 3}
+EKF2_AID_MASK_DRAG = 1 << 5   # "use drag": PX4 up to v1.13; later EKF2_DRAG_CTRL
+# Share of airborne ESC reports that must read rpm > 0 on every rotor for rpm to be a thrust source.
+RPM_AIRBORNE_SHARE = 0.95
+
+
+def _topics(ulog) -> dict[str, dict]:
+    """Instance 0 of every parsed topic: its fields as float arrays and "t" in seconds."""
+    out: dict[str, dict] = {}
+    for data in ulog.data_list:
+        if data.multi_id == 0 and len(data.data["timestamp"]):
+            with np.errstate(invalid="ignore"):
+                cols = {k: np.asarray(v, dtype=float) for k, v in data.data.items()}
+            cols["t"] = cols["timestamp"] * 1e-6
+            out[data.name] = cols
+    return out
+
+
+def _role(topics: dict, role: str, candidates: tuple[tuple[str, tuple[str, ...]], ...], missing: str) -> Role:
+    for name, fields in candidates:
+        if name in topics and all(f in topics[name] for f in fields) and len(topics[name]["t"]) >= 2:
+            shown = fields[0] if len(fields) == 1 else f"{fields[0]}..{fields[-1]}"
+            return Role(role, f"{name}.{shown}", name)
+    return Role(role, None, None, missing)
+
+
+def _roles(topics: dict, params: dict) -> tuple[Role, ...]:
+    q = tuple(f"q[{i}]" for i in range(4))
+    roles = [
+        _role(topics, "velocity", (("vehicle_local_position", ("vx", "vy", "vz")),), "no vehicle_local_position"),
+        _role(topics, "acceleration", (("vehicle_local_position", ("ax", "ay", "az")),), "no vehicle_local_position.ax"),
+        _role(topics, "specific_force", (("sensor_combined", tuple(f"accelerometer_m_s2[{i}]" for i in range(3))),),
+              "no sensor_combined"),
+        _role(topics, "attitude", (("vehicle_attitude", q),), "no vehicle_attitude"),
+        _role(topics, "rpm", (("esc_status", ("esc[0].esc_rpm",)),), "no esc_status"),
+        _role(topics, "thrust", (("vehicle_thrust_setpoint", ("xyz[2]",)), ("vehicle_attitude_setpoint", ("thrust_body[2]",))),
+              "neither vehicle_thrust_setpoint nor vehicle_attitude_setpoint.thrust_body"),
+        _role(topics, "hover_thrust", (("hover_thrust_estimate", ("hover_thrust",)),), ""),
+        _role(topics, "heading", (("vehicle_attitude_setpoint", ("yaw_body",)),), ""),
+        _role(topics, "ground", (("vehicle_land_detected", ("landed",)),), ""),
+    ]
+    if roles[6].source is None:  # read_ulog's fallback: the parameter
+        roles[6] = (Role("hover_thrust", "parameter MPC_THR_HOVER", None) if "MPC_THR_HOVER" in params else
+                    Role("hover_thrust", None, None, "no hover_thrust_estimate and no MPC_THR_HOVER"))
+    if roles[7].source is None:
+        roles[7] = Role("heading", "vehicle_attitude (the vehicle's own yaw)", "vehicle_attitude",
+                        "no vehicle_attitude_setpoint.yaw_body")
+    if roles[8].source is None:
+        roles[8] = Role("ground", None, None, "no vehicle_land_detected: replay treats every instant as airborne")
+    wind = _role(topics, "autopilot_wind", tuple((n, (a, b)) for n, a, b in PX4_WIND_TOPICS), "no PX4 wind topic")
+    return tuple(roles) + (wind,)
+
+
+def _airborne(topics: dict, params: dict, end_s: float) -> tuple[tuple[tuple[float, float], ...], str]:
+    """Airborne spans: vehicle_land_detected (landed, maybe_landed or ground_contact mean ground, as
+    replay reads it), else the collective setpoint above half the hover thrust."""
+    land = topics.get("vehicle_land_detected")
+    if land is not None and "landed" in land:
+        ground = np.zeros(len(land["t"]), dtype=bool)
+        for flag in ("landed", "maybe_landed", "ground_contact"):
+            if flag in land:
+                ground |= land[flag] > 0.5
+        return intervals(land["t"], ~ground, end_s), "vehicle_land_detected"
+    hover = params.get("MPC_THR_HOVER", 0.5)
+    for name, fld in (("vehicle_thrust_setpoint", "xyz[2]"), ("vehicle_attitude_setpoint", "thrust_body[2]")):
+        if name in topics and fld in topics[name]:
+            return intervals(topics[name]["t"], -topics[name][fld] > 0.5 * hover, end_s), \
+                f"{name} above half the hover thrust (no vehicle_land_detected)"
+    return (), "unknown: no vehicle_land_detected and no thrust setpoint"
+
+
+def _rotor_count(topics: dict, params: dict, spans) -> tuple[int | None, str]:
+    # The configured count first: SITL's esc_status reports more ESCs than the vehicle has motors.
+    if params.get("CA_ROTOR_COUNT", 0) > 0:
+        return int(params["CA_ROTOR_COUNT"]), "parameter CA_ROTOR_COUNT"
+    esc = topics.get("esc_status")
+    if esc is not None and "esc_count" in esc and np.nanmax(esc["esc_count"]) > 0:
+        return int(np.nanmax(esc["esc_count"])), "esc_status.esc_count"
+    motors = topics.get("actuator_motors")
+    if motors is not None:
+        up = inside(motors["t"], spans) if spans else np.ones(len(motors["t"]), dtype=bool)
+        used = [k for k in range(16) if f"control[{k}]" in motors
+                and np.any(np.isfinite(motors[f"control[{k}]"][up]) & (motors[f"control[{k}]"][up] > 0))]
+        if used:
+            return len(used), "actuator_motors channels driven while airborne"
+    if int(params.get("MAV_TYPE", -1)) in MAV_TYPE_ROTORS:
+        return MAV_TYPE_ROTORS[int(params["MAV_TYPE"])], f"MAV_TYPE {int(params['MAV_TYPE'])}"
+    return None, "no esc_status, CA_ROTOR_COUNT, actuator_motors or multirotor MAV_TYPE"
+
+
+def _rpm(topics: dict, rotors: int | None, spans) -> tuple[bool, str, float | None, float | None]:
+    """Whether esc_status gives rpm > 0 on every rotor while airborne, with the airborne median and max."""
+    esc = topics.get("esc_status")
+    if esc is None or not rotors:
+        return False, "no esc_status" if esc is None else "rotor count unknown", None, None
+    cols = [esc.get(f"esc[{i}].esc_rpm") for i in range(rotors)]
+    if any(c is None for c in cols):
+        return False, f"esc_status has fewer than {rotors} ESCs", None, None
+    rpm = np.column_stack(cols)
+    up = inside(esc["t"], spans)
+    if not up.any():
+        return False, "no esc_status report while airborne", None, None
+    share = float(np.mean(np.all(rpm[up] > 0, axis=1)))
+    note = f"rpm > 0 on all {rotors} ESCs in {100 * share:.0f} % of {int(up.sum())} airborne reports"
+    return share >= RPM_AIRBORNE_SHARE, note, float(np.median(rpm[up])), float(np.max(rpm[up]))
+
+
+def _hover(topics: dict, params: dict, spans) -> tuple[float | None, str]:
+    hte = topics.get("hover_thrust_estimate")
+    if hte is not None and "hover_thrust" in hte:
+        up = inside(hte["t"], spans) if spans else np.ones(len(hte["t"]), dtype=bool)
+        values = hte["hover_thrust"][up] if up.any() else hte["hover_thrust"]
+        return float(np.median(values)), "hover_thrust_estimate (airborne median)"
+    if "MPC_THR_HOVER" in params:
+        return float(params["MPC_THR_HOVER"]), "parameter MPC_THR_HOVER"
+    return None, ""
+
+
+def _px4_wind(topics: dict, wind_role: Role, params: dict) -> AutopilotWind:
+    drag = (int(params.get("EKF2_AID_MASK", 0)) & EKF2_AID_MASK_DRAG) or params.get("EKF2_DRAG_CTRL", 0) > 0
+    why = "EKF2 drag fusion is on" if drag else "EKF2 drag fusion is off (EKF2_AID_MASK bit 5 / EKF2_DRAG_CTRL)"
+    if wind_role.source is None:
+        return wind_activity(None, None, None, None, why)
+    name = wind_role.stream
+    north, east = next((a, b) for n, a, b in PX4_WIND_TOPICS if n == name)
+    src = topics[name]
+    return wind_activity(name, src["t"], src[north], src[east], why)
+
+
+def inspect_ulog(path: str) -> LogSummary:
+    ulog, complaint = open_ulog(path, TOPICS_READ + EXTRA_TOPICS)
+    topics = _topics(ulog)
+    params = {k: float(ulog.initial_parameters[k]) for k in PARAMETERS
+              if k in ulog.initial_parameters and np.isfinite(float(ulog.initial_parameters[k]))}
+    if not topics:
+        raise InputError(path, None, "no topic the estimator reads is in the log")
+    start = min(float(d["t"].min()) for d in topics.values())
+    end = max(float(d["t"].max()) for d in topics.values())
+    spans, airborne_source = _airborne(topics, params, end)
+    roles = _roles(topics, params)
+    rotors, rotor_source = _rotor_count(topics, params, spans)
+    rpm_ok, rpm_note, rpm_median, rpm_max = _rpm(topics, rotors, spans)
+    hover, hover_source = _hover(topics, params, spans)
+    autostart = f"PX4 SYS_AUTOSTART {int(params['SYS_AUTOSTART'])}" if "SYS_AUTOSTART" in params else "PX4 (no SYS_AUTOSTART)"
+    vehicle = Vehicle(rotors, rotor_source, autostart, rpm_ok, rpm_note, hover, hover_source, rpm_median, rpm_max)
+    notes = [n for n in (complaint and f"pyulog: {complaint}", truncation(path)) if n]
+    streams = tuple(stream_stats(name, d["t"]) for name, d in sorted(topics.items()))
+    return LogSummary(path, "ulog", "PX4", start, end, total(spans) if spans or "unknown" not in airborne_source else None,
+                      airborne_source, spans, streams, roles, params, vehicle,
+                      _px4_wind(topics, roles[-1], params), tuple(notes))

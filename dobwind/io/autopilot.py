@@ -1,0 +1,70 @@
+"""Which reader a log needs (by its name), and the PX4-style wind file (`replay --px4-wind`)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from dobwind.io.atomic import write_text_atomically
+from dobwind.model.airframe import Airframe
+from dobwind.io.resample import AutopilotFlight
+
+ULOG_SUFFIXES = (".ulg",)
+DATAFLASH_SUFFIXES = (".bin",)
+ROSBAG_SUFFIXES = (".mcap", ".db3")
+
+
+def log_kind(path: str) -> str:
+    """'ulog', 'dataflash', 'rosbag' or 'csv'. A folder is a ROS 2 bag (rosbags opens bag folders)."""
+    name = str(path).lower()
+    if name.endswith(ULOG_SUFFIXES):
+        return "ulog"
+    if name.endswith(DATAFLASH_SUFFIXES):
+        return "dataflash"
+    if name.endswith(ROSBAG_SUFFIXES) or Path(path).is_dir():
+        return "rosbag"
+    return "csv"
+
+
+def is_autopilot_log(path: str) -> bool:
+    return log_kind(path) != "csv"
+
+
+def read_autopilot(path: str, af: Airframe, rate_hz: float | None = None,
+                   topics: dict[str, str] | None = None) -> AutopilotFlight:
+    kind = log_kind(path)
+    if kind == "ulog":
+        from dobwind.io.ulog import read_ulog
+
+        return read_ulog(path, af, rate_hz)
+    if kind == "dataflash":
+        from dobwind.io.dataflash import read_dataflash
+
+        return read_dataflash(path, af, rate_hz)
+    from dobwind.io.rosbag import read_rosbag
+
+    return read_rosbag(path, af, rate_hz, topics or {})
+
+
+PX4_WIND_COLUMNS = ("timestamp", "windspeed_north", "windspeed_east", "variance_north", "variance_east", "status")
+
+
+def px4_wind_rows(flight: AutopilotFlight, wind: np.ndarray, sigma_h: np.ndarray, status: np.ndarray,
+                  accepted: np.ndarray) -> np.ndarray:
+    """What PX4's `wind` message holds, per accepted row: timestamp in microseconds on the log's own
+    clock, north/east wind (m/s) and their variances (m²/s²). The step gives one horizontal 1-sigma,
+    so each axis gets sigma_h² (an isotropic error); an unknown sigma (-1: no [uncertainty] table)
+    gives NaN variances, never a fake confidence."""
+    t_us = np.round((flight.log.time_s + flight.t0_s) * 1e6)
+    var = np.where(sigma_h >= 0, sigma_h * sigma_h, np.nan)
+    rows = np.column_stack([t_us, wind[:, 0], wind[:, 1], var, var, status])
+    return rows[accepted]
+
+
+def write_px4_wind(path: str | Path, rows: np.ndarray) -> None:
+    def write(handle) -> None:
+        handle.write("# dobwind wind in the fields of PX4's wind message (uORB); timestamp in us on the log's clock\n")
+        handle.write(",".join(PX4_WIND_COLUMNS) + "\n")
+        np.savetxt(handle, rows, fmt=["%d", "%.6g", "%.6g", "%.6g", "%.6g", "%d"], delimiter=",")
+
+    write_text_atomically(path, write)

@@ -1,0 +1,260 @@
+"""ArduPilot DataFlash logs (`.bin`) onto the estimator's inputs, read with pymavlink's DFReader
+(optional dependency group `ardupilot`).
+
+Messages (EKF3 names; EKF2 logs use the older names in brackets):
+- ground velocity NED: XKF1.VN/VE/VD of the primary core [NKF1, core 0 by name]. EKF3 runs one core per
+  IMU and may switch which one the vehicle flies on: every core logs the primary's index in XKF4.PI,
+  and each XKF1/XKQ/XKF2 row is taken from the core that was primary at its time (core 0 when the log
+  has no XKF4.PI);
+- attitude: XKQ.Q1..Q4 = (w, x, y, z), primary core [NKQ1 or NKQ]. XKQ excludes AHRS_TRIM, unlike ATT and
+  XKF1's angles (1.06 deg apart on a real ArduCopter 4.6.2 log): the force must be rotated by the
+  attitude the EKF fused, not the trimmed one;
+- specific force (body FRD): IMU.AccX/Y/Z, instance I = 0 (older logs: the message IMU), with XKQ;
+- NED acceleration: PSCN.AN/PSCE.AE/PSCD.AD where the position controller logs them, else the IMU's
+  specific force rotated by XKQ plus gravity (said in a note);
+- rotor speeds: ESC.RPM per Instance. Instance k is servo output k + 1, so with ArduPilot's default
+  output mapping (SERVOn_FUNCTION = Motor n) it is motor k + 1, and it becomes the airframe's rotor
+  k + 1. Reports are interpolated and may be up to ROTOR_MAX_GAP_S apart (as for PX4);
+- collective thrust: CTUN.ThO / CTUN.ThH (the learned hover throttle) times m g;
+- heading frame: ATT.DesYaw (deg), else the vehicle's own yaw;
+- ArduPilot's wind, for comparison: XKF2.VWN/VWE, primary core [NKF2].
+On the ground: EV events (LAND_COMPLETE 18, LAND_COMPLETE_MAYBE 17 and DISARMED 11 start it,
+NOT_LANDED 28 ends it; a log starts on the ground); without EV messages, rows where CTUN.ThO is 0
+(motors at idle or stopped). Rows are resampled onto a uniform clock at the observer's rate as the ULog
+reader does (gaps beyond each message's own tolerance, resample.GapPolicy: NO_DATA; ESCs at 0 rpm while
+airborne: NO_DATA, named).
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+
+import numpy as np
+
+from dobwind.core.errors import InputError
+from dobwind.io.logs import FlightLog
+from dobwind.model.airframe import Airframe
+from dobwind.io.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, hold,
+                              interp, quaternions, source_gaps, topic_tolerances, uniform_clock)
+
+# (role, candidates as (message, instance field or None, instance value)), first found wins.
+VELOCITY = (("XKF1", "C", 0), ("NKF1", None, 0))
+ATTITUDE = (("XKQ", "C", 0), ("NKQ1", None, 0), ("NKQ", None, 0))
+AP_WIND = (("XKF2", "C", 0), ("NKF2", None, 0))
+IMU = (("IMU", "I", 0), ("IMU", None, 0))
+EV_GROUND = {11: True, 17: True, 18: True, 28: False}  # DISARMED, LAND_COMPLETE_MAYBE/_COMPLETE, NOT_LANDED
+WANTED = ("XKF1", "NKF1", "XKQ", "NKQ1", "NKQ", "XKF2", "NKF2", "IMU", "ESC", "CTUN", "ATT", "EV",
+          "PSCN", "PSCE", "PSCD", "XKF4")
+CORE_MESSAGES = ("XKF1", "XKQ", "XKF2")  # logged per EKF3 core (field C)
+
+
+def load_messages(path: str, wanted: tuple[str, ...] = WANTED) -> dict[str, list[dict]]:
+    """Every wanted message as a list of field dicts; DFReader prints to stdout, which --json needs."""
+    try:
+        from pymavlink import DFReader
+    except ImportError:  # pragma: no cover - the ardupilot extra is part of `make setup`
+        raise InputError(path, None, "reading DataFlash needs pymavlink (pip install 'dobwind[ardupilot]')") from None
+    _require_magic(path)
+    out: dict[str, list[dict]] = {name: [] for name in wanted}
+    try:
+        # DFReader prints a line per skipped byte of a corrupt log ("bad header ...", to stderr): hundreds
+        # of thousands for a damaged file. The outcome is judged from the messages found instead.
+        with open(os.devnull, "w") as sink, contextlib.redirect_stdout(sink), contextlib.redirect_stderr(sink):
+            reader = DFReader.DFReader_binary(path, zero_time_base=False)
+            while True:
+                msg = reader.recv_match(type=list(wanted))
+                if msg is None:
+                    break
+                out[msg.get_type()].append(msg.to_dict())
+            _close(reader)
+    except OSError as exc:
+        raise InputError(path, None, f"cannot read: {exc.strerror}") from None
+    except Exception as exc:  # DFReader raises many kinds on corrupt files
+        raise InputError(path, None, f"not a readable DataFlash log ({type(exc).__name__}: {str(exc)[:80]})") from None
+    return out
+
+
+# Every DataFlash message starts with these two bytes (the format is public: ArduPilot's LogStructure.h).
+DATAFLASH_MAGIC = b"\xa3\x95"
+
+
+def _require_magic(path: str) -> None:
+    """A file that does not start like a DataFlash log (a CSV renamed .bin, say) is refused in one line
+    before DFReader scans it byte by byte."""
+    try:
+        with open(path, "rb") as handle:
+            head = handle.read(len(DATAFLASH_MAGIC))
+    except OSError as exc:
+        raise InputError(path, None, f"cannot read: {exc.strerror}") from None
+    if head != DATAFLASH_MAGIC:
+        raise InputError(path, None, "not a DataFlash log: it does not start with the 0xA3 0x95 message header")
+
+
+def _close(reader) -> None:
+    """DFReader keeps its file and a memory map open until close() (a leaked file per log read)."""
+    try:
+        reader.close()
+    except Exception:  # noqa: BLE001 - closing is best effort; the messages are already read
+        pass
+
+
+def messages_found(path: str) -> dict[str, int]:
+    """How many of each message the estimator could use are in the log (0: missing)."""
+    return {name: len(rows) for name, rows in load_messages(path).items()}
+
+
+def follow_primary(msgs: dict[str, list[dict]], notes: list[str]) -> dict[str, list[dict]]:
+    """The per-core messages reduced to the primary core's rows, relabelled core 0 (what VELOCITY,
+    ATTITUDE and AP_WIND select). The primary at a row's time is the PI of the last XKF4 at or before
+    it (the first XKF4's before that). Without XKF4.PI the log is left as it is: core 0."""
+    marks = sorted((r["TimeUS"], int(r["PI"])) for r in msgs["XKF4"] if "PI" in r and "C" in r)
+    if not marks:
+        return msgs
+    t_mark = np.array([m[0] for m in marks], dtype=float)
+    core = np.array([m[1] for m in marks])
+    out = dict(msgs)
+    for name in CORE_MESSAGES:
+        rows = [r for r in msgs[name] if "C" in r]
+        if not rows:
+            continue
+        idx = np.clip(np.searchsorted(t_mark, [r["TimeUS"] for r in rows], side="right") - 1, 0, None)
+        out[name] = [dict(r, C=0) for r, want in zip(rows, core[idx]) if r["C"] == want]
+    used = np.unique(core)
+    switches = int(np.count_nonzero(np.diff(core)))
+    notes.append(f"EKF3 primary core from XKF4.PI: core {used[0]} throughout" if switches == 0 else
+                 f"EKF3 primary core from XKF4.PI: {switches} switch(es) among cores {', '.join(map(str, used))}; "
+                 f"{', '.join(CORE_MESSAGES)} follow it")
+    return out
+
+
+def pick_stream(msgs: dict[str, list[dict]], candidates, fields: list[str]) -> tuple[str, dict] | None:
+    for name, inst_field, inst in candidates:
+        rows = [r for r in msgs.get(name, []) if inst_field is None or r.get(inst_field, inst) == inst]
+        if len(rows) >= 2 and all(f in rows[0] for f in fields):
+            t = np.array([r["TimeUS"] for r in rows], dtype=float) * 1e-6
+            order = np.argsort(t, kind="stable")
+            keep = order[np.r_[True, np.diff(t[order]) > 0]]  # duplicated stamps carry no new instant
+            return name, {"t": t[keep], **{f: np.array([rows[i][f] for i in keep], dtype=float) for f in fields}}
+    return None
+
+
+def _require(path: str, found, what: str, names: str):
+    if found is None:
+        raise InputError(path, f"message {names}", f"missing from the log ({what})")
+    return found
+
+
+def _esc_streams(path: str, msgs, rotors: int) -> list[dict]:
+    streams = []
+    for k in range(rotors):
+        found = pick_stream({"ESC": [r for r in msgs["ESC"] if r.get("Instance") == k]}, (("ESC", None, 0),), ["RPM"])
+        streams.append(_require(path, found, f"rotor speed of motor {k + 1}: ESC telemetry", f"ESC Instance {k}")[1])
+    return streams
+
+
+def _ground(msgs, clock: np.ndarray, notes: list[str]) -> np.ndarray:
+    events = [(r["TimeUS"] * 1e-6, EV_GROUND[r["Id"]]) for r in msgs["EV"] if r.get("Id") in EV_GROUND]
+    if events:
+        t_ev = np.array([e[0] for e in events])
+        state = np.array([e[1] for e in events])
+        idx = np.searchsorted(t_ev, clock, side="right") - 1
+        ground = np.where(idx >= 0, state[np.clip(idx, 0, None)], True)  # a log starts on the ground
+        source = "EV landing events"
+    elif msgs["CTUN"] and "ThO" in msgs["CTUN"][0]:
+        ctun = pick_stream(msgs, (("CTUN", None, 0),), ["ThO"])[1]
+        ground = hold(ctun, ["ThO"], clock)[:, 0] <= 0.0
+        source = "CTUN.ThO at 0 (no EV events)"
+    else:
+        notes.append("no EV events and no CTUN.ThO: every instant is treated as airborne")
+        return np.zeros(len(clock), dtype=bool)
+    if ground.any():
+        notes.append(count_note(ground, f"on the ground ({source})", "LANDED"))
+    return ground
+
+
+def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None) -> AutopilotFlight:
+    msgs = load_messages(path)
+    notes = ["messages " + ", ".join(f"{n} {len(r)}" for n, r in msgs.items() if r) + "; not in the log: "
+             + (", ".join(n for n, r in msgs.items() if not r) or "none")]
+    msgs = follow_primary(msgs, notes)
+    vel_name, vel = _require(path, pick_stream(msgs, VELOCITY, ["VN", "VE", "VD"]), "ground velocity", "XKF1 (or NKF1)")
+    att_name, att = _require(path, pick_stream(msgs, ATTITUDE, ["Q1", "Q2", "Q3", "Q4"]), "attitude", "XKQ (or NKQ1, NKQ)")
+    used = {vel_name: vel, att_name: att}
+    imu = None
+    if af.observer.acceleration == "specific_force" or (af.observer.acceleration == "ned" and not msgs["PSCN"]):
+        imu = _require(path, pick_stream(msgs, IMU, ["AccX", "AccY", "AccZ"]), "specific force", "IMU")[1]
+        used["IMU"] = imu
+    psc = None
+    if af.observer.acceleration == "ned" and msgs["PSCN"]:
+        psc = [_require(path, pick_stream(msgs, ((m, None, 0),), [f]), "NED acceleration", m)[1]
+               for m, f in (("PSCN", "AN"), ("PSCE", "AE"), ("PSCD", "AD"))]
+        used.update(PSCN=psc[0], PSCE=psc[1], PSCD=psc[2])
+    escs, ctun = [], None
+    if af.thrust.source == "rpm":
+        escs = _esc_streams(path, msgs, af.thrust.rotors)
+    else:
+        ctun = _require(path, pick_stream(msgs, (("CTUN", None, 0),), ["ThO", "ThH"]), "collective thrust", "CTUN (ThO, ThH)")[1]
+        used["CTUN"] = ctun
+    streams = list(used.values()) + escs
+    clock = uniform_clock(path, [s["t"] for s in streams], rate_hz or 1.0 / af.observer.sample_time_s)
+    esc_names = {f"ESC {k}": s["t"] for k, s in enumerate(escs)}
+    tolerances, slow = topic_tolerances({**{name: s["t"] for name, s in used.items()}, **esc_names},
+                                        af.limits.max_dt_s, {name: ROTOR_MAX_GAP_S for name in esc_names})
+    notes += slow
+    no_data, culprits = source_gaps(tolerances, clock)
+    if no_data.any():
+        notes.append(count_note(no_data, f"with a message gap (longer than max_dt {af.limits.max_dt_s:g} s or, for a "
+                                         f"slow message, than its own tolerance; ESC: {ROTOR_MAX_GAP_S:g} s; by "
+                                         f"message: {culprits})", "NO_DATA"))
+    cols = _columns(af, vel, att, imu, psc, escs, ctun, msgs, clock, notes)
+    landed = _ground(msgs, clock, notes)
+    if escs:
+        dead = [bracketing(s["t"], s["RPM"] == 0, clock) & ~landed & ~no_data for s in escs]
+        bad = np.any(dead, axis=0)
+        if bad.any():
+            names = ", ".join(f"ESC {k + 1} (0 rpm)" for k, d in enumerate(dead) if d.any())
+            notes.append(count_note(bad, f"airborne without rotor speeds from ESC telemetry: {names}", "NO_DATA"))
+            no_data |= bad
+    wind = pick_stream(msgs, AP_WIND, ["VWN", "VWE"])
+    ap_wind = None if wind is None else (f"ArduPilot {wind[0]}", wind[1]["t"] - clock[0],
+                                         np.column_stack([wind[1]["VWN"], wind[1]["VWE"], np.zeros(len(wind[1]["t"]))]))
+    return AutopilotFlight(FlightLog(path, blank(cols, no_data | landed)), no_data, landed, ap_wind, tuple(notes),
+                           float(clock[0]))
+
+
+def _columns(af: Airframe, vel, att, imu, psc, escs, ctun, msgs, clock: np.ndarray, notes: list[str]) -> dict:
+    cols: dict[str, np.ndarray] = {"t": clock - clock[0]}
+    v = interp(vel, ["VN", "VE", "VD"], clock)
+    cols.update(vel_n=v[:, 0], vel_e=v[:, 1], vel_d=v[:, 2])
+    q = quaternions(att["t"], np.column_stack([att[f"Q{i}"] for i in range(1, 5)]), clock)
+    cols.update(q_w=q[:, 0], q_x=q[:, 1], q_y=q[:, 2], q_z=q[:, 3])
+    sf = interp(imu, ["AccX", "AccY", "AccZ"], clock) if imu is not None else None
+    if af.observer.acceleration == "specific_force":
+        cols.update(sf_x=sf[:, 0], sf_y=sf[:, 1], sf_z=sf[:, 2])
+    elif af.observer.acceleration == "ned" and psc is not None:
+        cols.update(acc_n=np.interp(clock, psc[0]["t"], psc[0]["AN"]), acc_e=np.interp(clock, psc[1]["t"], psc[1]["AE"]),
+                    acc_d=np.interp(clock, psc[2]["t"], psc[2]["AD"]))
+    elif af.observer.acceleration == "ned":
+        acc = _rotate(q, sf) + np.array([0.0, 0.0, af.gravity_mps2])
+        cols.update(acc_n=acc[:, 0], acc_e=acc[:, 1], acc_d=acc[:, 2])
+        notes.append("no PSCN/PSCE/PSCD: NED acceleration is the IMU's specific force rotated by XKQ, plus gravity")
+    for k, s in enumerate(escs):
+        cols[f"rpm_{k + 1}"] = np.interp(clock, s["t"], s["RPM"])
+    if ctun is not None:
+        cols["thrust"] = af.mass_kg * af.gravity_mps2 * hold(ctun, ["ThO"], clock)[:, 0] / hold(ctun, ["ThH"], clock)[:, 0]
+        notes.append("collective thrust from CTUN.ThO / CTUN.ThH times m g")
+    des = pick_stream(msgs, (("ATT", None, 0),), ["DesYaw"])
+    if des is not None:
+        cols["yaw_ref"] = np.radians(hold(des[1], ["DesYaw"], clock)[:, 0])
+    else:
+        notes.append("no ATT.DesYaw: the heading frame follows the vehicle's own yaw")
+    return cols
+
+
+def _rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Body vectors to NED by unit quaternions (w, x, y, z), row by row."""
+    w, x, y, z = q.T
+    r = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                  [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                  [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+    return np.einsum("ijk,kj->ki", r, v)

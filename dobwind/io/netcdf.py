@@ -1,0 +1,175 @@
+"""`replay -o OUT.nc`: the estimate as a CF-1.8 NetCDF trajectory (xarray + netCDF4, extra `netcdf`).
+
+One row per estimate row, on the log's own clock: UTC (``time``, seconds since 1970-01-01) where the
+log has GPS time, else seconds since the autopilot booted (``time`` in s, no reference date). Latitude,
+longitude, altitude and height above take-off come from the log's global position (dobwind/io/position.py);
+a log without one is still written, without them, and says so in ``position_note``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from dobwind.io import cfnames
+from dobwind.core.errors import InputError
+from dobwind.io.logs import ESTIMATE_COLUMNS, estimate_rows
+from dobwind.model.airframe import Airframe
+from dobwind.io.position import Geo, RowPosition, on_rows
+
+NETCDF_SUFFIXES = (".nc", ".nc4", ".netcdf")
+UNKNOWN_SIGMA = -1.0  # what the step outputs when the airframe has no [uncertainty] table
+
+
+def is_netcdf(path: str | Path | None) -> bool:
+    return path is not None and str(path).lower().endswith(NETCDF_SUFFIXES)
+
+
+@dataclass(frozen=True)
+class Source:
+    """What the file says about where its numbers come from (global attributes)."""
+    airframe: Airframe
+    airframe_path: str
+    log_path: str
+    backend: str
+
+
+def require_xarray(path: str):
+    try:
+        import xarray
+        import netCDF4  # noqa: F401 - the engine; without it xarray would pick another or fail later
+    except ImportError:
+        raise InputError(path, None, "writing NetCDF needs xarray and netCDF4 (pip install 'dobwind[netcdf]')") from None
+    return xarray
+
+
+def _version() -> str:
+    from dobwind import __version__
+
+    return __version__
+
+
+def calibration_text(af: Airframe) -> str:
+    """The airframe's calibration provenance, as far as the file records it."""
+    parts = [f"force-air model {af.force_air_model}"]
+    parts.append("calibrated envelope present (written by dobwind fit)" if af.envelope is not None
+                 else "no calibrated envelope (an uncalibrated prior or a hand-written model)")
+    parts.append("uncertainty table present" if af.uncertainty is not None else "no uncertainty table (sigma unknown)")
+    return "; ".join(parts)
+
+
+def global_attrs(src: Source, geo: Geo, title: str) -> dict[str, str]:
+    af = src.airframe
+    return {"Conventions": cfnames.CONVENTIONS, "title": title,
+            "source": f"dobwind {_version()} disturbance-observer wind estimate from a multirotor flight log",
+            "history": f"dobwind {_version()} ({src.backend} backend): airframe {Path(src.airframe_path).name}, "
+                       f"log {Path(src.log_path).name}",
+            "references": "dobwind docs/atmospheric.md",
+            "dobwind_version": _version(), "dobwind_airframe": af.name,
+            "dobwind_airframe_file": Path(src.airframe_path).name, "dobwind_airframe_sha256": af.content_sha256,
+            "dobwind_calibration": calibration_text(af), "dobwind_log": Path(src.log_path).name,
+            "time_source": geo.time_source}
+
+
+def row_dimension(geo: Geo) -> str:
+    return "time" if geo.utc_offset_s is not None else "log_time"
+
+
+def _coords(t_log: np.ndarray, geo: Geo) -> dict[str, tuple]:
+    """``time`` (UTC) where the log has GPS time, and always ``log_time``, the log's own clock. Without a
+    reference date there is no CF time coordinate at all (a coordinate named time in plain seconds is an
+    error to CF checkers): the rows' dimension is then ``log_time``, and every variable runs along it."""
+    dim = row_dimension(geo)
+    coords = {"log_time": (dim, t_log, {"long_name": "the log's own clock (time since the autopilot booted)",
+                                        "units": "s"})}
+    if geo.utc_offset_s is not None:
+        coords["time"] = ("time", t_log + geo.utc_offset_s,
+                          {"standard_name": "time", "long_name": "time (UTC)", "axis": "T",
+                           "units": "seconds since 1970-01-01 00:00:00", "calendar": "standard"})
+    return coords
+
+
+def _sigma(values: np.ndarray) -> np.ndarray:
+    return np.where(values == UNKNOWN_SIGMA, np.nan, values)
+
+
+def estimate_dataset(cols: dict[str, np.ndarray], t_log: np.ndarray, pos: RowPosition | None, geo: Geo,
+                     src: Source, xr):
+    """The xarray Dataset of one replay. ``cols``: the estimate CSV's columns by name (logs.ESTIMATE_COLUMNS)."""
+    coords, dim = _coords(t_log, geo), row_dimension(geo)
+    data = {}
+    names = {"eastward_wind": cols["wind_e"], "northward_wind": cols["wind_n"],
+             "upward_air_velocity": cols["wind_speed_up"], "wind_speed": cols["wind_speed_h"],
+             "wind_from_direction": cols["wind_from_deg"]}
+    ancillary = "status wind_speed_standard_error"
+    for var, values in names.items():
+        std, units, long = cfnames.WIND[var]
+        anc = ancillary.replace("wind_speed_", "upward_air_velocity_") if var == "upward_air_velocity" else ancillary
+        data[var] = (dim, values.astype(np.float32), {"standard_name": std, "units": units, "long_name": long,
+                                                         "ancillary_variables": anc})
+    for var, column in (("wind_speed_standard_error", "wind_sigma_h"),
+                        ("upward_air_velocity_standard_error", "wind_sigma_up")):
+        std, units, long = cfnames.SIGMA[var]
+        data[var] = (dim, _sigma(cols[column]).astype(np.float32), {"standard_name": std, "units": units,
+                                                                       "long_name": long})
+    for axis in "ned":
+        data[f"force_{axis}"] = (dim, cols[f"force_{axis}"].astype(np.float32),
+                                 {"long_name": f"filtered external force on the vehicle, {dict(n='north', e='east', d='down')[axis]}",
+                                  "units": "N"})
+    data["status"] = (dim, cols["status"].astype(np.int32), cfnames.flag_attrs())
+    attrs = {"position_note": _position(coords, pos, geo, dim)}
+    ds = xr.Dataset(data, coords=coords, attrs=attrs)
+    if pos is not None:
+        ds.attrs["featureType"] = "trajectory"
+        ds["trajectory"] = ((), Path(src.log_path).name, {"cf_role": "trajectory_id", "long_name": "flight log"})
+        for var in ds.data_vars:
+            if ds[var].dims == (dim,):
+                ds[var].attrs["coordinates"] = f"{dim} lat lon alt height"
+    return ds
+
+
+def _position(coords: dict, pos: RowPosition | None, geo: Geo, dim: str) -> str:
+    if pos is None:
+        return "; ".join(geo.notes) or "no global position in the log"
+    for var, values in (("lat", pos.lat_deg), ("lon", pos.lon_deg), ("alt", pos.alt_m), ("height", pos.height_m)):
+        std, units, long = cfnames.POSITION[var]
+        attrs = {"standard_name": std, "units": units, "long_name": long}
+        attrs.update({"axis": "Y"} if var == "lat" else {"axis": "X"} if var == "lon" else {"positive": "up"})
+        if var == "height":
+            attrs["comment"] = pos.height_source
+        coords[var] = (dim, values, attrs)
+    return f"position from {geo.track.source}; height: {pos.height_source}" if geo.track else ""
+
+
+def dataset_encoding(ds) -> dict[str, dict]:
+    """NaN marks missing data, except where CF forbids a fill value: coordinate and bounds variables."""
+    bounds = {var.attrs["bounds"] for var in ds.variables.values() if "bounds" in var.attrs}
+    plain = {"time", "log_time", *ds.dims, *bounds}
+    enc: dict[str, dict] = {}
+    for name, var in ds.variables.items():
+        if var.dtype.kind == "f":
+            enc[name] = {"_FillValue": None if name in plain else np.nan}
+        elif name == "status":
+            enc[name] = {"_FillValue": None}
+        if var.ndim:
+            enc.setdefault(name, {})["zlib"] = True
+    return enc
+
+
+def write_dataset(path: str | Path, ds) -> None:
+    """To ``path`` as it is (the caller stages it under a temporary name and renames it in)."""
+    ds.to_netcdf(path, engine="netcdf4", format="NETCDF4", encoding=dataset_encoding(ds))
+
+
+def replay_dataset(t_log: np.ndarray, outputs: np.ndarray, status: np.ndarray, geo: Geo, src: Source,
+                   landed: np.ndarray | None = None):
+    """The Dataset of one replay from the step's outputs and status on the log's clock ``t_log``."""
+    xr = require_xarray(src.log_path)
+    rows = estimate_rows(t_log, outputs, status)
+    cols = {name: rows[:, k] for k, name in enumerate(ESTIMATE_COLUMNS)}
+    pos = on_rows(geo.track, t_log, landed) if geo.track is not None else None
+    title = f"dobwind wind estimate: {src.airframe.name} over {Path(src.log_path).name}"
+    ds = estimate_dataset(cols, t_log, pos, geo, src, xr)
+    ds.attrs = {**global_attrs(src, geo, title), **ds.attrs}
+    return ds

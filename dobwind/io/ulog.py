@@ -1,0 +1,313 @@
+"""PX4 ULog flights onto the estimator's inputs (pyulog, optional dependency group `ulog`).
+
+Topics: vehicle_local_position (vx vy vz, ax ay az), vehicle_attitude (q), esc_status (esc_rpm per
+motor) for rpm airframes, vehicle_thrust_setpoint (xyz[2]) or the older vehicle_attitude_setpoint
+(thrust_body[2]) scaled by hover_thrust_estimate (or the MPC_THR_HOVER parameter) times m g for
+collective airframes, sensor_combined (accelerometer) for specific force, and
+vehicle_attitude_setpoint (yaw_body) for the heading frame, else the vehicle's own yaw.
+
+Everything is resampled onto one uniform clock (the airframe's observer rate, 1/sample_time, or
+--rate) inside the span all needed topics cover: continuous signals are interpolated (quaternions
+sign-aligned, then normalised), setpoints are held. Where a topic has a gap around an instant (longer
+than resample.GapPolicy allows that topic: a few of its own median intervals, at least max_dt;
+esc_status: ROTOR_MAX_GAP_S, its reports are often 4 Hz), that row has no data: its inputs are NaN and
+replay marks it with the NO_DATA status bit. So are airborne rows whose ESCs are offline or read 0 rpm.
+Rows that vehicle_land_detected marks landed, maybe landed or in ground contact get LANDED. A file that
+ends inside a message is replayed up to there, with a warning.
+"""
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+
+import numpy as np
+
+from dobwind.core.errors import InputError
+from dobwind.io.logs import FlightLog
+from dobwind.model.airframe import Airframe
+from dobwind.io.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, hold,
+                              interp, quaternions, source_gaps, topic_tolerances, uniform_clock, wind_active)
+
+PX4_WIND_TOPICS = (("wind", "windspeed_north", "windspeed_east"),
+                   ("wind_estimate", "windspeed_north", "windspeed_east"),
+                   ("estimator_states", "states[22]", "states[23]"))
+
+
+# Every topic this module reads: pyulog parses only these (a flight log holds a hundred or more topics,
+# and pyulog keeps each whole in memory; sensor and estimator topics at 100-1000 Hz are most of a log).
+# Filtered, pyulog's clock advances only on these topics' messages, so its last_timestamp and dropout
+# times differ from a full parse's: nothing here reads them; a new use must parse in full.
+TOPICS_READ = ("vehicle_local_position", "vehicle_attitude", "sensor_combined", "esc_status",
+               "vehicle_thrust_setpoint", "vehicle_attitude_setpoint", "hover_thrust_estimate",
+               "vehicle_land_detected") + tuple(name for name, _, _ in PX4_WIND_TOPICS)
+
+UlogFlight = AutopilotFlight  # the name this module's callers used first
+
+
+class _NoProgress(Exception):
+    pass
+
+
+class _BudgetedFile:
+    """The log file as pyulog reads it, with a budget of read calls: pyulog's corruption recovery can
+    seek back and forth forever on some corrupt files (a pure-Python loop that no timeout thread can
+    stop), so far more reads than the file has bytes ends the parse instead. Bytes are not counted:
+    recovering from one corrupt header legitimately rereads up to 64 KiB per byte it advances."""
+
+    def __init__(self, handle, size: int) -> None:
+        self._handle = handle
+        self._calls_left = READS_PER_BYTE * size + EXTRA_READS
+
+    def read(self, n: int = -1) -> bytes:
+        self._calls_left -= 1
+        if self._calls_left < 0:
+            raise _NoProgress
+        return self._handle.read(n)
+
+    def __getattr__(self, name: str):
+        return getattr(self._handle, name)
+
+
+READS_PER_BYTE = 3    # resynchronising after corruption advances one byte per two reads
+EXTRA_READS = 1 << 16
+
+
+def open_ulog(path: str, topics: tuple[str, ...] | None = TOPICS_READ) -> tuple[object, str | None]:
+    """pyulog's parse of ``path`` (only ``topics``; None: all) and its first complaint, if it printed
+    one (pyulog prints to stdout, which must stay one JSON object under --json)."""
+    try:
+        from pyulog import ULog
+    except ImportError:  # pragma: no cover - the ulog extra is part of `make setup`
+        raise InputError(path, None, "reading ULog needs pyulog (pip install 'dobwind[ulog]')") from None
+    printed = io.StringIO()
+    try:
+        with open(path, "rb") as handle, contextlib.redirect_stdout(printed):
+            ulog = ULog(_BudgetedFile(handle, os.fstat(handle.fileno()).st_size),
+                        None if topics is None else list(topics))
+    except _NoProgress:
+        raise InputError(path, None, "not a readable ULog file (corrupt: the parser made no progress)") from None
+    except OSError as exc:
+        raise InputError(path, None, f"cannot read: {exc.strerror}") from None
+    except Exception as exc:  # pyulog raises many kinds on corrupt or truncated files
+        raise InputError(path, None, f"not a readable ULog file ({type(exc).__name__}: {str(exc)[:80]})") from None
+    complaints = [line.strip() for line in printed.getvalue().splitlines() if line.strip()]
+    return ulog, (complaints[0][:120] if complaints else None)
+
+
+def _topic(ulog, name: str, fields: list[str], optional: tuple[str, ...] = ()) -> dict[str, np.ndarray] | None:
+    for data in ulog.data_list:
+        if data.name == name and data.multi_id == 0 and all(f in data.data for f in fields):
+            if len(data.data["timestamp"]) < 2:
+                return None
+            # A signalling NaN among a damaged file's float32 values raises "invalid" when widened; it
+            # becomes a quiet NaN, which the step rejects (NONFINITE) like any other missing value.
+            with np.errstate(invalid="ignore"):
+                out = {f: np.asarray(data.data[f], dtype=float) for f in fields + [o for o in optional if o in data.data]}
+            out["t"] = np.asarray(data.data["timestamp"], dtype=float) * 1e-6
+            return out
+    return None
+
+
+def truncation(path: str) -> str | None:
+    """How the file ends, when its last message is cut off (pyulog reads such a file silently): walks
+    the message headers (u16 size, u8 type) from the end of the 16-byte file header."""
+    try:
+        with open(path, "rb") as handle:
+            blob = handle.read()
+    except OSError:
+        return None
+    pos, size = 16, len(blob)
+    while pos + 3 <= size:
+        length = blob[pos] | (blob[pos + 1] << 8)
+        if pos + 3 + length > size:
+            break
+        pos += 3 + length
+    if pos == size:
+        return None
+    return f"truncated: the file ends inside a message at byte {size:,}; replaying the readable part only"
+
+
+def esc_missing(esc: dict, rotors: int, clock: np.ndarray, airborne: np.ndarray) -> tuple[np.ndarray, str | None]:
+    """Rows whose rotor speeds are not measurements: an ESC that is offline (beyond esc_count, or its
+    esc_online_flags bit clear) or that reports exactly 0 rpm while the vehicle is airborne (a spinning
+    rotor never reads 0; a log from ESCs without telemetry reads 0 throughout)."""
+    offline = np.zeros((len(esc["t"]), rotors), dtype=bool)
+    if "esc_count" in esc:
+        offline |= np.arange(rotors)[None, :] >= esc["esc_count"][:, None]
+    if "esc_online_flags" in esc:
+        flags = esc["esc_online_flags"].astype(np.int64)
+        offline |= ((flags[:, None] >> np.arange(rotors)[None, :]) & 1) == 0
+    zero = np.column_stack([esc[f"esc[{i}].esc_rpm"] == 0 for i in range(rotors)])
+    per_row = [bracketing(esc["t"], offline[:, i] | zero[:, i], clock) & airborne for i in range(rotors)]
+    bad = np.any(per_row, axis=0)
+    if not bad.any():
+        return bad, None
+    reasons = []
+    for i in range(rotors):
+        if per_row[i].any():
+            off = (bracketing(esc["t"], offline[:, i], clock) & airborne).any()
+            reasons.append(f"ESC {i + 1} ({'offline' if off else '0 rpm'})")
+    return bad, count_note(bad, "airborne without rotor speeds from esc_status: " + ", ".join(reasons), "NO_DATA")
+
+
+def _ground(ulog, clock: np.ndarray, notes: list[str]) -> np.ndarray:
+    """Rows on the ground by vehicle_land_detected: landed, maybe_landed or ground_contact. With ground
+    contact the ground carries part of the weight, which the observer would read as an updraft."""
+    land = _topic(ulog, "vehicle_land_detected", ["landed"], ("maybe_landed", "ground_contact"))
+    if land is None:
+        notes.append("no vehicle_land_detected: every instant is treated as airborne")
+        return np.zeros(len(clock), dtype=bool)
+    flags = [f for f in ("landed", "maybe_landed", "ground_contact") if f in land]
+    per_flag = {f: (hold(land, [f], clock)[:, 0] > 0.5) & (clock >= land["t"][0]) for f in flags}
+    ground = np.any(list(per_flag.values()), axis=0)
+    if ground.any():
+        detail = ", ".join(f"{f} {int(m.sum())}" for f, m in per_flag.items())
+        notes.append(count_note(ground, f"on the ground (vehicle_land_detected: {detail})", "LANDED"))
+    return ground
+
+
+def _needs(af: Airframe) -> dict[str, tuple[list[str], str]]:
+    ned = af.observer.acceleration == "ned"
+    need: dict[str, tuple[list[str], str]] = {
+        "vehicle_local_position": (["vx", "vy", "vz"] + (["ax", "ay", "az"] if ned else []),
+                                   "ground velocity" + (" and acceleration" if ned else "")),
+        "vehicle_attitude": ([f"q[{i}]" for i in range(4)], "attitude"),
+    }
+    if af.observer.acceleration == "specific_force":
+        need["sensor_combined"] = ([f"accelerometer_m_s2[{i}]" for i in range(3)], "specific force")
+    if af.thrust.source == "rpm":
+        need["esc_status"] = ([f"esc[{i}].esc_rpm" for i in range(af.thrust.rotors)],
+                              f"rotor speeds of {af.thrust.rotors} motors (thrust.source = \"rpm\")")
+    return need
+
+
+def read_ulog(path: str, af: Airframe, rate_hz: float | None = None) -> UlogFlight:
+    ulog, complaint = open_ulog(path)
+    need = _needs(af)
+    topics = {name: _topic(ulog, name, fields, ("esc_count", "esc_online_flags") if name == "esc_status" else ())
+              for name, (fields, _) in need.items()}
+    thrust_src = None
+    if af.thrust.source == "collective":
+        thrust_src = (("vehicle_thrust_setpoint", _topic(ulog, "vehicle_thrust_setpoint", ["xyz[2]"]), "xyz[2]")
+                      if _topic(ulog, "vehicle_thrust_setpoint", ["xyz[2]"]) is not None else
+                      ("vehicle_attitude_setpoint", _topic(ulog, "vehicle_attitude_setpoint", ["thrust_body[2]"]), "thrust_body[2]"))
+    missing = [f"{name} ({need[name][1]})" for name, data in topics.items() if data is None]
+    if thrust_src is not None and thrust_src[1] is None:
+        missing.append("vehicle_thrust_setpoint or vehicle_attitude_setpoint (collective thrust)")
+    if missing:
+        raise InputError(path, "topic" + ("s " if len(missing) > 1 else " ") + ", ".join(missing), "missing from the log")
+    notes = [] if complaint is None else [f"pyulog: {complaint} (the parse went on past it)"]
+    cut = truncation(path)
+    hover_topic = _topic(ulog, "hover_thrust_estimate", ["hover_thrust"]) if thrust_src else None
+    hover_param = ulog.initial_parameters.get("MPC_THR_HOVER")
+    if thrust_src and hover_topic is None and hover_param is None:
+        raise InputError(path, "topic hover_thrust_estimate", "missing, and no MPC_THR_HOVER parameter: collective "
+                                                              "thrust cannot be scaled to newtons")
+    if thrust_src and hover_topic is None:
+        notes.append(f"hover thrust from the MPC_THR_HOVER parameter ({hover_param:.3f})")
+    yaw_src = _topic(ulog, "vehicle_attitude_setpoint", ["yaw_body"])
+    if yaw_src is None:
+        notes.append("no vehicle_attitude_setpoint: the heading frame follows the vehicle's own yaw")
+
+    used = {n: d for n, d in topics.items() if d is not None}
+    if thrust_src:
+        used[thrust_src[0]] = thrust_src[1]
+    clock = uniform_clock(path, [d["t"] for d in used.values()], rate_hz or 1.0 / af.observer.sample_time_s)
+    max_gap = af.limits.max_dt_s
+    tolerances, slow = topic_tolerances({name: d["t"] for name, d in used.items()}, max_gap,
+                                        {"esc_status": ROTOR_MAX_GAP_S})
+    notes += slow
+    no_data, culprits = source_gaps(tolerances, clock)
+    cols = _columns(af, topics, thrust_src, hover_topic, hover_param, yaw_src, clock, notes)
+    landed = _ground(ulog, clock, notes)
+    gappy = no_data.copy()
+    if af.thrust.source == "rpm":
+        dead, note = esc_missing(topics["esc_status"], af.thrust.rotors, clock, ~landed & ~no_data)
+        no_data |= dead
+        if note:
+            notes.append(note)
+    px4, px4_var = _px4_wind(ulog, clock)
+    if gappy.any():
+        notes.append(count_note(gappy, f"with a topic gap (longer than max_dt {max_gap:g} s or, for a slow topic, "
+                                       f"than its own tolerance; esc_status: {ROTOR_MAX_GAP_S:g} s; by topic: "
+                                       f"{culprits})", "NO_DATA"))
+    warnings = (f"{path}: {cut} ({clock[-1] - clock[0]:.2f} s readable)",) if cut else ()
+    return UlogFlight(FlightLog(path, blank(cols, no_data | landed)), no_data, landed, px4, tuple(notes),
+                      float(clock[0]), warnings, autopilot_wind_variance=px4_var)
+
+
+def _px4_wind(ulog, clock: np.ndarray):
+    """PX4's own wind estimate, (topic, time from the clock's start, NED wind with zero down), and its
+    (north, east) variances when the topic has them; or (None, None). The first topic that is ever
+    active wins (an all-zero topic is PX4 not estimating), else the first found (replay says inactive)."""
+    found = []
+    for name, north, east in PX4_WIND_TOPICS:
+        src = _topic(ulog, name, [north, east], ("variance_north", "variance_east"))
+        if src is not None:
+            wind = np.column_stack([src[north], src[east], np.zeros(len(src["t"]))])
+            var = (np.column_stack([src["variance_north"], src["variance_east"]])
+                   if "variance_north" in src and "variance_east" in src else None)
+            found.append(((name, src["t"] - clock[0], wind), var))
+    active = [f for f in found if wind_active(f[0][2]).any()]
+    return (active or found or [(None, None)])[0]
+
+
+def _columns(af: Airframe, topics: dict, thrust_src, hover_topic, hover_param, yaw_src, clock: np.ndarray,
+             notes: list[str]) -> dict[str, np.ndarray]:
+    lp = topics["vehicle_local_position"]
+    cols: dict[str, np.ndarray] = {"t": clock - clock[0]}
+    vel = interp(lp, ["vx", "vy", "vz"], clock)
+    cols.update(vel_n=vel[:, 0], vel_e=vel[:, 1], vel_d=vel[:, 2])
+    if af.observer.acceleration == "ned":
+        acc = interp(lp, ["ax", "ay", "az"], clock)
+        cols.update(acc_n=acc[:, 0], acc_e=acc[:, 1], acc_d=acc[:, 2])
+    if af.observer.acceleration == "specific_force":
+        sf = interp(topics["sensor_combined"], [f"accelerometer_m_s2[{i}]" for i in range(3)], clock)
+        cols.update(sf_x=sf[:, 0], sf_y=sf[:, 1], sf_z=sf[:, 2])
+    att = topics["vehicle_attitude"]
+    q = quaternions(att["t"], np.column_stack([att[f"q[{i}]"] for i in range(4)]), clock)
+    cols.update(q_w=q[:, 0], q_x=q[:, 1], q_y=q[:, 2], q_z=q[:, 3])
+    if af.thrust.source == "rpm":
+        rpm = interp(topics["esc_status"], [f"esc[{i}].esc_rpm" for i in range(af.thrust.rotors)], clock)
+        for i in range(af.thrust.rotors):
+            cols[f"rpm_{i + 1}"] = rpm[:, i]
+    else:
+        name, src, field = thrust_src
+        normalized = -hold(src, [field], clock)[:, 0]  # body z points down: upward thrust is negative
+        hover = hold(hover_topic, ["hover_thrust"], clock)[:, 0] if hover_topic else np.full(len(clock), hover_param)
+        cols["thrust"] = af.mass_kg * af.gravity_mps2 * normalized / hover
+        notes.append(f"collective thrust from {name}.{field}")
+    if yaw_src is not None:
+        cols["yaw_ref"] = hold(yaw_src, ["yaw_body"], clock)[:, 0]
+    return cols
+
+
+def compare_with_px4(t: np.ndarray, wind: np.ndarray, valid: np.ndarray, px4: tuple[str, np.ndarray, np.ndarray],
+                     variance: np.ndarray | None = None) -> dict:
+    """Differences between our horizontal wind and the autopilot's, over our valid rows where the
+    autopilot was estimating (both samples around the row active; see resample.wind_active), with the
+    autopilot's own variances over those rows when it logs them (PX4 wind: variance_north/east)."""
+    name, tp, wp = px4
+    active = wind_active(wp)
+    if not active.any():
+        return {"topic": name, "active": False, "overlap_rows": 0}
+    inside = valid & (t >= tp[0]) & (t <= tp[-1]) & ~bracketing(tp, ~active, t)
+    out: dict = {"topic": name, "active": True, "active_share": float(active.mean()), "overlap_rows": int(inside.sum())}
+    if not inside.any():
+        return out
+    theirs = np.column_stack([np.interp(t[inside], tp, wp[:, i]) for i in range(2)])
+    ours = wind[inside, :2]
+    diff = ours - theirs
+    # The mean of |ours - theirs| row by row, and |mean ours - mean theirs| (a steady wind's offset).
+    out.update(mean_vector_difference_mps=float(np.mean(np.linalg.norm(diff, axis=1))),
+               difference_of_means_mps=float(np.linalg.norm(diff.mean(axis=0))),
+               mean_difference_ne_mps=[float(v) for v in diff.mean(axis=0)],
+               mean_speed_difference_mps=float(np.mean(np.linalg.norm(ours, axis=1) - np.linalg.norm(theirs, axis=1))),
+               mean_wind_ours_ne_mps=[float(v) for v in ours.mean(axis=0)],
+               mean_wind_theirs_ne_mps=[float(v) for v in theirs.mean(axis=0)])
+    if variance is not None:
+        var = np.column_stack([np.interp(t[inside], tp, variance[:, i]) for i in range(2)])
+        out.update(variance_north_m2s2=float(np.mean(var[:, 0])), variance_east_m2s2=float(np.mean(var[:, 1])),
+                   sigma_h_mps=float(np.sqrt(np.mean(var[:, 0] + var[:, 1]))))
+    return out

@@ -1,0 +1,1 @@
+"""replay: see docs/architecture.md for what lives here."""

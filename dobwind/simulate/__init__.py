@@ -1,0 +1,1 @@
+"""simulate: see docs/architecture.md for what lives here."""
