@@ -92,16 +92,26 @@ def text(row: LogRow) -> str:
             f"{row.bridged}\n  longest silence per topic: {gaps}")
 
 
-def markdown(row: LogRow) -> str:
-    lines = ["| quantity | value |", "|---|---|",
-             f"| airborne time | {row.airborne_s:.1f} s |",
-             f"| trusted share of airborne rows | {100 * row.trusted:.1f} % |",
-             f"| settled share of airborne rows | {100 * row.settled:.1f} % |",
-             f"| NaN in trusted rows | {row.nan_trusted} |",
-             f"| mean vertical wind (abs, trusted rows) | {row.vertical_mps:.2f} m/s |",
-             f"| mean horizontal wind (trusted rows) | {row.horizontal_mps:.2f} m/s |",
-             f"| bridged rows | {row.bridged} |"]
-    lines += [f"| longest silence: {name} | {gap:.3f} s (tolerance {tol:.3f} s) |" for name, tol, gap in row.silences]
+def _mps(value: float) -> str:
+    return "- (no trusted row)" if np.isnan(value) else f"{value:.2f} m/s"
+
+
+def markdown(row: LogRow, before: LogRow | None = None) -> str:
+    """One table per log; with ``before`` (the same log without bridging) a column for it too."""
+    def cells(r: LogRow) -> list[str]:
+        return [f"{r.airborne_s:.1f} s", f"{100 * r.trusted:.1f} %", f"{100 * r.settled:.1f} %", f"{r.nan_trusted}",
+                _mps(r.vertical_mps), _mps(r.horizontal_mps), f"{r.bridged}"]
+
+    names = ["airborne time", "trusted share of airborne rows", "settled share of airborne rows (not SETTLING)",
+             "NaN in trusted rows", "mean vertical wind (abs, trusted rows)", "mean horizontal wind (trusted rows)",
+             "rows bridged"]
+    header = ["| quantity | without bridging | with bridging |", "|---|---|---|"] if before else \
+        ["| quantity | value |", "|---|---|"]
+    now = cells(row)
+    then = cells(before) if before else None
+    lines = header + [f"| {n} | {then[i]} | {now[i]} |" if then else f"| {n} | {now[i]} |" for i, n in enumerate(names)]
+    pad = " - |" if before else ""
+    lines += [f"| longest silence of {name} (tolerance {tol:.3f} s) |{pad} {gap:.3f} s |" for name, tol, gap in row.silences]
     return "\n".join(lines)
 
 
@@ -114,10 +124,12 @@ def main(argv: list[str] | None = None) -> int:
         parser.add_argument("logs", nargs="+")
         parser.add_argument("--no-bridge", action="store_true", help="reject every NO_DATA row (replay before bridging)")
         parser.add_argument("--markdown", action="store_true", help="one Markdown table per log")
+        parser.add_argument("--compare", action="store_true", help="with --markdown: a column without bridging too")
         args = parser.parse_args(argv)
         for log in args.logs:
             measured = measure(args.airframe, log, not args.no_bridge)
-            print(f"### {Path(log).name}\n\n{markdown(measured)}\n" if args.markdown else text(measured))
+            before = measure(args.airframe, log, False) if args.compare else None
+            print(f"#### {Path(log).name}\n\n{markdown(measured, before)}\n" if args.markdown else text(measured))
         return 0
     if len(argv) < 2:
         print(__doc__)
