@@ -281,3 +281,25 @@ def test_field_logs_with_short_dropouts_settle_more_with_bridging(name):
         assert np.all(np.isfinite(traj.outputs[traj.status == 0]))
         shares.append(np.mean(accepted(traj.status[air]) & ((traj.status[air] & SETTLING) == 0)))
     assert flight.bridged.any() and shares[1] > shares[0] + 0.05, shares
+
+
+def test_the_command_writes_bridged_rows_as_no_data_repeating_the_row_before(dropouts, tmp_path, capsys):
+    import json
+
+    from dobwind.cli.app import main
+
+    _, path = dropouts
+    out = tmp_path / "est.csv"
+    assert main(["replay", str(M300), path, "--json", "-o", str(out)]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert any("bridged" in note and "settling does not restart" in note for note in summary["notes"])
+    est = np.genfromtxt(out, delimiter=",", names=True)
+    t = est["t"] - est["t"][0]
+    short = _rows_in(t, 12.05, 12.55)
+    values = [n for n in est.dtype.names if n not in ("t", "status")]
+    first = int(np.flatnonzero(short)[0])
+    assert np.all(est["status"][short] == STATUS_NO_DATA)
+    for name in values:  # the estimate and its sigmas from before the silence, never NaN or -1 there
+        assert np.all(est[name][short] == est[name][first - 1]), name
+    assert np.all(est["wind_sigma_h"][short] == est["wind_sigma_h"][first - 1])
+    assert np.all(est["status"][_rows_in(t, 12.65, 19.95)] == 0)  # off the edges: t is printed to the microsecond
