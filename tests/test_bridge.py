@@ -114,14 +114,16 @@ def test_bridged_rows_are_inside_short_silences_of_every_stream_with_a_gap():
     fast = np.round(np.arange(0.0, 10.001, 0.01), 6)
     slow = np.r_[np.arange(0.0, 3.0, 0.1), np.arange(3.6, 6.0, 0.1), np.arange(7.5, 9.5, 0.1)]  # 0.6 s, 1.6 s
     streams = {"slow": (slow, 0.4), "fast": (fast, 0.1)}
-    rows = bridged_rows(streams, clock, bound_s=1.0)
+    rows = bridged_rows(streams, clock, {"slow": 1.0, "fast": 1.0})
     short = (clock > 2.9 + 1e-9) & (clock < 3.6 - 1e-9)
     assert np.array_equal(rows, short & (clock > slow[29]))  # the silence 2.9 .. 3.6 s, nothing else
     # The 1.6 s silence and the rows after the slow stream's last sample are not bridged.
     assert not rows[(clock > 5.95) & (clock < 7.5)].any() and not rows[clock > 9.45].any()
     # A short silence of one stream inside a long one of another: not bridged (nothing to interpolate).
     other = np.r_[np.arange(0.0, 2.5, 0.01), np.arange(4.0, 10.001, 0.01)]
-    assert not bridged_rows({**streams, "other": (other, 0.1)}, clock, 1.0)[short].any()
+    assert not bridged_rows({**streams, "other": (other, 0.1)}, clock, {"slow": 1.0, "fast": 1.0, "other": 1.0})[short].any()
+    # Each stream's own bound: the same 0.6 s silence is not bridged under a bound of 0.5 s.
+    assert not bridged_rows(streams, clock, {"slow": 0.5, "fast": 1.0}).any()
 
 
 def test_holding_repeats_the_last_row_before_each_bridged_run():
@@ -303,3 +305,37 @@ def test_the_command_writes_bridged_rows_as_no_data_repeating_the_row_before(dro
         assert np.all(est[name][short] == est[name][first - 1]), name
     assert np.all(est["wind_sigma_h"][short] == est["wind_sigma_h"][first - 1])
     assert np.all(est["status"][_rows_in(t, 12.65, 19.95)] == 0)  # off the edges: t is printed to the microsecond
+
+
+def test_a_held_setpoint_is_bridged_only_up_to_the_ceiling(tmp_path):
+    """The collective thrust is held, not interpolated: the same criterion gives the tolerance's ceiling
+    (0.5 s) as its bound. A 0.3 s silence of vehicle_thrust_setpoint is bridged, a 0.7 s one is not,
+    though 0.7 s is within the bound of an interpolated stream (the velocity's 0.6 s silence above)."""
+    from dobwind.model.airframe import parse_airframe
+    from dobwind.model.airframe_toml import dumps
+    from tests.helpers import airframe_dict
+
+    af = parse_airframe(dumps(airframe_dict(thrust={"source": "collective"}, mass=8.0, name="coll",
+                                            **{"observer.force_offset": [0.0, 0.0, 0.0]})), "<c>")
+    assert airframe_bound_s(af) > 0.7
+    _, cols = _flight()
+    t = cols["t"]
+    thrust_keep = ~(_rows_in(t, 10.0, 10.3) | _rows_in(t, 20.0, 20.7))
+    rows = _rows(cols, ["thrust"], ["xyz[2]"], thrust_keep)
+    for row in rows:
+        row["xyz[2]"] = -row["xyz[2]"] / (8.0 * 9.80665) * 0.5
+    lp = ["vx", "vy", "vz", "ax", "ay", "az"]
+    topics = [
+        Topic("vehicle_local_position", [("uint64_t", "timestamp")] + [("float", f) for f in lp],
+              _rows(cols, ["vel_n", "vel_e", "vel_d", "acc_n", "acc_e", "acc_d"], lp)),
+        Topic("vehicle_attitude", [("uint64_t", "timestamp"), ("float[4]", "q")],
+              _rows(cols, ["q_w", "q_x", "q_y", "q_z"], [f"q[{i}]" for i in range(4)])),
+        Topic("vehicle_thrust_setpoint", [("uint64_t", "timestamp"), ("float[3]", "xyz")], rows),
+    ]
+    path = write_ulog(tmp_path / "held.ulg", topics, {"MPC_THR_HOVER": 0.5})
+    model, flight, traj = replay_ulog(af, str(path))
+    rt = flight.log.time_s
+    assert flight.bridged[_rows_in(rt, 10.05, 10.25)].all()
+    assert not flight.bridged[_rows_in(rt, 20.0, 20.7)].any()
+    assert np.all(traj.status[_rows_in(rt, 10.35, 19.95)] == 0)
+    assert np.all(traj.status[_rows_in(rt, 20.75, 20.7 + model.settling_time_s - 0.05)] == SETTLING)

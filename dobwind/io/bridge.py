@@ -20,6 +20,11 @@ already accepts in a trusted row. A silence is bridged when the error it leaves 
 after it, its end error, is no larger than that. Past ``BRIDGE_CAP_S`` a silence is never bridged: the one
 step per silence of the argument stops being a fair model once a whole manoeuvre (a stop and a turn, about
 a second for a multirotor's position loop) fits inside it.
+
+Held streams (setpoints: the collective thrust, ArduPilot's CTUN) are not interpolated but held, so the
+impulse is not kept: a step at the silence's start is missed until its end, and the end error of a
+silence g is the step response at g, which a tolerated silence reaches at its ceiling. The same
+criterion then gives exactly the ceiling: a held stream is bridged up to ``GapPolicy.ceiling_s`` only.
 """
 from __future__ import annotations
 
@@ -82,13 +87,15 @@ def bridge_bound_s(lags: tuple[float, float], ceiling_s: float, cap_s: float = B
     return round(lo, 3)  # to the millisecond: ULog and DataFlash clocks are microseconds, rows far coarser
 
 
-def bridged_rows(streams: dict[str, tuple[np.ndarray, float]], t_dst: np.ndarray, bound_s: float) -> np.ndarray:
+def bridged_rows(streams: dict[str, tuple[np.ndarray, float]], t_dst: np.ndarray,
+                 bounds: dict[str, float]) -> np.ndarray:
     """Rows of t_dst inside a gap (``resample.gaps``) of some stream where every stream with a gap there
-    has samples on both sides no more than ``bound_s`` apart. Rows outside a stream's span (before its
-    first or after its last sample) are never bridged: there is nothing to interpolate towards."""
+    has samples on both sides no more than its bound (``bounds[name]``) apart. Rows outside a stream's
+    span (before its first or after its last sample) are never bridged: there is nothing to interpolate
+    towards."""
     in_gap = np.zeros(len(t_dst), dtype=bool)
     bridgeable = np.ones(len(t_dst), dtype=bool)
-    for t_src, max_gap in streams.values():
+    for name, (t_src, max_gap) in streams.items():
         own = gaps(t_src, t_dst, max_gap)
         if not own.any():
             continue
@@ -96,7 +103,7 @@ def bridged_rows(streams: dict[str, tuple[np.ndarray, float]], t_dst: np.ndarray
         inside = (idx > 0) & (t_dst <= t_src[-1])
         span = t_src[np.clip(idx, 0, len(t_src) - 1)] - t_src[np.clip(idx - 1, 0, len(t_src) - 1)]
         in_gap |= own
-        bridgeable &= ~own | (inside & (span <= bound_s))
+        bridgeable &= ~own | (inside & (span <= bounds[name]))
     return in_gap & bridgeable
 
 
@@ -129,17 +136,23 @@ def largest_silences(streams: dict[str, tuple[np.ndarray, float]], clock: np.nda
     return tuple(out)
 
 
-def bridge(af, streams: dict[str, tuple[np.ndarray, float]], clock: np.ndarray,
-           not_bridged: np.ndarray) -> tuple[np.ndarray, list[str]]:
-    """(rows to bridge, a note) for a reader: ``bridged_rows`` at the airframe's bound, except rows that
-    have another reason not to be fed (``not_bridged``: on the ground, a dead ESC)."""
+def bridge(af, streams: dict[str, tuple[np.ndarray, float]], clock: np.ndarray, not_bridged: np.ndarray,
+           held: tuple[str, ...] = ()) -> tuple[np.ndarray, list[str]]:
+    """(rows to bridge, a note) for a reader: ``bridged_rows`` at the airframe's bound for interpolated
+    streams and at the ceiling for ``held`` ones (see the module docstring), except rows that have
+    another reason not to be fed (``not_bridged``: on the ground, a dead ESC)."""
+    from dobwind.io.resample import DEFAULT_GAP_POLICY
+
     bound = airframe_bound_s(af)
-    rows = bridged_rows(streams, clock, bound) & ~not_bridged
+    bounds = {name: DEFAULT_GAP_POLICY.ceiling_s if name in held else bound for name in streams}
+    rows = bridged_rows(streams, clock, bounds) & ~not_bridged
     if not rows.any():
         return rows, []
-    return rows, [f"{int(rows.sum())} of {len(rows)} instants in silences of at most {bound:g} s bridged "
-                  "(dobwind/io/bridge.py): the observer runs on through inputs interpolated across them, so "
-                  "settling does not restart; the rows stay NO_DATA and repeat the estimate from before"]
+    held_note = f"; held {', '.join(sorted(set(held) & set(streams)))}: {DEFAULT_GAP_POLICY.ceiling_s:g} s" \
+        if set(held) & set(streams) else ""
+    return rows, [f"{int(rows.sum())} of {len(rows)} instants in silences of at most {bound:g} s{held_note} "
+                  "bridged (dobwind/io/bridge.py): the observer runs on through inputs interpolated across "
+                  "them, so settling does not restart; the rows stay NO_DATA and repeat the estimate from before"]
 
 
 def blanked(no_data: np.ndarray, landed: np.ndarray, bridged: np.ndarray | None) -> np.ndarray:
