@@ -13,18 +13,17 @@ interpolation across a silence keeps the velocity at both ends, hence the mean a
 silence (the impulse); it only misplaces the acceleration inside it. Model that as the worst case, a unit
 step of the force at an unknown instant s0 inside the silence, seen instead as a constant (g - s0) / g
 over the whole silence of length g. The estimate is the observer then the low-pass, two first-order lags
-(``estimator_lags_s``); since both see the same inputs after the silence, the estimate's error is largest
-at the silence's end and decays after it. A tolerated silence (up to ``GapPolicy.ceiling_s``) is
-interpolated the same way, but its rows are trusted: the worst error of any row inside it is what replay
-already accepts in a trusted row. A silence is bridged when the error it leaves in the first trusted row
-after it, its end error, is no larger than that. Past ``BRIDGE_CAP_S`` a silence is never bridged: the one
+(``estimator_lags_s``). A tolerated silence (up to ``GapPolicy.ceiling_s``) is interpolated the same
+way, but its rows are trusted: the worst error of any row inside or after it is what replay already
+accepts in a trusted row. A silence is bridged when the worst error it leaves in the trusted rows after
+it (its after error) is no larger than that. Past ``BRIDGE_CAP_S`` a silence is never bridged: the one
 step per silence of the argument stops being a fair model once a whole manoeuvre (a stop and a turn, about
 a second for a multirotor's position loop) fits inside it.
 
 Held streams (setpoints: the collective thrust, ArduPilot's CTUN) are not interpolated but held, so the
-impulse is not kept: a step at the silence's start is missed until its end, and the end error of a
-silence g is the step response at g, which a tolerated silence reaches at its ceiling. The same
-criterion then gives exactly the ceiling: a held stream is bridged up to ``GapPolicy.ceiling_s`` only.
+impulse is not kept: a step at the silence's start is missed until its end, and the error is then
+S(t) - S(t - g) (S the step response), which grows with g at every t. The same criterion therefore
+gives exactly the ceiling: a held stream is bridged up to ``GapPolicy.ceiling_s`` only.
 """
 from __future__ import annotations
 
@@ -56,34 +55,44 @@ def _step_response(t: np.ndarray, lags: tuple[float, float]) -> np.ndarray:
 
 
 def _errors(g: float, lags: tuple[float, float], t: np.ndarray) -> np.ndarray:
-    """|true - interpolated| estimate at instants t (rows) of a silence [0, g], for force steps at each
-    s0 of the grid (columns): the truth is the step response from s0, the interpolation's a ramp input
-    of the same impulse, i.e. the constant (g - s0) / g from 0, whose response is that times the step's."""
+    """|true - interpolated| estimate at instants t (rows) from the start of a silence [0, g], for a force
+    step at each s0 of the grid (columns). The truth is the step response from s0. The interpolation
+    sees the same impulse spread evenly: the constant c = (g - s0) / g from 0 to g, then the true 1; its
+    response is c S(t) + (1 - c) S(t - g). After g the inputs agree, but the cascade's low-pass still
+    catches up with its observer, so the error may grow for a while after the silence (one lag would not)."""
     s0 = np.linspace(0.0, g, _GRID)[None, :]
     t = t[:, None]
-    return np.abs(_step_response(t - s0, lags) - (g - s0) / g * _step_response(t, lags))
+    c = (g - s0) / g
+    return np.abs(_step_response(t - s0, lags) - c * _step_response(t, lags) - (1 - c) * _step_response(t - g, lags))
 
 
-def end_error(g: float, lags: tuple[float, float]) -> float:
-    """The worst error a silence of length g leaves at its end, as a fraction of the force step."""
-    return float(_errors(g, lags, np.array([g])).max())
+def _horizon_s(lags: tuple[float, float]) -> float:
+    return 10.0 * max(lags)  # both lags have settled far below any error of interest by then
+
+
+def after_error(g: float, lags: tuple[float, float]) -> float:
+    """The worst error a silence of length g leaves in the rows after it (the first trusted ones), as a
+    fraction of the force step."""
+    return float(_errors(g, lags, np.linspace(g, g + _horizon_s(lags), 2 * _GRID)).max())
 
 
 def tolerated_error(ceiling_s: float, lags: tuple[float, float]) -> float:
-    """The worst error in any row inside a tolerated silence of ``ceiling_s`` (rows replay trusts)."""
-    return float(_errors(ceiling_s, lags, np.linspace(0.0, ceiling_s, _GRID)).max())
+    """The worst error in any row inside or after a tolerated silence of ``ceiling_s`` (rows replay
+    trusts)."""
+    return float(_errors(ceiling_s, lags, np.linspace(0.0, ceiling_s + _horizon_s(lags), 3 * _GRID)).max())
 
 
 def bridge_bound_s(lags: tuple[float, float], ceiling_s: float, cap_s: float = BRIDGE_CAP_S) -> float:
-    """The longest silence whose end error is at most the tolerated one (bisection: the end error grows
-    with the silence), never below ``ceiling_s`` (which the tolerance already covers) nor above ``cap_s``."""
+    """The longest silence whose after error is at most the tolerated one (bisection: the after error
+    grows with the silence), never below ``ceiling_s`` (which the tolerance already covers) nor above
+    ``cap_s``."""
     accepted = tolerated_error(ceiling_s, lags)
-    if end_error(cap_s, lags) <= accepted:
+    if after_error(cap_s, lags) <= accepted:
         return cap_s
-    lo, hi = ceiling_s, cap_s  # end_error(ceiling) <= tolerated_error(ceiling): its last row is one of them
-    for _ in range(30):
+    lo, hi = ceiling_s, cap_s  # after_error(ceiling) <= tolerated_error(ceiling): its rows are among them
+    for _ in range(12):  # to 1/4096 of the interval (0.12 ms for 0.5 s): below the millisecond rounded to
         mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if end_error(mid, lags) <= accepted else (lo, mid)
+        lo, hi = (mid, hi) if after_error(mid, lags) <= accepted else (lo, mid)
     return round(lo, 3)  # to the millisecond: ULog and DataFlash clocks are microseconds, rows far coarser
 
 
