@@ -197,8 +197,8 @@ def _render(af: Airframe, precision: str, model: StepModel, target: str | None =
     validate, sections, check = build_sections(model, printer)
     every_line = [line for s in (validate.section, *sections, check) for line in s.lines] + list(validate.reject_lines)
     kernels = {k: any(f"{prefix}{k}(" in line for line in every_line) for k in ("sincos", "expm1", "atan2")}
-    kernels.update({f"ieee_{k}": any(f"{prefix}{k}(" in line for line in every_line) for k in ("key", "magnitude")})
-    kernels["ieee"] = kernels["ieee_key"] or kernels["ieee_magnitude"]
+    kernels.update({f"ieee_{k}": any(f"{prefix}{k}(" in line for line in every_line) for k in ("key", "magnitude", "sbits", "nonnegative")})
+    kernels["ieee"] = any(kernels[f"ieee_{k}"] for k in ("key", "magnitude", "sbits", "nonnegative"))
     common = {
         "name": af.name,
         "prefix": prefix,

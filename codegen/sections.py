@@ -103,8 +103,9 @@ def _has_normal_reciprocal(value: float | None) -> bool:
 class _Writer:
     """Prints one stage's instructions as C lines (SSA temporaries t0, t1, ...)."""
 
-    def __init__(self, printer: CPrinter, code: list[_Instruction]) -> None:
+    def __init__(self, printer: CPrinter, code: list[_Instruction], temp_prefix: str = "t") -> None:
         self.printer = printer
+        self.temp_prefix = temp_prefix
         self.work: dict[int, str] = {}
         self.is_bool: dict[int, bool] = {}
         self.constants: dict[int, float] = {}
@@ -123,7 +124,7 @@ class _Writer:
         self.shared_denominators = {key for key, n in counts.items() if n > 1} if printer.inline_kernels else set()
 
     def temp(self, ctype: str, expr: str, lines: list[str], counted: bool = True) -> str:
-        name = f"t{self.serial}"
+        name = f"{self.temp_prefix}{self.serial}"
         self.serial += 1
         self.ops += counted
         lines.append(f"const {ctype} {name} = {expr};")
@@ -211,27 +212,39 @@ class Validation:
 
 
 def build_validation(stage: Stage, sizes: dict[str, int], printer: CPrinter) -> Validation:
+    """The fast path computes what ``accepted`` needs, its tests printed for finite values (the
+    conjunction includes the finiteness test, see CPrinter.assume_finite); the rejection path computes
+    ``status`` on its own (temporaries r0, r1, ...) with the NaN-exact tests, so that each bit is the
+    reference's for any input."""
     out_names = list(stage.outputs)  # ("status", "accepted")
     function = _pruned(stage, list(range(len(out_names))))
     code = _instructions(function)
-    fast = _needed_by(code, out_names.index("accepted"))
-    writer = _Writer(printer, code)
-    fast_lines: list[str] = []
-    slow_lines: list[str] = []
+    fast_lines = _emit_subset(function, code, _needed_by(code, out_names.index("accepted")), stage, out_names, sizes,
+                              _Writer(dataclasses.replace(printer, assume_finite=True), code))
+    slow = _Writer(printer, code, temp_prefix="r")
+    slow_lines = _emit_subset(function, code, _needed_by(code, out_names.index("status")), stage, out_names, sizes, slow)
+    fast_writer = fast_lines[1]
+    section = Section(stage.name, stage.doc, (), tuple(fast_lines[0]), fast_writer.ops, fast_writer.calls)
+    if fast_lines[2] is None:
+        raise ValueError("the validate stage has no accepted output")
+    return Validation(section, fast_lines[2], (f"{printer.real} status;", *slow_lines[0]))
+
+
+def _emit_subset(function: ca.Function, code: list[_Instruction], subset: set[int], stage: Stage,
+                 out_names: list[str], sizes: dict[str, int], writer: "_Writer") -> tuple[list[str], "_Writer", str | None]:
+    """The instructions of ``subset`` printed by ``writer``: (lines, writer, the accepted expression).
+    The ``accepted`` output is not assigned but returned: the template tests it."""
+    lines: list[str] = []
     accept = None
-    fast_ops = 0  # what an accepted sample runs
     for k, ins in enumerate(code):
+        if k not in subset:
+            continue
         writer.index = k
         if ins.op == ca.OP_OUTPUT and out_names[ins.res[0]] == "accepted":
             accept = writer.work[ins.args[0]]
             continue
-        before = writer.ops
-        writer.emit(ins, function, stage, out_names, sizes, fast_lines if k in fast else slow_lines)
-        fast_ops += (writer.ops - before) if k in fast else 0
-    if accept is None:
-        raise ValueError("the validate stage has no accepted output")
-    section = Section(stage.name, stage.doc, (), tuple(fast_lines), fast_ops, writer.calls)
-    return Validation(section, accept, (f"{printer.real} status;", *slow_lines))
+        writer.emit(ins, function, stage, out_names, sizes, lines)
+    return lines, writer, accept
 
 
 def build_sections(model: StepModel, printer: CPrinter) -> tuple[Validation, tuple[Section, ...], Section]:
