@@ -11,7 +11,7 @@ from pathlib import Path
 import jinja2
 import numpy as np
 
-from dobwind.codegen.printer import CPrinter, LiteralError
+from dobwind.codegen.printer import CPrinter, LiteralError, directed_float
 from dobwind.codegen.kernels import kernel_literals
 from dobwind.codegen.sections import build_sections, c_element, signal_sizes
 from dobwind.codegen.single_terms import refuse_ill_conditioned_terms  # noqa: F401 (re-exported)
@@ -22,7 +22,7 @@ from dobwind.model.airframe import Airframe
 from dobwind.model.errors import InputError
 from dobwind.model.boundaries import boundary_cases
 from dobwind.model.exercise import flight_inputs
-from dobwind.model.status import REJECTED_MASK, STATUS_BITS
+from dobwind.model.status import INPUT_MAGNITUDE_LIMIT, REJECTED_MASK, STATUS_BITS
 from dobwind.model.stability import require_stable
 from dobwind.model.step import StepModel, build_step
 from dobwind.model.version import VERSION
@@ -220,6 +220,7 @@ def _render(af: Airframe, precision: str, model: StepModel, target: str | None =
         reset=[f"state->{field} = {printer.literal(value)};" for field, value in model.reset_on_reject],
         total_ops=total_ops, total_calls=validate.section.calls + sum(s.calls for s in sections) + check.calls,
         kernels=kernels, coefficients=kernel_literals(printer), ieee=IEEE_TYPES[precision],
+        finite=_finite_loop(model, printer),
         state_fields=[f for f in model.state.fields],
     )
     selftest = _ENV.get_template("selftest.c.j2").render(**common, **_selftest_context(model, printer, precision))
@@ -233,6 +234,18 @@ def _render(af: Airframe, precision: str, model: StepModel, target: str | None =
     if target is not None:
         files.update(render_target(target, _ENV, model, common, files))
     return GeneratedCode(af.name, precision, files, total_ops)
+
+
+def _finite_loop(model: StepModel, printer: CPrinter) -> dict[str, str | int]:
+    """The finiteness loop of the template: element count and the limit's bits (the float at or below
+    INPUT_MAGNITUDE_LIMIT, so that the test never accepts more than the reference's |x| <= limit)."""
+    if printer.precision == "single":
+        limit = directed_float(INPUT_MAGNITUDE_LIMIT, up=False)
+        bits = f"0x{int(np.array(limit, dtype=np.float32).view(np.uint32)):08x}u"
+    else:
+        limit = INPUT_MAGNITUDE_LIMIT
+        bits = f"UINT64_C(0x{int(np.array(limit, dtype=np.float64).view(np.uint64)):016x})"
+    return {"count": model.inputs.size, "limit_bits": bits, "limit_text": f"{INPUT_MAGNITUDE_LIMIT:g}"}
 
 
 def _refuse_unstable(af: Airframe) -> None:

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import casadi as ca
 
 from dobwind.codegen.printer import CALL_OPS, CPrinter
-from dobwind.model.step import Stage, StepModel
+from dobwind.model.step import FINITE_SIGNAL, Stage, StepModel, validate_given_finite
 
 _NOT_OPS = {ca.OP_CONST, ca.OP_INPUT, ca.OP_OUTPUT}
 
@@ -159,7 +159,8 @@ class _Writer:
             return
         if ins.op == ca.OP_INPUT:
             signal = stage.inputs[ins.args[0]]
-            self.work[ins.res[0]], self.is_bool[ins.res[0]] = c_element(signal, ins.args[1], sizes[signal], p), False
+            boolean = signal == FINITE_SIGNAL  # an int 0/1 in the C (the finiteness loop's result)
+            self.work[ins.res[0]], self.is_bool[ins.res[0]] = c_element(signal, ins.args[1], sizes[signal], p), boolean
             self.constants.pop(ins.res[0], None)
             return
         if ins.op == ca.OP_OUTPUT:
@@ -252,6 +253,7 @@ def build_sections(model: StepModel, printer: CPrinter) -> tuple[Validation, tup
     sizes = signal_sizes(model)
     used = used_signals(model) | {"status", "result_status", "quality_status"}
     limits = dataclasses.replace(printer, directed_limits=True)  # the rejection tests
-    validate = build_validation(model.validate, sizes, limits)
+    # Validation with the finiteness test as an input: the template computes it as one loop over the inputs.
+    validate = build_validation(validate_given_finite(model.airframe, model.inputs), {**sizes, FINITE_SIGNAL: 1}, limits)
     check = build_section(model.check_result, used, sizes, limits)
     return validate, tuple(build_section(stage, used, sizes, printer) for stage in model.stages), check
