@@ -220,10 +220,14 @@ def build_validation(stage: Stage, sizes: dict[str, int], printer: CPrinter) -> 
     out_names = list(stage.outputs)  # ("status", "accepted")
     function = _pruned(stage, list(range(len(out_names))))
     code = _instructions(function)
+    computed: dict[int, str] = {}
     fast_lines = _emit_subset(function, code, _needed_by(code, out_names.index("accepted")), stage, out_names, sizes,
-                              _Writer(dataclasses.replace(printer, assume_finite=True), code))
+                              _Writer(dataclasses.replace(printer, assume_finite=True), code), computed)
+    # The rejection path reuses the fast path's arithmetic (sums of squares: the same either way) and
+    # prints again only the tests and what depends on them.
     slow = _Writer(printer, code, temp_prefix="r")
-    slow_lines = _emit_subset(function, code, _needed_by(code, out_names.index("status")), stage, out_names, sizes, slow)
+    slow_lines = _emit_subset(function, code, _needed_by(code, out_names.index("status")), stage, out_names, sizes, slow,
+                              computed, reuse=True)
     fast_writer = fast_lines[1]
     section = Section(stage.name, stage.doc, (), tuple(fast_lines[0]), fast_writer.ops, fast_writer.calls)
     if fast_lines[2] is None:
@@ -232,9 +236,11 @@ def build_validation(stage: Stage, sizes: dict[str, int], printer: CPrinter) -> 
 
 
 def _emit_subset(function: ca.Function, code: list[_Instruction], subset: set[int], stage: Stage,
-                 out_names: list[str], sizes: dict[str, int], writer: "_Writer") -> tuple[list[str], "_Writer", str | None]:
+                 out_names: list[str], sizes: dict[str, int], writer: "_Writer", computed: dict[int, str],
+                 reuse: bool = False) -> tuple[list[str], "_Writer", str | None]:
     """The instructions of ``subset`` printed by ``writer``: (lines, writer, the accepted expression).
-    The ``accepted`` output is not assigned but returned: the template tests it."""
+    The ``accepted`` output is not assigned but returned: the template tests it. ``computed``: instruction
+    -> the temporary holding its floating-point value; filled, or (``reuse``) read instead of printing."""
     lines: list[str] = []
     accept = None
     for k, ins in enumerate(code):
@@ -244,7 +250,13 @@ def _emit_subset(function: ca.Function, code: list[_Instruction], subset: set[in
         if ins.op == ca.OP_OUTPUT and out_names[ins.res[0]] == "accepted":
             accept = writer.work[ins.args[0]]
             continue
+        if reuse and k in computed:
+            writer.work[ins.res[0]], writer.is_bool[ins.res[0]] = computed[k], False
+            writer.constants.pop(ins.res[0], None)
+            continue
         writer.emit(ins, function, stage, out_names, sizes, lines)
+        if not reuse and ins.op not in _NOT_OPS and not writer.is_bool[ins.res[0]]:
+            computed[k] = writer.work[ins.res[0]]
     return lines, writer, accept
 
 
