@@ -106,6 +106,8 @@ class _Writer:
     def __init__(self, printer: CPrinter, code: list[_Instruction], temp_prefix: str = "t") -> None:
         self.printer = printer
         self.temp_prefix = temp_prefix
+        self.integer_status = False  # print status bits as int (integer_bits); the rejection path only
+        self.ints: set[str] = set()
         self.work: dict[int, str] = {}
         self.is_bool: dict[int, bool] = {}
         self.constants: dict[int, float] = {}
@@ -122,6 +124,22 @@ class _Writer:
             if ins.op == ca.OP_DIV:
                 counts[ins.uses[1]] = counts.get(ins.uses[1], 0) + 1
         self.shared_denominators = {key for key, n in counts.items() if n > 1} if printer.inline_kernels else set()
+
+    def integer_bits(self, ins: _Instruction, lines: list[str]) -> str | None:
+        """Status bits as int arithmetic (the rejection path): a bit selected by a truth value, and sums of
+        such. None: another operation (printed as usual)."""
+        args = [self.work[a] for a in ins.args]
+        if ins.op == ca.OP_IF_ELSE_ZERO and self.is_bool[ins.args[0]]:
+            bit = self.constants.get(ins.args[1])
+            if bit is not None and bit.is_integer() and 0 < bit < 2 ** 30:
+                name = self.temp("int", f"({args[0]} ? {int(bit)} : 0)", lines)
+                self.ints.add(name)
+                return name
+        if ins.op == ca.OP_ADD and all(a in self.ints for a in args):
+            name = self.temp("int", f"{args[0]} | {args[1]}", lines)  # distinct bits: OR is their sum
+            self.ints.add(name)
+            return name
+        return None
 
     def temp(self, ctype: str, expr: str, lines: list[str], counted: bool = True) -> str:
         name = f"{self.temp_prefix}{self.serial}"
@@ -170,6 +188,12 @@ class _Writer:
                 value = f"({p.real}){value}"
             lines.append(f"{c_element(signal, ins.res[1], sizes[signal], p)} = {value};")
             return
+        if self.integer_status:
+            name = self.integer_bits(ins, lines)
+            if name is not None:
+                self.work[ins.res[0]], self.is_bool[ins.res[0]] = name, False
+                self.constants.pop(ins.res[0], None)
+                return
         name = self.special(ins, lines)
         boolean = False
         if name is None:
@@ -226,13 +250,14 @@ def build_validation(stage: Stage, sizes: dict[str, int], printer: CPrinter) -> 
     # The rejection path reuses the fast path's arithmetic (sums of squares: the same either way) and
     # prints again only the tests and what depends on them.
     slow = _Writer(printer, code, temp_prefix="r")
+    slow.integer_status = True
     slow_lines = _emit_subset(function, code, _needed_by(code, out_names.index("status")), stage, out_names, sizes, slow,
                               computed, reuse=True)
     fast_writer = fast_lines[1]
     section = Section(stage.name, stage.doc, (), tuple(fast_lines[0]), fast_writer.ops, fast_writer.calls)
     if fast_lines[2] is None:
         raise ValueError("the validate stage has no accepted output")
-    return Validation(section, fast_lines[2], (f"{printer.real} status;", *slow_lines[0]))
+    return Validation(section, fast_lines[2], ("int status;", *slow_lines[0]))
 
 
 def _emit_subset(function: ca.Function, code: list[_Instruction], subset: set[int], stage: Stage,
