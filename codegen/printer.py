@@ -123,20 +123,10 @@ class CPrinter:
             return f"{pair[1 - side]} {sign} {pair[side]}"
         if self.assume_finite and c == 0.0 and side == 0:  # 0 <= x, 0 < x (rpm, thrust)
             return f"{k}nonnegative({value})" if op == ca.OP_LE else f"{k}sbits({value}) > 0"
-        # The constant's key as an integer literal: key() is a function the compiler need not inline.
-        keys = (f"{k}key({value}, {side})", f"{self._key_literal(c)} /* {limit} */")
+        # key() is a function the compiler need not inline (it runs on rejection); the constant's key is
+        # key_c(), forced inline, which the compiler folds to an integer.
+        keys = (f"{k}key({value}, {side})", f"{k}key_c({limit})")
         return f"{keys[1 - side]} {sign} {keys[side]}"
-
-    def _key_literal(self, value: float) -> str:
-        """key(value) of the template (source.c.j2) for a constant: sign and magnitude bits -> integer."""
-        if self.precision == "single":
-            bits = int(np.array(value, dtype=np.float32).view(np.uint32))
-            magnitude, negative, text = bits & 0x7FFFFFFF, bits >> 31, "{}"
-        else:
-            bits = int(np.array(value, dtype=np.float64).view(np.uint64))
-            magnitude, negative, text = bits & ((1 << 63) - 1), bits >> 63, "INT64_C({})"
-        key = -magnitude if negative else magnitude
-        return text.format(key) if key >= 0 else f"({text.format(key)})"
 
     def _compared(self, args: list[str], bools: list[bool], i: int, op: int,
                   constant_arg: Callable[[int], float | None]) -> str:

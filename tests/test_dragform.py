@@ -3,13 +3,10 @@ writes it (forceair.body_drag_force, a sum over coefficients) and against a fini
 an independent transcription each, so that a term lost or misplaced in the regrouping fails here."""
 from __future__ import annotations
 
-import struct
-
 import casadi as ca
 import numpy as np
 import pytest
 
-from dobwind.codegen.printer import CPrinter
 from dobwind.model.dragform import body_law_and_jacobian
 from dobwind.model.forceair import DRAG_SPEED_EPS_MPS, DragLaw, body_drag_force
 
@@ -57,15 +54,3 @@ def test_jacobian_is_the_laws_derivative(name):
             down = np.array(body_drag_force(law, *(a - step), 1.1, DRAG_SPEED_EPS_MPS), float)
             numeric[:, j] = (up - down) / (2 * h)
         np.testing.assert_allclose(jacobian, numeric, rtol=1e-6, atol=1e-6)
-
-
-@pytest.mark.parametrize("value", [0.0, -0.0, 22500.0, -0.5, 1e-45, -3.4e38, 0.100009993])
-def test_key_literal_is_the_templates_key(value):
-    """The rejection path compares with constants printed as key() integers (printer._key_literal): the
-    template's key is sign-magnitude -> two's complement; transcribed here with struct."""
-    bits = struct.unpack("<I", struct.pack("<f", value))[0]
-    want = -(bits & 0x7FFFFFFF) if bits >> 31 else bits & 0x7FFFFFFF
-    assert CPrinter("single")._key_literal(value) == (str(want) if want >= 0 else f"({want})")
-    bits64 = struct.unpack("<Q", struct.pack("<d", value))[0]
-    want64 = -(bits64 & (2 ** 63 - 1)) if bits64 >> 63 else bits64 & (2 ** 63 - 1)
-    assert CPrinter("double")._key_literal(value) == (f"INT64_C({want64})" if want64 >= 0 else f"(INT64_C({want64}))")

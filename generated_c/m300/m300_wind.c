@@ -53,8 +53,8 @@ M300_WIND_INLINE int m300_wind_nonnegative(float x)
 
 /* x's place in the IEEE order as an integer (monotonic, -0 and +0 both 0); a NaN gets a key above
  * every number (nan_high: x on the left of <= or <) or below every number (x on the right), so that
- * the test fails for a NaN as an IEEE comparison does. The rejection path's tests (and the result
- * check's) call it against constants printed as their keys; not forced inline: it runs rarely. */
+ * the test fails for a NaN as an IEEE comparison does. The rejection path's tests and the result
+ * check call it; not forced inline (it runs rarely, and every inlined copy costs flash). */
 static int32_t m300_wind_key(float x, int nan_high)
 {
     const uint32_t u = m300_wind_bits(x);
@@ -63,6 +63,14 @@ static int32_t m300_wind_key(float x, int nan_high)
     if (magnitude > 0x7f800000u) {
         return nan_high ? nan_key : -nan_key;
     }
+    return (u >> 31) != 0u ? -(int32_t)magnitude : (int32_t)magnitude;
+}
+
+/* key() of a constant limit (never a NaN), inline so that the compiler folds it to an integer */
+M300_WIND_INLINE int32_t m300_wind_key_c(float c)
+{
+    const uint32_t u = m300_wind_bits(c);
+    const uint32_t magnitude = u & 0x7fffffffu;
     return (u >> 31) != 0u ? -(int32_t)magnitude : (int32_t)magnitude;
 }
 
@@ -280,48 +288,48 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         if (!(t51)) {
             /* rejected: the estimate is untouched and the last accepted output repeated; only the gap
              * bookkeeping records that this sample was missed. The status bits are assembled here only. */
-            float status;
-            const int r0 = 1185925120 /* 22500.0f */ < m300_wind_key(t4, 0);
-            const int r1 = 1175864359 /* 9617.03809f */ < m300_wind_key(t10, 0);
+            int status;
+            const int r0 = m300_wind_key_c(22500.0f) < m300_wind_key(t4, 0);
+            const int r1 = m300_wind_key_c(9617.03809f) < m300_wind_key(t10, 0);
             const int r2 = r0 | r1;
-            const int r3 = 1183621120 /* 18000.0f */ < m300_wind_key(in->rotor_rpm[0], 0);
+            const int r3 = m300_wind_key_c(18000.0f) < m300_wind_key(in->rotor_rpm[0], 0);
             const int r4 = r2 | r3;
-            const int r5 = 1183621120 /* 18000.0f */ < m300_wind_key(in->rotor_rpm[1], 0);
+            const int r5 = m300_wind_key_c(18000.0f) < m300_wind_key(in->rotor_rpm[1], 0);
             const int r6 = r4 | r5;
-            const int r7 = 1183621120 /* 18000.0f */ < m300_wind_key(in->rotor_rpm[2], 0);
+            const int r7 = m300_wind_key_c(18000.0f) < m300_wind_key(in->rotor_rpm[2], 0);
             const int r8 = r6 | r7;
-            const int r9 = 1183621120 /* 18000.0f */ < m300_wind_key(in->rotor_rpm[3], 0);
+            const int r9 = m300_wind_key_c(18000.0f) < m300_wind_key(in->rotor_rpm[3], 0);
             const int r10 = r8 | r9;
-            const float r11 = (r10 ? 2048.0f : 0.0f);
+            const int r11 = (r10 ? 2048 : 0);
             const int r12 = !finite;
-            const float r13 = (r12 ? 1.0f : 0.0f);
-            const float r14 = r11 + r13;
-            const int r15 = 925353389 /* 1.00000007e-05f */ <= m300_wind_key(in->dt, 0);
-            const int r16 = m300_wind_key(in->dt, 1) <= 1036833290 /* 0.100009993f */;
+            const int r13 = (r12 ? 1 : 0);
+            const int r14 = r11 | r13;
+            const int r15 = m300_wind_key_c(1.00000007e-05f) <= m300_wind_key(in->dt, 0);
+            const int r16 = m300_wind_key(in->dt, 1) <= m300_wind_key_c(0.100009993f);
             const int r17 = r15 & r16;
             const int r18 = !r17;
-            const float r19 = (r18 ? 2.0f : 0.0f);
-            const float r20 = r14 + r19;
-            const int r21 = 1062165545 /* 0.810000002f */ <= m300_wind_key(t30, 0);
-            const int r22 = m300_wind_key(t30, 1) <= 1067114823 /* 1.20999992f */;
+            const int r19 = (r18 ? 2 : 0);
+            const int r20 = r14 | r19;
+            const int r21 = m300_wind_key_c(0.810000002f) <= m300_wind_key(t30, 0);
+            const int r22 = m300_wind_key(t30, 1) <= m300_wind_key_c(1.20999992f);
             const int r23 = r21 & r22;
             const int r24 = !r23;
-            const float r25 = (r24 ? 4.0f : 0.0f);
-            const float r26 = r20 + r25;
+            const int r25 = (r24 ? 4 : 0);
+            const int r26 = r20 | r25;
             const int r27 = t34 <= t37;
             const int r28 = !r27;
-            const float r29 = (r28 ? 8.0f : 0.0f);
-            const float r30 = r26 + r29;
-            const int r31 = 0 /* 0.0f */ <= m300_wind_key(in->rotor_rpm[0], 0);
-            const int r32 = 0 /* 0.0f */ <= m300_wind_key(in->rotor_rpm[1], 0);
+            const int r29 = (r28 ? 8 : 0);
+            const int r30 = r26 | r29;
+            const int r31 = m300_wind_key_c(0.0f) <= m300_wind_key(in->rotor_rpm[0], 0);
+            const int r32 = m300_wind_key_c(0.0f) <= m300_wind_key(in->rotor_rpm[1], 0);
             const int r33 = r31 & r32;
-            const int r34 = 0 /* 0.0f */ <= m300_wind_key(in->rotor_rpm[2], 0);
+            const int r34 = m300_wind_key_c(0.0f) <= m300_wind_key(in->rotor_rpm[2], 0);
             const int r35 = r33 & r34;
-            const int r36 = 0 /* 0.0f */ <= m300_wind_key(in->rotor_rpm[3], 0);
+            const int r36 = m300_wind_key_c(0.0f) <= m300_wind_key(in->rotor_rpm[3], 0);
             const int r37 = r35 & r36;
             const int r38 = !r37;
-            const float r39 = (r38 ? 16.0f : 0.0f);
-            const float r40 = r30 + r39;
+            const int r39 = (r38 ? 16 : 0);
+            const int r40 = r30 | r39;
             status = r40;
             state->run_s = 0.0f;
             *out = state->last;
@@ -639,7 +647,7 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const float t15 = t13 + t14;
         const float t16 = fabsf(acc_bias_new[2]);
         const float t17 = t15 + t16;
-        const int t18 = m300_wind_key(t17, 1) <= 1900671689 /* 9.99999939e+29f */;
+        const int t18 = m300_wind_key(t17, 1) <= m300_wind_key_c(9.99999939e+29f);
         const int t19 = !t18;
         const float t20 = (t19 ? 32.0f : 0.0f);
         result_status = t20;
