@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 from dobwind.codegen.printer import CPrinter
 from dobwind.model.step import StepModel
+from dobwind.model.kinds import Precision
 
 TARGETS = ("px4", "ardupilot")
 # The folder each target writes, inside generate's output folder.
@@ -34,7 +35,7 @@ def _msg_fields(model: StepModel) -> list[MsgField]:
 
 def _context(model: StepModel, common: dict) -> dict:
     af = model.airframe
-    printer = CPrinter("single")
+    printer = CPrinter(Precision.SINGLE)
     return {
         **common,
         "rpm": af.thrust.source == "rpm",

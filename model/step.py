@@ -33,6 +33,7 @@ from dobwind.model.plausibility import implausible_inputs, wind_beyond_bound
 from dobwind.model.settling import settling_time_s
 from dobwind.model.status import (DT_TOLERANCE, INPUT_MAGNITUDE_LIMIT, MIN_DT_S, QUATERNION_NORM_TOLERANCE,
                                   RESULT_MAGNITUDE_LIMIT, STATUS_BITS)
+from dobwind.model.kinds import DragFrame
 
 # The sigma outputs when the airframe records no [uncertainty] table: "unknown", never NaN.
 UNKNOWN_SIGMA = -1.0
@@ -263,7 +264,7 @@ def _add_front_end(b: _Builder, af: Airframe) -> None:
 
 def _body_drag(af: Airframe) -> bool:
     """The body-frame drag law: its force-air stage needs the attitude and the thrust."""
-    return af.drag is not None and af.drag.frame == "body"
+    return af.drag is not None and af.drag.frame == DragFrame.BODY
 
 
 def _attitude(af: Airframe, s: Signals) -> Signals:

@@ -19,17 +19,18 @@ from dobwind.calibrate.fit import (CalibrationRun, FitReport, Points, PointsOf, 
 from dobwind.io.logs import FlightLog
 from dobwind.model.airframe import CALIBRATED, VERTICAL_FALLBACK, Airframe, ForceAirModel
 from dobwind.calibrate.selfcheck import SelfCheck, Thresholds, self_check, self_check_sources
+from dobwind.model.kinds import DragFrame
 
 LogReader = Callable[[str, Airframe], FlightLog]  # a calibration log's path -> the log with its true wind
 
 MODELS = ("auto", "drag", "drag-heading", "drag-body", "polynomial")
 # --model -> the drag-law frames it fits (both drag frames are scored alike and the better one is kept).
-DRAG_FRAMES_OF = {"auto": ("heading", "body"), "drag": ("heading", "body"), "drag-heading": ("heading",),
-                  "drag-body": ("body",), "polynomial": ()}
-FAMILY_OF_FRAME = {"heading": "drag", "body": "drag-body"}
+DRAG_FRAMES_OF = {"auto": (DragFrame.HEADING, DragFrame.BODY), "drag": (DragFrame.HEADING, DragFrame.BODY), "drag-heading": (DragFrame.HEADING,),
+                  "drag-body": (DragFrame.BODY,), "polynomial": ()}
+FAMILY_OF_FRAME = {DragFrame.HEADING: "drag", DragFrame.BODY: "drag-body"}
 
 
-def drag_samples(af: Airframe, logs: list[FlightLog], frames: tuple[str, ...] = ("heading",),
+def drag_samples(af: Airframe, logs: list[FlightLog], frames: tuple[DragFrame, ...] = (DragFrame.HEADING,),
                  run: CalibrationRun | None = None) -> tuple[dict[str, dragfit.DragSamples], list[int]]:
     """Decimated per-sample calibration data from every log for each drag-law frame (the same samples
     and blocks in each), and how many samples each log gave. ``run``: the calibration run of ``af``
@@ -55,7 +56,7 @@ def drag_airframe(af: Airframe, choice: dragfit.DragChoice, samples: dragfit.Dra
     thrust = dataclasses.replace(af.thrust, scale=af.thrust.scale * (1 - values["kappa"]))
     observer = dataclasses.replace(af.observer, force_offset_n=(values["ox"], values["oy"], 0.0))
     law = dragfit.law_of(choice.theta, samples.frame, samples.exponent)
-    if law.frame == "body":
+    if law.frame == DragFrame.BODY:
         # The fit's rotor term uses the nominal thrust; the step's, the scaled one (a factor 1 - kappa).
         law = dataclasses.replace(law, lr=law.lr / math.sqrt(1 - values["kappa"]))
     predicted = dragfit.predicted_airflow(samples, choice.theta)
@@ -98,13 +99,13 @@ def _polynomial_scores(fitted: Airframe, samples: dragfit.DragSamples) -> dict[s
 class _Calibration:
     """What the fit reads of its logs, however they were read: each drag-law frame's merged samples, the
     samples per log, the polynomial family's points of any airframe, and the self-check's replay."""
-    by_frame: dict[str, dragfit.DragSamples]
+    by_frame: dict[DragFrame, dragfit.DragSamples]
     per_log: list[int]
     points_of: PointsOf
     check: Callable[[Airframe, float | None, float, Thresholds], SelfCheck]
 
 
-def _whole_logs(af: Airframe, log_paths: list[str], frames: tuple[str, ...], dynamic: bool,
+def _whole_logs(af: Airframe, log_paths: list[str], frames: tuple[DragFrame, ...], dynamic: bool,
                 still_air: bool, log_reader: LogReader | None = None) -> _Calibration:
     """Every log read whole and reduced in one block (the reference the streamed fit is held to)."""
     logs = read_calibration_logs(af, log_paths, still_air, log_reader)
@@ -114,7 +115,7 @@ def _whole_logs(af: Airframe, log_paths: list[str], frames: tuple[str, ...], dyn
                         lambda new, cv, speed, limits: self_check(new, logs, per_log, cv, speed, limits))
 
 
-def _streamed_logs(af: Airframe, log_paths: list[str], frames: tuple[str, ...], dynamic: bool, still_air: bool,
+def _streamed_logs(af: Airframe, log_paths: list[str], frames: tuple[DragFrame, ...], dynamic: bool, still_air: bool,
                    points: bool, block_bytes: int, log_reader: LogReader | None = None) -> _Calibration:
     """Every log read ``block_bytes`` at a time, once for its shape, once for the calibration step (drag
     samples and chunk means together), again for the points of a rescaled airframe and for the
@@ -219,12 +220,12 @@ def _fit_once(af: Airframe, log_paths: list[str],
     limits, block_bytes, hover = options.limits, options.block_bytes, options.hover
     frames = DRAG_FRAMES_OF[model]
     if block_bytes is None:
-        calibration = _whole_logs(af, log_paths, frames or ("heading",), dynamic, still_air, options.log_reader)
+        calibration = _whole_logs(af, log_paths, frames or (DragFrame.HEADING,), dynamic, still_air, options.log_reader)
     else:
-        calibration = _streamed_logs(af, log_paths, frames or ("heading",), dynamic, still_air,
+        calibration = _streamed_logs(af, log_paths, frames or (DragFrame.HEADING,), dynamic, still_air,
                                      model in ("polynomial", "auto"), block_bytes, options.log_reader)
     by_frame, per_log = calibration.by_frame, calibration.per_log
-    samples = by_frame.get("heading", next(iter(by_frame.values())))
+    samples = by_frame.get(DragFrame.HEADING, next(iter(by_frame.values())))
     families, scores, failures = _drag_families(af, by_frame, frames, len(samples))
     if model in ("polynomial", "auto"):
         try:
@@ -334,7 +335,7 @@ def choose_family(names: list[str], scores: dict[str, dict[str, Any]]) -> str:
     return best
 
 
-def _drag_families(af: Airframe, by_frame: dict[str, dragfit.DragSamples], frames: tuple[str, ...],
+def _drag_families(af: Airframe, by_frame: dict[DragFrame, dragfit.DragSamples], frames: tuple[DragFrame, ...],
                    samples: int) -> tuple[dict[str, Family], dict[str, dict[str, Any]], list[str]]:
     """Each drag frame's law chosen and scored, the body frame's with its exponent (dragexponent):
     (fitted families, their scores, why a family was not)."""
@@ -355,7 +356,7 @@ def _drag_families(af: Airframe, by_frame: dict[str, dragfit.DragSamples], frame
             continue
         hold = holdcv.hold_cv(by_frame[frame], dragfit.drag_fit_predict(choice.active))
         picked = dragexponent.ExponentChoice(2.0, by_frame[frame], choice, hold)
-        if frame == "body":  # the heading frame's exponent would absorb the tilt (dragexponent's note)
+        if frame == DragFrame.BODY:  # the heading frame's exponent would absorb the tilt (dragexponent's note)
             picked = dragexponent.choose_exponent(by_frame[frame], choice,
                                                   lambda s, c: _uninvertible(s, c) is None, hold)
         families[family], scores[family] = _drag_family(af, picked)

@@ -19,6 +19,7 @@ import numpy as np
 
 from dobwind.model.airframe import Airframe
 from dobwind.model.status import STATUS_BITS, STATUS_LANDED, STATUS_NO_DATA, STATUS_SUSPECT, accepted
+from dobwind.model.kinds import Precision
 
 ANALYSIS_FREQUENCIES_HZ = [0.1, 0.5, 1.0]
 
@@ -145,7 +146,7 @@ def scratch() -> tempfile.TemporaryDirectory:
     return tempfile.TemporaryDirectory(prefix="dobwind-report-")
 
 
-def load_flight(af: Airframe, log_path: str, backend: str, precision: str) -> tuple[Flight, dict | None, dict | None]:
+def load_flight(af: Airframe, log_path: str, backend: str, precision: Precision) -> tuple[Flight, dict | None, dict | None]:
     """Replays the log: (the flight, score() against the truth or None, the autopilot comparison or None)."""
     from dobwind.replay.replay import replay, score
 
@@ -163,7 +164,7 @@ def load_flight(af: Airframe, log_path: str, backend: str, precision: str) -> tu
     return flight, metrics, None
 
 
-def _autopilot_flight(af: Airframe, log_path: str, name: str, backend: str, precision: str) -> tuple[Flight, None, dict | None]:
+def _autopilot_flight(af: Airframe, log_path: str, name: str, backend: str, precision: Precision) -> tuple[Flight, None, dict | None]:
     """Any autopilot log (ULog, DataFlash, ROS 2 bag) on its own clock (seconds since boot, TimeUS,
     the bag's clock), the autopilot's wind only where it is active, and the comparison with it."""
     from dobwind.replay.replay import reference_lines, replay_ulog
@@ -184,7 +185,7 @@ def _autopilot_flight(af: Airframe, log_path: str, name: str, backend: str, prec
 
 
 def flight_report(af: Airframe, airframe_path: str, log_path: str, backend: str = "python",
-                  precision: str = "single") -> tuple[str, str]:
+                  precision: Precision = Precision.SINGLE) -> tuple[str, str]:
     """(the HTML page, a one-line summary for the terminal)."""
     flight, metrics, comparison = load_flight(af, log_path, backend, precision)
     with scratch() as work:
