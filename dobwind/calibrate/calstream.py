@@ -26,6 +26,7 @@ from dobwind.model.airframe import Airframe
 from dobwind.model.status import accepted
 from dobwind.model.step import StepModel
 from dobwind.model.kinds import DragFrame
+from dobwind.model.signals import log_signals
 
 
 @dataclass(frozen=True)
@@ -143,7 +144,7 @@ class DragReducer:
         usable = ~rejected & (t - last_reject >= self.settle)
         airflow = log.true_wind - log.stack("vel_n", "vel_e", "vel_d")
         af = self.cal
-        rpm = log.stack(*[f"rpm_{i + 1}" for i in range(af.thrust.rotors)]) if af.thrust.source == "rpm" else None
+        rpm = log.stack(*log_signals(af).rpm_columns()) if log_signals(af).rotor_speeds else None
         thrust = dragfit.thrust_ned(af, rpm, log.columns.get("thrust"), q)
         for frame, sampler in self.samplers.items():
             sampler.add(t, force, airflow, thrust, yaw, usable, q, log.columns.get("segment"))

@@ -37,6 +37,7 @@ from dobwind.model.forceair import (FOURFOLD_KEYS, HORIZONTAL_DRAG_KEYS, QUADRAT
                                     horizontal_drag_basis, law_decreasing, term_matrix)
 from dobwind.model.terms import Term
 from dobwind.model.kinds import DragFrame
+from dobwind.model.signals import log_signals
 
 PARAMETERS = HORIZONTAL_DRAG_KEYS + ("ox", "oy") + VERTICAL_DRAG_KEYS + ("kappa",)
 # The body-frame law adds rotor drag (linear in airflow, growing with rotor speed ~ sqrt(thrust)).
@@ -359,7 +360,7 @@ def log_samples(af: Airframe, cutoff_hz: float, t: np.ndarray, force_ned: np.nda
 
 def thrust_ned(af: Airframe, rotor_rpm: np.ndarray | None, thrust: np.ndarray | None, q: np.ndarray) -> np.ndarray:
     """u_f z_b (N, NED): the airframe's thrust (scale included) along the body's down axis."""
-    if af.thrust.source == "rpm":
+    if log_signals(af).rotor_speeds:
         omega = np.asarray(rotor_rpm) / af.thrust.max_rpm
         u_f = sum(c * np.sum(omega ** k, axis=1) for k, c in enumerate(af.thrust.coefficients)) * af.thrust.scale
     else:

@@ -20,6 +20,7 @@ import numpy as np
 from dobwind.model.airframe import Airframe
 from dobwind.model.status import STATUS_BITS, STATUS_LANDED, STATUS_NO_DATA, STATUS_SUSPECT, accepted
 from dobwind.model.kinds import Precision
+from dobwind.model.signals import log_signals
 
 ANALYSIS_FREQUENCIES_HZ = [0.1, 0.5, 1.0]
 
@@ -52,7 +53,7 @@ def _png(path: Path, caption: str) -> Figure:
 def airframe_rows(af: Airframe) -> list[tuple[str, str]]:
     obs = af.observer
     thrust = (f"{af.thrust.rotors} rotors, rpm (max {af.thrust.max_rpm:g} rev/min), scale {af.thrust.scale:g}"
-              if af.thrust.source == "rpm" else f"collective, scale {af.thrust.scale:g}")
+              if log_signals(af).rotor_speeds else f"collective, scale {af.thrust.scale:g}")
     rows = [("name", af.name), ("mass", f"{af.mass_kg:g} kg"), ("thrust", thrust),
             ("observer", f"{obs.discretization}, gains {', '.join(f'{g:.4g}' for g in obs.gains)} kg/s, "
                          f"sample time {obs.sample_time_s:g} s, acceleration input '{obs.acceleration}'"),
