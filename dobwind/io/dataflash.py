@@ -34,6 +34,7 @@ import numpy as np
 from dobwind.core.errors import InputError
 from dobwind.io.logs import FlightLog
 from dobwind.model.airframe import Airframe
+from dobwind.io.bridge import blanked, bridge, largest_silences
 from dobwind.io.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, hold,
                               interp, quaternions, source_gaps, topic_tolerances, uniform_clock)
 from dobwind.model.signals import log_signals
@@ -173,7 +174,7 @@ def _ground(msgs, clock: np.ndarray, notes: list[str]) -> np.ndarray:
     return ground
 
 
-def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None) -> AutopilotFlight:
+def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None, bridge_gaps: bool = False) -> AutopilotFlight:
     msgs = load_messages(path)
     notes = ["messages " + ", ".join(f"{n} {len(r)}" for n, r in msgs.items() if r) + "; not in the log: "
              + (", ".join(n for n, r in msgs.items() if not r) or "none")]
@@ -203,6 +204,7 @@ def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None) -> Aut
                                         af.limits.max_dt_s, {name: ROTOR_MAX_GAP_S for name in esc_names})
     notes += slow
     no_data, culprits = source_gaps(tolerances, clock)
+    gappy = no_data.copy()
     if no_data.any():
         notes.append(count_note(no_data, f"with a message gap (longer than max_dt {af.limits.max_dt_s:g} s or, for a "
                                          f"slow message, than its own tolerance; ESC: {ROTOR_MAX_GAP_S:g} s; by "
@@ -219,8 +221,13 @@ def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None) -> Aut
     wind = pick_stream(msgs, AP_WIND, ["VWN", "VWE"])
     ap_wind = None if wind is None else (f"ArduPilot {wind[0]}", wind[1]["t"] - clock[0],
                                          np.column_stack([wind[1]["VWN"], wind[1]["VWE"], np.zeros(len(wind[1]["t"]))]))
-    return AutopilotFlight(FlightLog(path, blank(cols, no_data | landed)), no_data, landed, ap_wind, tuple(notes),
-                           float(clock[0]))
+    bridged = None
+    if bridge_gaps:
+        bridged, note = bridge(af, tolerances, clock, landed | (no_data & ~gappy), ("CTUN",))
+        notes += note
+    return AutopilotFlight(FlightLog(path, blank(cols, blanked(no_data, landed, bridged))), no_data, landed, ap_wind,
+                           tuple(notes), float(clock[0]), bridged=bridged,
+                           silences=largest_silences(tolerances, clock))
 
 
 def _columns(af: Airframe, vel, att, imu, psc, escs, ctun, msgs, clock: np.ndarray, notes: list[str]) -> dict:

@@ -26,6 +26,7 @@ import numpy as np
 from dobwind.core.errors import InputError
 from dobwind.io.logs import FlightLog
 from dobwind.model.airframe import Airframe
+from dobwind.io.bridge import blanked, bridge, largest_silences
 from dobwind.io.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, hold,
                               interp, quaternions, source_gaps, topic_tolerances, uniform_clock, wind_active)
 from dobwind.model.signals import log_signals
@@ -183,7 +184,7 @@ def _needs(af: Airframe) -> dict[str, tuple[list[str], str]]:
     return need
 
 
-def read_ulog(path: str, af: Airframe, rate_hz: float | None = None) -> UlogFlight:
+def read_ulog(path: str, af: Airframe, rate_hz: float | None = None, bridge_gaps: bool = False) -> UlogFlight:
     ulog, complaint = open_ulog(path)
     need = _needs(af)
     topics = {name: _topic(ulog, name, fields, ("esc_count", "esc_online_flags") if name == "esc_status" else ())
@@ -234,8 +235,14 @@ def read_ulog(path: str, af: Airframe, rate_hz: float | None = None) -> UlogFlig
                                        f"than its own tolerance; esc_status: {ROTOR_MAX_GAP_S:g} s; by topic: "
                                        f"{culprits})", "NO_DATA"))
     warnings = (f"{path}: {cut} ({clock[-1] - clock[0]:.2f} s readable)",) if cut else ()
-    return UlogFlight(FlightLog(path, blank(cols, no_data | landed)), no_data, landed, px4, tuple(notes),
-                      float(clock[0]), warnings, autopilot_wind_variance=px4_var)
+    bridged = None
+    if bridge_gaps:
+        bridged, note = bridge(af, tolerances, clock, landed | (no_data & ~gappy),
+                              (thrust_src[0],) if thrust_src else ())
+        notes += note
+    return UlogFlight(FlightLog(path, blank(cols, blanked(no_data, landed, bridged))), no_data, landed, px4,
+                      tuple(notes), float(clock[0]), warnings, autopilot_wind_variance=px4_var, bridged=bridged,
+                           silences=largest_silences(tolerances, clock))
 
 
 def _px4_wind(ulog, clock: np.ndarray):

@@ -104,20 +104,24 @@ def replay_stream(af: Airframe, log_path: str, backend: str = "python", precisio
 
 
 def replay_ulog(af: Airframe, path: str, backend: str = "python", precision: Precision = Precision.SINGLE,
-                rate_hz: float | None = None, topics: dict[str, str] | None = None):
+                rate_hz: float | None = None, topics: dict[str, str] | None = None, bridge_gaps: bool = True):
     """An autopilot log (PX4 ULog, ArduPilot DataFlash, ROS 2 bag; by its name) through the estimator:
     (model, flight, trajectory); rows without data carry the NO_DATA status bit, rows on the ground
-    LANDED, instead of the step's own rejection."""
+    LANDED, instead of the step's own rejection. ``bridge_gaps``: short silences do not restart the
+    settling (dobwind/io/bridge.py); False replays as before it (every NO_DATA row rejected)."""
     from dobwind.io.autopilot import read_autopilot
+    from dobwind.io.bridge import hold_bridged
 
     model = build_step(af)
-    flight = read_autopilot(path, af, rate_hz, topics)
+    flight = read_autopilot(path, af, rate_hz, topics, bridge_gaps=bridge_gaps)
     traj = run_backend(model, step_inputs(model, flight.log), backend, precision)
     # Rows that were not fed carry only replay's reasons, not the step's reaction to their NaN inputs.
+    # Bridged rows were fed (the observer runs on) but are NO_DATA too, with the estimate from before.
     skipped = np.where(flight.no_data, STATUS_NO_DATA, 0) | np.where(flight.landed, STATUS_LANDED, 0)
     status = np.where(skipped != 0, skipped, traj.status)
-    flight, status = _plausibility(af, model, path, flight, traj.outputs, status)
-    return model, flight, Trajectory(traj.states, traj.outputs, status)
+    outputs = traj.outputs if flight.bridged is None else hold_bridged(traj.outputs, flight.bridged)
+    flight, status = _plausibility(af, model, path, flight, outputs, status)
+    return model, flight, Trajectory(traj.states, outputs, status)
 
 
 def _plausibility(af: Airframe, model: StepModel, path: str, flight, outputs: np.ndarray, status: np.ndarray):
