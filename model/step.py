@@ -33,6 +33,8 @@ from dobwind.model.plausibility import implausible_inputs, wind_beyond_bound
 from dobwind.model.settling import settling_time_s
 from dobwind.model.status import (DT_TOLERANCE, INPUT_MAGNITUDE_LIMIT, MIN_DT_S, QUATERNION_NORM_TOLERANCE,
                                   RESULT_MAGNITUDE_LIMIT, STATUS_BITS)
+from dobwind.model.kinds import DragFrame
+from dobwind.model.signals import log_signals
 
 # The sigma outputs when the airframe records no [uncertainty] table: "unknown", never NaN.
 UNKNOWN_SIGMA = -1.0
@@ -73,12 +75,12 @@ def input_layout(af: Airframe) -> Layout:
         Field("dt", 1, "s", "time since the previous step"),
         Field("vel_ned", 3, "m/s", "ground velocity, NED"),
     ]
-    if af.observer.acceleration == "ned":
+    if log_signals(af).ned_acceleration:
         fields.append(Field("acc_ned", 3, "m/s^2", "kinematic acceleration d2p/dt2, NED"))
-    elif af.observer.acceleration == "specific_force":
+    elif log_signals(af).specific_force:
         fields.append(Field("specific_force", 3, "m/s^2", "accelerometer specific force, body FRD"))
     fields.append(Field("q", 4, "-", "attitude quaternion w, x, y, z: body FRD -> NED"))
-    if af.thrust.source == "rpm":
+    if log_signals(af).rotor_speeds:
         fields.append(Field("rotor_rpm", af.thrust.rotors, "rev/min", "rotor speeds"))
     else:
         fields.append(Field("thrust", 1, "N", "collective thrust along -z body"))
@@ -103,7 +105,7 @@ def output_layout() -> Layout:
 
 
 def uses_previous_velocity(af: Airframe) -> bool:
-    return (af.observer.acceleration == "velocity" or af.observer.discretization == "tustin"
+    return (not log_signals(af).measured_acceleration or af.observer.discretization == "tustin"
             or af.observer.estimates_acceleration_bias)
 
 
@@ -236,7 +238,7 @@ def _validate(af: Airframe, lin: Layout, s: Signals) -> Signals:
     # R33 = cos(tilt) = (w^2 - x^2 - y^2 + z^2) / |q|^2, compared without dividing.
     r33_scaled = q[0] * q[0] - q[1] * q[1] - q[2] * q[2] + q[3] * q[3]
     tilt_ok = r33_scaled >= math.cos(math.radians(af.limits.max_tilt_deg)) * norm2
-    if af.thrust.source == "rpm":
+    if log_signals(af).rotor_speeds:
         rpm = s["in.rotor_rpm"]
         thrust_ok = _all([rpm[i] >= 0 for i in range(rpm.numel())])
     else:
@@ -263,7 +265,7 @@ def _add_front_end(b: _Builder, af: Airframe) -> None:
     obs = af.observer
     b.add("attitude", "unit quaternion -> body down axis z_b (and rotation) in NED", ["in.q"],
           partial(_attitude, af))
-    thrust_input = "in.rotor_rpm" if af.thrust.source == "rpm" else "in.thrust"
+    thrust_input = "in.rotor_rpm" if log_signals(af).rotor_speeds else "in.thrust"
     b.add("thrust", "collective thrust u_f (N) along -z_b", [thrust_input], partial(_thrust, af))
     accel_inputs = {
         "ned": ["in.acc_ned"],
@@ -284,13 +286,13 @@ def _add_front_end(b: _Builder, af: Airframe) -> None:
 
 def _body_drag(af: Airframe) -> bool:
     """The body-frame drag law: its force-air stage needs the attitude and the thrust."""
-    return af.drag is not None and af.drag.frame == "body"
+    return af.drag is not None and af.drag.frame == DragFrame.BODY
 
 
 def _attitude(af: Airframe, s: Signals) -> Signals:
     rot = quaternion_to_rotation_any_norm(s["in.q"])  # the validated q is near unit, not exactly
     out = {"z_b": rot[:, 2]}
-    if af.observer.acceleration == "specific_force" or _body_drag(af):
+    if log_signals(af).specific_force or _body_drag(af):
         out["rot_body_to_ned"] = ca.reshape(rot, 9, 1)
     return out
 
@@ -318,12 +320,12 @@ def _acceleration(af: Airframe, s: Signals) -> Signals:
     obs = af.observer
     # vel_prev is the velocity of the previous sample only if that sample was accepted (run_s > 0);
     # after the start or a gap, differencing would divide the whole gap's velocity change by one dt.
-    if obs.acceleration == "velocity":
+    if not log_signals(af).measured_acceleration:
         follows = ca.if_else(s["state.run_s"] > 0, 1, 0)
         # Backward difference; a sample with no accepted predecessor counts as unaccelerated.
         diff = (s["in.vel_ned"] - s["state.vel_prev"]) / s["in.dt"]
         return {"p_ddot": follows * diff}  # follows is exactly 0 or 1
-    if obs.acceleration == "ned":
+    if log_signals(af).ned_acceleration:
         measured = s["in.acc_ned"]
     else:
         rot = ca.reshape(s["rot_body_to_ned"], 3, 3)

@@ -37,6 +37,7 @@ from dobwind.model.airframe import Airframe
 from dobwind.io.bridge import blanked, bridge, largest_silences
 from dobwind.io.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, hold,
                               interp, quaternions, source_gaps, topic_tolerances, uniform_clock)
+from dobwind.model.signals import log_signals
 
 # (role, candidates as (message, instance field or None, instance value)), first found wins.
 VELOCITY = (("XKF1", "C", 0), ("NKF1", None, 0))
@@ -182,16 +183,16 @@ def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None, bridge
     att_name, att = _require(path, pick_stream(msgs, ATTITUDE, ["Q1", "Q2", "Q3", "Q4"]), "attitude", "XKQ (or NKQ1, NKQ)")
     used = {vel_name: vel, att_name: att}
     imu = None
-    if af.observer.acceleration == "specific_force" or (af.observer.acceleration == "ned" and not msgs["PSCN"]):
+    if log_signals(af).specific_force or (log_signals(af).ned_acceleration and not msgs["PSCN"]):
         imu = _require(path, pick_stream(msgs, IMU, ["AccX", "AccY", "AccZ"]), "specific force", "IMU")[1]
         used["IMU"] = imu
     psc = None
-    if af.observer.acceleration == "ned" and msgs["PSCN"]:
+    if log_signals(af).ned_acceleration and msgs["PSCN"]:
         psc = [_require(path, pick_stream(msgs, ((m, None, 0),), [f]), "NED acceleration", m)[1]
                for m, f in (("PSCN", "AN"), ("PSCE", "AE"), ("PSCD", "AD"))]
         used.update(PSCN=psc[0], PSCE=psc[1], PSCD=psc[2])
     escs, ctun = [], None
-    if af.thrust.source == "rpm":
+    if log_signals(af).rotor_speeds:
         escs = _esc_streams(path, msgs, af.thrust.rotors)
     else:
         ctun = _require(path, pick_stream(msgs, (("CTUN", None, 0),), ["ThO", "ThH"]), "collective thrust", "CTUN (ThO, ThH)")[1]
@@ -236,12 +237,12 @@ def _columns(af: Airframe, vel, att, imu, psc, escs, ctun, msgs, clock: np.ndarr
     q = quaternions(att["t"], np.column_stack([att[f"Q{i}"] for i in range(1, 5)]), clock)
     cols.update(q_w=q[:, 0], q_x=q[:, 1], q_y=q[:, 2], q_z=q[:, 3])
     sf = interp(imu, ["AccX", "AccY", "AccZ"], clock) if imu is not None else None
-    if af.observer.acceleration == "specific_force":
+    if log_signals(af).specific_force:
         cols.update(sf_x=sf[:, 0], sf_y=sf[:, 1], sf_z=sf[:, 2])
-    elif af.observer.acceleration == "ned" and psc is not None:
+    elif log_signals(af).ned_acceleration and psc is not None:
         cols.update(acc_n=np.interp(clock, psc[0]["t"], psc[0]["AN"]), acc_e=np.interp(clock, psc[1]["t"], psc[1]["AE"]),
                     acc_d=np.interp(clock, psc[2]["t"], psc[2]["AD"]))
-    elif af.observer.acceleration == "ned":
+    elif log_signals(af).ned_acceleration:
         acc = _rotate(q, sf) + np.array([0.0, 0.0, af.gravity_mps2])
         cols.update(acc_n=acc[:, 0], acc_e=acc[:, 1], acc_d=acc[:, 2])
         notes.append("no PSCN/PSCE/PSCD: NED acceleration is the IMU's specific force rotated by XKQ, plus gravity")

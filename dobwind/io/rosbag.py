@@ -31,6 +31,7 @@ from dobwind.model.airframe import Airframe
 from dobwind.io.bridge import blanked, bridge, largest_silences
 from dobwind.io.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, count_note, quaternions, source_gaps,
                               topic_tolerances, uniform_clock)
+from dobwind.model.signals import log_signals
 
 PX4_TOPICS = {"velocity": "/fmu/out/vehicle_odometry", "attitude": "/fmu/out/vehicle_attitude",
               "imu": "/fmu/out/sensor_combined", "esc": "/fmu/out/esc_status",
@@ -244,7 +245,7 @@ def read_rosbag(path: str, af: Airframe, rate_hz: float | None = None,
 
 def _assemble(path: str, af: Airframe, s: dict, rate_hz: float | None, notes: list[str],
               wind_topic: str = "wind", bridge_gaps: bool = False) -> AutopilotFlight:
-    rpm = af.thrust.source == "rpm"
+    rpm = log_signals(af).rotor_speeds
     used = {r: s[r] for r in ("velocity", "attitude", "imu") + (("esc",) if rpm else ("thrust", "hover")) if s[r]}
     att_t = s["attitude"]["t"]
     # The hover estimate, a slowly learned constant, is held past its last message and has no gaps.
@@ -262,9 +263,9 @@ def _assemble(path: str, af: Airframe, s: dict, rate_hz: float | None, notes: li
     v = np.column_stack([np.interp(clock, s["velocity"]["t"], s["velocity"]["v"][:, i]) for i in range(3)])
     cols = {"t": clock - clock[0], "vel_n": v[:, 0], "vel_e": v[:, 1], "vel_d": v[:, 2],
             "q_w": q[:, 0], "q_x": q[:, 1], "q_y": q[:, 2], "q_z": q[:, 3]}
-    if af.observer.acceleration == "specific_force":
+    if log_signals(af).specific_force:
         cols.update(sf_x=sf[:, 0], sf_y=sf[:, 1], sf_z=sf[:, 2])
-    elif af.observer.acceleration == "ned":
+    elif log_signals(af).ned_acceleration:
         acc = rotate(q, sf) + np.array([0.0, 0.0, af.gravity_mps2])
         cols.update(acc_n=acc[:, 0], acc_e=acc[:, 1], acc_d=acc[:, 2])
         notes.append("NED acceleration is the IMU's specific force rotated to NED, plus gravity")
