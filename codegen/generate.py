@@ -242,7 +242,7 @@ def _render(af: Airframe, precision: Precision, model: StepModel, target: str | 
 def _finite_loop(model: StepModel, printer: CPrinter) -> dict[str, str | int]:
     """The finiteness loop of the template: element count and the limit's bits (the float at or below
     INPUT_MAGNITUDE_LIMIT, so that the test never accepts more than the reference's |x| <= limit)."""
-    if printer.precision == "single":
+    if printer.precision == Precision.SINGLE:
         limit = directed_float(INPUT_MAGNITUDE_LIMIT, up=False)
         bits = f"0x{int(np.array(limit, dtype=np.float32).view(np.uint32)):08x}u"
     else:
