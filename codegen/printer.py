@@ -69,6 +69,12 @@ class CPrinter:
     # check; see _compared). Off elsewhere: a constant that also appears in an fmin/fmax (the settling
     # time's cap) must stay the same float in both places.
     directed_limits: bool = False
+    # Validation's fast path (the int "every test passed"): its conjunction includes the finiteness test
+    # (|x| <= 1e6 for every input, itself a test on the bits), so the other tests only decide for finite
+    # values, and a test against a positive constant is a signed comparison of the raw bits (negative
+    # floats, -0 included, are negative integers; positive ones order as their bits). The rejection path
+    # assembles the status bits with the NaN-exact key instead (sections.build_validation).
+    assume_finite: bool = False
 
     @property
     def inline_kernels(self) -> bool:
@@ -106,13 +112,21 @@ class CPrinter:
             return None
         sign = _COMPARE[op]
         k = self.kernel_prefix
-        if constants[1] is not None:  # x <= c, x < c
-            limit = self._compared(args, bools, 1, op, constant_arg)
-            if magnitude(0) and constants[1] >= 0.0:  # |y| <= c: the magnitude bits suffice (NaN is above any c)
-                return f"{k}magnitude({args[0]}) {sign} {k}bits({limit})"
-            return f"{k}key({args[0]}, 1) {sign} {k}key({limit}, 1)"
-        limit = self._compared(args, bools, 0, op, constant_arg)  # c <= x, c < x
-        return f"{k}key({limit}, 0) {sign} {k}key({args[1]}, 0)"
+        side = 1 if constants[1] is not None else 0  # the constant's: x <= c, x < c, or c <= x, c < x
+        limit = self._compared(args, bools, side, op, constant_arg)
+        value = args[1 - side]
+        if side == 1 and magnitude(0) and constants[1] >= 0.0:  # |y| <= c: the magnitude bits suffice (NaN is above any c)
+            return f"{k}magnitude({value}) {sign} {k}bits({limit})"
+        c = float(limit.strip("()f"))
+        if self.assume_finite and c > 0.0:
+            pair = (f"{k}sbits({value})", f"{k}sbits({limit})")
+            return f"{pair[1 - side]} {sign} {pair[side]}"
+        if self.assume_finite and c == 0.0 and side == 0:  # 0 <= x, 0 < x (rpm, thrust)
+            return f"{k}nonnegative({value})" if op == ca.OP_LE else f"{k}sbits({value}) > 0"
+        # key() is a function the compiler need not inline (it runs on rejection); the constant's key is
+        # key_c(), forced inline, which the compiler folds to an integer.
+        keys = (f"{k}key({value}, {side})", f"{k}key_c({limit})")
+        return f"{keys[1 - side]} {sign} {keys[side]}"
 
     def _compared(self, args: list[str], bools: list[bool], i: int, op: int,
                   constant_arg: Callable[[int], float | None]) -> str:

@@ -48,6 +48,7 @@ from typing import TYPE_CHECKING
 import casadi as ca
 import numpy as np
 
+from dobwind.model.dragform import body_law_and_jacobian, body_law_scalars, body_law_value
 from dobwind.model.numeric import bisect_increasing
 from dobwind.model.sxvector import VectorFunction
 from dobwind.model.terms import Term, polynomial_expr, term_expr
@@ -370,7 +371,7 @@ def _body_newton_step(law: DragLaw, a: ca.SX, rotor: ca.SX, force_b: ca.SX) -> c
 
 def _body_law_value(law: DragLaw, a: ca.SX, rotor: ca.SX) -> ca.SX:
     sa, sr = ca.SX.sym("a", 3), ca.SX.sym("rotor")
-    value = ca.vertcat(*body_drag_force(law, sa[0], sa[1], sa[2], sr, DRAG_SPEED_EPS_MPS))
+    value = body_law_value(*body_law_scalars(law, sa, sr, DRAG_SPEED_EPS_MPS), sa)  # regrouped (dragform.py)
     coefficients = _symbols(law)
     return ca.Function("body_drag_value", [sa, sr, *coefficients], [value])(a, rotor, *coefficients)
 
@@ -379,9 +380,11 @@ def _body_newton_chord(law: DragLaw, a: ca.SX, rotor: ca.SX, force_b: ca.SX) -> 
     """One Newton step from ``a``, and the correction J(a)^-1 r of that same Jacobian for a later
     iterate (a chord step: the Jacobian reused, only the law's value evaluated again)."""
     sa, sr = ca.SX.sym("a", 3), ca.SX.sym("rotor")
-    value = ca.vertcat(*body_drag_force(law, sa[0], sa[1], sa[2], sr, DRAG_SPEED_EPS_MPS))
+    # The law regrouped into three scalars and their gradients (dragform.py): the same value and Jacobian
+    # as differentiating body_drag_force, in about half the operations.
+    value, jacobian = body_law_and_jacobian(law, sa, sr, DRAG_SPEED_EPS_MPS)
     coefficients = _symbols(law)
-    law_and_slope = ca.Function("body_drag_law", [sa, sr, *coefficients], [value, ca.jacobian(value, sa)])
+    law_and_slope = ca.Function("body_drag_law", [sa, sr, *coefficients], [value, jacobian])
     f, slope = law_and_slope(a, rotor, *coefficients)
     # J^-1 r by the adjugate, with J and r divided by J's trace first: the same step, but products of
     # three Jacobian entries stay within single precision at any airflow the validation lets through.

@@ -184,8 +184,7 @@ def build_step(af: Airframe) -> StepModel:
     signals: Signals = {f"in.{f.name}": u[lin.slice(f.name)] for f in lin.fields}
     signals.update({f"state.{f.name}": x[lstate.slice(f.name)] for f in lstate.fields})
     b = _Builder(signals)
-    validate_stage = b.add("validate", "reject NaN/inf, bad dt, non-unit quaternion, excessive tilt, negative "
-                           "thrust", [f"in.{f.name}" for f in lin.fields], partial(_validate, af, lin))
+    validate_stage = b.add("validate", VALIDATE_DOC, [f"in.{f.name}" for f in lin.fields], partial(_validate, af, lin))
     _add_front_end(b, af)
     _add_observer_and_low_pass(b, af)
     _add_back_end(b, af)
@@ -202,11 +201,33 @@ def build_step(af: Airframe) -> StepModel:
 
 # --- validation ---------------------------------------------------------------------------------------
 
+def finite_inputs(every: ca.SX) -> ca.SX:
+    """NONFINITE's test: every input element within +-INPUT_MAGNITUDE_LIMIT. NaN fails every comparison,
+    so it is false for NaN and for +-inf alike."""
+    return _all([ca.fabs(every[i]) <= INPUT_MAGNITUDE_LIMIT for i in range(every.numel())])
+
+
+VALIDATE_DOC = "reject NaN/inf, bad dt, non-unit quaternion, excessive tilt, negative thrust"
+FINITE_SIGNAL = "finite"  # validation's finiteness test as an input of its own (validate_given_finite)
+
+
+def validate_given_finite(af: Airframe, lin: Layout) -> Stage:
+    """The validate stage with the finiteness test as an input (0/1) instead of its expression: the C
+    computes that test as one loop over the input struct (the same test on every element), and the rest
+    of validation as printed from this Function. Same outputs as build_step's validate stage."""
+    symbols = {f"in.{f.name}": ca.SX.sym(_ident(f"in.{f.name}"), f.size) for f in lin.fields}
+    finite = ca.SX.sym(FINITE_SIGNAL)
+    result = _validate(af, lin, {**symbols, FINITE_SIGNAL: finite})
+    inputs = [*symbols, FINITE_SIGNAL]
+    function = ca.Function("validate", [*symbols.values(), finite], list(result.values()),
+                           [_ident(name) for name in inputs], list(result), {"cse": True})
+    return Stage("validate", VALIDATE_DOC, function, tuple(inputs), tuple(result))
+
+
 def _validate(af: Airframe, lin: Layout, s: Signals) -> Signals:
     bits = {bit.name: bit.value for bit in STATUS_BITS}
     every = ca.vertcat(*[s[f"in.{f.name}"] for f in lin.fields])
-    # NaN fails every comparison, so each test is false for NaN and for +-inf alike.
-    finite = _all([ca.fabs(every[i]) <= INPUT_MAGNITUDE_LIMIT for i in range(every.numel())])
+    finite = s[FINITE_SIGNAL] if FINITE_SIGNAL in s else finite_inputs(every)
     dt = s["in.dt"]
     dt_ok = ca.logic_and(dt >= MIN_DT_S, dt <= af.limits.max_dt_s * (1 + DT_TOLERANCE))
     q = s["in.q"]
