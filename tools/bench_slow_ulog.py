@@ -82,14 +82,15 @@ def _time(python: str, log: Path) -> float:
 
 
 def _time_bridge(log: Path, rounds: int) -> dict[str, list[float]]:
-    """In-process replay seconds with and without bridging, interleaved; also the rows bridged."""
+    """In-process replay seconds with and without bridging, interleaved (the order alternating from round
+    to round); also the rows bridged and SETTLING."""
     from dobwind.model.airframe import load_airframe
     from dobwind.replay.replay import replay_ulog
 
     af = load_airframe(AIRFRAME)
     times: dict[str, list[float]] = {"bridging": [], "no bridging": []}
-    for _ in range(rounds):
-        for label in times:
+    for k in range(rounds):
+        for label in (list(times) if k % 2 == 0 else list(times)[::-1]):  # alternate who runs first
             start = time.perf_counter()
             _, flight, traj = replay_ulog(af, str(log), bridge_gaps=label == "bridging")
             times[label].append(time.perf_counter() - start)

@@ -105,6 +105,9 @@ def bridged_rows(streams: dict[str, tuple[np.ndarray, float]], t_dst: np.ndarray
     in_gap = np.zeros(len(t_dst), dtype=bool)
     bridgeable = np.ones(len(t_dst), dtype=bool)
     for name, (t_src, max_gap) in streams.items():
+        covers = t_src[0] <= t_dst[0] and t_src[-1] >= t_dst[-1]
+        if covers and (len(t_src) < 2 or float(np.diff(t_src).max()) <= max_gap):
+            continue  # no silence beyond its tolerance: no gap row (the cheap test first; gaps() searches)
         own = gaps(t_src, t_dst, max_gap)
         if not own.any():
             continue
@@ -145,13 +148,16 @@ def largest_silences(streams: dict[str, tuple[np.ndarray, float]], clock: np.nda
     return tuple(out)
 
 
-def bridge(af, streams: dict[str, tuple[np.ndarray, float]], clock: np.ndarray, not_bridged: np.ndarray,
-           held: tuple[str, ...] = ()) -> tuple[np.ndarray, list[str]]:
+def bridge(af, streams: dict[str, tuple[np.ndarray, float]], clock: np.ndarray, gap_rows: np.ndarray,
+           not_bridged: np.ndarray, held: tuple[str, ...] = ()) -> tuple[np.ndarray, list[str]]:
     """(rows to bridge, a note) for a reader: ``bridged_rows`` at the airframe's bound for interpolated
-    streams and at the ceiling for ``held`` ones (see the module docstring), except rows that have
-    another reason not to be fed (``not_bridged``: on the ground, a dead ESC)."""
+    streams and at the ceiling for ``held`` ones (see the module docstring), among ``gap_rows``
+    (``resample.source_gaps``) except rows that have another reason not to be fed (``not_bridged``: on
+    the ground, a dead ESC). Without such rows nothing is computed (a log without gaps costs nothing)."""
     from dobwind.io.resample import DEFAULT_GAP_POLICY
 
+    if not (gap_rows & ~not_bridged).any():
+        return np.zeros(len(clock), dtype=bool), []
     bound = airframe_bound_s(af)
     bounds = {name: DEFAULT_GAP_POLICY.ceiling_s if name in held else bound for name in streams}
     rows = bridged_rows(streams, clock, bounds) & ~not_bridged

@@ -223,7 +223,7 @@ def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None, bridge
                                          np.column_stack([wind[1]["VWN"], wind[1]["VWE"], np.zeros(len(wind[1]["t"]))]))
     bridged = None
     if bridge_gaps:
-        bridged, note = bridge(af, tolerances, clock, landed | (no_data & ~gappy), ("CTUN",))
+        bridged, note = bridge(af, tolerances, clock, gappy, landed | (no_data & ~gappy), ("CTUN",))
         notes += note
     return AutopilotFlight(FlightLog(path, blank(cols, blanked(no_data, landed, bridged))), no_data, landed, ap_wind,
                            tuple(notes), float(clock[0]), bridged=bridged,

@@ -283,7 +283,7 @@ def _assemble(path: str, af: Airframe, s: dict, rate_hz: float | None, notes: li
     ap_wind = None if wind is None else (f"ROS 2 {wind_topic}", wind["t"] - clock[0], wind["v"])
     bridged = None
     if bridge_gaps:
-        bridged, note = bridge(af, tolerances, clock, landed | (no_data & ~gappy), ("thrust",))
+        bridged, note = bridge(af, tolerances, clock, gappy, landed | (no_data & ~gappy), ("thrust",))
         notes += note
     return AutopilotFlight(FlightLog(path, blank(cols, blanked(no_data, landed, bridged))), no_data, landed, ap_wind,
                            tuple(notes), float(clock[0]), bridged=bridged,

@@ -237,7 +237,7 @@ def read_ulog(path: str, af: Airframe, rate_hz: float | None = None, bridge_gaps
     warnings = (f"{path}: {cut} ({clock[-1] - clock[0]:.2f} s readable)",) if cut else ()
     bridged = None
     if bridge_gaps:
-        bridged, note = bridge(af, tolerances, clock, landed | (no_data & ~gappy),
+        bridged, note = bridge(af, tolerances, clock, gappy, landed | (no_data & ~gappy),
                               (thrust_src[0],) if thrust_src else ())
         notes += note
     return UlogFlight(FlightLog(path, blank(cols, blanked(no_data, landed, bridged))), no_data, landed, px4,
