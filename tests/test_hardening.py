@@ -156,6 +156,22 @@ def test_generate_writes_nothing_when_the_self_test_fails(tmp_path, capsys, monk
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".dobwind-tmp")]
 
 
+@pytest.mark.parametrize("program, expected", [
+    ("echo FAIL: 3 mismatches; exit 1", 1),   # C that disagrees with its golden vectors
+    ("exit 0", 1),                             # exits 0 without its PASS line
+    ("echo PASS: all steps; exit 0", 0),
+])
+def test_check_runs_generate_s_self_test_gate(tmp_path, capsys, monkeypatch, program, expected):
+    """check accepts exactly what generate accepts: the same self-test verdict, the same exit code; with
+    --no-selftest the compiler is never called (a failing one then changes nothing)."""
+    monkeypatch.setenv("CC", _fake_compiler(tmp_path, program))
+    assert main(["check", str(M300)]) == expected
+    assert main(["generate", str(M300), "-o", str(tmp_path / "out")]) == expected
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 2 * (expected != 0) and all("self-test" in line for line in err)
+    assert main(["check", str(M300), "--no-selftest"]) == 0
+
+
 def test_generate_without_a_compiler_warns_and_writes(tmp_path, capsys, monkeypatch):
     monkeypatch.setenv("CC", "no-such-compiler-dobwind")
     assert main(["generate", str(M300), "-o", str(tmp_path / "c")]) == 0

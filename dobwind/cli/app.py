@@ -60,13 +60,13 @@ def cmd_generate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _selftest_gate(name: str, folder: Path) -> None:
+def _selftest_gate(name: str, folder: Path, command: str = "generate") -> None:
     from dobwind.harness.build import system_compiler
     from dobwind.generate.selftest_gate import run_selftest
 
     result = run_selftest(folder, name, system_compiler())
     if not result.ran:
-        sys.stderr.write(f"dobwind generate: warning: {result.summary}\n")
+        sys.stderr.write(f"dobwind {command}: warning: {result.summary}\n")
 
 
 def cmd_verify(args: argparse.Namespace) -> int:
@@ -105,7 +105,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     af = load_airframe(args.airframe)
     require_stable(af, "generate would refuse it", args.airframe)
     model = build_step(af)
-    _refuse_what_generate_refuses(af, model, args.airframe)
+    _refuse_what_generate_refuses(af, model, args.airframe, selftest=not args.no_selftest)
     summary = {
         "name": af.name,
         "mass_kg": af.mass_kg,
@@ -125,13 +125,22 @@ def cmd_check(args: argparse.Namespace) -> int:
     return 0
 
 
-def _refuse_what_generate_refuses(af: Any, model: Any, source: str) -> None:
+def _refuse_what_generate_refuses(af: Any, model: Any, source: str, selftest: bool = True) -> None:
     """Renders the C in both precisions and discards it: every static refusal of `generate` (a constant
-    that rounds to 0 in a float, an ill-conditioned term) then stops `check` too, with the same line."""
-    from dobwind.codegen.generate import generate_code
+    that rounds to 0 in a float, an ill-conditioned term) then stops `check` too, with the same line.
+    With ``selftest`` the rendered C also goes through generate's last gate (compiled and run against its
+    golden vectors), so `check` never accepts an airframe that `generate` would then refuse."""
+    import tempfile
+
+    from dobwind.codegen.generate import generate_code, write_files
 
     for precision in ("single", "double"):
-        generate_code(af, precision, model, source=source)
+        code = generate_code(af, precision, model, source=source)
+        if not selftest:
+            continue
+        with tempfile.TemporaryDirectory(prefix="dobwind-check-") as work:
+            write_files(code.files, work)
+            _selftest_gate(af.name, Path(work), "check")
 
 
 def _default_airframe() -> str:
@@ -451,6 +460,10 @@ def _add_check(command: _Command) -> None:
     p = command("check", "validate an airframe file and summarise its estimator")
     p.add_argument("airframe", help=AIRFRAME_HELP)
     p.add_argument("--json", action="store_true", help=JSON_HELP)
+    p.add_argument("--no-selftest", action="store_true",
+                   help="skip generate's last gate: by default the C is rendered in both precisions, compiled with "
+                   "the host compiler ($CC, default cc) with its self-test and run, and an airframe whose C fails its "
+                   "golden vectors is refused (exit 1), as generate would refuse it")
     p.set_defaults(func=cmd_check)
 
 
