@@ -27,8 +27,8 @@ fractions per sample) until it is accepted: the check cannot lock the estimator 
 rejection it restarts SETTLING: the few glitched samples the average needs before it trips were
 accepted, and their transient passes within one settling time.
 
-A velocity that steps (an EKF reset, or the simulator's segments with holds of 2 s and less) trips the
-check too: its derivative is a spike the acceleration does not show.
+A velocity that steps (an EKF reset) trips the check too: its derivative is a spike the acceleration
+does not show.
 """
 from __future__ import annotations
 

@@ -270,9 +270,7 @@ def test_replay_of_a_log_in_absurd_units_never_trusts_an_absurd_wind(tmp_path, c
     """The campaign's log classes through `dobwind replay`: rpm logged x60 over a third of the log and a
     0.5 s block of ground velocity at 1e6. Every trusted row of the estimate file stays below 50 m/s."""
     log = tmp_path / "log.csv"
-    assert main(["simulate", "outdoor", "--hold", "4", "--rate", "100", "-o", str(log)]) == 0
-    # (holds of 4 s: the simulator starts each segment of a shorter hold with a velocity step, which the
-    # acceleration check rejects, model/biasgate.py)
+    assert main(["simulate", "outdoor", "--hold", "2", "--rate", "100", "-o", str(log)]) == 0
     lines = log.read_text().splitlines()
     header = next(i for i, line in enumerate(lines) if not line.startswith("#"))
     columns = lines[header].split(",")
