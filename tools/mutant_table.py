@@ -162,6 +162,19 @@ def _bias_mutants(af: Airframe) -> list[CMutant]:
         CMutant("bias time constant / 2 (its reciprocal x2)", "acceleration",
                 near=1.0 / af.observer.acceleration_bias_time_s, scale=2.0, precisions=("single",)),
         CMutant("bias gate 0 < run_s becomes <=", "acceleration", r"0\.0f? < state->run_s", "({real})0 <= state->run_s"),
+        # The acceleration check (model/biasgate.py): its constants, its comparison, its rejection writes.
+        CMutant("acceleration check: SIGMAS^2 36 -> 30", "acceleration", near=36.0, value=30.0),
+        CMutant("acceleration check: FLOOR^2 4 -> 5", "acceleration", near=4.0, value=5.0),
+        CMutant("acceleration check: average over 0.2 s, not 0.1", "acceleration", near=0.1, value=0.2,
+                precisions=("double",)),
+        CMutant("acceleration check: average over 0.2 s (its reciprocal 10 -> 5)", "acceleration", near=10.0,
+                value=5.0, precisions=("single",)),
+        CMutant("acceleration check: trips below the bound", "acceleration",
+                r"(const int t\d+ = )(t\d+) < (t\d+);(\n\s*acc_trips)", r"\g<1>\3 < \2;\4"),
+        CMutant("acceleration check: a rejection does not advance the mean square", "check_result",
+                r"state->acc_noise = acc_noise_new;", ""),
+        CMutant("acceleration check: a rejection does not advance vel_prev", "check_result",
+                r"state->vel_prev\[0\] = in->vel_ned\[0\];", ""),
     ]
 
 
