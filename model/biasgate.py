@@ -34,6 +34,8 @@ from __future__ import annotations
 
 import casadi as ca
 
+from dobwind.model.status import STATUS_BITS
+
 # Time constant (s) of the fast average: a few samples at any supported rate, far shorter than any observer.
 CHECK_TIME_S = 0.1
 # Time constant (s) of the mean square: long against a glitch (0.5 s of one raises the bound by a factor
@@ -47,10 +49,11 @@ SIGMAS = 6.0
 FLOOR_MPS2 = 2.0
 
 STATE_FIELDS = ("acc_check", "acc_noise", "check_follows")
+IMPLAUSIBLE_BIT = next(bit.value for bit in STATUS_BITS if bit.name == "IMPLAUSIBLE")
 
 
 def check(disagreement: ca.SX, dt: ca.SX, acc_check: ca.SX, acc_noise: ca.SX, follows: ca.SX) -> dict[str, ca.SX]:
-    """The next check state and whether this sample trips it. ``disagreement``: e (NED, m/s^2);
+    """The next check state and this sample's verdict (0, or the IMPLAUSIBLE bit). ``disagreement``: e (NED, m/s^2);
     ``follows``: exactly 0 or 1 (``state.check_follows``)."""
     fast = -ca.expm1(-dt / CHECK_TIME_S)
     slow = -ca.expm1(-dt / NOISE_TIME_S)
@@ -61,4 +64,7 @@ def check(disagreement: ca.SX, dt: ca.SX, acc_check: ca.SX, acc_noise: ca.SX, fo
     # A sample beyond the bound adds the bound only (winsorised); one that did not follow a validated
     # sample adds nothing (its disagreement is unknown).
     noise = acc_noise + follows * slow * (ca.fmin(square, bound) - acc_noise)
-    return {"acc_check_new": averaged, "acc_noise_new": noise, "acc_trips": trips}
+    # The verdict leaves the stage as the status value itself (a float 0 or IMPLAUSIBLE): a truth value
+    # crossing stages would be tested with "!= 0" on a float in the C (-Wfloat-equal).
+    return {"acc_check_new": averaged, "acc_noise_new": noise,
+            "acc_status": ca.if_else(trips, IMPLAUSIBLE_BIT, 0)}

@@ -498,7 +498,7 @@ def _add_result_check(b: _Builder, af: Airframe) -> None:
     b.add("check_result", "an accepted sample must give a finite result, else it is rejected too"
           + (" (NUMERIC); and its acceleration must agree with its velocity (IMPLAUSIBLE, model/biasgate.py)"
              if gated else ""),
-          committed + (["acc_trips"] if gated else []), partial(_check_result, committed))
+          committed + (["acc_status"] if gated else []), partial(_check_result, committed))
 
 
 def _check_result(committed: list[str], s: Signals) -> Signals:
@@ -511,10 +511,10 @@ def _check_result(committed: list[str], s: Signals) -> Signals:
     # (velocity differentiated at 500 Hz reads several weights of noise), so bounding it rejected a quarter
     # of a high-rate log. The input bounds (implausible_inputs) catch the glitches it was meant for.
     status = ca.if_else(ok, 0, bits["NUMERIC"])
-    if "acc_trips" in s:
+    if "acc_status" in s:
         # Like every rejection, the acceleration check's restarts SETTLING: the first glitched samples (the
         # average needs a few to see it) were accepted, and their transient must pass before trust returns.
-        status = ca.if_else(ok, ca.if_else(s["acc_trips"], bits["IMPLAUSIBLE"], 0), status)
+        status = ca.if_else(ok, s["acc_status"], status)
     return {"result_status": status}
 
 

@@ -170,7 +170,7 @@ def _bias_mutants(af: Airframe) -> list[CMutant]:
         CMutant("acceleration check: average over 0.2 s (its reciprocal 10 -> 5)", "acceleration", near=10.0,
                 value=5.0, precisions=("single",)),
         CMutant("acceleration check: trips below the bound", "acceleration",
-                r"(const int t\d+ = )(t\d+) < (t\d+);(\n\s*acc_trips)", r"\g<1>\3 < \2;\4"),
+                r"(const int (t\d+) = )(t\d+) < (t\d+);(\n\s*const \w+ t\d+ = \(\2 \? 2048)", r"\g<1>\4 < \3;\5"),
         CMutant("acceleration check: a rejection does not advance the mean square", "check_result",
                 r"state->acc_noise = acc_noise_new;", ""),
         CMutant("acceleration check: a rejection does not advance vel_prev", "check_result",

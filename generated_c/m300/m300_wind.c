@@ -6,7 +6,7 @@
  * DO NOT EDIT: regenerate with `dobwind generate <airframe file>`.
  *
  * Total ops per accepted step: 341 (32 math-library calls), of which
- * 99 validate the input and 25 check the result.
+ * 99 validate the input and 24 check the result.
  */
 #include "m300_wind.h"
 
@@ -381,12 +381,12 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         u_f = t13;
     }
 
-    /* ---- acceleration: kinematic acceleration p'' (m/s^2, NED), minus its velocity-aided bias (time constant 20 s) (58 ops, 2 math calls) ---- */
+    /* ---- acceleration: kinematic acceleration p'' (m/s^2, NED), minus its velocity-aided bias (time constant 20 s) (59 ops, 2 math calls) ---- */
     float p_ddot[3];
     float acc_bias_new[3];
     float acc_check_new[3];
     float acc_noise_new;
-    float acc_trips;
+    float acc_status;
     {
         const float t0 = in->acc_ned[0] - state->acc_bias[0];
         p_ddot[0] = t0;
@@ -456,7 +456,8 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const float t56 = state->acc_noise - t55;
         acc_noise_new = t56;
         const int t57 = t52 < t50;
-        acc_trips = (float)t57;
+        const float t58 = (t57 ? 2048.0f : 0.0f);
+        acc_status = t58;
     }
 
     /* ---- external_force: f_e solved from m p'' = -u_f z_b + m g e3 + f_e (N, NED) (10 ops) ---- */
@@ -654,7 +655,7 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         wind_sigma_up = (-1.0f);
     }
 
-    /* ---- check_result: an accepted sample must give a finite result, else it is rejected too (NUMERIC); and its acceleration must agree with its velocity (IMPLAUSIBLE, model/biasgate.py) (25 ops) ---- */
+    /* ---- check_result: an accepted sample must give a finite result, else it is rejected too (NUMERIC); and its acceleration must agree with its velocity (IMPLAUSIBLE, model/biasgate.py) (24 ops) ---- */
     float result_status;
     {
         const float t0 = fabsf(f_filt_new[0]);
@@ -676,13 +677,12 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const float t16 = fabsf(acc_bias_new[2]);
         const float t17 = t15 + t16;
         const int t18 = m300_wind_key(t17, 1) <= m300_wind_key(9.99999939e+29f, 1);
-        const float t19 = ((acc_trips != 0.0f) ? 2048.0f : 0.0f);
-        const float t20 = (t18 ? t19 : 0.0f);
-        const int t21 = !t18;
-        const float t22 = (t21 ? 32.0f : 0.0f);
-        const float t23 = (t21 ? t22 : 0.0f);
-        const float t24 = t20 + t23;
-        result_status = t24;
+        const float t19 = (t18 ? acc_status : 0.0f);
+        const int t20 = !t18;
+        const float t21 = (t20 ? 32.0f : 0.0f);
+        const float t22 = (t20 ? t21 : 0.0f);
+        const float t23 = t19 + t22;
+        result_status = t23;
     }
     if (result_status > 0.0f) { /* a sum of status bits: > 0, not != 0 (-Wfloat-equal) */
         state->run_s = 0.0f;
