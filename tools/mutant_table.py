@@ -86,7 +86,8 @@ def _validation_mutants(af: Airframe) -> list[CMutant]:
           if af.thrust.source == "rpm"],
         CMutant("BAD_THRUST bit dropped", "validate", r"\? 16\.0f? :", "? ({real})0 :"),
         CMutant("TILT bit 8 -> 4", "validate", r"\? 8\.0f? :", "? ({real})4 :"),
-        CMutant("rejection resets no run_s", "validate", r"state->run_s = 0\.0f?;(\s*\*out = state->last;\s*return \(int\)status;)",
+        CMutant("rejection resets no run_s", "validate",
+                r"state->run_s = 0\.0f?;((?:\s*state->check_follows = 0\.0f?;)?\s*\*out = state->last;\s*return \(int\)status;)",
                 r"\1"),
         CMutant("rejection returns 0", "validate", r"return \(int\)status;", "(void)status; return 0;"),
     ]
@@ -173,6 +174,8 @@ def _bias_mutants(af: Airframe) -> list[CMutant]:
                 r"(const int (t\d+) = )(t\d+) < (t\d+);(\n\s*const \w+ t\d+ = \(\2 \? 2048)", r"\g<1>\4 < \3;\5"),
         CMutant("acceleration check: a rejection does not advance the mean square", "check_result",
                 r"state->acc_noise = acc_noise_new;", ""),
+        CMutant("acceleration check: an invalid sample does not clear check_follows", "validate",
+                r"state->check_follows = 0\.0f?;", ""),
         CMutant("acceleration check: a rejection does not advance vel_prev", "check_result",
                 r"state->vel_prev\[0\] = in->vel_ned\[0\];", ""),
     ]
