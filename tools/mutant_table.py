@@ -240,5 +240,9 @@ def model_mutants() -> list[ModelMutant]:
         ModelMutant("low-pass 2 pi -> pi", "dobwind.model.step", "(-2 * math.pi) * cutoff", "(-math.pi) * cutoff"),
         ModelMutant("heading to NED sign", "dobwind.model.forceair", "return cos_yaw * x - sin_yaw * y,",
                     "return cos_yaw * x + sin_yaw * y,"),
+        # The acceleration check (the C and the reference would change together: only the transcription sees it).
+        ModelMutant("acceleration check SIGMAS 6 -> 5", "dobwind.model.biasgate", "SIGMAS = 6.0", "SIGMAS = 5.0"),
+        ModelMutant("acceleration check: the mean square takes in the whole square", "dobwind.model.biasgate",
+                    "(ca.fmin(square, bound) - acc_noise)", "(square - acc_noise)"),
     ]
 
