@@ -101,6 +101,17 @@ def _commit_lines(model: StepModel, printer: CPrinter) -> list[str]:
     return lines
 
 
+def _advance_lines(model: StepModel, printer: CPrinter) -> list[str]:
+    """The state a validated but rejected sample still writes (model/biasgate.py's check)."""
+    sizes = signal_sizes(model)
+    lines = []
+    for field, signal in model.advance_on_check:
+        size = model.state.field(field).size
+        lines += [f"{c_element('state.' + field, i, size, printer)} = {c_element(signal, i, sizes[signal], printer)};"
+                  for i in range(size)]
+    return lines
+
+
 def _fmt(value: float, precision: Precision, printer: CPrinter) -> str:
     """A test-vector literal; NaN and infinities (rejected inputs) through <math.h>'s macros."""
     if not np.isfinite(value):
@@ -221,6 +232,7 @@ def _render(af: Airframe, precision: Precision, model: StepModel, target: str | 
     source = _ENV.get_template("source.c.j2").render(
         **common, validate=validate, sections=sections, check=check, commit=_commit_lines(model, printer),
         reset=[f"state->{field} = {printer.literal(value)};" for field, value in model.reset_on_reject],
+        advance=_advance_lines(model, printer),
         total_ops=total_ops, total_calls=validate.section.calls + sum(s.calls for s in sections) + check.calls,
         kernels=kernels, coefficients=kernel_literals(printer), ieee=IEEE_TYPES[precision],
         finite=_finite_loop(model, printer),

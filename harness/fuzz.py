@@ -26,7 +26,7 @@ def build_fuzzer(model: StepModel, precision: Precision, work: Path) -> Path:
     text = HARNESS_TEMPLATES.get_template("fuzz.c.j2").render(
         name=name, prefix=f"{name}_wind_", real=real, n_in=model.inputs.size, elements=model.inputs.element_names(),
         base=", ".join(literal(v) for v in base), denormal="1e-40f" if precision == Precision.SINGLE else "4e-320",
-        max_wind=repr(MAX_WIND_MPS),
+        max_wind=repr(MAX_WIND_MPS), bookkeeping=_bookkeeping(model),
     )
     source = work / "fuzz.c"
     source.write_text(text)
@@ -34,6 +34,13 @@ def build_fuzzer(model: StepModel, precision: Precision, work: Path) -> Path:
     run([system_compiler(), "-std=c99", "-Wall", "-Wextra", "-Werror", *SANITIZE, f"-I{work}", str(source),
          str(work / f"{name}_wind.c"), "-o", str(exe), "-lm"])
     return exe
+
+
+def _bookkeeping(model: StepModel) -> list[tuple[str, int]]:
+    """(state field, size) that a rejection may write: the gap bookkeeping and the acceleration check's
+    state (model/biasgate.py); every other field must come out of a rejection unchanged."""
+    names = dict.fromkeys([f for f, _ in model.reset_on_reject] + [f for f, _ in model.advance_on_check])
+    return [(name, model.state.field(name).size) for name in names]
 
 
 def fuzz(model: StepModel, precision: Precision, work: Path, iterations: int) -> str:

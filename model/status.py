@@ -38,7 +38,9 @@ STATUS_BITS: tuple[StatusBit, ...] = (
               "([calibration] status = \"prior\", as `dobwind init` writes it): the wind is a rough guess until "
               "`dobwind fit` calibrates it", rejects=False),
     StatusBit("IMPLAUSIBLE", 1 << 11, "physically implausible for a multirotor (model/plausibility.py): ground "
-              "speed > 150 m/s, acceleration > 10 g, a rotor > 1.5 max_rpm or thrust > 20 weights"),
+              "speed > 150 m/s, acceleration > 10 g, a rotor > 1.5 max_rpm or thrust > 20 weights; or (airframes with a "
+              "velocity-aided bias estimate) an acceleration input that disagrees with the velocity's derivative far "
+              "beyond the log's own spread (model/biasgate.py)"),
 )
 # The bits that mean "rejected"; an autopilot that accepts quality-flagged samples tests these only.
 REJECTED_MASK = sum(bit.value for bit in STATUS_BITS if bit.rejects)

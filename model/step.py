@@ -25,7 +25,7 @@ import casadi as ca
 import numpy as np
 
 from dobwind.model.airframe import Airframe
-from dobwind.model import forceair
+from dobwind.model import biasgate, forceair
 from dobwind.model.discretization import first_order
 from dobwind.model.dynamics import quaternion_to_rotation_any_norm, solve_external_force
 from dobwind.model.layout import Field, Layout
@@ -65,6 +65,9 @@ class StepModel:
     settling_time_s: float  # baked into the SETTLING bit
     # (state field, value) written on a rejected sample: the gap bookkeeping, nothing of the estimate
     reset_on_reject: tuple[tuple[str, float], ...] = (("run_s", 0.0),)
+    # (state field, signal) written when a validated sample is rejected after the front end (the
+    # acceleration check, model/biasgate.py): the check's own bookkeeping, nothing of the estimate
+    advance_on_check: tuple[tuple[str, str], ...] = ()
 
     def initial_state(self) -> np.ndarray:
         return np.zeros(self.state.size)
@@ -123,6 +126,10 @@ def state_layout(af: Airframe) -> Layout:
     if af.observer.estimates_acceleration_bias:
         fields.append(Field("acc_bias", 3, "m/s^2", "acceleration input minus the velocity's derivative, "
                             "slowly averaged (the input's bias), NED"))
+        fields += [Field("acc_check", 3, "m/s^2", "acceleration check: the disagreement minus the bias, averaged "
+                         f"over {biasgate.CHECK_TIME_S:g} s (model/biasgate.py)"),
+                   Field("acc_noise", 1, "m^2/s^4", "acceleration check: mean square of acc_check (its bound)"),
+                   Field("check_follows", 1, "-", "acceleration check: 1 when vel_prev is the previous sample's")]
     if _body_drag(af):
         fields.append(Field("air_prev", 3, "m/s", "relative airflow of the last accepted sample, body FRD: "
                             "the drag law's inversion starts from it"))
@@ -196,9 +203,21 @@ def build_step(af: Airframe) -> StepModel:
     _add_quality_stages(b, af, settle)
     next_state = _next_state(lstate, signals)
     _add_result_check(b, af)
-    step = _compose(af, signals, next_state, x, u, lstate, lout)
+    reset, advance = _rejection_writes(af)
+    step = _compose(af, signals, next_state, x, u, lstate, lout, reset, advance)
     return StepModel(af, lin, lstate, lout, validate_stage, tuple(b.stages[1:-1]), b.stages[-1], next_state, step,
-                     settle)
+                     settle, reset, advance)
+
+
+def _rejection_writes(af: Airframe) -> tuple[tuple[tuple[str, float], ...], tuple[tuple[str, str], ...]]:
+    """What a rejection writes: the gap bookkeeping always; the acceleration check's state when the sample
+    was validated (its velocity is then the next sample's vel_prev), so that the check follows the inputs
+    through the samples it rejects and lets them in again once they agree."""
+    if not af.observer.estimates_acceleration_bias:
+        return StepModel.reset_on_reject, ()
+    return (StepModel.reset_on_reject + (("check_follows", 0.0),),
+            (("acc_check", "acc_check_new"), ("acc_noise", "acc_noise_new"), ("check_follows", "const.one"),
+             ("vel_prev", "in.vel_ned")))
 
 
 # --- validation ---------------------------------------------------------------------------------------
@@ -273,7 +292,8 @@ def _add_front_end(b: _Builder, af: Airframe) -> None:
         "velocity": ["in.vel_ned", "state.vel_prev", "in.dt", "state.run_s"],
     }[obs.acceleration]
     if obs.estimates_acceleration_bias:
-        accel_inputs = accel_inputs + ["state.acc_bias", "in.vel_ned", "state.vel_prev", "in.dt", "state.run_s"]
+        accel_inputs = accel_inputs + ["state.acc_bias", "in.vel_ned", "state.vel_prev", "in.dt", "state.run_s",
+                                       *[f"state.{f}" for f in biasgate.STATE_FIELDS]]
     b.add("acceleration", "kinematic acceleration p'' (m/s^2, NED)"
           + (f", minus its velocity-aided bias (time constant {obs.acceleration_bias_time_s:g} s)"
              if obs.estimates_acceleration_bias else ""),
@@ -339,7 +359,9 @@ def _acceleration(af: Airframe, s: Signals) -> Signals:
     difference = measured - (s["in.vel_ned"] - s["state.vel_prev"]) / s["in.dt"]
     weight = follows * -ca.expm1(-s["in.dt"] / obs.acceleration_bias_time_s)  # no bias update across a gap
     bias = s["state.acc_bias"]
-    return {"p_ddot": measured - bias, "acc_bias_new": bias + weight * (difference - bias)}
+    gate = biasgate.check(difference - bias, s["in.dt"], s["state.acc_check"], s["state.acc_noise"],
+                          s["state.check_follows"])
+    return {"p_ddot": measured - bias, "acc_bias_new": bias + weight * (difference - bias), **gate}
 
 
 # --- observer and low-pass, applied alike to the force and to the ground velocity -------------------
@@ -473,6 +495,7 @@ _NEXT_STATE_SIGNAL = {
     "last.force_ned": "f_filt_new", "last.wind_ned": "wind_ned", "last.wind_speed_h": "wind_speed_h",
     "last.wind_speed_up": "wind_speed_up", "last.wind_from_deg": "wind_from_deg",
     "acc_bias": "acc_bias_new", "run_s": "run_s_new", "air_prev": "air_body",
+    "acc_check": "acc_check_new", "acc_noise": "acc_noise_new", "check_follows": "const.one",
     "last.wind_sigma_h": "wind_sigma_h", "last.wind_sigma_up": "wind_sigma_up",
 }
 
@@ -494,8 +517,11 @@ def _committed(af: Airframe) -> list[str]:
 
 def _add_result_check(b: _Builder, af: Airframe) -> None:
     committed = _committed(af)
-    b.add("check_result", "an accepted sample must give a finite result, else it is rejected too", committed,
-          partial(_check_result, committed))
+    gated = af.observer.estimates_acceleration_bias
+    b.add("check_result", "an accepted sample must give a finite result, else it is rejected too"
+          + (" (NUMERIC); and its acceleration must agree with its velocity (IMPLAUSIBLE, model/biasgate.py)"
+             if gated else ""),
+          committed + (["acc_status"] if gated else []), partial(_check_result, committed))
 
 
 def _check_result(committed: list[str], s: Signals) -> Signals:
@@ -507,17 +533,28 @@ def _check_result(committed: list[str], s: Signals) -> Signals:
     # No bound on the sample's raw external force: it is a difference of noisy measurements divided by dt
     # (velocity differentiated at 500 Hz reads several weights of noise), so bounding it rejected a quarter
     # of a high-rate log. The input bounds (implausible_inputs) catch the glitches it was meant for.
-    return {"result_status": ca.if_else(ok, 0, bits["NUMERIC"])}
+    status = ca.if_else(ok, 0, bits["NUMERIC"])
+    if "acc_status" in s:
+        # Like every rejection, the acceleration check's restarts SETTLING: the first glitched samples (the
+        # average needs a few to see it) were accepted, and their transient must pass before trust returns.
+        status = ca.if_else(ok, s["acc_status"], status)
+    return {"result_status": status}
 
 
 def _compose(af: Airframe, signals: Signals, next_state: tuple[tuple[str, str], ...], x: ca.SX, u: ca.SX,
-             lstate: Layout, lout: Layout) -> ca.Function:
-    """The whole step: commit the proposed state on acceptance, else hold it (but for the gap bookkeeping)."""
+             lstate: Layout, lout: Layout, reset_on_reject: tuple[tuple[str, float], ...],
+             advance_on_check: tuple[tuple[str, str], ...]) -> ca.Function:
+    """The whole step: commit the proposed state on acceptance, else hold it (but for the gap bookkeeping
+    and, for a validated sample, the acceleration check's own state)."""
     proposed = ca.vertcat(*[signals[sig] for _, sig in next_state])
-    rejected = ca.if_else(signals["status"] == 0, signals["result_status"], signals["status"])
-    reset = dict(StepModel.reset_on_reject)
-    held = ca.vertcat(*[ca.SX(reset[f.name]) if f.name in reset else x[lstate.slice(f.name)] for f in lstate.fields])
-    x_next = ca.densify(ca.if_else(rejected == 0, proposed, held))
+    validated = signals["status"] == 0
+    rejected = ca.if_else(validated, signals["result_status"], signals["status"])
+    reset, advance = dict(reset_on_reject), dict(advance_on_check)
+    held = [ca.SX(reset[f.name]) if f.name in reset else x[lstate.slice(f.name)] for f in lstate.fields]
+    if advance:
+        checked = [signals[advance[f.name]] if f.name in advance else h for f, h in zip(lstate.fields, held)]
+        held = [ca.if_else(validated, c, h) for c, h in zip(checked, held)]
+    x_next = ca.densify(ca.if_else(rejected == 0, proposed, ca.vertcat(*held)))
     status = ca.if_else(rejected == 0, signals["quality_status"], rejected)
     y = ca.vertcat(*[x_next[lstate.slice(f"last.{f.name}")] for f in lout.fields])
     return ca.Function(f"{af.name}_step", [x, u], [x_next, y, status], ["state", "input"],

@@ -166,7 +166,7 @@ SLOW: dict[str, tuple[str, ...]] = {
         "test_no_function_over_60_lines",
     ),
 }
-FUZZ_FILES = ("test_cli_fuzz.py", "test_cli_fuzz_generated.py")
+FUZZ_FILES = ("test_cli_fuzz.py", "test_cli_fuzz_generated.py", "test_campaign_sample.py")
 # What in a test module's source says it runs a tool besides Python.
 NEEDS: dict[str, tuple[str, ...]] = {
     "needs_arm": ("arm-none-eabi",),

@@ -274,3 +274,22 @@ def test_a_csv_log_streamed_in_small_chunks_gives_the_same_file_content(tmp_path
         np.testing.assert_allclose(many["height"].values, t - t[0], atol=1e-9)
         assert many.attrs == one.attrs
     cf_check(tmp_path / "many.nc")  # no GPS time in a CSV log: log_time is the rows' coordinate
+
+
+def test_a_zero_wind_vertical_law_writes_no_upward_air_velocity(tmp_path):
+    """The fallback's vertical wind is exactly 0 by construction: written under a CF name it would read as a
+    measured calm. The file leaves it out (and its standard error) and says why; the horizontal wind stays."""
+    text = M300.read_text()
+    assert "[force_air.vertical]" in text
+    frame = tmp_path / "flat.toml"
+    frame.write_text(text.replace("[force_air.horizontal]", '[force_air]\nvertical_law = "zero-wind"\n\n[force_air.horizontal]'))
+    _, cols = atmos_logs.flight(hold_s=1.0)
+    log = atmos_logs.write_log(tmp_path / "f.bin", cols)
+    for airframe, name in ((M300, "fitted.nc"), (frame, "flat.nc")):
+        assert main(["replay", str(airframe), str(log), "-o", str(tmp_path / name)]) == 0
+    with xr.open_dataset(tmp_path / "fitted.nc") as fitted, xr.open_dataset(tmp_path / "flat.nc") as flat:
+        assert "upward_air_velocity" in fitted and "vertical_note" not in fitted.attrs
+        assert "upward_air_velocity" not in flat and "upward_air_velocity_standard_error" not in flat
+        assert "zero-wind" in flat.attrs["vertical_note"]
+        np.testing.assert_allclose(flat["eastward_wind"].values, fitted["eastward_wind"].values, rtol=1e-4, atol=1e-4)
+    cf_check(tmp_path / "flat.nc")

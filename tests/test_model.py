@@ -47,6 +47,9 @@ def _random_state(model: StepModel, rng: np.random.Generator) -> dict[str, np.nd
     # A gap (0), inside the settling time, or settled (the cap): every branch of the bookkeeping.
     settle = model.settling_time_s
     state["run_s"] = np.array([rng.choice([0.0, rng.uniform(0, settle), settle])]) * state["initialized"]
+    if "check_follows" in state:  # a flag and a mean square
+        state["check_follows"] = np.array([float(rng.random() < 0.8)])
+        state["acc_noise"] = np.abs(state["acc_noise"])
     return state
 
 

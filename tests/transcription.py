@@ -167,7 +167,7 @@ def step(af: Airframe, st: dict[str, np.ndarray], inp: dict[str, np.ndarray]):
         else:
             acc = (v - st["vel_prev"]) / dt if follows else np.zeros(3)
         f_e = m * acc - m * g * np.array([0, 0, 1.0]) + u_f * z_b  # slip 1: "- m g0 e3", not "- g"
-    bias = None
+    bias = check = None
     tau = af.observer.acceleration_bias_time_s
     if tau > 0:
         # The measured kinematic acceleration, then its disagreement with the velocity's slope.
@@ -175,9 +175,10 @@ def step(af: Airframe, st: dict[str, np.ndarray], inp: dict[str, np.ndarray]):
                      else rotate(q, np.asarray(inp["specific_force"], float)) + np.array([0, 0, g]))
         f_e = f_e - m * st["acc_bias"]
         bias = st["acc_bias"].copy()
+        slope = (v - st["vel_prev"]) / dt
         if follows:
-            disagreement = kinematic - (v - st["vel_prev"]) / dt
-            bias = bias + (1 - math.exp(-dt / tau)) * (disagreement - bias)
+            bias = bias + (1 - math.exp(-dt / tau)) * (kinematic - slope - bias)
+        check = _acceleration_check(st, kinematic - st["acc_bias"] - slope, dt, v)
 
     w = np.asarray(af.observer.gains) / m
     disc = af.observer.discretization
@@ -232,14 +233,37 @@ def step(af: Airframe, st: dict[str, np.ndarray], inp: dict[str, np.ndarray]):
         new[f"last.{key}"] = value
     checked = np.concatenate([f_filt, wind, [out["wind_speed_h"]]] + ([] if bias is None else [bias]))
     if not np.sum(np.abs(checked)) <= 1e30:
-        return _rejected(st, 32)
+        return _rejected(st, 32, check)
+    if check is not None and check.pop("trips"):
+        return _rejected(st, 2048, check)  # the acceleration disagrees with the velocity: IMPLAUSIBLE
+    if check is not None:
+        new.update(check)
     if np.linalg.norm(wind) > 50.0:  # beyond any calibration: flagged, not rejected
         quality |= 128
     return new, out, quality
 
 
-def _rejected(st: dict, status: int):
-    """The estimate and the last output kept; only the gap bookkeeping drops to zero."""
+def _acceleration_check(st: dict, disagreement: np.ndarray, dt: float, v: np.ndarray) -> dict:
+    """The acceleration check of docs/c-api.md: the disagreement averaged over 0.1 s; IMPLAUSIBLE when its
+    squared norm exceeds 36 times its mean square (20 s) plus (2 m/s^2)^2; the mean square takes in at most
+    that bound. Nothing moves when the previous sample failed validation (vel_prev is not its velocity)."""
+    mean = np.array(st["acc_check"], float)
+    spread = float(st["acc_noise"])
+    limit = 36.0 * spread + 4.0
+    if float(st["check_follows"]) > 0.5:
+        mean = mean + (1 - math.exp(-dt / 0.1)) * (disagreement - mean)
+        spread = spread + (1 - math.exp(-dt / 20.0)) * (min(float(mean @ mean), limit) - spread)
+    return {"acc_check": mean, "acc_noise": spread, "check_follows": 1.0, "vel_prev": v,
+            "trips": float(mean @ mean) > limit}
+
+
+def _rejected(st: dict, status: int, check: dict | None = None):
+    """The estimate and the last output kept; only the gap bookkeeping drops to zero (and, after
+    validation, the acceleration check follows the sample)."""
     kept = dict(st)
     kept["run_s"] = 0.0
+    if "check_follows" in kept:
+        kept["check_follows"] = 0.0
+    if check is not None:
+        kept.update({k: v for k, v in check.items() if k != "trips"})
     return kept, {k[5:]: v for k, v in st.items() if k.startswith("last.")}, status

@@ -87,7 +87,8 @@ def _validation_mutants(af: Airframe) -> list[CMutant]:
           if af.thrust.source == "rpm"],
         CMutant("BAD_THRUST bit dropped", "validate", r"\? 16 :", "? 0 :"),
         CMutant("TILT bit 8 -> 4", "validate", r"\? 8 :", "? 4 :"),
-        CMutant("rejection resets no run_s", "validate", r"state->run_s = 0\.0f?;(\s*\*out = state->last;\s*return \(int\)status;)",
+        CMutant("rejection resets no run_s", "validate",
+                r"state->run_s = 0\.0f?;((?:\s*state->check_follows = 0\.0f?;)?\s*\*out = state->last;\s*return \(int\)status;)",
                 r"\1"),
         CMutant("rejection returns 0", "validate", r"return \(int\)status;", "(void)status; return 0;"),
     ]
@@ -163,6 +164,21 @@ def _bias_mutants(af: Airframe) -> list[CMutant]:
         CMutant("bias time constant / 2 (its reciprocal x2)", "acceleration",
                 near=1.0 / af.observer.acceleration_bias_time_s, scale=2.0, precisions=("single",)),
         CMutant("bias gate 0 < run_s becomes <=", "acceleration", r"0\.0f? < state->run_s", "({real})0 <= state->run_s"),
+        # The acceleration check (model/biasgate.py): its constants, its comparison, its rejection writes.
+        CMutant("acceleration check: SIGMAS^2 36 -> 30", "acceleration", near=36.0, value=30.0),
+        CMutant("acceleration check: FLOOR^2 4 -> 5", "acceleration", near=4.0, value=5.0),
+        CMutant("acceleration check: average over 0.2 s, not 0.1", "acceleration", near=0.1, value=0.2,
+                precisions=("double",)),
+        CMutant("acceleration check: average over 0.2 s (its reciprocal 10 -> 5)", "acceleration", near=10.0,
+                value=5.0, precisions=("single",)),
+        CMutant("acceleration check: trips below the bound", "acceleration",
+                r"(const int (t\d+) = )(t\d+) < (t\d+);(\n\s*const \w+ t\d+ = \(\2 \? 2048)", r"\g<1>\4 < \3;\5"),
+        CMutant("acceleration check: a rejection does not advance the mean square", "check_result",
+                r"state->acc_noise = acc_noise_new;", ""),
+        CMutant("acceleration check: an invalid sample does not clear check_follows", "validate",
+                r"state->check_follows = 0\.0f?;", ""),
+        CMutant("acceleration check: a rejection does not advance vel_prev", "check_result",
+                r"state->vel_prev\[0\] = in->vel_ned\[0\];", ""),
     ]
 
 
@@ -226,5 +242,9 @@ def model_mutants() -> list[ModelMutant]:
         ModelMutant("low-pass 2 pi -> pi", "dobwind.model.step", "(-2 * math.pi) * cutoff", "(-math.pi) * cutoff"),
         ModelMutant("heading to NED sign", "dobwind.model.forceair", "return cos_yaw * x - sin_yaw * y,",
                     "return cos_yaw * x + sin_yaw * y,"),
+        # The acceleration check (the C and the reference would change together: only the transcription sees it).
+        ModelMutant("acceleration check SIGMAS 6 -> 5", "dobwind.model.biasgate", "SIGMAS = 6.0", "SIGMAS = 5.0"),
+        ModelMutant("acceleration check: the mean square takes in the whole square", "dobwind.model.biasgate",
+                    "(ca.fmin(square, bound) - acc_noise)", "(square - acc_noise)"),
     ]
 

@@ -13,6 +13,10 @@ def add(command: Command) -> None:
     p = command("check", "validate an airframe file and summarise its estimator")
     p.add_argument("airframe", help=AIRFRAME_HELP)
     p.add_argument("--json", action="store_true", help=JSON_HELP)
+    p.add_argument("--no-selftest", action="store_true",
+                   help="skip generate's last gate: by default the C is rendered in both precisions, compiled with "
+                   "the host compiler ($CC, default cc) with its self-test and run, and an airframe whose C fails its "
+                   "golden vectors is refused (exit 1), as generate would refuse it")
     p.set_defaults(func=run)
 
 
@@ -24,7 +28,7 @@ def run(args: argparse.Namespace) -> int:
     af = load_airframe(args.airframe)
     require_stable(af, "generate would refuse it", args.airframe)
     model = build_step(af)
-    _refuse_what_generate_refuses(af, model, args.airframe)
+    _refuse_what_generate_refuses(af, model, args.airframe, selftest=not args.no_selftest)
     summary = {
         "name": af.name,
         "mass_kg": af.mass_kg,
@@ -44,10 +48,21 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _refuse_what_generate_refuses(af: Any, model: Any, source: str) -> None:
+def _refuse_what_generate_refuses(af: Any, model: Any, source: str, selftest: bool = True) -> None:
     """Renders the C in both precisions and discards it: every static refusal of `generate` (a constant
-    that rounds to 0 in a float, an ill-conditioned term) then stops `check` too, with the same line."""
-    from dobwind.codegen.generate import generate_code
+    that rounds to 0 in a float, an ill-conditioned term) then stops `check` too, with the same line.
+    With ``selftest`` the rendered C also goes through generate's last gate (compiled and run against its
+    golden vectors), so `check` never accepts an airframe that `generate` would then refuse."""
+    import tempfile
+    from pathlib import Path
+
+    from dobwind.cli.generate import selftest_gate
+    from dobwind.codegen.generate import generate_code, write_files
 
     for precision in (Precision.SINGLE, Precision.DOUBLE):
-        generate_code(af, precision, model, source=source)
+        code = generate_code(af, precision, model, source=source)
+        if not selftest:
+            continue
+        with tempfile.TemporaryDirectory(prefix="dobwind-check-") as work:
+            write_files(code.files, work)
+            selftest_gate(af.name, Path(work), "check")

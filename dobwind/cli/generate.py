@@ -42,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
     target = Target("-o", out_dir, "dir")
     check_targets([target], [args.airframe])
     check_replaceable(target, is_generated_name)
-    gate = None if args.no_selftest else partial(_selftest_gate, af.name)
+    gate = None if args.no_selftest else partial(selftest_gate, af.name)
     files = generate_to_dir(af, out_dir, args.precision, source=args.airframe, integration=args.target,
                             gate=gate)
     for path in files:
@@ -50,10 +50,10 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _selftest_gate(name: str, folder: Path) -> None:
+def selftest_gate(name: str, folder: Path, command: str = "generate") -> None:
     from dobwind.harness.build import system_compiler
     from dobwind.generate.selftest_gate import run_selftest
 
     result = run_selftest(folder, name, system_compiler())
     if not result.ran:
-        sys.stderr.write(f"dobwind generate: warning: {result.summary}\n")
+        sys.stderr.write(f"dobwind {command}: warning: {result.summary}\n")

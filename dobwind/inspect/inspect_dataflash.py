@@ -11,7 +11,8 @@ import numpy as np
 from dobwind.io.dataflash import (AP_WIND, ATTITUDE, EV_GROUND, IMU, VELOCITY, WANTED, follow_primary, load_messages,
                                pick_stream)
 from dobwind.core.errors import InputError
-from dobwind.inspect.loginspect import (AutopilotWind, LogSummary, Role, Vehicle, inside, intervals, quiet_stderr,
+from dobwind.io.quietfd import quiet_fds
+from dobwind.inspect.loginspect import (AutopilotWind, LogSummary, Role, Vehicle, inside, intervals,
                                 stream_stats, total, wind_activity)
 
 PARAMETERS = ("MOT_THST_HOVER", "FRAME_CLASS", "FRAME_TYPE", "EK3_DRAG_BCOEF_X", "EK3_DRAG_BCOEF_Y",
@@ -168,7 +169,7 @@ def _ap_wind(msgs: dict, params: dict) -> AutopilotWind:
 
 def inspect_dataflash(path: str) -> LogSummary:
     notes: list[str] = []
-    with quiet_stderr():
+    with quiet_fds():  # pymavlink's compiled indexer prints a line per bad byte, to fd 2 itself
         loaded = load_messages(path, WANTED + ("PARM", "RCOU"))
     msgs = follow_primary(loaded, notes)
     params_all = _parameters(msgs.pop("PARM"))

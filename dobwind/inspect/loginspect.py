@@ -9,11 +9,8 @@ and inspect_other.py (ROS 2 bags, CSV); `dobwind init` (initframe.py) builds a s
 """
 from __future__ import annotations
 
-import contextlib
-import os
-import sys
 from dataclasses import asdict, dataclass, field
-from typing import Any, Iterator
+from typing import Any
 
 import numpy as np
 
@@ -112,26 +109,6 @@ class LogSummary:
         out["missing"] = self.missing()
         out["airborne_intervals"] = [list(i) for i in self.airborne_intervals]
         return out
-
-
-@contextlib.contextmanager
-def quiet_stderr() -> Iterator[None]:
-    """File descriptor 2 pointed at /dev/null: pymavlink's compiled indexer prints a line per bad byte of a
-    corrupt log straight to it (4,000 lines for 4 kB of garbage), which would break the one-line error."""
-    try:
-        sys.stderr.flush()
-        saved = os.dup(2)
-    except (OSError, ValueError):  # no real stderr (an embedding host): nothing to silence
-        yield
-        return
-    null = os.open(os.devnull, os.O_WRONLY)
-    try:
-        os.dup2(null, 2)
-        yield
-    finally:
-        os.dup2(saved, 2)
-        os.close(saved)
-        os.close(null)
 
 
 def stream_stats(name: str, t: np.ndarray) -> Stream:

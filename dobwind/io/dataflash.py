@@ -26,12 +26,11 @@ airborne: NO_DATA, named).
 """
 from __future__ import annotations
 
-import contextlib
-import os
 
 import numpy as np
 
 from dobwind.core.errors import InputError
+from dobwind.io.quietfd import quiet_fds
 from dobwind.io.logs import FlightLog
 from dobwind.model.airframe import Airframe
 from dobwind.io.bridge import blanked, bridge, largest_silences
@@ -59,9 +58,10 @@ def load_messages(path: str, wanted: tuple[str, ...] = WANTED) -> dict[str, list
     _require_magic(path)
     out: dict[str, list[dict]] = {name: [] for name in wanted}
     try:
-        # DFReader prints a line per skipped byte of a corrupt log ("bad header ...", to stderr): hundreds
-        # of thousands for a damaged file. The outcome is judged from the messages found instead.
-        with open(os.devnull, "w") as sink, contextlib.redirect_stdout(sink), contextlib.redirect_stderr(sink):
+        # DFReader prints a line per skipped byte of a corrupt log ("bad header ...", partly from compiled
+        # code, to the descriptors themselves): hundreds of thousands for a damaged file. The outcome is
+        # judged from the messages found instead.
+        with quiet_fds():
             reader = DFReader.DFReader_binary(path, zero_time_base=False)
             while True:
                 msg = reader.recv_match(type=list(wanted))

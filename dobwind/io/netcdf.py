@@ -99,17 +99,22 @@ def estimate_dataset(cols: dict[str, np.ndarray], t_log: np.ndarray, pos: RowPos
     """The xarray Dataset of one replay. ``cols``: the estimate CSV's columns by name (logs.ESTIMATE_COLUMNS)."""
     coords, dim = _coords(t_log, geo), row_dimension(geo)
     data = {}
+    vertical = src.airframe.vertical_law == "fitted"
     names = {"eastward_wind": cols["wind_e"], "northward_wind": cols["wind_n"],
              "upward_air_velocity": cols["wind_speed_up"], "wind_speed": cols["wind_speed_h"],
              "wind_from_direction": cols["wind_from_deg"]}
+    if not vertical:
+        # The zero-wind fallback writes exactly 0: under a CF name that reads as a measured calm, which it is
+        # not. The variable and its standard error are left out and the file says why (vertical_note).
+        del names["upward_air_velocity"]
     ancillary = "status wind_speed_standard_error"
     for var, values in names.items():
         std, units, long = cfnames.WIND[var]
         anc = ancillary.replace("wind_speed_", "upward_air_velocity_") if var == "upward_air_velocity" else ancillary
         data[var] = (dim, values.astype(np.float32), {"standard_name": std, "units": units, "long_name": long,
                                                          "ancillary_variables": anc})
-    for var, column in (("wind_speed_standard_error", "wind_sigma_h"),
-                        ("upward_air_velocity_standard_error", "wind_sigma_up")):
+    sigmas = (("wind_speed_standard_error", "wind_sigma_h"), ("upward_air_velocity_standard_error", "wind_sigma_up"))
+    for var, column in sigmas[:2 if vertical else 1]:
         std, units, long = cfnames.SIGMA[var]
         data[var] = (dim, _sigma(cols[column]).astype(np.float32), {"standard_name": std, "units": units,
                                                                        "long_name": long})
@@ -119,6 +124,9 @@ def estimate_dataset(cols: dict[str, np.ndarray], t_log: np.ndarray, pos: RowPos
                                   "units": "N"})
     data["status"] = (dim, cols["status"].astype(np.int32), cfnames.flag_attrs())
     attrs = {"position_note": _position(coords, pos, geo, dim)}
+    if not vertical:
+        attrs["vertical_note"] = ("no upward_air_velocity: the airframe's vertical law is the zero-wind fallback "
+                                  "(force_air.vertical_law), so the vertical wind is not estimated")
     ds = xr.Dataset(data, coords=coords, attrs=attrs)
     if pos is not None:
         ds.attrs["featureType"] = "trajectory"

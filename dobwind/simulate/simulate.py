@@ -317,7 +317,9 @@ def _plan(af: Airframe, name: str, rng: np.random.Generator, hold_s: float | Non
     total = float(durations.sum())
     n = int(total * rate)
     _refuse_too_many_rows(name, total, rate, n)
-    ramps = np.array([max(s.ramp_s, 1e-3) for s in scen.segments])
+    # A ramp ends within its segment: cut off by the next segment's start, it would leave the velocity
+    # stepping there (a hold of 2 s against a 3 s ramp), with no acceleration to match.
+    ramps = np.array([max(min(s.ramp_s, s.duration_s), 1e-3) for s in scen.segments])
     return _Plan(scen, n, 1.0 / rate, np.concatenate([[0.0], np.cumsum(durations)[:-1]]), ramps, sensors,
                  builtin, vehicle)
 

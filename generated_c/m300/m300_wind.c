@@ -5,8 +5,8 @@
  * d9fe9baff7b6cfef8d666b58101c13ced95956e1653f591ef4ca4a5757c1bf1d.
  * DO NOT EDIT: regenerate with `dobwind generate <airframe file>`.
  *
- * Total ops per accepted step: 264 (15 math-library calls), of which
- * 52 validate the input and 21 check the result.
+ * Total ops per accepted step: 294 (16 math-library calls), of which
+ * 52 validate the input and 24 check the result.
  */
 #include "m300_wind.h"
 
@@ -198,6 +198,11 @@ void m300_wind_init(m300_wind_state_t *state)
         state->acc_bias[i] = 0.0f;
     }
     for (i = 0; i < 3; ++i) {
+        state->acc_check[i] = 0.0f;
+    }
+    state->acc_noise = 0.0f;
+    state->check_follows = 0.0f;
+    for (i = 0; i < 3; ++i) {
         state->last.force_ned[i] = 0.0f;
     }
     for (i = 0; i < 3; ++i) {
@@ -332,6 +337,7 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
             const int r40 = r30 | r39;
             status = r40;
             state->run_s = 0.0f;
+            state->check_follows = 0.0f;
             *out = state->last;
             return (int)status;
         }
@@ -387,9 +393,12 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         u_f = t13;
     }
 
-    /* ---- acceleration: kinematic acceleration p'' (m/s^2, NED), minus its velocity-aided bias (time constant 20 s) (32 ops, 1 math calls) ---- */
+    /* ---- acceleration: kinematic acceleration p'' (m/s^2, NED), minus its velocity-aided bias (time constant 20 s) (59 ops, 2 math calls) ---- */
     float p_ddot[3];
     float acc_bias_new[3];
+    float acc_check_new[3];
+    float acc_noise_new;
+    float acc_status;
     {
         const float t0 = in->acc_ned[0] - state->acc_bias[0];
         p_ddot[0] = t0;
@@ -429,6 +438,38 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const float t30 = (t3 ? t29 : 0.0f);
         const float t31 = state->acc_bias[2] + t30;
         acc_bias_new[2] = t31;
+        const float t32 = in->dt * 10.0f;
+        const float t33 = -t32;
+        const float t34 = m300_wind_expm1(t33);
+        const float t35 = state->check_follows * t34;
+        const float t36 = t11 - state->acc_check[0];
+        const float t37 = t35 * t36;
+        const float t38 = state->acc_check[0] - t37;
+        acc_check_new[0] = t38;
+        const float t39 = t19 - state->acc_check[1];
+        const float t40 = t35 * t39;
+        const float t41 = state->acc_check[1] - t40;
+        acc_check_new[1] = t41;
+        const float t42 = t27 - state->acc_check[2];
+        const float t43 = t35 * t42;
+        const float t44 = state->acc_check[2] - t43;
+        acc_check_new[2] = t44;
+        const float t45 = state->check_follows * t6;
+        const float t46 = t38 * t38;
+        const float t47 = t41 * t41;
+        const float t48 = t46 + t47;
+        const float t49 = t44 * t44;
+        const float t50 = t48 + t49;
+        const float t51 = 36.0f * state->acc_noise;
+        const float t52 = t51 + 4.0f;
+        const float t53 = (t50 < t52 ? t50 : t52);
+        const float t54 = t53 - state->acc_noise;
+        const float t55 = t45 * t54;
+        const float t56 = state->acc_noise - t55;
+        acc_noise_new = t56;
+        const int t57 = t52 < t50;
+        const float t58 = (t57 ? 2048.0f : 0.0f);
+        acc_status = t58;
     }
 
     /* ---- external_force: f_e solved from m p'' = -u_f z_b + m g e3 + f_e (N, NED) (10 ops) ---- */
@@ -626,7 +667,7 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         wind_sigma_up = (-1.0f);
     }
 
-    /* ---- check_result: an accepted sample must give a finite result, else it is rejected too (21 ops) ---- */
+    /* ---- check_result: an accepted sample must give a finite result, else it is rejected too (NUMERIC); and its acceleration must agree with its velocity (IMPLAUSIBLE, model/biasgate.py) (24 ops) ---- */
     float result_status;
     {
         const float t0 = fabsf(f_filt_new[0]);
@@ -648,12 +689,25 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const float t16 = fabsf(acc_bias_new[2]);
         const float t17 = t15 + t16;
         const int t18 = m300_wind_key(t17, 1) <= m300_wind_key_c(9.99999939e+29f);
-        const int t19 = !t18;
-        const float t20 = (t19 ? 32.0f : 0.0f);
-        result_status = t20;
+        const float t19 = (t18 ? acc_status : 0.0f);
+        const int t20 = !t18;
+        const float t21 = (t20 ? 32.0f : 0.0f);
+        const float t22 = (t20 ? t21 : 0.0f);
+        const float t23 = t19 + t22;
+        result_status = t23;
     }
     if (result_status > 0.0f) { /* a sum of status bits: > 0, not != 0 (-Wfloat-equal) */
         state->run_s = 0.0f;
+        state->check_follows = 0.0f;
+        /* a validated sample: the acceleration check follows it even though it is rejected */
+        state->acc_check[0] = acc_check_new[0];
+        state->acc_check[1] = acc_check_new[1];
+        state->acc_check[2] = acc_check_new[2];
+        state->acc_noise = acc_noise_new;
+        state->check_follows = 1.0f;
+        state->vel_prev[0] = in->vel_ned[0];
+        state->vel_prev[1] = in->vel_ned[1];
+        state->vel_prev[2] = in->vel_ned[2];
         *out = state->last;
         return (int)result_status;
     }
@@ -677,6 +731,11 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
     state->acc_bias[0] = acc_bias_new[0];
     state->acc_bias[1] = acc_bias_new[1];
     state->acc_bias[2] = acc_bias_new[2];
+    state->acc_check[0] = acc_check_new[0];
+    state->acc_check[1] = acc_check_new[1];
+    state->acc_check[2] = acc_check_new[2];
+    state->acc_noise = acc_noise_new;
+    state->check_follows = 1.0f;
     out->force_ned[0] = state->last.force_ned[0] = f_filt_new[0];
     out->force_ned[1] = state->last.force_ned[1] = f_filt_new[1];
     out->force_ned[2] = state->last.force_ned[2] = f_filt_new[2];

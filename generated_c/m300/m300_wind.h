@@ -52,7 +52,7 @@ extern "C" {
 #define M300_WIND_STATUS_SETTLING 0x40u /* quality: accepted, but within one settling time of the first sample or of a gap (a rejected sample): the filters have not caught up yet */
 #define M300_WIND_STATUS_EXTRAPOLATED 0x80u /* quality: accepted, but the heading-frame force or the model's airflow speed is outside the envelope calibrated by fit, or the wind exceeds 50 m/s */
 #define M300_WIND_STATUS_UNCALIBRATED 0x400u /* quality: accepted, but the airframe's force-air law is an uncalibrated prior ([calibration] status = "prior", as `dobwind init` writes it): the wind is a rough guess until `dobwind fit` calibrates it */
-#define M300_WIND_STATUS_IMPLAUSIBLE 0x800u /* rejects: physically implausible for a multirotor (model/plausibility.py): ground speed > 150 m/s, acceleration > 10 g, a rotor > 1.5 max_rpm or thrust > 20 weights */
+#define M300_WIND_STATUS_IMPLAUSIBLE 0x800u /* rejects: physically implausible for a multirotor (model/plausibility.py): ground speed > 150 m/s, acceleration > 10 g, a rotor > 1.5 max_rpm or thrust > 20 weights; or (airframes with a velocity-aided bias estimate) an acceleration input that disagrees with the velocity's derivative far beyond the log's own spread (model/biasgate.py) */
 #define M300_WIND_REJECTED_MASK 0x83Fu /* every rejection bit */
 /* 1: the vertical wind is estimated. 0: the airframe's vertical law is a fallback (fit did not identify it;
  * force_air.vertical_law = "zero-wind"): wind_ned[2] and wind_speed_up are 0 and wind_sigma_up is -1 on
@@ -87,6 +87,9 @@ typedef struct {
     float v_filt[3]; /* m/s: ground velocity after the same two responses */
     float vel_prev[3]; /* m/s: previous ground velocity */
     float acc_bias[3]; /* m/s^2: acceleration input minus the velocity's derivative, slowly averaged (the input's bias), NED */
+    float acc_check[3]; /* m/s^2: acceleration check: the disagreement minus the bias, averaged over 0.1 s (model/biasgate.py) */
+    float acc_noise; /* m^2/s^4: acceleration check: mean square of acc_check (its bound) */
+    float check_follows; /* -: acceleration check: 1 when vel_prev is the previous sample's */
     m300_wind_output_t last; /* -: last valid output */
     float initialized; /* -: 0 until the first accepted sample, then 1 */
     float run_s; /* s: accepted time since the start or the last gap, capped at the settling time; set to 0 by a rejected sample (the only field a rejection changes) */
