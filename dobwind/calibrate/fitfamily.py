@@ -9,7 +9,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from dobwind.calibrate import accelroute, calstream, dragexponent, dragfit, holdcv, runmeans
+from dobwind.calibrate import accelroute, blendnoise, calstream, dragexponent, dragfit, holdcv, runmeans
 from dobwind.io.csvchunks import BLOCK_BYTES
 from dobwind.calibrate.envelope import calibration_envelope, uncertainty_table, with_observer_noise
 from dobwind.core.errors import CheckFailed
@@ -174,19 +174,7 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynami
     # log and a known wind: dobwind/calibrate/fieldtruth.py).
     options = dataclasses.replace(options, log_reader=log_reader)
     new, report, points, check = _fit_once(af, log_paths, options)
-    if accelroute.needs_blend_check(new, check, hover):
-        try:
-            other = _fit_once(accelroute.blended(af), log_paths, options)
-        except CheckFailed as exc:
-            report.acceleration_route = accelroute.blend_record(af, check, None, False, str(exc))
-            report.warnings.append(accelroute.failed_blend_warning(str(exc)))
-        else:
-            blend_check = other[3]
-            kept = accelroute.keeps_blend(check, blend_check)
-            record = accelroute.blend_record(af, check, blend_check, kept)
-            if kept:
-                new, report, points, check = other
-            report.acceleration_route = record
+    new, report, points, check = _maybe_blend(af, log_paths, options, (new, report, points, check))
     report.self_check = dataclasses.asdict(check)
     # The self-check's replay measured the observer noise; the sigma outputs add it to the residuals (#10).
     new = dataclasses.replace(new, uncertainty=with_observer_noise(new.uncertainty, check.noise_h_mps, check.noise_up_mps))
@@ -194,6 +182,35 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynami
 
 
 Fit = tuple[Airframe, FitReport, "Points | None"]
+FitChecked = tuple[Airframe, FitReport, "Points | None", SelfCheck]
+# The family fit_airframe's blended refit is restricted to: the one the first fit chose (fitting the
+# others again would only cost time; the blend changes the force's noise, not the law's shape).
+MODEL_OF_FAMILY = {"drag": "drag-heading", "drag-body": "drag-body", "polynomial": "polynomial"}
+
+
+def _maybe_blend(af: Airframe, log_paths: list[str], options: FitOptions, first: FitChecked) -> FitChecked:
+    """``first`` (the fit of ``af``), or the fit with its acceleration input blended with the velocity's
+    derivative when that is tried and kept (accelroute.py)."""
+    new, report, _, check = first
+    lowered = bool(report.low_pass)
+    ratio = None
+    if new.observer.acceleration in accelroute.INPUT_ROUTES and (lowered or accelroute.needs_blend_check(
+            new, check, options.hover)) and options.log_reader is None:
+        ratio = accelroute.predicted_ratio(new, blendnoise.logs_sensor_noise(log_paths, new.observer.acceleration))
+    if not accelroute.tries_blend(new, check, options.hover, lowered, ratio):
+        return first
+    model = MODEL_OF_FAMILY.get(report.model, options.model)
+    try:
+        other = _fit_once(accelroute.blended(af), log_paths, dataclasses.replace(options, model=model))
+    except CheckFailed as exc:
+        report.acceleration_route = accelroute.blend_record(af, check, None, False, str(exc), ratio)
+        report.warnings.append(accelroute.failed_blend_warning(str(exc)))
+        return first
+    kept = accelroute.keeps_blend(check, other[3], predicted=ratio is not None)
+    record = accelroute.blend_record(af, check, other[3], kept, ratio=ratio)
+    chosen = other if kept else first
+    chosen[1].acceleration_route = record
+    return chosen
 
 
 def refit_without_outliers(first: Fit, log_paths: list[str], fit: Callable[[list[str]], Fit]) -> Fit:
