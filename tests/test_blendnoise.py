@@ -12,8 +12,10 @@ import math
 import numpy as np
 import pytest
 
-from dobwind.calibrate.accelroute import BLEND_TIME_S, QUIETER_SHARE, blended, keeps_blend, predicted_ratio, tries_blend
-from dobwind.calibrate.blendnoise import SensorNoise, acceleration_noise_ratio, blend_rms_ratio, log_sensor_noise
+from dobwind.calibrate.accelroute import (BLEND_TIME_S, LONGEST_BLEND_TIME_S, QUIETER_SHARE, blend_time, blended, keeps_blend,
+                                         predicted_ratio, tries_blend)
+from dobwind.calibrate.blendnoise import (SensorNoise, acceleration_noise_ratio, blend_rms_ratio, log_sensor_noise,
+                                         quietest_blend_time)
 from dobwind.calibrate.hovernoise import HoverNoise
 from dobwind.calibrate.selfcheck import SelfCheck
 from dobwind.io.logs import FlightLog
@@ -132,3 +134,17 @@ def test_a_predicted_blend_is_kept_unless_measured_clearly_noisier():
     assert not keeps_blend(_check(0.070), _check(0.078), predicted=True)
     assert not keeps_blend(_check(0.070), _check(0.060, passed=False), predicted=True)
     assert not keeps_blend(_check(0.070), _check(0.066))   # unpredicted: clearly quieter only
+
+
+@pytest.mark.parametrize("acc_noise,vel_noise,cutoff_hz", [(0.05, 0.03, 0.15), (0.15, 0.03, 0.05), (0.1, 0.1, 0.1)])
+def test_the_quietest_blend_time_is_the_minimum_of_the_ratio(acc_noise, vel_noise, cutoff_hz):
+    noise = SensorNoise(acc_noise, vel_noise)
+    best = quietest_blend_time(noise, cutoff_hz)
+    grid = np.geomspace(0.01, 100.0, 20_001)   # an independent search over the time constant
+    ratios = [acceleration_noise_ratio(noise, cutoff_hz, t) for t in grid]
+    assert best == pytest.approx(grid[int(np.argmin(ratios))], rel=1e-3)
+    assert quietest_blend_time(SensorNoise(0.0, 0.03), 0.05) == math.inf
+    # The fit's choice stays within its bounds, and a noiseless accelerometer predicts no gain at them.
+    af = make_airframe(**{"observer.acceleration": "ned", "filter.cutoffs": [cutoff_hz, 0.6, 1.0]})
+    assert BLEND_TIME_S <= blend_time(af, noise) <= LONGEST_BLEND_TIME_S
+    assert blend_time(af, SensorNoise(0.0, 0.03)) == LONGEST_BLEND_TIME_S and blend_time(af, None) == BLEND_TIME_S

@@ -35,7 +35,7 @@ from __future__ import annotations
 import dataclasses
 from typing import Any
 
-from dobwind.calibrate.blendnoise import SensorNoise, blend_rms_ratio
+from dobwind.calibrate.blendnoise import SensorNoise, blend_rms_ratio, quietest_blend_time
 from dobwind.calibrate.hovernoise import HoverNoise
 from dobwind.model.airframe import Airframe
 from dobwind.calibrate.selfcheck import SelfCheck
@@ -58,10 +58,26 @@ QUIETER_SHARE = 0.9
 NOISIER_SHARE = 1.1
 
 
-def blended(af: Airframe) -> Airframe:
+# The longest blend time the sensors' noise may ask for (a noisy velocity beside a quiet accelerometer):
+# beyond it the blend's corner nears the low-pass floor and there is little left to replace.
+LONGEST_BLEND_TIME_S = 5.0
+
+
+def blended(af: Airframe, time_s: float = BLEND_TIME_S) -> Airframe:
     """The airframe whose acceleration input is blended with the velocity's derivative below
-    1 / (2 pi BLEND_TIME_S); nothing else changed."""
-    return dataclasses.replace(af, observer=dataclasses.replace(af.observer, acceleration_bias_time_s=BLEND_TIME_S))
+    1 / (2 pi ``time_s``); nothing else changed."""
+    return dataclasses.replace(af, observer=dataclasses.replace(af.observer, acceleration_bias_time_s=time_s))
+
+
+def blend_time(af: Airframe, noise: SensorNoise | None) -> float:
+    """The blend's time constant: the quietest for the sensors' noise behind ``af``'s first cutoff
+    (blendnoise.quietest_blend_time), kept between BLEND_TIME_S and LONGEST_BLEND_TIME_S; BLEND_TIME_S
+    without a noise figure. Shorter than BLEND_TIME_S, the velocity's derivative would carry the
+    acceleration up to the observer's own bandwidth (1 Hz on the m300), where the closed form no
+    longer holds."""
+    if noise is None:
+        return BLEND_TIME_S
+    return min(LONGEST_BLEND_TIME_S, max(BLEND_TIME_S, quietest_blend_time(noise, af.filter.cutoffs_hz[0])))
 
 
 def needs_blend_check(af: Airframe, check: SelfCheck, hover: HoverNoise) -> bool:
@@ -78,7 +94,7 @@ def predicted_ratio(af: Airframe, noise: SensorNoise | None) -> float | None:
     from the sensors' noise (blendnoise.py); None without an acceleration input or a noise figure."""
     if noise is None or af.observer.acceleration not in INPUT_ROUTES:
         return None
-    return blend_rms_ratio(noise, af.filter.cutoffs_hz[0], af.observer.acceleration_bias_time_s, BLEND_TIME_S)
+    return blend_rms_ratio(noise, af.filter.cutoffs_hz[0], af.observer.acceleration_bias_time_s, blend_time(af, noise))
 
 
 def tries_blend(af: Airframe, check: SelfCheck, hover: HoverNoise, lowered: bool, ratio: float | None) -> bool:
@@ -111,18 +127,18 @@ def keeps_blend(check: SelfCheck, again: SelfCheck, predicted: bool = False) -> 
     return quieter <= NOISIER_SHARE * noise if predicted else quieter < QUIETER_SHARE * noise
 
 
-def failed_blend_warning(reason: str) -> str:
+def failed_blend_warning(reason: str, time_s: float = BLEND_TIME_S) -> str:
     """The warning when the blended fit itself could not be made: the user asked for less noise than the
     first fit reached, and only the report line would otherwise say why nothing more was done."""
-    return (f"the acceleration blend (acceleration_bias_time {BLEND_TIME_S:g} s) could not be fitted ({reason}); "
+    return (f"the acceleration blend (acceleration_bias_time {time_s:.3g} s) could not be fitted ({reason}); "
             "the airframe's acceleration input is kept as written")
 
 
 def blend_record(af: Airframe, check: SelfCheck, again: SelfCheck | None, kept: bool,
-                 failure: str = "", ratio: float | None = None) -> dict[str, Any]:
+                 failure: str = "", ratio: float | None = None, time_s: float = BLEND_TIME_S) -> dict[str, Any]:
     """What the report keeps of the comparison (``again`` None: the blended fit itself failed; ``ratio``:
     the predicted RMS ratio of the acceleration noise, None when not predicted)."""
-    return {"acceleration": af.observer.acceleration, "bias_time_s": [af.observer.acceleration_bias_time_s, BLEND_TIME_S],
+    return {"acceleration": af.observer.acceleration, "bias_time_s": [af.observer.acceleration_bias_time_s, time_s],
             "still_noise_mps": [check.still_noise_mps, None if again is None else again.still_noise_mps],
             "blend_passed": None if again is None else again.passed,
             "blend_reasons": [failure] if again is None else list(again.reasons), "kept": kept,

@@ -70,6 +70,19 @@ def blend_rms_ratio(noise: SensorNoise, cutoff_hz: float, bias_time_s: float, bl
                      / acceleration_noise_ratio(noise, cutoff_hz, bias_time_s))
 
 
+def quietest_blend_time(noise: SensorNoise, cutoff_hz: float) -> float:
+    """The bias time T that minimizes acceleration_noise_ratio: with k = (2 pi sv / sa)^2 the ratio is
+    fc (1 + k fh^2) / (fh + fc), least at fh = sqrt(fc^2 + 1 / k) - fc (infinite T for a noiseless
+    accelerometer, none needed for a noiseless velocity)."""
+    if noise.acceleration_mps2 <= 0:
+        return math.inf
+    if noise.velocity_mps <= 0:
+        return 0.0
+    k = (2.0 * math.pi * noise.velocity_mps / noise.acceleration_mps2) ** 2
+    corner_hz = math.sqrt(cutoff_hz * cutoff_hz + 1.0 / k) - cutoff_hz
+    return 1.0 / (2.0 * math.pi * corner_hz)
+
+
 def _robust_sigma(values: np.ndarray) -> float:
     finite = values[np.isfinite(values)]
     if len(finite) < MIN_ROWS:

@@ -183,9 +183,6 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynami
 
 Fit = tuple[Airframe, FitReport, "Points | None"]
 FitChecked = tuple[Airframe, FitReport, "Points | None", SelfCheck]
-# The family fit_airframe's blended refit is restricted to: the one the first fit chose (fitting the
-# others again would only cost time; the blend changes the force's noise, not the law's shape).
-MODEL_OF_FAMILY = {"drag": "drag-heading", "drag-body": "drag-body", "polynomial": "polynomial"}
 
 
 def _maybe_blend(af: Airframe, log_paths: list[str], options: FitOptions, first: FitChecked) -> FitChecked:
@@ -193,24 +190,37 @@ def _maybe_blend(af: Airframe, log_paths: list[str], options: FitOptions, first:
     derivative when that is tried and kept (accelroute.py)."""
     new, report, _, check = first
     lowered = bool(report.low_pass)
-    ratio = None
+    noise = None
     if new.observer.acceleration in accelroute.INPUT_ROUTES and (lowered or accelroute.needs_blend_check(
             new, check, options.hover)) and options.log_reader is None:
-        ratio = accelroute.predicted_ratio(new, blendnoise.logs_sensor_noise(log_paths, new.observer.acceleration))
+        noise = blendnoise.logs_sensor_noise(log_paths, new.observer.acceleration)
+    ratio = accelroute.predicted_ratio(new, noise)
     if not accelroute.tries_blend(new, check, options.hover, lowered, ratio):
         return first
-    model = MODEL_OF_FAMILY.get(report.model, options.model)
+    # The blend is fitted at the first fit's low-pass, not lowered further (hover rounds 0): it is judged
+    # at the same cutoff, and it never buys its quiet with a slower response to a wind change. Every
+    # family is fitted again: the noise decides between them (a 50 Hz vehicle with a noisy accelerometer
+    # chose the polynomial family unblended, and read its tunnel 0.12 m/s off when held to it blended).
+    time_s = accelroute.blend_time(new, noise)
+    start = accelroute.blended(dataclasses.replace(af, filter=new.filter), time_s)
+    same = dataclasses.replace(options, hover=dataclasses.replace(options.hover, rounds=0))
     try:
-        other = _fit_once(accelroute.blended(af), log_paths, dataclasses.replace(options, model=model))
+        other = _fit_once(start, log_paths, same)
     except CheckFailed as exc:
-        report.acceleration_route = accelroute.blend_record(af, check, None, False, str(exc), ratio)
-        report.warnings.append(accelroute.failed_blend_warning(str(exc)))
+        report.acceleration_route = accelroute.blend_record(af, check, None, False, str(exc), ratio, time_s)
+        report.warnings.append(accelroute.failed_blend_warning(str(exc), time_s))
         return first
     kept = accelroute.keeps_blend(check, other[3], predicted=ratio is not None)
-    record = accelroute.blend_record(af, check, other[3], kept, ratio=ratio)
-    chosen = other if kept else first
-    chosen[1].acceleration_route = record
-    return chosen
+    record = accelroute.blend_record(af, check, other[3], kept, ratio=ratio, time_s=time_s)
+    if not kept:
+        report.acceleration_route = record
+        return first
+    blend_report = other[1]
+    blend_report.acceleration_route = record
+    if report.low_pass:  # lowered on the first fit: from the airframe's figure to the blend's, at that cutoff
+        blend_report.low_pass = {**report.low_pass, "still_noise_mps": [report.low_pass["still_noise_mps"][0],
+                                                                        other[3].still_noise_mps]}
+    return other
 
 
 def refit_without_outliers(first: Fit, log_paths: list[str], fit: Callable[[list[str]], Fit]) -> Fit:
