@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from dobwind.calibrate.accelroute import (BLEND_TIME_S, LONGEST_BLEND_TIME_S, QUIETER_SHARE, blend_time, blended, keeps_blend,
-                                         predicted_ratio, tries_blend)
+                                         observer_hz, predicted_ratio, tries_blend)
 from dobwind.calibrate.blendnoise import (SensorNoise, acceleration_noise_ratio, blend_rms_ratio, log_sensor_noise,
                                          quietest_blend_time)
 from dobwind.calibrate.hovernoise import HoverNoise
@@ -41,26 +41,30 @@ def _hover_force(af, acc_noise: float, vel_noise: float, seed: int) -> np.ndarra
     return traj.outputs[5_000:, :2]   # past the start-up of the observer, the low-pass and the bias
 
 
-def _airframe():
-    # An observer at 120 / 2.5 = 48 rad/s (7.6 Hz), far above the blend's 0.32 Hz corner: the closed
-    # form's limit. A slower one also cuts the 1/f^2 tail the low-pass passes above the corner, and so
-    # leaves the blend less noise than the form says (at 50 kg/s, 3.2 Hz: 0.51 measured against 0.58).
+def _airframe(gain: float):
     return make_airframe(**{"thrust": {"source": "collective", "scale": 1.0}, "observer.sample_time": DT,
-                            "observer.gains": [120.0, 120.0, 120.0], "observer.force_offset": [0.0, 0.0, 0.0],
+                            "observer.gains": [gain, gain, gain], "observer.force_offset": [0.0, 0.0, 0.0],
                             "filter.speeds": [0.0], "filter.cutoffs": [CUTOFF_HZ]})
 
 
+# Observers at 50 / 2.5 = 20 rad/s (3.2 Hz) and 48 rad/s (7.6 Hz): the slower cuts more of the 1/f^2
+# tail the low-pass passes above the blend's corner (without the observer's factor the form said 0.58
+# where the 3.2 Hz step measured 0.51).
+@pytest.mark.parametrize("gain", [50.0, 120.0])
 @pytest.mark.parametrize("acc_noise", [0.15, 0.05])
-def test_the_steps_blend_leaves_the_closed_form_share_of_the_noise(acc_noise):
+def test_the_steps_blend_leaves_the_closed_form_share_of_the_noise(acc_noise, gain):
     vel_noise = 0.03
-    af = _airframe()
+    af = _airframe(gain)
     assert af.observer.acceleration == "ned" and af.observer.acceleration_bias_time_s == 0.0
     alone = np.var(_hover_force(af, acc_noise, vel_noise, 1))
     mixed = np.var(_hover_force(blended(af), acc_noise, vel_noise, 1))
-    expected = acceleration_noise_ratio(SensorNoise(acc_noise, vel_noise), CUTOFF_HZ, BLEND_TIME_S)
-    # By hand: fh = 1 / (2 pi 0.5) = 0.318 Hz; 0.1 / 0.418 (1 + (0.03 / (acc_noise 0.5))^2).
-    by_hand = 0.1 / (0.1 + 1 / math.pi) * (1 + (vel_noise / (acc_noise * 0.5)) ** 2)
-    assert expected == pytest.approx(by_hand, rel=1e-12)
+    fo = observer_hz(af)
+    expected = acceleration_noise_ratio(SensorNoise(acc_noise, vel_noise), CUTOFF_HZ, BLEND_TIME_S, fo)
+    # By hand: fh = 1 / (2 pi 0.5) = 0.318 Hz, fo = gain / 2.5 / (2 pi);
+    # 0.1 / 0.418 * fo / (fo + 0.318) * (1 + (0.03 / (acc_noise 0.5))^2).
+    fh, fo_hand = 1 / math.pi, gain / 2.5 / (2 * math.pi)
+    by_hand = 0.1 / (0.1 + fh) * fo_hand / (fo_hand + fh) * (1 + (vel_noise / (acc_noise * 0.5)) ** 2)
+    assert fo == pytest.approx(fo_hand) and expected == pytest.approx(by_hand, rel=1e-12)
     assert mixed / alone == pytest.approx(expected, rel=0.06)
 
 
@@ -139,10 +143,11 @@ def test_a_predicted_blend_is_kept_unless_measured_clearly_noisier():
 @pytest.mark.parametrize("acc_noise,vel_noise,cutoff_hz", [(0.05, 0.03, 0.15), (0.15, 0.03, 0.05), (0.1, 0.1, 0.1)])
 def test_the_quietest_blend_time_is_the_minimum_of_the_ratio(acc_noise, vel_noise, cutoff_hz):
     noise = SensorNoise(acc_noise, vel_noise)
-    best = quietest_blend_time(noise, cutoff_hz)
     grid = np.geomspace(0.01, 100.0, 20_001)   # an independent search over the time constant
-    ratios = [acceleration_noise_ratio(noise, cutoff_hz, t) for t in grid]
-    assert best == pytest.approx(grid[int(np.argmin(ratios))], rel=1e-3)
+    for fo in (math.inf, 1.0, 3.0):
+        best = quietest_blend_time(noise, cutoff_hz, fo)
+        ratios = [acceleration_noise_ratio(noise, cutoff_hz, t, fo) for t in grid]
+        assert best == pytest.approx(grid[int(np.argmin(ratios))], rel=1e-3)
     assert quietest_blend_time(SensorNoise(0.0, 0.03), 0.05) == math.inf
     # The fit's choice stays within its bounds, and a noiseless accelerometer predicts no gain at them.
     af = make_airframe(**{"observer.acceleration": "ned", "filter.cutoffs": [cutoff_hz, 0.6, 1.0]})

@@ -33,6 +33,7 @@ predicts an infinite ratio: the blend is then never tried, whatever the replay's
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import Any
 
 from dobwind.calibrate.blendnoise import SensorNoise, blend_rms_ratio, quietest_blend_time
@@ -73,11 +74,18 @@ def blend_time(af: Airframe, noise: SensorNoise | None) -> float:
     """The blend's time constant: the quietest for the sensors' noise behind ``af``'s first cutoff
     (blendnoise.quietest_blend_time), kept between BLEND_TIME_S and LONGEST_BLEND_TIME_S; BLEND_TIME_S
     without a noise figure. Shorter than BLEND_TIME_S, the velocity's derivative would carry the
-    acceleration up to the observer's own bandwidth (1 Hz on the m300), where the closed form no
-    longer holds."""
+    acceleration up to near the observer's own bandwidth (1 Hz on the m300), past which the
+    derivative's noise rises fastest and an autopilot's velocity may lag its accelerometer."""
     if noise is None:
         return BLEND_TIME_S
-    return min(LONGEST_BLEND_TIME_S, max(BLEND_TIME_S, quietest_blend_time(noise, af.filter.cutoffs_hz[0])))
+    quietest = quietest_blend_time(noise, af.filter.cutoffs_hz[0], observer_hz(af))
+    return min(LONGEST_BLEND_TIME_S, max(BLEND_TIME_S, quietest))
+
+
+def observer_hz(af: Airframe) -> float:
+    """The observer's horizontal bandwidth: gain / mass rad/s per axis (step.py), in Hz."""
+    gain = (af.observer.gains[0] + af.observer.gains[1]) / 2.0
+    return gain / af.mass_kg / (2.0 * math.pi)
 
 
 def needs_blend_check(af: Airframe, check: SelfCheck, hover: HoverNoise) -> bool:
@@ -94,7 +102,8 @@ def predicted_ratio(af: Airframe, noise: SensorNoise | None) -> float | None:
     from the sensors' noise (blendnoise.py); None without an acceleration input or a noise figure."""
     if noise is None or af.observer.acceleration not in INPUT_ROUTES:
         return None
-    return blend_rms_ratio(noise, af.filter.cutoffs_hz[0], af.observer.acceleration_bias_time_s, blend_time(af, noise))
+    return blend_rms_ratio(noise, af.filter.cutoffs_hz[0], af.observer.acceleration_bias_time_s, blend_time(af, noise),
+                           observer_hz(af))
 
 
 def tries_blend(af: Airframe, check: SelfCheck, hover: HoverNoise, lowered: bool, ratio: float | None) -> bool:

@@ -2,21 +2,23 @@
 predicted from the two sensors' noise before any fit is run on it.
 
 The blend (accelroute.py) is the velocity-aided bias estimate with a short time constant T:
-p'' = HP_T(a) + LP_T(v'), fh = 1 / (2 pi T). Behind a first-order low-pass at fc (the first cutoff of the
-schedule), with the observer's bandwidth well above both corners:
+p'' = HP_T(a) + LP_T(v'), fh = 1 / (2 pi T). It goes through the observer (first order per axis, at
+fo = gain / (2 pi m)) and the low-pass at fc (the schedule's first cutoff):
 
 - white acceleration noise of variance sa^2 per sample (two-sided density sa^2 dt) leaves
-  sa^2 dt * pi fc^2 / (fh + fc) through the high-pass, against sa^2 dt * pi fc without a bias estimate;
+  sa^2 dt * pi fc^2 fo^2 / ((fh + fc)(fc + fo)(fo + fh)) through the high-pass, against
+  sa^2 dt * pi fc fo / (fc + fo) without a bias estimate;
 - white velocity noise of variance sv^2 per sample, differentiated (density sv^2 dt (2 pi f)^2), leaves
-  sv^2 dt * 4 pi^3 fh^2 fc^2 / (fh + fc) through the blend's low-pass.
+  sv^2 dt * 4 pi^3 fh^2 fc^2 fo^2 / ((fh + fc)(fc + fo)(fo + fh)) through the blend's low-pass.
 
-(The integrals: f^2 / ((fh^2 + f^2)(fc^2 + f^2)) integrates to pi / (fh + fc) over all f.) So the
-acceleration route's noise variance, relative to the unbiased input alone, is
+(Over all f, f^2 / ((a^2 + f^2)(b^2 + f^2)(c^2 + f^2)) integrates to pi / ((a + b)(b + c)(c + a)).) So
+the acceleration route's noise variance, relative to the unbiased input alone, is
 
-    ratio(T) = fc / (fh + fc) * (1 + sv^2 / (sa^2 T^2)),
+    ratio(T) = fc / (fh + fc) * fo / (fo + fh) * (1 + sv^2 / (sa^2 T^2)),
 
-independent of the sample time. A noiseless accelerometer (sa = 0) makes it infinite: the input is
-kept as it is. It covers the acceleration's share of the force noise only (the thrust's is untouched),
+independent of the sample time. The observer's factor matters: the low-pass passes a 1/f^2 tail above
+fh that a 1 Hz observer (the m300's, the 25 kg hexacopter's) cuts, so without it the form favours too
+long a T. A noiseless accelerometer (sa = 0) makes the ratio infinite: the input is kept as it is. It covers the acceleration's share of the force noise only (the thrust's is untouched),
 so it says whether the blend is worth a fit, and the self-check's replay says whether it was.
 
 The two noise levels are read off the logs' first rows: a first difference of white noise has twice its
@@ -52,34 +54,43 @@ class SensorNoise:
     velocity_mps: float
 
 
-def acceleration_noise_ratio(noise: SensorNoise, cutoff_hz: float, bias_time_s: float) -> float:
-    """The acceleration route's noise variance behind the low-pass at ``cutoff_hz`` with a velocity-aided
-    bias estimate of time constant ``bias_time_s`` (0: none), over that of the input alone."""
+def acceleration_noise_ratio(noise: SensorNoise, cutoff_hz: float, bias_time_s: float,
+                             observer_hz: float = math.inf) -> float:
+    """The acceleration route's noise variance behind the observer (``observer_hz``; inf: far above the
+    corners) and the low-pass at ``cutoff_hz`` with a velocity-aided bias estimate of time constant
+    ``bias_time_s`` (0: none), over that of the input alone."""
     if bias_time_s <= 0:
         return 1.0
     if noise.acceleration_mps2 <= 0:
         return math.inf  # everything the blend adds is the velocity's noise
     corner_hz = 1.0 / (2.0 * math.pi * bias_time_s)
+    observer_share = 1.0 if math.isinf(observer_hz) else observer_hz / (observer_hz + corner_hz)
     velocity_share = (noise.velocity_mps / (noise.acceleration_mps2 * bias_time_s)) ** 2
-    return cutoff_hz / (corner_hz + cutoff_hz) * (1.0 + velocity_share)
+    return cutoff_hz / (corner_hz + cutoff_hz) * observer_share * (1.0 + velocity_share)
 
 
-def blend_rms_ratio(noise: SensorNoise, cutoff_hz: float, bias_time_s: float, blend_time_s: float) -> float:
+def blend_rms_ratio(noise: SensorNoise, cutoff_hz: float, bias_time_s: float, blend_time_s: float,
+                    observer_hz: float = math.inf) -> float:
     """The blend's acceleration noise (RMS) over the airframe's own route (bias time ``bias_time_s``)."""
-    return math.sqrt(acceleration_noise_ratio(noise, cutoff_hz, blend_time_s)
-                     / acceleration_noise_ratio(noise, cutoff_hz, bias_time_s))
+    return math.sqrt(acceleration_noise_ratio(noise, cutoff_hz, blend_time_s, observer_hz)
+                     / acceleration_noise_ratio(noise, cutoff_hz, bias_time_s, observer_hz))
 
 
-def quietest_blend_time(noise: SensorNoise, cutoff_hz: float) -> float:
-    """The bias time T that minimizes acceleration_noise_ratio: with k = (2 pi sv / sa)^2 the ratio is
-    fc (1 + k fh^2) / (fh + fc), least at fh = sqrt(fc^2 + 1 / k) - fc (infinite T for a noiseless
-    accelerometer, none needed for a noiseless velocity)."""
+def quietest_blend_time(noise: SensorNoise, cutoff_hz: float, observer_hz: float = math.inf) -> float:
+    """The bias time T that minimizes acceleration_noise_ratio. With k = (2 pi sv / sa)^2 the ratio is
+    proportional to (1 + k fh^2) / ((fh + fc)(fh + fo)), whose derivative vanishes where
+    k s fh^2 + 2 (k fc fo - 1) fh - s = 0 (s = fc + fo); without the observer's factor (fo infinite),
+    fh = sqrt(fc^2 + 1 / k) - fc. Infinite T for a noiseless accelerometer, none for a noiseless velocity."""
     if noise.acceleration_mps2 <= 0:
         return math.inf
     if noise.velocity_mps <= 0:
         return 0.0
     k = (2.0 * math.pi * noise.velocity_mps / noise.acceleration_mps2) ** 2
-    corner_hz = math.sqrt(cutoff_hz * cutoff_hz + 1.0 / k) - cutoff_hz
+    if math.isinf(observer_hz):
+        corner_hz = math.sqrt(cutoff_hz * cutoff_hz + 1.0 / k) - cutoff_hz
+    else:
+        s, b = cutoff_hz + observer_hz, 1.0 - k * cutoff_hz * observer_hz
+        corner_hz = (b + math.sqrt(b * b + k * s * s)) / (k * s)
     return 1.0 / (2.0 * math.pi * corner_hz)
 
 
