@@ -9,7 +9,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from dobwind.calibrate import accelroute, calstream, dragexponent, dragfit, holdcv, runmeans
+from dobwind.calibrate import accelroute, blendnoise, calstream, dragexponent, dragfit, holdcv, runmeans
 from dobwind.io.csvchunks import BLOCK_BYTES
 from dobwind.calibrate.envelope import calibration_envelope, uncertainty_table, with_observer_noise
 from dobwind.core.errors import CheckFailed
@@ -175,19 +175,7 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynami
     # log and a known wind: dobwind/calibrate/fieldtruth.py).
     options = dataclasses.replace(options, log_reader=log_reader)
     new, report, points, check = _fit_once(af, log_paths, options)
-    if accelroute.needs_blend_check(new, check, hover):
-        try:
-            other = _fit_once(accelroute.blended(af), log_paths, options)
-        except CheckFailed as exc:
-            report = dataclasses.replace(report, acceleration_route=accelroute.blend_record(af, check, None, False, str(exc)),
-                                         warnings=[*report.warnings, accelroute.failed_blend_warning(str(exc))])
-        else:
-            blend_check = other[3]
-            kept = accelroute.keeps_blend(check, blend_check)
-            record = accelroute.blend_record(af, check, blend_check, kept)
-            if kept:
-                new, report, points, check = other
-            report = dataclasses.replace(report, acceleration_route=record)
+    new, report, points, check = _maybe_blend(af, log_paths, options, (new, report, points, check))
     report = dataclasses.replace(report, self_check=dataclasses.asdict(check))
     # The self-check's replay measured the observer noise; the sigma outputs add it to the residuals (#10).
     new = dataclasses.replace(new, uncertainty=with_observer_noise(new.uncertainty, check.noise_h_mps, check.noise_up_mps))
@@ -195,6 +183,44 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynami
 
 
 Fit = tuple[Airframe, FitReport, "Points | None"]
+FitChecked = tuple[Airframe, FitReport, "Points | None", SelfCheck]
+
+
+def _maybe_blend(af: Airframe, log_paths: list[str], options: FitOptions, first: FitChecked) -> FitChecked:
+    """``first`` (the fit of ``af``), or the fit with its acceleration input blended with the velocity's
+    derivative when that is tried and kept (accelroute.py)."""
+    new, report, _, check = first
+    lowered = bool(report.low_pass)
+    noise = None
+    if new.observer.acceleration in accelroute.INPUT_ROUTES and (lowered or accelroute.needs_blend_check(
+            new, check, options.hover)) and options.log_reader is None:
+        noise = blendnoise.logs_sensor_noise(log_paths, new.observer.acceleration)
+    ratio = accelroute.predicted_ratio(new, noise)
+    if not accelroute.tries_blend(new, check, options.hover, lowered, ratio):
+        return first
+    # The blend is fitted at the first fit's low-pass, not lowered further (hover rounds 0): it is judged
+    # at the same cutoff, and it never buys its quiet with a slower response to a wind change. Every
+    # family is fitted again: the noise decides between them (a 50 Hz vehicle with a noisy accelerometer
+    # chose the polynomial family unblended, and read its tunnel 0.12 m/s off when held to it blended).
+    time_s = accelroute.blend_time(new, noise)
+    start = accelroute.blended(dataclasses.replace(af, filter=new.filter), time_s)
+    same = dataclasses.replace(options, hover=dataclasses.replace(options.hover, rounds=0))
+    try:
+        other = _fit_once(start, log_paths, same)
+    except CheckFailed as exc:
+        report = dataclasses.replace(
+            report, acceleration_route=accelroute.blend_record(af, check, None, False, str(exc), ratio, time_s),
+            warnings=[*report.warnings, accelroute.failed_blend_warning(str(exc), time_s)])
+        return new, report, first[2], check
+    kept = accelroute.keeps_blend(check, other[3], predicted=ratio is not None)
+    record = accelroute.blend_record(af, check, other[3], kept, ratio=ratio, time_s=time_s)
+    if not kept:
+        return new, dataclasses.replace(report, acceleration_route=record), first[2], check
+    blend_report = dataclasses.replace(other[1], acceleration_route=record)
+    if report.low_pass:  # lowered on the first fit: from the airframe's figure to the blend's, at that cutoff
+        blend_report = dataclasses.replace(blend_report, low_pass={
+            **report.low_pass, "still_noise_mps": [report.low_pass["still_noise_mps"][0], other[3].still_noise_mps]})
+    return other[0], blend_report, other[2], other[3]
 
 
 def refit_without_outliers(first: Fit, log_paths: list[str], fit: Callable[[list[str]], Fit]) -> Fit:

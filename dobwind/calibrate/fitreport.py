@@ -45,8 +45,8 @@ def _low_pass_line(report: FitReport) -> list[str]:
     if not change:
         return []
     (f0, f1), (n0, n1) = change["cutoff_hz"], change["still_noise_mps"]
-    # After a kept blend the record is the blended fit's own: its first figure is the blend's noise before
-    # its low-pass was lowered, not the airframe route's figure on the blend line below.
+    # After a kept blend the cutoff is the one the first fit chose (the blended fit is not lowered
+    # further): the first figure is the airframe route's at its own cutoff, the second the blend's there.
     route = report.acceleration_route or {}
     whose = " (of the blended fit)" if route.get("kept") else ""
     return [f"low-pass at zero airflow{whose} lowered {f0:.3g} -> {f1:.3g} Hz: noise at low airflow {n0:.3f} -> {n1:.3f} m/s "
