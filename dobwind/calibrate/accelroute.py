@@ -99,7 +99,7 @@ def needs_blend_check(af: Airframe, check: SelfCheck, hover: HoverNoise) -> bool
 def predicted_ratio(af: Airframe, noise: SensorNoise | None) -> float | None:
     """The blend's acceleration noise (RMS) over ``af``'s own route behind its first cutoff, predicted
     from the sensors' noise (blendnoise.py); None without an acceleration input or a noise figure."""
-    if noise is None or af.observer.acceleration not in INPUT_ROUTES:
+    if noise is None or not log_signals(af).measured_acceleration:
         return None
     return blend_rms_ratio(noise, af.filter.cutoffs_hz[0], af.observer.acceleration_bias_time_s, blend_time(af, noise),
                            observer_hz(af))

@@ -17,6 +17,7 @@ from dobwind.calibrate.hovernoise import HoverNoise, quieter_schedule
 from dobwind.calibrate.fit import (CalibrationRun, FitReport, Points, PointsOf, calibration_points, calibration_run, fit_polynomial,
                          no_steady_data, points_from, read_calibration_logs)
 from dobwind.io.logs import FlightLog
+from dobwind.model.signals import log_signals
 from dobwind.model.airframe import CALIBRATED, VERTICAL_FALLBACK, Airframe, ForceAirModel
 from dobwind.calibrate.selfcheck import SelfCheck, Thresholds, self_check, self_check_sources
 from dobwind.model.kinds import DragFrame
@@ -192,7 +193,7 @@ def _maybe_blend(af: Airframe, log_paths: list[str], options: FitOptions, first:
     new, report, _, check = first
     lowered = bool(report.low_pass)
     noise = None
-    if new.observer.acceleration in accelroute.INPUT_ROUTES and (lowered or accelroute.needs_blend_check(
+    if log_signals(new).measured_acceleration and (lowered or accelroute.needs_blend_check(
             new, check, options.hover)) and options.log_reader is None:
         noise = blendnoise.logs_sensor_noise(log_paths, new.observer.acceleration)
     ratio = accelroute.predicted_ratio(new, noise)
