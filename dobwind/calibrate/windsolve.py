@@ -34,12 +34,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from dobwind.calibrate import dragfit, windrows
+from dobwind.calibrate import dragfit, thrustscale, windrows
 from dobwind.core.errors import CheckFailed
 from dobwind.calibrate.fieldtruth import LogTime
 from dobwind.io.logs import FlightLog, heading_yaw
 from dobwind.model.airframe import Airframe
 from dobwind.model.forceair import wind_from_deg
+from dobwind.calibrate.thrustscale import ThrustScale, VerticalRows
 from dobwind.calibrate.windrows import LogRows
 from dobwind.model.status import accepted
 
@@ -82,6 +83,7 @@ class JointSolution:
     condition: float
     residual_rms_n: float
     notes: tuple[str, ...] = field(default_factory=tuple)
+    thrust_scale: ThrustScale | None = None   # the vertical balance's estimate and whether it was used
 
 
 def _usable(t: np.ndarray, status: np.ndarray, settle_s: float) -> np.ndarray:
@@ -93,12 +95,13 @@ def _usable(t: np.ndarray, status: np.ndarray, settle_s: float) -> np.ndarray:
 
 
 def log_samples(af: Airframe, flights: list[tuple[str, LogTime]],
-                segment_s: float | None) -> tuple[list[LogRows], list[tuple[str, float, float]]]:
-    """Every log's accepted rows (windrows.LogRows) and the wind groups' (path, start, end) in log time."""
+                segment_s: float | None) -> tuple[list[LogRows], list[tuple[str, float, float]], list[VerticalRows]]:
+    """Every log's accepted rows (windrows.LogRows), the wind groups' (path, start, end) in log time, and
+    each log's rows for the vertical balance (thrustscale.VerticalRows)."""
     from dobwind.calibrate.fit import calibration_run
 
     run = calibration_run(af, [flight.log for _, flight in flights])
-    logs, spans = [], []
+    logs, spans, verticals = [], [], []
     for (path, flight), force, status in zip(flights, run.force_ned, run.status):
         log = flight.log
         t = log.time_s
@@ -118,14 +121,16 @@ def log_samples(af: Airframe, flights: list[tuple[str, LogTime]],
         for value in used:
             inside = times[(label == value) & fitted]
             spans.append((path, float(inside[0] + flight.t0_s), float(inside[-1] + flight.t0_s)))
-        logs.append(_rows(run.airframe, log, force[ok], ok, group, fitted, float(np.median(np.diff(times)))))
+        rows, vertical = _rows(run.airframe, log, force[ok], ok, group, fitted, float(np.median(np.diff(times))))
+        logs.append(rows)
+        verticals.append(vertical)
     if not logs:
         raise CheckFailed("--wind unknown: no accepted airborne rows in the logs")
-    return logs, spans
+    return logs, spans, verticals
 
 
 def _rows(cal: Airframe, log: FlightLog, force: np.ndarray, ok: np.ndarray, group: np.ndarray, fitted: np.ndarray,
-          dt: float) -> LogRows:
+          dt: float) -> tuple[LogRows, VerticalRows]:
     q = log.stack("q_w", "q_x", "q_y", "q_z")
     yaw = heading_yaw(log, q)[ok]
     rpm = log.stack(*[f"rpm_{i + 1}" for i in range(cal.thrust.rotors)])[ok] if cal.thrust.source == "rpm" else None
@@ -134,8 +139,10 @@ def _rows(cal: Airframe, log: FlightLog, force: np.ndarray, ok: np.ndarray, grou
     times = log.time_s[ok]
     path = windrows.observer_path(cal, np.diff(times, prepend=times[0]))
     sos = windrows.smoothing(dt)
-    return LogRows(windrows.smooth(sos, force[:, :2]), log.stack("vel_n", "vel_e")[ok], np.cos(yaw), np.sin(yaw),
+    rows = LogRows(windrows.smooth(sos, force[:, :2]), log.stack("vel_n", "vel_e")[ok], np.cos(yaw), np.sin(yaw),
                    t_ned[:, :2], group, fitted, path, sos)
+    vel_d = np.nan_to_num(log.columns["vel_d"][ok]) if "vel_d" in log.columns else np.zeros(len(times))
+    return rows, thrustscale.vertical_rows(cal, times, np.nan_to_num(force[:, 2]), t_ned[:, 2], vel_d, fitted, dt)
 
 
 @dataclass(frozen=True)
@@ -172,9 +179,11 @@ class Problem:
     groups: int
     prior: Prior
     scale_n: float   # the data residuals' expected scale (N): prior rows are weighted against it
+    kappa: float = 0.0   # the thrust-scale error, fixed (thrustscale: from the vertical balance, or 0)
 
     def data(self, x: np.ndarray) -> np.ndarray:
-        winds, law = x[:2 * self.groups].reshape(self.groups, 2), dict(zip(LAW, x[2 * self.groups:]))
+        winds = x[:2 * self.groups].reshape(self.groups, 2)
+        law = dict(zip(LAW, x[2 * self.groups:])) | {"kappa": self.kappa}
         return np.concatenate([windrows.residual(rows, winds, law).ravel() for rows in self.logs])
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
@@ -331,15 +340,17 @@ def _advice(spanned: Coverage) -> str:
             "at steady speed, or a wind measured another way (--wind SPEED@FROM, --truth)")
 
 
-def _problem(af: Airframe, logs: list[LogRows], groups: int) -> Problem:
+def _problem(af: Airframe, logs: list[LogRows], groups: int, kappa: float = 0.0) -> Problem:
     # the data residuals' scale: a few percent of the weight (gusts, thrust-model error), not below 0.05 N
     scale = max(0.02 * af.mass_kg * af.gravity_mps2, 0.05)
-    return Problem(logs, groups, prior(af), scale)
+    return Problem(logs, groups, prior(af), scale, kappa)
 
 
-def estimate_winds(af: Airframe, flights: list[tuple[str, LogTime]], segment_s: float | None = None) -> JointSolution:
-    """The joint solution, or CheckFailed (exit 1) naming what the flight lacks."""
-    logs, spans = log_samples(af, flights, segment_s)
+def estimate_winds(af: Airframe, flights: list[tuple[str, LogTime]], segment_s: float | None = None,
+                   thrust_scale: bool = True) -> JointSolution:
+    """The joint solution, or CheckFailed (exit 1) naming what the flight lacks. ``thrust_scale``: estimate
+    the thrust scale from the vertical balance (thrustscale; used only when significant) or keep it."""
+    logs, spans, verticals = log_samples(af, flights, segment_s)
     groups = len(spans)
     counts = np.bincount(np.concatenate([rows.group[rows.fitted] for rows in logs]), minlength=groups)
     if counts.min() < MIN_SAMPLES_PER_WIND:
@@ -347,7 +358,8 @@ def estimate_winds(af: Airframe, flights: list[tuple[str, LogTime]], segment_s: 
         raise CheckFailed(f"--wind unknown: {spans[worst][0]} gives only {counts[worst]} settled airborne samples for "
                           f"a wind (need {MIN_SAMPLES_PER_WIND} at {windrows.SAMPLE_RATE_HZ:g} Hz: a longer flight"
                           f"{', or a longer --segment-s' if segment_s else ''}); nothing written")
-    problem = _problem(af, logs, groups)
+    scale = thrustscale.estimate(verticals) if thrust_scale else ThrustScale(0.0, math.inf, False)
+    problem = _problem(af, logs, groups, scale.applied)
     result = solve(problem)
     winds = result.x[:2 * groups].reshape(groups, 2)
     condition, sigma = identification(result.x, problem)
@@ -365,9 +377,9 @@ def estimate_winds(af: Airframe, flights: list[tuple[str, LogTime]], segment_s: 
             "nothing written")
     found = tuple(WindGroup(path, start, end, (float(w[0]), float(w[1])), float(s), int(n))
                   for (path, start, end), w, s, n in zip(spans, winds, sigma, counts))
-    law = dict(zip(LAW, (float(v) for v in result.x[2 * groups:])))
+    law = dict(zip(LAW, (float(v) for v in result.x[2 * groups:]))) | {"kappa": scale.applied}
     rms = float(np.sqrt(np.mean(data ** 2)))
-    return JointSolution(found, law, condition, rms, (what,))
+    return JointSolution(found, law, condition, rms, (what, scale.text()), scale)
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,74 @@
+"""`fit --wind unknown` on simulated box flights of a family of collective-thrust vehicles whose starter
+airframe has the thrust scale wrong (init's hover throttle off by 0.8x or 1.25x) or right: the wind
+found against the simulator's mean wind (or the refusal). The figures of docs/field-calibration.md.
+
+    .venv/bin/python -m benchmarks.windscale [--masses 1.4 3 8] [--scales 0.8 1 1.25] [--seeds 5 6 7]
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from dobwind.calibrate.fieldtruth import flight_of
+from dobwind.calibrate.windsolve import estimate_winds
+from dobwind.core.errors import CheckFailed
+from dobwind.io.logs import write_csv
+from dobwind.model.airframe import Airframe, parse_airframe
+from dobwind.model.airframe_toml import dumps
+from dobwind.simulate.simulate import simulate
+
+
+def starter(mass_kg: float) -> Airframe:
+    """A 10 Hz collective-thrust quad of this mass (the rates an autopilot log has), as tests/test_fieldcal.py's."""
+    from tests.helpers import airframe_dict
+
+    doc = airframe_dict(thrust={"source": "collective"}, mass=mass_kg, name="family")
+    doc["observer"].update(sample_time=0.1, acceleration="velocity")
+    doc["limits"] = {**doc.get("limits", {}), "max_dt": 0.25}
+    return parse_airframe(dumps(doc), "<family>")
+
+
+def mis_scaled(af: Airframe, factor: float) -> Airframe:
+    """The same airframe with its thrust scale multiplied by ``factor`` (a wrong hover throttle)."""
+    return dataclasses.replace(af, thrust=dataclasses.replace(af.thrust, scale=af.thrust.scale * factor))
+
+
+def one(mass_kg: float, factor: float, seed: int, workdir: Path) -> dict:
+    af = starter(mass_kg)
+    cols = simulate(af, "box", seed=seed, hold_s=6.0, rate_hz=10.0)
+    names = [k for k in cols if not k.startswith("wind_")]
+    csv = workdir / f"box_{mass_kg:g}_{seed}.csv"
+    if not csv.exists():
+        write_csv(csv, names, np.column_stack([cols[k] for k in names]), ["%.9g"] * len(names))
+    truth = np.array([cols["wind_n"].mean(), cols["wind_e"].mean()])
+    row = {"mass_kg": mass_kg, "thrust_factor": factor, "seed": seed, "truth_speed_mps": float(np.hypot(*truth))}
+    guess = mis_scaled(af, factor)
+    try:
+        solution = estimate_winds(guess, [(str(csv), flight_of(str(csv), guess, None))])
+    except CheckFailed as exc:
+        return row | {"refused": str(exc)}
+    (group,) = solution.groups
+    return row | {"error_mps": float(np.hypot(*(np.array(group.wind_ne) - truth))), "sigma_mps": group.sigma_mps,
+                  "kappa": solution.law.get("kappa", 0.0), "notes": list(solution.notes)}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--masses", type=float, nargs="+", default=[1.4, 3.0, 8.0])
+    parser.add_argument("--scales", type=float, nargs="+", default=[0.8, 1.0, 1.25])
+    parser.add_argument("--seeds", type=int, nargs="+", default=[5, 6, 7])
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        for mass in args.masses:
+            for seed in args.seeds:
+                for factor in args.scales:
+                    print(json.dumps(one(mass, factor, seed, Path(tmp))), flush=True)
+
+
+if __name__ == "__main__":
+    main()

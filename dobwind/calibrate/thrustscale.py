@@ -1,0 +1,95 @@
+"""`fit --wind unknown`'s thrust scale: from the vertical force balance, used only when the data need it.
+
+A starter airframe's collective thrust is the setpoint over the hover throttle (`dobwind init`), and
+that hover throttle is often 10-25 % off on a real vehicle. The observer then reads kappa u_f z_b as an
+external force (kappa = 1 - true/nominal thrust, dobwind/calibrate/dragfit.py's convention): mostly
+vertical (-kappa m g at hover), and horizontal in manoeuvres, where the thrust's horizontal part is the
+vehicle's acceleration and not the drag, which the wind solver would read as wind.
+
+The vertical balance pins kappa without the wind: with the mean vertical wind zero (the solver's
+assumption anyway) the vertical airflow is -v_d, so the down force's filtered value is linear in
+(kappa, lz, qz):
+
+    H[f_d] = kappa H[t_d] + lz H[a_d] + qz H[|a_d| a_d],   a_d = -v_d,
+
+t_d the nominal thrust's down component and H the step's observer and low-pass (windrows), then the
+same zero-phase smoothing. Ordinary least squares over the fitted rows gives kappa and its 1-sigma
+(residual scale, inflated for the residuals' correlation as windsolve does).
+
+Used only when the data support it (a nested-model test): the vertical residual without kappa must
+exceed the one with it by more than SIGNIFICANCE 1-sigmas of kappa AND kappa must exceed what the
+thrust's own unmodelled variation makes of it (MIN_KAPPA: a few percent of thrust change with the
+airflow through the rotors, a rotor imbalance, a setpoint's bias, none of which is a scale error a
+correction would help). Otherwise kappa stays 0 and the solve is the one without a thrust scale.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from dobwind.calibrate import windrows
+from dobwind.model.airframe import Airframe
+
+SIGNIFICANCE = 5.0   # kappa must be this many of its 1-sigmas away from zero
+MIN_KAPPA = 0.05     # and at least this large (the thrust's airflow-dependent variation in the simulator: ~4 %)
+
+
+@dataclass(frozen=True)
+class VerticalRows:
+    """One log's accepted rows for the vertical balance: filtered down force and the regressors."""
+    force_d: np.ndarray    # (n,) the step's filtered down force, smoothed
+    columns: np.ndarray    # (n, 3) H-filtered, smoothed: nominal thrust down, a_d, |a_d| a_d
+    fitted: np.ndarray     # (n,) bool
+
+
+@dataclass(frozen=True)
+class ThrustScale:
+    kappa: float           # the estimate (1 - true/nominal thrust), whether used or not
+    sigma: float           # its 1-sigma
+    used: bool             # the nested-model test passed: the solve uses kappa
+
+    @property
+    def applied(self) -> float:
+        return self.kappa if self.used else 0.0
+
+    def text(self) -> str:
+        verdict = "used" if self.used else f"not used (needs |kappa| > {SIGNIFICANCE:g} sigma and > {MIN_KAPPA:g})"
+        return (f"thrust scale from the vertical balance: true/nominal {1 - self.kappa:.3f} "
+                f"(kappa {self.kappa:+.3f}, 1-sigma {self.sigma:.3f}), {verdict}")
+
+
+def vertical_rows(cal: Airframe, times: np.ndarray, force_d: np.ndarray, thrust_d: np.ndarray, vel_d: np.ndarray,
+                  fitted: np.ndarray, dt: float) -> VerticalRows:
+    """The accepted rows' vertical force and regressors, filtered as the step filters the down axis."""
+    path = windrows.observer_path(cal, np.diff(times, prepend=times[0]), axes=(2, 2))
+    sos = windrows.smoothing(dt)
+    air = -vel_d
+    raw = np.column_stack([thrust_d, air, np.abs(air) * air])
+    h = np.column_stack([windrows.through_observer(path, raw[:, :2]), windrows.through_observer(path, raw[:, 2:3].repeat(2, 1))[:, :1]])
+    return VerticalRows(windrows.smooth(sos, force_d[:, None])[:, 0], windrows.smooth(sos, h), fitted)
+
+
+def _inflation(residual: np.ndarray) -> float:
+    r = residual
+    den = float(np.sum(r * r))
+    rho = min(max(float(np.sum(r[1:] * r[:-1])) / den, 0.0), 0.95) if den > 0 else 0.0
+    return math.sqrt((1 + rho) / (1 - rho))
+
+
+def estimate(logs: list[VerticalRows]) -> ThrustScale:
+    """kappa by least squares over every log's fitted rows, its 1-sigma, and the nested-model verdict."""
+    y = np.concatenate([rows.force_d[rows.fitted] for rows in logs])
+    x = np.vstack([rows.columns[rows.fitted] for rows in logs])
+    if len(y) < 2 * x.shape[1]:
+        return ThrustScale(0.0, math.inf, False)
+    norms = np.maximum(np.linalg.norm(x, axis=0), 1e-12)
+    coef, *_ = np.linalg.lstsq(x / norms, y, rcond=None)
+    coef = coef / norms
+    residual = y - x @ coef
+    sigma2 = float(np.sum(residual ** 2)) / (len(y) - x.shape[1])
+    cov = np.linalg.pinv(x.T @ x) * sigma2
+    sigma = math.sqrt(max(float(cov[0, 0]), 0.0)) * _inflation(residual)
+    kappa = float(coef[0])
+    return ThrustScale(kappa, sigma, abs(kappa) > SIGNIFICANCE * sigma and abs(kappa) > MIN_KAPPA)
