@@ -346,6 +346,21 @@ def _problem(af: Airframe, logs: list[LogRows], groups: int, kappa: float = 0.0)
     return Problem(logs, groups, prior(af), scale, kappa)
 
 
+def _solve_with_thrust_scale(af: Airframe, logs: list[LogRows], groups: int, verticals: list[VerticalRows] | None):
+    """The wind solve with the thrust scale 1 (kappa 0), and, when the vertical balance gives a clearly
+    non-zero kappa, again with it: kept only when it passes thrustscale's nested-model test."""
+    plain = _problem(af, logs, groups)
+    result = solve(plain)
+    scale = thrustscale.estimate(verticals) if verticals else ThrustScale(0.0, math.inf, False)
+    if not thrustscale.worth_trying(scale):
+        return plain, result, scale
+    scaled = _problem(af, logs, groups, scale.kappa)
+    other = solve(scaled)
+    without = plain.data(result.x)
+    scale = thrustscale.nested_test(scale, without, scaled.data(other.x), _inflation(without, plain.log_index()))
+    return (scaled, other, scale) if scale.used else (plain, result, scale)
+
+
 def estimate_winds(af: Airframe, flights: list[tuple[str, LogTime]], segment_s: float | None = None,
                    thrust_scale: bool = True) -> JointSolution:
     """The joint solution, or CheckFailed (exit 1) naming what the flight lacks. ``thrust_scale``: estimate
@@ -358,9 +373,7 @@ def estimate_winds(af: Airframe, flights: list[tuple[str, LogTime]], segment_s: 
         raise CheckFailed(f"--wind unknown: {spans[worst][0]} gives only {counts[worst]} settled airborne samples for "
                           f"a wind (need {MIN_SAMPLES_PER_WIND} at {windrows.SAMPLE_RATE_HZ:g} Hz: a longer flight"
                           f"{', or a longer --segment-s' if segment_s else ''}); nothing written")
-    scale = thrustscale.estimate(verticals) if thrust_scale else ThrustScale(0.0, math.inf, False)
-    problem = _problem(af, logs, groups, scale.applied)
-    result = solve(problem)
+    problem, result, scale = _solve_with_thrust_scale(af, logs, groups, verticals if thrust_scale else None)
     winds = result.x[:2 * groups].reshape(groups, 2)
     condition, sigma = identification(result.x, problem)
     spanned = coverage(logs, winds)
