@@ -6,6 +6,7 @@ import argparse
 from typing import Any
 
 from dobwind.cli.common import AIRFRAME_HELP, JSON_HELP, Command, print_json
+from dobwind.model.kinds import Precision
 
 
 def add(command: Command) -> None:
@@ -48,5 +49,5 @@ def _refuse_what_generate_refuses(af: Any, model: Any, source: str) -> None:
     that rounds to 0 in a float, an ill-conditioned term) then stops `check` too, with the same line."""
     from dobwind.codegen.generate import generate_code
 
-    for precision in ("single", "double"):
+    for precision in (Precision.SINGLE, Precision.DOUBLE):
         generate_code(af, precision, model, source=source)

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 from dobwind.cli.common import Command
 from dobwind.core.resources import shipped_airframe
 from dobwind.io.outputs import Target, check_replaceable, check_targets, staged_folder
+from dobwind.model.kinds import Precision
 
 if TYPE_CHECKING:
     from dobwind.model.airframe import Airframe
@@ -117,7 +118,7 @@ def _generate_and_verify(fitted: Airframe, out: Path, shown: Path) -> bool:
     from dobwind.generate.emit import generate_to_dir
     from dobwind.harness.verify import verify_airframe
 
-    written = generate_to_dir(fitted, out / "c" / fitted.name, "single")
+    written = generate_to_dir(fitted, out / "c" / fitted.name, Precision.SINGLE)
     print(f"== generate: {', '.join(p.name for p in written)} in {shown / 'c' / fitted.name}")
     verification = verify_airframe(fitted, "both", steps=20000)
     worst = {p.precision: p.flight.worst_ratio for p in verification.precisions if p.flight}
@@ -138,7 +139,7 @@ def _replay_scenarios(af: Airframe, fitted: Airframe, logs: dict[str, str], out:
     tilt = baseline.calibrate([read_log(logs["sweep"], required_columns(af) + [("wind_n", "truth")])])
     results = {}
     for name in ("tunnel", "still-air", "outdoor"):
-        model, log, traj = replay(fitted, logs[name], backend="c", precision="single")
+        model, log, traj = replay(fitted, logs[name], backend="c", precision=Precision.SINGLE)
         ours = score(log, traj, model)
         tilt_wind = baseline.estimate(tilt, log)
         theirs = score_wind(log, tilt_wind, np.zeros(log.rows, dtype=int))

@@ -107,7 +107,7 @@ def run(args: argparse.Namespace) -> int:
             write_atomically(out.stage(args.output), lambda handle: handle.write(text))
             fit_plot(new, points, str(out.stage(plot)))
     if args.json:
-        print_json({**report.__dict__, "written": written, "airframe": str(args.output) if written else None,
+        print_json({**report.as_dict(), "written": written, "airframe": str(args.output) if written else None,
                      "plot": plot if written else None, **({"wind_truth": field.record()} if field else {})})
     else:
         print(text_report(report))

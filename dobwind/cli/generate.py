@@ -7,6 +7,7 @@ import sys
 from functools import partial
 from pathlib import Path
 
+from dobwind.model.kinds import PRECISIONS, Precision
 from dobwind.cli.common import AIRFRAME_HELP, Command
 from dobwind.io.outputs import Target, check_replaceable, check_targets
 
@@ -15,7 +16,7 @@ def add(command: Command) -> None:
     p = command("generate", "emit C for an airframe")
     p.add_argument("airframe", help=AIRFRAME_HELP)
     p.add_argument("-o", "--output", help="output folder (default: generated_c/<name>/ in the working directory)")
-    p.add_argument("--precision", choices=("single", "double"), default="single",
+    p.add_argument("--precision", choices=PRECISIONS, default=Precision.SINGLE,
                    help="floating-point type of the generated C: float (single) or double")
     p.add_argument("--target", choices=("px4", "ardupilot"), help="also write that autopilot's integration "
                    "beside the C: px4/ (a PX4 work-queue module, its .msg and parameter) or AP_DOBWind/ (an "

@@ -17,6 +17,7 @@ from dobwind.io.netcdf import is_netcdf
 from dobwind.io.outputs import OutputFiles, Target, check_targets
 from dobwind.atmos.profile import BIN, allowed_mask, combine, coverage, flight_sums, table
 from dobwind.core.progress import wanted
+from dobwind.model.kinds import PRECISIONS, Precision
 
 CSV_COLUMNS = ("height_bottom_m", "height_top_m", "height_m", "count", "speed_mean_mps", "speed_std_mps",
                "vector_speed_mps", "direction_from_deg", "direction_spread_deg", "northward_mean_mps",
@@ -38,7 +39,7 @@ def add(command: Command) -> None:
                    "status 0 rows only)")
     p.add_argument("--backend", choices=("python", "c"), default="python",
                    help="run the CasADi reference (python) or the generated C, compiled on the fly (c)")
-    p.add_argument("--precision", choices=("single", "double"), default="single", help="C backend precision")
+    p.add_argument("--precision", choices=PRECISIONS, default=Precision.SINGLE, help="C backend precision")
     p.add_argument("--rate", type=opt.ULOG_RATE,
                    help=f"autopilot logs only: resample at this rate, Hz ({opt.ULOG_RATE.text()}) (default: none, "
                    "the airframe's observer rate, 1/observer.sample_time)")
@@ -47,7 +48,7 @@ def add(command: Command) -> None:
     p.set_defaults(func=run)
 
 
-def _job(airframe: str, log: str, bin_m: float, backend: str, precision: str, rate: float | None,
+def _job(airframe: str, log: str, bin_m: float, backend: str, precision: Precision, rate: float | None,
          allow: int) -> Done:
     try:
         return Done(log, flight_sums(airframe, log, bin_m, backend, precision, rate, allow))

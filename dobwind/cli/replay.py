@@ -13,6 +13,7 @@ from dobwind.cli.common import AIRFRAME_HELP, JSON_HELP, Command, add_many_optio
 from dobwind.core import options as opt
 from dobwind.core.errors import InputError
 from dobwind.io.outputs import OutputFiles, Target, check_targets
+from dobwind.model.kinds import PRECISIONS, Precision
 
 
 def add(command: Command, entry: Callable[[list[str]], int]) -> None:
@@ -27,7 +28,7 @@ def add(command: Command, entry: Callable[[list[str]], int]) -> None:
                    "not written)")
     p.add_argument("--backend", choices=("python", "c"), default="python",
                    help="run the CasADi reference (python) or the generated C, compiled on the fly (c)")
-    p.add_argument("--precision", choices=("single", "double"), default="single", help="C backend precision")
+    p.add_argument("--precision", choices=PRECISIONS, default=Precision.SINGLE, help="C backend precision")
     p.add_argument("--rate", type=opt.ULOG_RATE,
                    help=f"autopilot logs only: resample at this rate, Hz ({opt.ULOG_RATE.text()}) (default: none, "
                    "the airframe's observer rate, 1/observer.sample_time)")
@@ -62,7 +63,7 @@ def run(args: argparse.Namespace, entry: Callable[[list[str]], int]) -> int:
         require_netcdf(args.output)
     af = load_airframe(args.airframe)
     _warn_uncalibrated(af, args.airframe)
-    if args.backend == "c" and args.precision == "single":
+    if args.backend == "c" and args.precision == Precision.SINGLE:
         from dobwind.codegen.single_terms import refuse_ill_conditioned_terms
 
         refuse_ill_conditioned_terms(af, args.airframe)  # named by its file, before any log is read

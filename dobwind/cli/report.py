@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 
+from dobwind.model.kinds import PRECISIONS, Precision
 from dobwind.cli.common import AIRFRAME_HELP, Command
 from dobwind.io.outputs import OutputFiles, Target, check_targets
 
@@ -15,7 +16,7 @@ def add(command: Command) -> None:
     p.add_argument("-o", "--output", required=True, help="the HTML file to write (required; figures are inlined)")
     p.add_argument("--backend", choices=("python", "c"), default="python",
                    help="run the CasADi reference (python) or the generated C, compiled on the fly (c)")
-    p.add_argument("--precision", choices=("single", "double"), default="single", help="C backend precision")
+    p.add_argument("--precision", choices=PRECISIONS, default=Precision.SINGLE, help="C backend precision")
     p.set_defaults(func=run)
 
 

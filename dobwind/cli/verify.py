@@ -8,12 +8,13 @@ from pathlib import Path
 from dobwind.cli.common import AIRFRAME_HELP, JSON_HELP, Command, print_json
 from dobwind.core import options as opt
 from dobwind.core.errors import EXIT_CHECK_FAILED, InputError
+from dobwind.model.kinds import PRECISIONS, Precision
 
 
 def add(command: Command) -> None:
     p = command("verify", "generate, compile strictly, compare with the Python reference")
     p.add_argument("airframe", help=AIRFRAME_HELP)
-    p.add_argument("--precision", choices=("single", "double", "both"), default="both",
+    p.add_argument("--precision", choices=(*PRECISIONS, "both"), default="both",
                    help="which generated C to build and compare")
     p.add_argument("--steps", type=opt.VERIFY_STEPS, default=20000,
                    help=f"length of the simulated flight compared step by step ({opt.VERIFY_STEPS.text()})")
@@ -35,7 +36,7 @@ def run(args: argparse.Namespace) -> int:
     from dobwind.model.airframe import load_airframe
 
     af = load_airframe(args.airframe)
-    if args.c_dir is None and args.precision in ("single", "both"):
+    if args.c_dir is None and args.precision in (Precision.SINGLE, "both"):
         refuse_ill_conditioned_terms(af, args.airframe)  # generate refuses them: nothing to verify
     try:
         report = verify_airframe(af, args.precision, steps=args.steps, seed=args.seed,
