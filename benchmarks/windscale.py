@@ -3,6 +3,7 @@ airframe has the thrust scale wrong (init's hover throttle off by 0.8x or 1.25x)
 found against the simulator's mean wind (or the refusal). The figures of docs/field-calibration.md.
 
     .venv/bin/python -m benchmarks.windscale [--masses 1.4 3 8] [--scales 0.8 1 1.25] [--seeds 5 6 7]
+        [--no-thrust-scale]   (the solve as before the thrust scale: kappa 0 always)
 """
 from __future__ import annotations
 
@@ -38,7 +39,7 @@ def mis_scaled(af: Airframe, factor: float) -> Airframe:
     return dataclasses.replace(af, thrust=dataclasses.replace(af.thrust, scale=af.thrust.scale * factor))
 
 
-def one(mass_kg: float, factor: float, seed: int, workdir: Path) -> dict:
+def one(mass_kg: float, factor: float, seed: int, workdir: Path, thrust_scale: bool = True) -> dict:
     af = starter(mass_kg)
     cols = simulate(af, "box", seed=seed, hold_s=6.0, rate_hz=10.0)
     names = [k for k in cols if not k.startswith("wind_")]
@@ -49,7 +50,7 @@ def one(mass_kg: float, factor: float, seed: int, workdir: Path) -> dict:
     row = {"mass_kg": mass_kg, "thrust_factor": factor, "seed": seed, "truth_speed_mps": float(np.hypot(*truth))}
     guess = mis_scaled(af, factor)
     try:
-        solution = estimate_winds(guess, [(str(csv), flight_of(str(csv), guess, None))])
+        solution = estimate_winds(guess, [(str(csv), flight_of(str(csv), guess, None))], thrust_scale=thrust_scale)
     except CheckFailed as exc:
         return row | {"refused": str(exc)}
     (group,) = solution.groups
@@ -62,12 +63,14 @@ def main() -> None:
     parser.add_argument("--masses", type=float, nargs="+", default=[1.4, 3.0, 8.0])
     parser.add_argument("--scales", type=float, nargs="+", default=[0.8, 1.0, 1.25])
     parser.add_argument("--seeds", type=int, nargs="+", default=[5, 6, 7])
+    parser.add_argument("--no-thrust-scale", action="store_true", help="never estimate the thrust scale")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         for mass in args.masses:
             for seed in args.seeds:
                 for factor in args.scales:
-                    print(json.dumps(one(mass, factor, seed, Path(tmp))), flush=True)
+                    row = one(mass, factor, seed, Path(tmp), not args.no_thrust_scale)
+                    print(json.dumps(row), flush=True)
 
 
 if __name__ == "__main__":

@@ -59,8 +59,11 @@ class ThrustScale:
         return self.kappa if self.used else 0.0
 
     def text(self) -> str:
-        verdict = ("used" if self.used else "not used") + (f" (horizontal residual drop {self.evidence:.3g} variances, "
-                                                           f"needs > {CHI2_1:g})")
+        if not worth_trying(self):
+            verdict = f"not used (within {SIGNIFICANCE:g} sigma of the starter's)"
+        else:
+            verdict = ("used" if self.used else "not used") + (f" (horizontal residual drop {self.evidence:.3g} "
+                                                               f"variances, needs > {CHI2_1:g})")
         return (f"thrust scale from the vertical balance: true/nominal {1 - self.kappa:.3f} "
                 f"(kappa {self.kappa:+.3f}, 1-sigma {self.sigma:.3f}), {verdict}")
 
