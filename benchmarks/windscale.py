@@ -24,14 +24,24 @@ from dobwind.model.airframe_toml import dumps
 from dobwind.simulate.simulate import simulate
 
 
-def starter(mass_kg: float) -> Airframe:
-    """A 10 Hz collective-thrust quad of this mass (the rates an autopilot log has), as tests/test_fieldcal.py's."""
-    from tests.helpers import airframe_dict
+# The field airframe of tests/test_fieldcal.py (its test helpers' base airframe with collective thrust,
+# 10 Hz and max_dt 0.25 s): written out here so that a benchmark does not import the tests.
+STARTER = {
+    "name": "family", "thrust": {"source": "collective"},
+    "observer": {"sample_time": 0.1, "gains": [20.0, 25.0, 30.0], "discretization": "paper", "acceleration": "velocity",
+                 "force_offset": [0.1, -0.2, 0.3]},
+    "force_air": {
+        "horizontal": {"terms": ["1", "m", "n", "m^2", "n^2", "fh^0.5"], "coefficients": [0.2, 0.05, -0.03, 0.08, 0.06, 0.9]},
+        "vertical": {"terms": ["fz", "fz*abs(fz)"], "coefficients": [0.6, 0.05]},
+    },
+    "filter": {"speeds": [0.0, 4.0, 12.0], "cutoffs": [0.3, 0.6, 1.0]},
+    "limits": {"max_dt": 0.25, "max_tilt_deg": 50.0},
+}
 
-    doc = airframe_dict(thrust={"source": "collective"}, mass=mass_kg, name="family")
-    doc["observer"].update(sample_time=0.1, acceleration="velocity")
-    doc["limits"] = {**doc.get("limits", {}), "max_dt": 0.25}
-    return parse_airframe(dumps(doc), "<family>")
+
+def starter(mass_kg: float) -> Airframe:
+    """A 10 Hz collective-thrust quad of this mass (the rates an autopilot log has)."""
+    return parse_airframe(dumps(STARTER | {"mass": mass_kg}), "<family>")
 
 
 def mis_scaled(af: Airframe, factor: float) -> Airframe:
