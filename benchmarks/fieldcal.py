@@ -2,6 +2,12 @@
 simulator's wind for an ArduPilot SITL log (`--truth sitl`): the figures of docs/field-calibration.md.
 
     .venv/bin/python -m benchmarks.fieldcal AIRFRAME LOG [--sitl] [--rate HZ]
+    .venv/bin/python -m benchmarks.fieldcal --end-to-end LOG --mass KG [--check LOG...]
+
+--end-to-end: an ArduPilot SITL log through the user's whole path, `dobwind init LOG --mass KG`, `dobwind
+fit START LOG --truth sitl`, then replay of LOG (and of each --check log, other SITL flights of the same
+vehicle) through the starter and the fitted airframe, with the goals of issue #36: mean airborne wind
+speed within 0.5 m/s and direction within 5 deg of the simulator's (1.0 m/s at twice the speed).
 """
 from __future__ import annotations
 
@@ -30,6 +36,7 @@ def summary(airframe: str, log: str, sitl: bool, rate_hz: float | None) -> dict:
     mean = wind[used].mean(axis=0)
     out = {"log": log, "airframe": airframe, "airborne_rows": int(airborne.sum()), "accepted_airborne": int(used.sum()),
            "trusted_airborne": int(trusted.sum()),
+           "trusted_share": float(trusted.sum() / max(int(airborne.sum()), 1)),
            "mean_speed_mps": float(np.mean(np.hypot(wind[used, 0], wind[used, 1]))),
            "mean_vector_from_deg": _direction_from(mean[0], mean[1]),
            "mean_abs_vertical_mps": float(np.mean(np.abs(wind[used, 2]))),
@@ -46,13 +53,64 @@ def summary(airframe: str, log: str, sitl: bool, rate_hz: float | None) -> dict:
     return out
 
 
+SPEED_GOAL_MPS = 0.5        # issue #36: at the calibration flight's wind speed
+SPEED_GOAL_DOUBLE_MPS = 1.0  # at twice that speed
+DIRECTION_GOAL_DEG = 5.0
+
+
+def _goal(row: dict, calibration_speed: float) -> dict:
+    """The issue's goal for this replay: the speed limit by the truth's speed against the calibration's."""
+    limit = SPEED_GOAL_DOUBLE_MPS if row["truth_mean_speed_mps"] > 1.5 * calibration_speed else SPEED_GOAL_MPS
+    direction = abs((row["mean_vector_from_deg"] - row["truth_from_deg"] + 180) % 360 - 180)
+    return {"direction_error_deg": direction, "speed_limit_mps": limit,
+            "goal_met": abs(row["speed_error_mps"]) <= limit and direction <= DIRECTION_GOAL_DEG}
+
+
+def end_to_end(log: str, mass_kg: float, checks: list[str], workdir: str) -> list[dict]:
+    """init, fit --truth sitl, replays: one row per (airframe, log); the fit's exit code in each row."""
+    import os
+
+    from dobwind.cli.app import main as dobwind
+
+    start, fitted = os.path.join(workdir, "start.toml"), os.path.join(workdir, "fitted.toml")
+    if dobwind(["init", log, "--mass", f"{mass_kg:g}", "-o", start]) != 0:
+        raise SystemExit(f"init failed on {log}")
+    code = dobwind(["fit", start, log, "--truth", "sitl", "-o", fitted, "--json"])
+    rows = []
+    calibration = None
+    for which, airframe in (("init prior", start), ("fit --truth sitl", fitted)):
+        if not os.path.exists(airframe):
+            continue
+        for target in (log, *checks):
+            row = summary(airframe, target, True, None) | {"airframe": which, "fit_exit": code}
+            calibration = calibration or row["truth_mean_speed_mps"]
+            rows.append(row | _goal(row, calibration))
+    return rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("airframe")
-    parser.add_argument("log")
+    parser.add_argument("airframe", nargs="?")
+    parser.add_argument("log", nargs="?")
     parser.add_argument("--sitl", action="store_true")
     parser.add_argument("--rate", type=float)
+    parser.add_argument("--end-to-end", metavar="LOG", help="an ArduPilot SITL log: init, fit --truth sitl, replay")
+    parser.add_argument("--mass", type=float, help="with --end-to-end: the vehicle's mass (kg) for init")
+    parser.add_argument("--check", nargs="*", default=[], help="with --end-to-end: other SITL logs to replay")
     args = parser.parse_args()
+    if args.end_to_end:
+        import tempfile
+        import sys
+
+        if args.mass is None:
+            parser.error("--end-to-end needs --mass")
+        with tempfile.TemporaryDirectory() as tmp:
+            rows = end_to_end(args.end_to_end, args.mass, args.check, tmp)
+        sys.stdout.flush()
+        print(json.dumps(rows, indent=1))
+        return
+    if not (args.airframe and args.log):
+        parser.error("AIRFRAME and LOG (or --end-to-end LOG --mass KG)")
     print(json.dumps(summary(args.airframe, args.log, args.sitl, args.rate), indent=1))
 
 

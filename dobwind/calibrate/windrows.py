@@ -55,9 +55,10 @@ class ObserverPath:
     keep: np.ndarray
 
 
-def observer_path(af: Airframe, dt: np.ndarray) -> ObserverPath:
-    """``dt`` (n,): the time since the previous accepted row (the first row's is unused)."""
-    rates = np.asarray(af.observer.gains[:2], dtype=float) / af.mass_kg
+def observer_path(af: Airframe, dt: np.ndarray, axes: tuple[int, int] = (0, 1)) -> ObserverPath:
+    """``dt`` (n,): the time since the previous accepted row (the first row's is unused). ``axes``: the
+    observer gains of the two columns filtered (north, east; (2, 2) filters two down-axis signals)."""
+    rates = np.asarray(af.observer.gains, dtype=float)[list(axes)] / af.mass_kg
     c = first_order(af.observer.discretization, rates[None, :], dt[:, None])
     keep = np.exp(-2 * math.pi * max(af.filter.cutoffs_hz) * dt)
     ones = np.ones((len(dt), 2))
