@@ -66,6 +66,25 @@ def test_the_recursion_is_a_first_order_step_response_across_blocks():
     assert np.allclose(windrows._recursion(np.zeros((n, 2)), u, u[0]), u)
 
 
+def test_long_blocks_keep_the_plain_loops_accuracy_at_the_smallest_blocked_pole():
+    """Jittered poles (every dt differs) down to 0.05, the smallest the blocked path takes: the products
+    over a whole BLOCK reach 0.05**BLOCK, and the result still equals the plain loop to rounding."""
+    rng = np.random.default_rng(7)
+    n = 3 * windrows.BLOCK + 5
+    for low in (0.05, 0.5, 0.95):
+        poles = rng.uniform(low, min(low + 0.04, 0.999), size=(n, 2))
+        u = rng.normal(size=(n, 2)) * 10.0
+        y0 = np.array([3.0, -2.0])
+        expected = np.empty_like(u)
+        expected[0] = last = y0
+        for k in range(1, n):
+            last = poles[k] * last + u[k]
+            expected[k] = last
+        got = windrows._recursion(poles, u, y0)
+        assert np.all(np.isfinite(got))
+        assert np.max(np.abs(got - expected)) <= 1e-11 * np.sum(np.abs(u)), low
+
+
 def test_the_zero_phase_smoothing_adds_no_lag():
     """A slow sine through the smoothing keeps its phase (a causal filter of the same order would
     delay it by about a quarter second), and the same sine lagged by 0.5 s is told apart."""

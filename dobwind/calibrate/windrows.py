@@ -65,7 +65,11 @@ def observer_path(af: Airframe, dt: np.ndarray, axes: tuple[int, int] = (0, 1)) 
     return ObserverPath(c.pole * ones, c.b0 * ones, c.b1 * ones, np.repeat(keep[:, None], 2, axis=1))
 
 
-BLOCK = 16   # rows per block of the recursion below: the pole's products stay far from underflow
+# Rows per block of the recursion below. Poles >= 0.05 (smaller ones take a plain loop) keep the running
+# product above 0.05**128 = 3e-167, far from underflow; the rounding error stays eps times the sum of |u|
+# whatever the block length (each u_j enters as u_j P_k / P_j <= u_j), so a long block costs no accuracy and
+# saves Python iterations: a jittered log's --wind unknown solve 54 s -> 20 s (16 -> 128).
+BLOCK = 128
 
 
 def _recursion(pole: np.ndarray, u: np.ndarray, y0: np.ndarray) -> np.ndarray:
