@@ -33,7 +33,7 @@ from benchmarks.accuracy_real import real_lines, real_runs
 from benchmarks.accuracy_report import goal_lines, per_run_ratio_line, row_values, table, worst
 from benchmarks.accuracy_run import Job, run_job
 from dobwind.io.atomic import write_text_atomically
-from dobwind.cli.app import _Parser
+from dobwind.cli.app import Parser
 from benchmarks.realdata import DEFAULT_DATA
 
 VEHICLE_DIR = Path("benchmarks") / "vehicles"  # a benchmark of the checkout: `make accuracy` runs at its root
@@ -130,7 +130,7 @@ def report(config: Config, results: list[dict[str, Any]], real: dict[str, Any] |
 
 
 def parse_config(argv: list[str] | None) -> Config:
-    parser = _Parser(prog="python -m benchmarks.accuracy", description=__doc__.split("\n")[0])
+    parser = Parser(prog="python -m benchmarks.accuracy", description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="one seed, three vehicles (also DOBWIND_ACCURACY_QUICK=1)")
     parser.add_argument("--vehicles", help="comma-separated names from the vehicle folder (default: all)")
     parser.add_argument("--seeds", type=int, help="seeds per vehicle (default 2; quick 1)")

@@ -211,12 +211,47 @@ def bench(af_path: str) -> list[Row]:
                      "-c", str(cas_src), "-o", str(obj)])
                 flash["casadi generate()"] = (cortex.flash_size_bytes(elf), len(cortex.double_precision_symbols(obj)))
             pair = (("dobwind", ours), ("casadi generate()", cas))
+            if precision == "single" and handwritten_source(name) is not None:
+                results += _handwritten_rows(model, pdir, data, ours_main)
             for (label, exe), ns in zip(pair, _interleaved_ns([ours, cas])):
                 instructions = _instructions_per_step(exe)
                 results.append(Row(precision, label, instructions, ns, *flash[label],
                                    cycles if label == "dobwind" and precision == "single" else None,
                                    code_bytes[label], name, family(model.airframe)))
     return results
+
+
+HANDWRITTEN_DIR = Path(__file__).parent / "handwritten"
+# The hand-written limits of benchmarks/handwritten/<name>_step.c: (label, extra compiler flags).
+HANDWRITTEN_VARIANTS = (("hand-written limit", ()), ("hand-written, same validation", ("-DHANDWRITTEN_VALIDATION",)))
+
+
+def handwritten_source(name: str) -> Path | None:
+    path = HANDWRITTEN_DIR / f"{name}_step.c"
+    return path if path.exists() else None
+
+
+def _handwritten_rows(model: StepModel, pdir: Path, data: Path, driver: Path) -> list[Row]:
+    """The airframe's hand-written step (single precision) through the same driver, data and firmware:
+    x86 instructions, firmware flash, and the M4F estimate, whose emulated outputs must match the
+    reference (on a flight without bad samples for the limit without validation, which does not
+    reject them)."""
+    name, source, rows = model.airframe.name, handwritten_source(model.airframe.name), []
+    for label, flags in HANDWRITTEN_VARIANTS:
+        exe = pdir / ("hw" + "_valid" * bool(flags))
+        run([system_compiler(), *FLAGS, *flags, f"-I{pdir}", str(driver), str(source), str(data), "-o", str(exe), "-lm"])
+        flash = cycles = None
+        if cortex.available():
+            mdir = pdir / f"m4f_{exe.name}"
+            mdir.mkdir()
+            elf = cortex.build_firmware([source], cortex.firmware_main(name, model.inputs.fields, "float", True), mdir,
+                                        "with_step", (*flags, f"-I{pdir}"))
+            flash = cortex.flash_size_bytes(elf)
+            clean = flight_inputs(model, ROWS, seed=11, bad_every=0) if not flags else None
+            cycles = _m4f_cycles(model, elf, clean)
+        rows.append(Row("single", label, _instructions_per_step(exe), _interleaved_ns([exe])[0], flash, None, cycles,
+                        None, name, family(model.airframe)))
+    return rows
 
 
 def family(af) -> str:
@@ -226,12 +261,12 @@ def family(af) -> str:
     return "drag-body" if af.drag.frame == "body" else "drag-heading"
 
 
-def _m4f_cycles(model: StepModel, elf: Path) -> float | None:
-    """The instruction-level M4F estimate of the firmware's step over the bench rows (None without
-    Unicorn). The emulated outputs must match the Python reference, or the estimate ran something else."""
+def _m4f_cycles(model: StepModel, elf: Path, inputs: np.ndarray | None = None) -> float | None:
+    """The instruction-level M4F estimate of the firmware's step over the bench rows (or ``inputs``; None
+    without Unicorn). The emulated outputs must match the Python reference, or the estimate ran something else."""
     if not m4cycles.available():
         return None
-    rows = flight_inputs(model, ROWS, seed=11).astype(np.float32)
+    rows = (flight_inputs(model, ROWS, seed=11) if inputs is None else inputs).astype(np.float32)
     result = m4cycles.estimate(elf, f"{model.airframe.name}_wind_", rows, model.state.size, model.outputs.size)
     want = reference.run(model, rows.astype(np.float64)).outputs
     if not np.allclose(result.outputs, want, rtol=1e-3, atol=1e-2, equal_nan=True):
@@ -283,6 +318,14 @@ def table(rows: list[Row]) -> str:
             ratio = f"{p}: instructions ratio {ours.instructions_per_step / theirs.instructions_per_step:.2f}"
             if ours.m4f_flash_bytes and theirs.m4f_flash_bytes:
                 ratio += f", flash ratio {ours.m4f_flash_bytes / theirs.m4f_flash_bytes:.2f}"
+            out.append(f"\n{ratio}")
+    ours = by.get(("single", "dobwind"))
+    for label, _ in HANDWRITTEN_VARIANTS:
+        limit = by.get(("single", label))
+        if ours and limit:
+            ratio = f"single: {ours.instructions_per_step / limit.instructions_per_step:.2f}x the {label} in instructions"
+            if ours.m4f_flash_bytes and limit.m4f_flash_bytes:
+                ratio += f", {ours.m4f_flash_bytes / limit.m4f_flash_bytes:.2f}x in firmware flash"
             out.append(f"\n{ratio}")
     return "\n".join(out)
 

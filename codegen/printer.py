@@ -11,6 +11,7 @@ from typing import Callable
 
 import casadi as ca
 import numpy as np
+from dobwind.model.kinds import Precision
 
 _UNARY_CALLS = {
     ca.OP_EXP: "exp", ca.OP_LOG: "log", ca.OP_SQRT: "sqrt", ca.OP_SIN: "sin", ca.OP_COS: "cos",
@@ -36,13 +37,13 @@ class LiteralError(ValueError):
     """A model constant that has no faithful C literal in the chosen precision."""
 
 
-def check_literal(value: float, precision: str) -> None:
+def check_literal(value: float, precision: Precision) -> None:
     """Refuse constants the C compiler would turn into inf or 0 (or that are not numbers at all)."""
     if math.isnan(value) or math.isinf(value):
         raise LiteralError(f"non-finite constant {value!r} in the model")
-    if precision == "single" and abs(value) > FLT_MAX:
+    if precision == Precision.SINGLE and abs(value) > FLT_MAX:
         raise LiteralError(f"constant {value:.9g} is beyond single precision (|x| <= {FLT_MAX:.9g})")
-    if precision == "single" and 0.0 < abs(value) < FLT_TRUE_MIN:
+    if precision == Precision.SINGLE and 0.0 < abs(value) < FLT_TRUE_MIN:
         raise LiteralError(f"constant {value:.9g} would round to 0 in single precision (|x| >= {FLT_TRUE_MIN:.9g})")
 
 
@@ -59,7 +60,7 @@ def directed_float(value: float, up: bool) -> float:
 
 @dataclass(frozen=True)
 class CPrinter:
-    precision: str  # "single" | "double"
+    precision: Precision
     # In single precision sin/cos, expm1 and atan2 go to small static kernels in the generated file
     # (named <kernel_prefix>sincos, ...expm1, ...atan2) instead of libm's, which handle every argument
     # and cost about 2 KB of flash and hundreds of cycles on a Cortex-M; see codegen/kernels.py. Double
@@ -69,18 +70,24 @@ class CPrinter:
     # check; see _compared). Off elsewhere: a constant that also appears in an fmin/fmax (the settling
     # time's cap) must stay the same float in both places.
     directed_limits: bool = False
+    # Validation's fast path (the int "every test passed"): its conjunction includes the finiteness test
+    # (|x| <= 1e6 for every input, itself a test on the bits), so the other tests only decide for finite
+    # values, and a test against a positive constant is a signed comparison of the raw bits (negative
+    # floats, -0 included, are negative integers; positive ones order as their bits). The rejection path
+    # assembles the status bits with the NaN-exact key instead (sections.build_validation).
+    assume_finite: bool = False
 
     @property
     def inline_kernels(self) -> bool:
-        return self.precision == "single" and self.kernel_prefix is not None
+        return self.precision == Precision.SINGLE and self.kernel_prefix is not None
 
     @property
     def real(self) -> str:
-        return "float" if self.precision == "single" else "double"
+        return "float" if self.precision == Precision.SINGLE else "double"
 
     def literal(self, value: float) -> str:
         check_literal(value, self.precision)
-        if self.precision == "single":
+        if self.precision == Precision.SINGLE:
             text = f"{value:.9g}"
             suffix = "f"
         else:
@@ -106,13 +113,21 @@ class CPrinter:
             return None
         sign = _COMPARE[op]
         k = self.kernel_prefix
-        if constants[1] is not None:  # x <= c, x < c
-            limit = self._compared(args, bools, 1, op, constant_arg)
-            if magnitude(0) and constants[1] >= 0.0:  # |y| <= c: the magnitude bits suffice (NaN is above any c)
-                return f"{k}magnitude({args[0]}) {sign} {k}bits({limit})"
-            return f"{k}key({args[0]}, 1) {sign} {k}key({limit}, 1)"
-        limit = self._compared(args, bools, 0, op, constant_arg)  # c <= x, c < x
-        return f"{k}key({limit}, 0) {sign} {k}key({args[1]}, 0)"
+        side = 1 if constants[1] is not None else 0  # the constant's: x <= c, x < c, or c <= x, c < x
+        limit = self._compared(args, bools, side, op, constant_arg)
+        value = args[1 - side]
+        if side == 1 and magnitude(0) and constants[1] >= 0.0:  # |y| <= c: the magnitude bits suffice (NaN is above any c)
+            return f"{k}magnitude({value}) {sign} {k}bits({limit})"
+        c = float(limit.strip("()f"))
+        if self.assume_finite and c > 0.0:
+            pair = (f"{k}sbits({value})", f"{k}sbits({limit})")
+            return f"{pair[1 - side]} {sign} {pair[side]}"
+        if self.assume_finite and c == 0.0 and side == 0:  # 0 <= x, 0 < x (rpm, thrust)
+            return f"{k}nonnegative({value})" if op == ca.OP_LE else f"{k}sbits({value}) > 0"
+        # key() is a function the compiler need not inline (it runs on rejection); the constant's key is
+        # key_c(), forced inline, which the compiler folds to an integer.
+        keys = (f"{k}key({value}, {side})", f"{k}key_c({limit})")
+        return f"{keys[1 - side]} {sign} {keys[side]}"
 
     def _compared(self, args: list[str], bools: list[bool], i: int, op: int,
                   constant_arg: Callable[[int], float | None]) -> str:
@@ -120,14 +135,14 @@ class CPrinter:
         the double value, so that a float input decides exactly as the reference does (for
         ``x <= 0.10001`` the largest float <= 0.10001, not the nearest, which lies above it)."""
         value = constant_arg(i)
-        if value is None or not self.directed_limits or self.precision != "single" or op not in (ca.OP_LT, ca.OP_LE):
+        if value is None or not self.directed_limits or self.precision != Precision.SINGLE or op not in (ca.OP_LT, ca.OP_LE):
             return f"(({self.real}){args[i]})" if bools[i] else args[i]
         # Constant on the left of <= or on the right of <: round up; otherwise round down.
         up = (i == 0) == (op == ca.OP_LE)
         return self.literal(directed_float(value, up))
 
     def call(self, name: str, *args: str) -> str:
-        suffix = "f" if self.precision == "single" else ""
+        suffix = "f" if self.precision == Precision.SINGLE else ""
         return f"{name}{suffix}({', '.join(args)})"
 
     def zero(self) -> str:

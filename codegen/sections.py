@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import casadi as ca
 
 from dobwind.codegen.printer import CALL_OPS, CPrinter
-from dobwind.model.step import Stage, StepModel
+from dobwind.model.step import FINITE_SIGNAL, Stage, StepModel, validate_given_finite
 
 _NOT_OPS = {ca.OP_CONST, ca.OP_INPUT, ca.OP_OUTPUT}
 
@@ -103,8 +103,11 @@ def _has_normal_reciprocal(value: float | None) -> bool:
 class _Writer:
     """Prints one stage's instructions as C lines (SSA temporaries t0, t1, ...)."""
 
-    def __init__(self, printer: CPrinter, code: list[_Instruction]) -> None:
+    def __init__(self, printer: CPrinter, code: list[_Instruction], temp_prefix: str = "t") -> None:
         self.printer = printer
+        self.temp_prefix = temp_prefix
+        self.integer_status = False  # print status bits as int (integer_bits); the rejection path only
+        self.ints: set[str] = set()
         self.work: dict[int, str] = {}
         self.is_bool: dict[int, bool] = {}
         self.constants: dict[int, float] = {}
@@ -122,8 +125,24 @@ class _Writer:
                 counts[ins.uses[1]] = counts.get(ins.uses[1], 0) + 1
         self.shared_denominators = {key for key, n in counts.items() if n > 1} if printer.inline_kernels else set()
 
+    def integer_bits(self, ins: _Instruction, lines: list[str]) -> str | None:
+        """Status bits as int arithmetic (the rejection path): a bit selected by a truth value, and sums of
+        such. None: another operation (printed as usual)."""
+        args = [self.work[a] for a in ins.args]
+        if ins.op == ca.OP_IF_ELSE_ZERO and self.is_bool[ins.args[0]]:
+            bit = self.constants.get(ins.args[1])
+            if bit is not None and bit.is_integer() and 0 < bit < 2 ** 30:
+                name = self.temp("int", f"({args[0]} ? {int(bit)} : 0)", lines)
+                self.ints.add(name)
+                return name
+        if ins.op == ca.OP_ADD and all(a in self.ints for a in args):
+            name = self.temp("int", f"{args[0]} | {args[1]}", lines)  # distinct bits: OR is their sum
+            self.ints.add(name)
+            return name
+        return None
+
     def temp(self, ctype: str, expr: str, lines: list[str], counted: bool = True) -> str:
-        name = f"t{self.serial}"
+        name = f"{self.temp_prefix}{self.serial}"
         self.serial += 1
         self.ops += counted
         lines.append(f"const {ctype} {name} = {expr};")
@@ -158,7 +177,8 @@ class _Writer:
             return
         if ins.op == ca.OP_INPUT:
             signal = stage.inputs[ins.args[0]]
-            self.work[ins.res[0]], self.is_bool[ins.res[0]] = c_element(signal, ins.args[1], sizes[signal], p), False
+            boolean = signal == FINITE_SIGNAL  # an int 0/1 in the C (the finiteness loop's result)
+            self.work[ins.res[0]], self.is_bool[ins.res[0]] = c_element(signal, ins.args[1], sizes[signal], p), boolean
             self.constants.pop(ins.res[0], None)
             return
         if ins.op == ca.OP_OUTPUT:
@@ -168,6 +188,12 @@ class _Writer:
                 value = f"({p.real}){value}"
             lines.append(f"{c_element(signal, ins.res[1], sizes[signal], p)} = {value};")
             return
+        if self.integer_status:
+            name = self.integer_bits(ins, lines)
+            if name is not None:
+                self.work[ins.res[0]], self.is_bool[ins.res[0]] = name, False
+                self.constants.pop(ins.res[0], None)
+                return
         name = self.special(ins, lines)
         boolean = False
         if name is None:
@@ -211,27 +237,52 @@ class Validation:
 
 
 def build_validation(stage: Stage, sizes: dict[str, int], printer: CPrinter) -> Validation:
+    """The fast path computes what ``accepted`` needs, its tests printed for finite values (the
+    conjunction includes the finiteness test, see CPrinter.assume_finite); the rejection path computes
+    ``status`` on its own (temporaries r0, r1, ...) with the NaN-exact tests, so that each bit is the
+    reference's for any input."""
     out_names = list(stage.outputs)  # ("status", "accepted")
     function = _pruned(stage, list(range(len(out_names))))
     code = _instructions(function)
-    fast = _needed_by(code, out_names.index("accepted"))
-    writer = _Writer(printer, code)
-    fast_lines: list[str] = []
-    slow_lines: list[str] = []
+    computed: dict[int, str] = {}
+    fast_lines = _emit_subset(function, code, _needed_by(code, out_names.index("accepted")), stage, out_names, sizes,
+                              _Writer(dataclasses.replace(printer, assume_finite=True), code), computed)
+    # The rejection path reuses the fast path's arithmetic (sums of squares: the same either way) and
+    # prints again only the tests and what depends on them.
+    slow = _Writer(printer, code, temp_prefix="r")
+    slow.integer_status = True
+    slow_lines = _emit_subset(function, code, _needed_by(code, out_names.index("status")), stage, out_names, sizes, slow,
+                              computed, reuse=True)
+    fast_writer = fast_lines[1]
+    section = Section(stage.name, stage.doc, (), tuple(fast_lines[0]), fast_writer.ops, fast_writer.calls)
+    if fast_lines[2] is None:
+        raise ValueError("the validate stage has no accepted output")
+    return Validation(section, fast_lines[2], ("int status;", *slow_lines[0]))
+
+
+def _emit_subset(function: ca.Function, code: list[_Instruction], subset: set[int], stage: Stage,
+                 out_names: list[str], sizes: dict[str, int], writer: "_Writer", computed: dict[int, str],
+                 reuse: bool = False) -> tuple[list[str], "_Writer", str | None]:
+    """The instructions of ``subset`` printed by ``writer``: (lines, writer, the accepted expression).
+    The ``accepted`` output is not assigned but returned: the template tests it. ``computed``: instruction
+    -> the temporary holding its floating-point value; filled, or (``reuse``) read instead of printing."""
+    lines: list[str] = []
     accept = None
-    fast_ops = 0  # what an accepted sample runs
     for k, ins in enumerate(code):
+        if k not in subset:
+            continue
         writer.index = k
         if ins.op == ca.OP_OUTPUT and out_names[ins.res[0]] == "accepted":
             accept = writer.work[ins.args[0]]
             continue
-        before = writer.ops
-        writer.emit(ins, function, stage, out_names, sizes, fast_lines if k in fast else slow_lines)
-        fast_ops += (writer.ops - before) if k in fast else 0
-    if accept is None:
-        raise ValueError("the validate stage has no accepted output")
-    section = Section(stage.name, stage.doc, (), tuple(fast_lines), fast_ops, writer.calls)
-    return Validation(section, accept, (f"{printer.real} status;", *slow_lines))
+        if reuse and k in computed:
+            writer.work[ins.res[0]], writer.is_bool[ins.res[0]] = computed[k], False
+            writer.constants.pop(ins.res[0], None)
+            continue
+        writer.emit(ins, function, stage, out_names, sizes, lines)
+        if not reuse and ins.op not in _NOT_OPS and not writer.is_bool[ins.res[0]]:
+            computed[k] = writer.work[ins.res[0]]
+    return lines, writer, accept
 
 
 def build_sections(model: StepModel, printer: CPrinter) -> tuple[Validation, tuple[Section, ...], Section]:
@@ -239,6 +290,7 @@ def build_sections(model: StepModel, printer: CPrinter) -> tuple[Validation, tup
     sizes = signal_sizes(model)
     used = used_signals(model) | {"status", "result_status", "quality_status"}
     limits = dataclasses.replace(printer, directed_limits=True)  # the rejection tests
-    validate = build_validation(model.validate, sizes, limits)
+    # Validation with the finiteness test as an input: the template computes it as one loop over the inputs.
+    validate = build_validation(validate_given_finite(model.airframe, model.inputs), {**sizes, FINITE_SIGNAL: 1}, limits)
     check = build_section(model.check_result, used, sizes, limits)
     return validate, tuple(build_section(stage, used, sizes, printer) for stage in model.stages), check

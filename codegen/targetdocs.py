@@ -13,6 +13,7 @@ from pathlib import Path
 
 from dobwind.codegen.generate import generate_code
 from dobwind.model.airframe import load_airframe
+from dobwind.model.kinds import Precision
 
 ROOT = Path(__file__).resolve().parents[1]
 PAGES = {"px4": ROOT / "docs" / "px4.md", "ardupilot": ROOT / "docs" / "ardupilot.md"}
@@ -22,7 +23,7 @@ BLOCK = re.compile(r"<!-- generated: (\S+) -->\n(```\w*\n)(.*?)```\n", re.S)
 
 
 def generated_files(target: str) -> dict[str, str]:
-    return generate_code(load_airframe(AIRFRAME), "single", target=target).files
+    return generate_code(load_airframe(AIRFRAME), Precision.SINGLE, target=target).files
 
 
 def shown_blocks(text: str) -> dict[str, str]:

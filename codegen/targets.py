@@ -11,6 +11,8 @@ from dataclasses import dataclass
 
 from dobwind.codegen.printer import CPrinter
 from dobwind.model.step import StepModel
+from dobwind.model.kinds import Precision
+from dobwind.model.signals import log_signals
 
 TARGETS = ("px4", "ardupilot")
 # The folder each target writes, inside generate's output folder.
@@ -34,11 +36,11 @@ def _msg_fields(model: StepModel) -> list[MsgField]:
 
 def _context(model: StepModel, common: dict) -> dict:
     af = model.airframe
-    printer = CPrinter("single")
+    printer = CPrinter(Precision.SINGLE)
     return {
         **common,
-        "rpm": af.thrust.source == "rpm",
-        "rotors": af.thrust.rotors if af.thrust.source == "rpm" else 0,
+        "rpm": log_signals(af).rotor_speeds,
+        "rotors": af.thrust.rotors if log_signals(af).rotor_speeds else 0,
         "acc_mode": af.observer.acceleration,
         "mass_g": printer.literal(af.mass_kg * af.gravity_mps2),
         "fields": _msg_fields(model),

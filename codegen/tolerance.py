@@ -9,6 +9,7 @@ as an angle, only where the horizontal wind is at least MIN_SPEED_FOR_DIRECTION.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from dobwind.model.kinds import Precision
 
 
 @dataclass(frozen=True)
@@ -19,14 +20,14 @@ class Tolerance:
 
 
 TOLERANCE = {
-    "double": Tolerance(rtol=1e-12, atol=1e-12, angle_deg=1e-9),
+    Precision.DOUBLE: Tolerance(rtol=1e-12, atol=1e-12, angle_deg=1e-9),
     # Measured on m300, 1,000,000 steps: worst 1.0e-4 m/s (wind), 2.0e-5 N (force), 9.5e-4 deg (with the
     # polynomial expm1/atan2/sincos kernels; 3.7e-4 deg with libm's).
-    "single": Tolerance(rtol=2e-5, atol=1e-3, angle_deg=0.01),
+    Precision.SINGLE: Tolerance(rtol=2e-5, atol=1e-3, angle_deg=0.01),
 }
 # Self-test vectors are printed with 7 decimals, so the port check allows for that rounding.
 SELFTEST_TOLERANCE = {
-    "double": Tolerance(rtol=1e-9, atol=2e-7, angle_deg=1e-5),
-    "single": TOLERANCE["single"],
+    Precision.DOUBLE: Tolerance(rtol=1e-9, atol=2e-7, angle_deg=1e-5),
+    Precision.SINGLE: TOLERANCE[Precision.SINGLE],
 }
 MIN_SPEED_FOR_DIRECTION = 0.5  # m/s

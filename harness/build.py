@@ -12,6 +12,7 @@ import jinja2
 from dobwind.model.errors import CheckFailed
 from dobwind.model.layout import Layout
 from dobwind.model.step import StepModel
+from dobwind.model.kinds import Precision
 
 STRICT_FLAGS = ("-Wall", "-Wextra", "-Wpedantic", "-Wconversion", "-Wdouble-promotion", "-Werror")
 C_STD = "-std=c99"
@@ -68,8 +69,8 @@ def _element_paths(layout: Layout, prefix: str) -> list[str]:
     return [prefix + name for name in layout.element_names()]
 
 
-def write_shim(model: StepModel, precision: str, out_dir: Path) -> Path:
-    real = "float" if precision == "single" else "double"
+def write_shim(model: StepModel, precision: Precision, out_dir: Path) -> Path:
+    real = "float" if precision == Precision.SINGLE else "double"
     name = model.airframe.name
     state = _element_paths(model.state, "s->")
     inputs = _element_paths(model.inputs, "in->")
@@ -86,7 +87,7 @@ def write_shim(model: StepModel, precision: str, out_dir: Path) -> Path:
     return path
 
 
-def build_shared_library(model: StepModel, precision: str, code_dir: Path, out_dir: Path,
+def build_shared_library(model: StepModel, precision: Precision, code_dir: Path, out_dir: Path,
                          extra_flags: tuple[str, ...] = ()) -> Path:
     shim = write_shim(model, precision, out_dir)
     library = out_dir / f"lib{model.airframe.name}_{precision}.so"

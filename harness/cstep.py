@@ -16,6 +16,7 @@ from dobwind.harness.build import STRICT_FLAGS, build_shared_library, system_com
 from dobwind.harness.libcache import cache_dir, publish
 from dobwind.model.reference import Trajectory
 from dobwind.model.step import StepModel
+from dobwind.model.kinds import Precision
 
 _DOUBLE_P = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
 _INT_P = np.ctypeslib.ndpointer(dtype=np.int32, flags="C_CONTIGUOUS")
@@ -60,7 +61,7 @@ class CStep:
         return Trajectory(out_states, outputs, status.astype(np.int64))
 
 
-def compile_step(model: StepModel, precision: str, work_dir: Path | None = None,
+def compile_step(model: StepModel, precision: Precision, work_dir: Path | None = None,
                  extra_flags: tuple[str, ...] = ()) -> CStep:
     """Generate, compile (strict flags) and load the C step for this model.
 
@@ -71,7 +72,7 @@ def compile_step(model: StepModel, precision: str, work_dir: Path | None = None,
     return cached_step(model, precision, extra_flags)
 
 
-def _build_and_load(model: StepModel, precision: str, work: Path, extra_flags: tuple[str, ...]) -> CStep:
+def _build_and_load(model: StepModel, precision: Precision, work: Path, extra_flags: tuple[str, ...]) -> CStep:
     from dobwind.codegen.generate import generate_code, write_files
 
     code = generate_code(model.airframe, precision, model)
@@ -97,7 +98,7 @@ def _generator_files() -> list[Path]:
     return sorted(p for root in roots for p in root.rglob("*") if p.is_file() and "__pycache__" not in p.parts)
 
 
-def _recipe_key(model: StepModel, precision: str, extra_flags: tuple[str, ...]) -> str:
+def _recipe_key(model: StepModel, precision: Precision, extra_flags: tuple[str, ...]) -> str:
     """The hash of what the generated sources are made from, known without generating them: the
     airframe (plain values: its repr is exact), the precision, the generator's own files, the versions
     it computes the self-test vectors with, the compiler and flags. It assumes the model is
@@ -110,7 +111,7 @@ def _recipe_key(model: StepModel, precision: str, extra_flags: tuple[str, ...]) 
     return digest.hexdigest()[:32]
 
 
-def cached_step(model: StepModel, precision: str, extra_flags: tuple[str, ...] = ()) -> CStep:
+def cached_step(model: StepModel, precision: Precision, extra_flags: tuple[str, ...] = ()) -> CStep:
     """The compiled step from the cache, built and added on a miss.
 
     Two names lead to a library: the recipe key (``_recipe_key``), found without generating the source

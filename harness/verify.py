@@ -23,13 +23,14 @@ from dobwind.model.boundaries import boundary_cases
 from dobwind.model.exercise import flight_inputs, random_cases
 from dobwind.model.reference import Trajectory
 from dobwind.model.step import StepModel, build_step
+from dobwind.model.kinds import Precision
 
 RANDOM_CASES = 5000
 
 
 @dataclass
 class PrecisionReport:
-    precision: str
+    precision: Precision
     compilers: dict[str, str] = field(default_factory=dict)  # label -> "ok" or the first error line
     cases: Comparison | None = None
     flight: Comparison | None = None
@@ -85,9 +86,9 @@ class VerifyReport:
         return "\n".join(lines)
 
 
-def _as_precision(array: np.ndarray, precision: str) -> np.ndarray:
+def _as_precision(array: np.ndarray, precision: Precision) -> np.ndarray:
     """What the C code holds: inputs and states rounded to float in single precision."""
-    return array.astype(np.float32).astype(np.float64) if precision == "single" else array
+    return array.astype(np.float32).astype(np.float64) if precision == Precision.SINGLE else array
 
 
 def reference_cases(model: StepModel, states: np.ndarray, inputs: np.ndarray) -> Trajectory:
@@ -139,7 +140,7 @@ def _first_error(text: str) -> str:
     return lines[0][:200]
 
 
-def verify_precision(model: StepModel, precision: str, steps: int, seed: int, work: Path,
+def verify_precision(model: StepModel, precision: Precision, steps: int, seed: int, work: Path,
                      c_dir: Path | None = None, compilers: list[Compiler] | None = None,
                      references: ReferenceChecks | None = None, flags: FlagSet | None = None) -> PrecisionReport:
     """With ``c_dir`` the C in that folder is checked as it is (a hand edit shows); otherwise fresh C.
@@ -183,7 +184,7 @@ class ReferenceChecks:
     flight: Trajectory
 
     @staticmethod
-    def build(model: StepModel, precision: str, steps: int, seed: int) -> "ReferenceChecks":
+    def build(model: StepModel, precision: Precision, steps: int, seed: int) -> "ReferenceChecks":
         states, inputs = random_cases(model, RANDOM_CASES, seed)
         limits = boundary_cases(model, precision)  # already in the precision's numbers
         states = np.vstack([_as_precision(states, precision), limits.states])
@@ -205,12 +206,12 @@ def verify_airframe(af: Airframe, precision: str = "both", steps: int = 20000, s
             raise InputError(str(c_dir), None, f"holds {found}-precision C, not {precision}")
         precision = found
     flag_set = None if flags is None else FLAG_SETS[flags]
-    precisions = ("double", "single") if precision == "both" else (precision,)
+    precisions = (Precision.DOUBLE, Precision.SINGLE) if precision == "both" else (precision,)
     if flag_set is not None and not flag_set.double_ok:
-        if precisions == ("double",):
+        if precisions == (Precision.DOUBLE,):
             raise InputError(af.name, "--flags", f"{flags}'s -fsingle-precision-constant makes every double literal "
                              "a float: its builds are single precision (use --precision single)")
-        precisions = ("single",)
+        precisions = (Precision.SINGLE,)
     reports = []
     for p in precisions:
         with tempfile.TemporaryDirectory(prefix=f"dobwind-verify-{p}-") as tmp:

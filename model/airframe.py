@@ -15,13 +15,14 @@ from pathlib import Path
 from typing import Any
 
 from dobwind.model.errors import InputError
-from dobwind.model.forceair import (DRAG_FRAMES, EXPONENT_RANGE, HORIZONTAL_DRAG_KEYS, ROTOR_DRAG_KEY, VERTICAL_DRAG_KEYS,
+from dobwind.model.forceair import (EXPONENT_RANGE, HORIZONTAL_DRAG_KEYS, ROTOR_DRAG_KEY, VERTICAL_DRAG_KEYS,
                                     DragLaw)
 from dobwind.model.ranges import (MAX_TERMS, MAX_FACTOR_POWER, MAX_TERM_DEGREE, MAX_THRUST_COEFFICIENTS,
                                   MIN_SPEED_GAP_MPS, NAME_MAX_CHARS, RANGES, Range, single_precision_ok)
 from dobwind.model.terms import Term, TermError, parse_term, range_problem
 from dobwind.model.inputfiles import read_bounded
 from dobwind.model.plausibility import hover_problem
+from dobwind.model.kinds import DRAG_FRAMES, DragFrame
 
 DISCRETIZATIONS = ("paper", "euler", "zoh", "tustin")
 ACCELERATION_MODES = ("ned", "specific_force", "velocity")
@@ -292,15 +293,15 @@ DRAG_TABLE_KEYS = HORIZONTAL_DRAG_KEYS + (ROTOR_DRAG_KEY,) + VERTICAL_DRAG_KEYS 
 
 
 def _drag_law(reader: TableReader) -> DragLaw:
-    frame = reader.string("frame", DRAG_FRAMES, default="heading")
+    frame = DragFrame(reader.string("frame", DRAG_FRAMES, default=DragFrame.HEADING.value))
     values = {key: reader.number(key, default=0.0) for key in HORIZONTAL_DRAG_KEYS + VERTICAL_DRAG_KEYS}
-    if frame == "body":
+    if frame == DragFrame.BODY:
         values[ROTOR_DRAG_KEY] = reader.number(ROTOR_DRAG_KEY, default=0.0)
     elif reader.has(ROTOR_DRAG_KEY):
         raise reader.fail(ROTOR_DRAG_KEY, 'rotor drag is a term of the body-frame law only (frame = "body")')
     for key, value in values.items():
         reader.within(key, value, "force_air.drag", magnitude=True)
-    for key in ("l0", "q0", "lz", "qz") + ((ROTOR_DRAG_KEY,) if frame == "body" else ()):
+    for key in ("l0", "q0", "lz", "qz") + ((ROTOR_DRAG_KEY,) if frame == DragFrame.BODY else ()):
         if values[key] < 0:
             raise reader.fail(key, f"a drag coefficient must be >= 0, got {values[key]!r}")
     if values["l0"] + values["q0"] + values.get(ROTOR_DRAG_KEY, 0.0) <= 0:

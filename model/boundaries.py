@@ -27,6 +27,7 @@ from dobwind.model.plausibility import MAX_ACCELERATION_MPS2, MAX_GROUND_SPEED_M
 from dobwind.model.status import INPUT_MAGNITUDE_LIMIT, MIN_DT_S, DT_TOLERANCE, QUATERNION_NORM_TOLERANCE, \
     RESULT_MAGNITUDE_LIMIT
 from dobwind.model.step import StepModel
+from dobwind.model.kinds import Precision
 
 # Float32 ulps between a single-precision row and the flip of a computed limit: well above the few ulps
 # by which a float sum of squares differs from its double value.
@@ -50,17 +51,17 @@ class BoundaryCases:
     inputs: np.ndarray  # (n, input size)
 
 
-def _dtype(precision: str) -> type:
-    return np.float32 if precision == "single" else np.float64
+def _dtype(precision: Precision) -> type:
+    return np.float32 if precision == Precision.SINGLE else np.float64
 
 
-def _as_bits(value: float, precision: str) -> int:
+def _as_bits(value: float, precision: Precision) -> int:
     """Positive floats in increasing order map to increasing integers (IEEE 754 layout)."""
-    return int(np.array(value, dtype=_dtype(precision)).view(np.int32 if precision == "single" else np.int64))
+    return int(np.array(value, dtype=_dtype(precision)).view(np.int32 if precision == Precision.SINGLE else np.int64))
 
 
-def _from_bits(bits: int, precision: str) -> float:
-    return float(np.array(bits, dtype=np.int32 if precision == "single" else np.int64).view(_dtype(precision)))
+def _from_bits(bits: int, precision: Precision) -> float:
+    return float(np.array(bits, dtype=np.int32 if precision == Precision.SINGLE else np.int64).view(_dtype(precision)))
 
 
 def neutral_row(model: StepModel) -> Row:
@@ -84,14 +85,14 @@ def neutral_row(model: StepModel) -> Row:
     return state, row
 
 
-def _statuses(model: StepModel, rows: list[Row], precision: str) -> np.ndarray:
+def _statuses(model: StepModel, rows: list[Row], precision: Precision) -> np.ndarray:
     dtype = _dtype(precision)
     states = np.array([s for s, _ in rows], dtype=dtype).astype(float)
     inputs = np.array([u for _, u in rows], dtype=dtype).astype(float)
     return np.array([int(model.step(x, u)[2]) for x, u in zip(states, inputs)], dtype=np.int64)
 
 
-def _flip(model: StepModel, family: Family, lo: float, hi: float, precision: str) -> tuple[int, int] | None:
+def _flip(model: StepModel, family: Family, lo: float, hi: float, precision: Precision) -> tuple[int, int] | None:
     """Adjacent grid values (as bit patterns) across which the status changes, for 0 < lo < hi; None
     when the status is the same at both ends (a limit this airframe cannot reach from the neutral
     sample, e.g. a result check that a huge model constant trips at any force)."""
@@ -110,15 +111,15 @@ def _flip(model: StepModel, family: Family, lo: float, hi: float, precision: str
     return a, b
 
 
-def _crossing(model: StepModel, family: Family, lo: float, hi: float, precision: str, computed: bool,
+def _crossing(model: StepModel, family: Family, lo: float, hi: float, precision: Precision, computed: bool,
               relative_margin: float = 0.0, double_margin_ulps: int = 0) -> list[Row]:
     found = _flip(model, family, lo, hi, precision)
     if found is None:
         return []
     a, b = found
-    if computed and precision == "double" and double_margin_ulps:
+    if computed and precision == Precision.DOUBLE and double_margin_ulps:
         offsets = (a - double_margin_ulps, b + double_margin_ulps)
-    elif computed and precision == "single":
+    elif computed and precision == Precision.SINGLE:
         below = _as_bits(_from_bits(a, precision) * (1 - relative_margin), precision)
         above = _as_bits(_from_bits(b, precision) * (1 + relative_margin), precision)
         offsets = (min(a - COMPUTED_MARGIN_ULPS, below), max(b + COMPUTED_MARGIN_ULPS, above))
@@ -291,7 +292,7 @@ def _set_acceleration(model: StepModel, state: np.ndarray, row: np.ndarray, up: 
         row[lin.offset("vel_ned") + 2] = -up * float(row[lin.offset("dt")])
 
 
-def _sign_rows(model: StepModel, base: Row, precision: str) -> tuple[list[str], list[Row]]:
+def _sign_rows(model: StepModel, base: Row, precision: Precision) -> tuple[list[str], list[Row]]:
     """rpm >= 0 (thrust >= 0) on every rotor: 0, -0 and the smallest numbers on either side."""
     lin = model.inputs
     column = "rotor_rpm" if "rotor_rpm" in lin else "thrust"
@@ -310,7 +311,7 @@ def _tilt_relative_margin(max_tilt_deg: float) -> float:
     return TILT_R33_ERROR / (2 * x * x * (1 + math.cos(math.radians(max_tilt_deg))))
 
 
-def boundary_cases(model: StepModel, precision: str) -> BoundaryCases:
+def boundary_cases(model: StepModel, precision: Precision) -> BoundaryCases:
     base = neutral_row(model)
     labels, rows = _sign_rows(model, base, precision)
     tilt_margin = _tilt_relative_margin(model.airframe.limits.max_tilt_deg)

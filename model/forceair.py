@@ -48,9 +48,11 @@ from typing import TYPE_CHECKING
 import casadi as ca
 import numpy as np
 
+from dobwind.model.dragform import body_law_and_jacobian, body_law_scalars, body_law_value
 from dobwind.model.numeric import bisect_increasing
 from dobwind.model.sxvector import VectorFunction
 from dobwind.model.terms import Term, polynomial_expr, term_expr
+from dobwind.model.kinds import DragFrame
 
 if TYPE_CHECKING:  # the airframe module imports this one; the functions below only read its fields
     from dobwind.model.airframe import Airframe
@@ -72,7 +74,6 @@ FOURFOLD_KEYS = ("q4c", "q4s")
 VERTICAL_DRAG_KEYS = ("lz", "qz", "i1", "i2")
 # The body-frame law's one extra coefficient: rotor (momentum) drag, which grows with rotor speed.
 ROTOR_DRAG_KEY = "lr"
-DRAG_FRAMES = ("heading", "body")
 # Newton steps of the body-frame inversion (3-D, coupled through |a| and the inflow terms).
 BODY_NEWTON_STEPS = 4
 # The step's: Newton steps per sample from the previous sample's airflow (body_drag_airflow_tracking).
@@ -104,20 +105,20 @@ class DragLaw:
     i1: float = 0.0
     i2: float = 0.0
     lr: float = 0.0          # body frame only: N per m/s at hover thrust, times sqrt(u_f / (m g))
-    frame: str = "heading"   # "heading": the law of the level heading-frame airflow; "body": of the
+    frame: DragFrame = DragFrame.HEADING  # HEADING: the law of the level heading-frame airflow; BODY: of the
     #                          body-frame airflow at the real attitude (tilt included)
     exponent: float = 2.0    # p: the quadratic terms q0, q2c, q2s, q1c, q4c, q4s grow as s^p (1.5 to 2.5)
     q4c: float = 0.0         # the four-fold harmonics (last: positional construction stays as it was)
     q4s: float = 0.0
 
     def keys(self) -> tuple[str, ...]:
-        extra = (ROTOR_DRAG_KEY,) if self.frame == "body" else ()
+        extra = (ROTOR_DRAG_KEY,) if self.frame == DragFrame.BODY else ()
         return HORIZONTAL_DRAG_KEYS + extra + VERTICAL_DRAG_KEYS
 
     def as_dict(self) -> dict[str, float | str]:
         values: dict[str, float | str] = {k: getattr(self, k) for k in self.keys()
                                           if k not in FOURFOLD_KEYS or _fourfold(self)}
-        if self.frame != "heading":
+        if self.frame != DragFrame.HEADING:
             values["frame"] = self.frame
         if isinstance(self.exponent, ca.SX) or self.exponent != 2.0:
             values["exponent"] = self.exponent
@@ -161,7 +162,7 @@ def _front_back(x, y, s, exponent):
     return k * x * x, k * x * y
 
 
-def symbolic_law(frame: str, quadratic: bool = True, fourfold: bool = False) -> DragLaw:
+def symbolic_law(frame: DragFrame, quadratic: bool = True, fourfold: bool = False) -> DragLaw:
     """A law whose coefficients are SX symbols named by their keys: the NumPy inversions below are built
     once on it and take the coefficients as inputs, instead of rebuilding the expression per law.
     ``quadratic``: exponent 2, the step's very expression; else the exponent is a symbol too.
@@ -171,7 +172,7 @@ def symbolic_law(frame: str, quadratic: bool = True, fourfold: bool = False) -> 
     return DragLaw(**symbols, frame=frame, exponent=2.0 if quadratic else ca.SX.sym("exponent"))
 
 
-def _symbolic_keys(frame: str, fourfold: bool) -> tuple[str, ...]:
+def _symbolic_keys(frame: DragFrame, fourfold: bool) -> tuple[str, ...]:
     keys = DragLaw(0.0, 0.0, frame=frame).keys()
     return keys if fourfold else tuple(k for k in keys if k not in FOURFOLD_KEYS)
 
@@ -306,12 +307,12 @@ def drag_airflow(law: DragLaw, m: ca.SX, n: ca.SX, fz: ca.SX):
 @functools.lru_cache(maxsize=None)
 def _heading_inversion(quadratic: bool, fourfold: bool) -> VectorFunction:
     """``drag_airflow`` on the symbolic law, built once: (m, n, fz, coefficients) -> airflow."""
-    law, sm, sn, sz = symbolic_law("heading", quadratic, fourfold), ca.SX.sym("m"), ca.SX.sym("n"), ca.SX.sym("fz")
+    law, sm, sn, sz = symbolic_law(DragFrame.HEADING, quadratic, fourfold), ca.SX.sym("m"), ca.SX.sym("n"), ca.SX.sym("fz")
     return VectorFunction(ca.Function("drag_airflow", [sm, sn, sz, ca.vertcat(*_symbols(law))],
                                       [ca.vertcat(*drag_airflow(law, sm, sn, sz))]))
 
 
-def _coefficients(law: DragLaw, frame: str) -> np.ndarray:
+def _coefficients(law: DragLaw, frame: DragFrame) -> np.ndarray:
     """The law's coefficients in the order of ``symbolic_law(frame, *_variant(law))``'s symbols."""
     keys = _symbolic_keys(frame, _fourfold(law))
     return np.array([float(getattr(law, k)) for k in keys] + ([] if _quadratic(law) else [float(law.exponent)]))
@@ -324,7 +325,7 @@ def drag_airflow_numpy(law: DragLaw, m: np.ndarray, n: np.ndarray, fz: np.ndarra
     if rows == 0:
         return np.zeros((0, 3))
     force = [np.asarray(v, float).reshape(1, rows) for v in (m, n, fz)]
-    return _heading_inversion(*_variant(law))([*force, _coefficients(law, "heading")], rows)[0].T
+    return _heading_inversion(*_variant(law))([*force, _coefficients(law, DragFrame.HEADING)], rows)[0].T
 
 
 def body_drag_basis(ax, ay, az, rotor, eps: float = 0.0, exponent=2.0) -> dict[str, tuple]:
@@ -370,7 +371,7 @@ def _body_newton_step(law: DragLaw, a: ca.SX, rotor: ca.SX, force_b: ca.SX) -> c
 
 def _body_law_value(law: DragLaw, a: ca.SX, rotor: ca.SX) -> ca.SX:
     sa, sr = ca.SX.sym("a", 3), ca.SX.sym("rotor")
-    value = ca.vertcat(*body_drag_force(law, sa[0], sa[1], sa[2], sr, DRAG_SPEED_EPS_MPS))
+    value = body_law_value(*body_law_scalars(law, sa, sr, DRAG_SPEED_EPS_MPS), sa)  # regrouped (dragform.py)
     coefficients = _symbols(law)
     return ca.Function("body_drag_value", [sa, sr, *coefficients], [value])(a, rotor, *coefficients)
 
@@ -379,9 +380,11 @@ def _body_newton_chord(law: DragLaw, a: ca.SX, rotor: ca.SX, force_b: ca.SX) -> 
     """One Newton step from ``a``, and the correction J(a)^-1 r of that same Jacobian for a later
     iterate (a chord step: the Jacobian reused, only the law's value evaluated again)."""
     sa, sr = ca.SX.sym("a", 3), ca.SX.sym("rotor")
-    value = ca.vertcat(*body_drag_force(law, sa[0], sa[1], sa[2], sr, DRAG_SPEED_EPS_MPS))
+    # The law regrouped into three scalars and their gradients (dragform.py): the same value and Jacobian
+    # as differentiating body_drag_force, in about half the operations.
+    value, jacobian = body_law_and_jacobian(law, sa, sr, DRAG_SPEED_EPS_MPS)
     coefficients = _symbols(law)
-    law_and_slope = ca.Function("body_drag_law", [sa, sr, *coefficients], [value, ca.jacobian(value, sa)])
+    law_and_slope = ca.Function("body_drag_law", [sa, sr, *coefficients], [value, jacobian])
     f, slope = law_and_slope(a, rotor, *coefficients)
     # J^-1 r by the adjugate, with J and r divided by J's trace first: the same step, but products of
     # three Jacobian entries stay within single precision at any airflow the validation lets through.
@@ -455,7 +458,7 @@ def body_drag_airflow_tracking(law: DragLaw, force_ned: ca.SX, rot: ca.SX, rotor
 @functools.lru_cache(maxsize=None)
 def _body_inversion(quadratic: bool, fourfold: bool) -> VectorFunction:
     """``body_drag_airflow`` on the symbolic law, built once: (force, rot, rotor, coefficients) -> airflow."""
-    law, sf, sr, sq = symbolic_law("body", quadratic, fourfold), ca.SX.sym("f", 3), ca.SX.sym("rot", 9), ca.SX.sym("rotor")
+    law, sf, sr, sq = symbolic_law(DragFrame.BODY, quadratic, fourfold), ca.SX.sym("f", 3), ca.SX.sym("rot", 9), ca.SX.sym("rotor")
     return VectorFunction(ca.Function("body_drag_airflow", [sf, sr, sq, ca.vertcat(*_symbols(law))],
                                       [body_drag_airflow(law, sf, ca.reshape(sr, 3, 3), sq)]))
 
@@ -468,7 +471,7 @@ def body_drag_airflow_numpy(law: DragLaw, force_ned: np.ndarray, rot: np.ndarray
         return np.zeros((0, 3))
     # ca.reshape is column-major: row k of the (9, N) input is rot[:, k % 3, k // 3].
     flat = np.transpose(rot, (2, 1, 0)).reshape(9, rows)
-    inputs = [np.asarray(force_ned, float).T, flat, np.asarray(rotor, float).reshape(1, rows), _coefficients(law, "body")]
+    inputs = [np.asarray(force_ned, float).T, flat, np.asarray(rotor, float).reshape(1, rows), _coefficients(law, DragFrame.BODY)]
     return _body_inversion(*_variant(law))(inputs, rows)[0].T
 
 
@@ -505,13 +508,13 @@ QUADRATIC_KEYS = ("q0", "q2c", "q2s", "q1c") + FOURFOLD_KEYS
 
 
 @functools.lru_cache(maxsize=None)
-def _law_slope(frame: str, quadratic: bool, fourfold: bool) -> VectorFunction:
+def _law_slope(frame: DragFrame, quadratic: bool, fourfold: bool) -> VectorFunction:
     """The horizontal block of the forward law's Jacobian, d(F_x, F_y)/d(a_x, a_y), at level airflow, on
     symbolic coefficients: (airflow, rotor, coefficients) -> 2 x 2 (column-major), smoothed as in Newton.
     At a_z = 0 the body frame's 3 x 3 Jacobian is block-triangular, so this block is what the horizontal
     terms decide; the vertical law (lz, qz >= 0) is checked apart (fitfamily)."""
     law, a, rotor = symbolic_law(frame, quadratic, fourfold), ca.SX.sym("a", 2), ca.SX.sym("rotor")
-    if frame == "body":
+    if frame == DragFrame.BODY:
         force = ca.vertcat(*body_drag_force(law, a[0], a[1], 0 * a[0], rotor, DRAG_SPEED_EPS_MPS)[:2])
     else:
         s = ca.sqrt(a[0] * a[0] + a[1] * a[1] + DRAG_SPEED_EPS_MPS ** 2)
@@ -544,7 +547,7 @@ def law_decreasing(law: DragLaw, speed_max_mps: float, rotors: tuple[float, ...]
     t, s = np.meshgrid(theta, speed)
     ux, uy, s = np.cos(t).ravel(), np.sin(t).ravel(), s.ravel()
     linear = dataclasses.replace(law, **{k: 0.0 for k in QUADRATIC_KEYS})
-    for rotor in (rotors if law.frame == "body" else (1.0,)):
+    for rotor in (rotors if law.frame == DragFrame.BODY else (1.0,)):
         where = None
         k = _first_bad(linear, np.cos(theta), np.sin(theta), np.ones_like(theta), rotor, strict=False)
         if k is not None:
@@ -552,7 +555,7 @@ def law_decreasing(law: DragLaw, speed_max_mps: float, rotors: tuple[float, ...]
         elif (k := _first_bad(law, ux, uy, s, rotor, strict=True)) is not None:
             where = f"{math.degrees(theta[k % LAW_CHECK_DIRECTIONS]):.0f} deg from x at {s[k]:.3g} m/s"
         if where is not None:
-            return where + (f", rotor term {rotor:.2f}" if law.frame == "body" else "")
+            return where + (f", rotor term {rotor:.2f}" if law.frame == DragFrame.BODY else "")
     return None
 
 
@@ -594,7 +597,7 @@ def family(af: "Airframe") -> str:
 def needs_attitude(af: "Airframe") -> bool:
     """The airframe's law reads the attitude and thrust (the body-frame drag law): a caller that makes a
     force for an airflow must then balance the tilt that force causes."""
-    return af.drag is not None and af.drag.frame == "body"
+    return af.drag is not None and af.drag.frame == DragFrame.BODY
 
 
 def _hover_attitude(rows: int, rot, rotor) -> tuple[np.ndarray, np.ndarray]:

@@ -33,6 +33,8 @@ from dobwind.model.plausibility import implausible_inputs, wind_beyond_bound
 from dobwind.model.settling import settling_time_s
 from dobwind.model.status import (DT_TOLERANCE, INPUT_MAGNITUDE_LIMIT, MIN_DT_S, QUATERNION_NORM_TOLERANCE,
                                   RESULT_MAGNITUDE_LIMIT, STATUS_BITS)
+from dobwind.model.kinds import DragFrame
+from dobwind.model.signals import log_signals
 
 # The sigma outputs when the airframe records no [uncertainty] table: "unknown", never NaN.
 UNKNOWN_SIGMA = -1.0
@@ -76,12 +78,12 @@ def input_layout(af: Airframe) -> Layout:
         Field("dt", 1, "s", "time since the previous step"),
         Field("vel_ned", 3, "m/s", "ground velocity, NED"),
     ]
-    if af.observer.acceleration == "ned":
+    if log_signals(af).ned_acceleration:
         fields.append(Field("acc_ned", 3, "m/s^2", "kinematic acceleration d2p/dt2, NED"))
-    elif af.observer.acceleration == "specific_force":
+    elif log_signals(af).specific_force:
         fields.append(Field("specific_force", 3, "m/s^2", "accelerometer specific force, body FRD"))
     fields.append(Field("q", 4, "-", "attitude quaternion w, x, y, z: body FRD -> NED"))
-    if af.thrust.source == "rpm":
+    if log_signals(af).rotor_speeds:
         fields.append(Field("rotor_rpm", af.thrust.rotors, "rev/min", "rotor speeds"))
     else:
         fields.append(Field("thrust", 1, "N", "collective thrust along -z body"))
@@ -106,7 +108,7 @@ def output_layout() -> Layout:
 
 
 def uses_previous_velocity(af: Airframe) -> bool:
-    return (af.observer.acceleration == "velocity" or af.observer.discretization == "tustin"
+    return (not log_signals(af).measured_acceleration or af.observer.discretization == "tustin"
             or af.observer.estimates_acceleration_bias)
 
 
@@ -191,8 +193,7 @@ def build_step(af: Airframe) -> StepModel:
     signals: Signals = {f"in.{f.name}": u[lin.slice(f.name)] for f in lin.fields}
     signals.update({f"state.{f.name}": x[lstate.slice(f.name)] for f in lstate.fields})
     b = _Builder(signals)
-    validate_stage = b.add("validate", "reject NaN/inf, bad dt, non-unit quaternion, excessive tilt, negative "
-                           "thrust", [f"in.{f.name}" for f in lin.fields], partial(_validate, af, lin))
+    validate_stage = b.add("validate", VALIDATE_DOC, [f"in.{f.name}" for f in lin.fields], partial(_validate, af, lin))
     _add_front_end(b, af)
     _add_observer_and_low_pass(b, af)
     _add_back_end(b, af)
@@ -221,11 +222,33 @@ def _rejection_writes(af: Airframe) -> tuple[tuple[tuple[str, float], ...], tupl
 
 # --- validation ---------------------------------------------------------------------------------------
 
+def finite_inputs(every: ca.SX) -> ca.SX:
+    """NONFINITE's test: every input element within +-INPUT_MAGNITUDE_LIMIT. NaN fails every comparison,
+    so it is false for NaN and for +-inf alike."""
+    return _all([ca.fabs(every[i]) <= INPUT_MAGNITUDE_LIMIT for i in range(every.numel())])
+
+
+VALIDATE_DOC = "reject NaN/inf, bad dt, non-unit quaternion, excessive tilt, negative thrust"
+FINITE_SIGNAL = "finite"  # validation's finiteness test as an input of its own (validate_given_finite)
+
+
+def validate_given_finite(af: Airframe, lin: Layout) -> Stage:
+    """The validate stage with the finiteness test as an input (0/1) instead of its expression: the C
+    computes that test as one loop over the input struct (the same test on every element), and the rest
+    of validation as printed from this Function. Same outputs as build_step's validate stage."""
+    symbols = {f"in.{f.name}": ca.SX.sym(_ident(f"in.{f.name}"), f.size) for f in lin.fields}
+    finite = ca.SX.sym(FINITE_SIGNAL)
+    result = _validate(af, lin, {**symbols, FINITE_SIGNAL: finite})
+    inputs = [*symbols, FINITE_SIGNAL]
+    function = ca.Function("validate", [*symbols.values(), finite], list(result.values()),
+                           [_ident(name) for name in inputs], list(result), {"cse": True})
+    return Stage("validate", VALIDATE_DOC, function, tuple(inputs), tuple(result))
+
+
 def _validate(af: Airframe, lin: Layout, s: Signals) -> Signals:
     bits = {bit.name: bit.value for bit in STATUS_BITS}
     every = ca.vertcat(*[s[f"in.{f.name}"] for f in lin.fields])
-    # NaN fails every comparison, so each test is false for NaN and for +-inf alike.
-    finite = _all([ca.fabs(every[i]) <= INPUT_MAGNITUDE_LIMIT for i in range(every.numel())])
+    finite = s[FINITE_SIGNAL] if FINITE_SIGNAL in s else finite_inputs(every)
     dt = s["in.dt"]
     dt_ok = ca.logic_and(dt >= MIN_DT_S, dt <= af.limits.max_dt_s * (1 + DT_TOLERANCE))
     q = s["in.q"]
@@ -234,7 +257,7 @@ def _validate(af: Airframe, lin: Layout, s: Signals) -> Signals:
     # R33 = cos(tilt) = (w^2 - x^2 - y^2 + z^2) / |q|^2, compared without dividing.
     r33_scaled = q[0] * q[0] - q[1] * q[1] - q[2] * q[2] + q[3] * q[3]
     tilt_ok = r33_scaled >= math.cos(math.radians(af.limits.max_tilt_deg)) * norm2
-    if af.thrust.source == "rpm":
+    if log_signals(af).rotor_speeds:
         rpm = s["in.rotor_rpm"]
         thrust_ok = _all([rpm[i] >= 0 for i in range(rpm.numel())])
     else:
@@ -261,7 +284,7 @@ def _add_front_end(b: _Builder, af: Airframe) -> None:
     obs = af.observer
     b.add("attitude", "unit quaternion -> body down axis z_b (and rotation) in NED", ["in.q"],
           partial(_attitude, af))
-    thrust_input = "in.rotor_rpm" if af.thrust.source == "rpm" else "in.thrust"
+    thrust_input = "in.rotor_rpm" if log_signals(af).rotor_speeds else "in.thrust"
     b.add("thrust", "collective thrust u_f (N) along -z_b", [thrust_input], partial(_thrust, af))
     accel_inputs = {
         "ned": ["in.acc_ned"],
@@ -283,13 +306,13 @@ def _add_front_end(b: _Builder, af: Airframe) -> None:
 
 def _body_drag(af: Airframe) -> bool:
     """The body-frame drag law: its force-air stage needs the attitude and the thrust."""
-    return af.drag is not None and af.drag.frame == "body"
+    return af.drag is not None and af.drag.frame == DragFrame.BODY
 
 
 def _attitude(af: Airframe, s: Signals) -> Signals:
     rot = quaternion_to_rotation_any_norm(s["in.q"])  # the validated q is near unit, not exactly
     out = {"z_b": rot[:, 2]}
-    if af.observer.acceleration == "specific_force" or _body_drag(af):
+    if log_signals(af).specific_force or _body_drag(af):
         out["rot_body_to_ned"] = ca.reshape(rot, 9, 1)
     return out
 
@@ -317,12 +340,12 @@ def _acceleration(af: Airframe, s: Signals) -> Signals:
     obs = af.observer
     # vel_prev is the velocity of the previous sample only if that sample was accepted (run_s > 0);
     # after the start or a gap, differencing would divide the whole gap's velocity change by one dt.
-    if obs.acceleration == "velocity":
+    if not log_signals(af).measured_acceleration:
         follows = ca.if_else(s["state.run_s"] > 0, 1, 0)
         # Backward difference; a sample with no accepted predecessor counts as unaccelerated.
         diff = (s["in.vel_ned"] - s["state.vel_prev"]) / s["in.dt"]
         return {"p_ddot": follows * diff}  # follows is exactly 0 or 1
-    if obs.acceleration == "ned":
+    if log_signals(af).ned_acceleration:
         measured = s["in.acc_ned"]
     else:
         rot = ca.reshape(s["rot_body_to_ned"], 3, 3)

@@ -8,6 +8,7 @@ import types
 import pytest
 
 from codegen.generate import generate_code
+from dobwind.calibrate import fitfamily, fitreport
 from dobwind.cli import demo
 from dobwind.model.airframe import parse_airframe
 from tests.families import FAMILIES, family_airframe
@@ -23,9 +24,10 @@ def test_demo_c_names_the_fitted_airframe_not_the_input(tmp_path, monkeypatch):
     start = family_airframe("polynomial")
     fitted = dataclasses.replace(start, observer=dataclasses.replace(start.observer, gains=(11.0, 12.0, 13.0)))
     report = types.SimpleNamespace(warnings=[])
-    monkeypatch.setattr(demo, "fit_airframe", lambda af, logs, terms: (fitted, report, None))
-    monkeypatch.setattr(demo, "fit_plot", lambda *a: None)
-    monkeypatch.setattr(demo, "text_report", lambda r: "")
+    # the demo imports its pipeline's steps when it runs them: patched where they live
+    monkeypatch.setattr(fitfamily, "fit_airframe", lambda af, logs, terms: (fitted, report, None))
+    monkeypatch.setattr(fitreport, "fit_plot", lambda *a: None)
+    monkeypatch.setattr(fitreport, "text_report", lambda r: "")
     out = demo._fit(start, {"sweep": "", "vertical": ""}, tmp_path)
     written = (tmp_path / f"{start.name}_fitted.toml").read_bytes()
     assert out.content_sha256 == hashlib.sha256(written).hexdigest() != start.content_sha256

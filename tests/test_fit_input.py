@@ -96,11 +96,11 @@ def test_a_log_too_short_to_calibrate_beside_a_good_one_is_handled(rows, good, t
 
 def test_a_fitted_airframe_the_loader_would_refuse_is_not_written():
     # fit's output goes through the loader first (a thrust scale of 20 from logs in the wrong unit).
-    from dobwind.cli.app import _refuse_out_of_range
+    from dobwind.cli.fit import refuse_out_of_range
     from dobwind.core.errors import InputError
     from dobwind.model.airframe_toml import dumps
     from tests.helpers import airframe_dict
 
-    _refuse_out_of_range(dumps(airframe_dict()), "new.toml")  # a good one passes
+    refuse_out_of_range(dumps(airframe_dict()), "new.toml")  # a good one passes
     with pytest.raises(InputError, match=r"new.toml: thrust.scale: the fitted airframe would be refused"):
-        _refuse_out_of_range(dumps(airframe_dict(**{"thrust.scale": 20.0})), "new.toml")
+        refuse_out_of_range(dumps(airframe_dict(**{"thrust.scale": 20.0})), "new.toml")

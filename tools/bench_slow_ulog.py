@@ -6,6 +6,12 @@ interpreter and, with ``--before PYTHON``, another one (an earlier checkout's vi
 interleaved over the rounds so the machine's load falls on both alike. Median wall seconds.
 
     .venv/bin/python tools/bench_slow_ulog.py --minutes 60 --before /work/main/.venv/bin/python
+
+``--bridge`` instead times replay in this process with and without bridging short silences
+(dobwind/io/bridge.py), interleaved, on the same flight with the local position silent for 0.6 s every
+30 s (bridged) and for 1.5 s every 5 min (a gap beyond the bound).
+
+    .venv/bin/python tools/bench_slow_ulog.py --minutes 60 --rounds 7 --bridge
 """
 from __future__ import annotations
 
@@ -29,7 +35,7 @@ def _stamps(rate_hz: float, seconds: float, jitter: float, rng: np.random.Genera
     return np.unique(np.round((1.0 + np.clip(t, 0.0, None)) * 1e6).astype(np.int64))
 
 
-def write_log(path: Path, minutes: float, seed: int = 1) -> Path:
+def write_log(path: Path, minutes: float, seed: int = 1, dropouts: bool = False) -> Path:
     sys.path.insert(0, str(ROOT))
     from tests.ulog_writer import Topic, write_ulog
 
@@ -46,6 +52,10 @@ def write_log(path: Path, minutes: float, seed: int = 1) -> Path:
     yaw = 0.3 * np.sin(2 * np.pi * att * 1e-6 / 90.0)
     att_rows = [{"timestamp": int(u), "q[0]": float(np.cos(y / 2)), "q[3]": float(np.sin(y / 2))} for u, y in zip(att, yaw)]
     lp = _stamps(10.0, seconds, 0.03, rng)
+    if dropouts:  # silent 0.6 s every 30 s and 1.5 s every 5 min (from 15 s on, where the flight is settled)
+        phase = (lp * 1e-6 - 1.0 - 15.0) % 30.0
+        long_ = ((lp * 1e-6 - 1.0 - 15.0) % 300.0) < 1.5
+        lp = lp[~((phase > 0.0) & (phase < 0.6)) & ~long_]
     vn, vd, an, ad = motion(lp)
     lp_rows = [{"timestamp": int(u), "vx": float(a), "vz": float(b), "ax": float(c), "az": float(d)}
                for u, a, b, c, d in zip(lp, vn, vd, an, ad)]
@@ -71,15 +81,45 @@ def _time(python: str, log: Path) -> float:
     return time.perf_counter() - start
 
 
+def _time_bridge(log: Path, rounds: int) -> dict[str, list[float]]:
+    """In-process replay seconds with and without bridging, interleaved (the order alternating from round
+    to round); also the rows bridged and SETTLING."""
+    from dobwind.model.airframe import load_airframe
+    from dobwind.replay.replay import replay_ulog
+
+    af = load_airframe(AIRFRAME)
+    times: dict[str, list[float]] = {"bridging": [], "no bridging": []}
+    for k in range(rounds):
+        for label in (list(times) if k % 2 == 0 else list(times)[::-1]):  # alternate who runs first
+            start = time.perf_counter()
+            _, flight, traj = replay_ulog(af, str(log), bridge_gaps=label == "bridging")
+            times[label].append(time.perf_counter() - start)
+            bridged = 0 if flight.bridged is None else int(flight.bridged.sum())
+            settling = int(((traj.status & (1 << 6)) != 0).sum())
+            print(f"{label}: rows {flight.log.rows}, bridged {bridged}, SETTLING {settling}", file=sys.stderr)
+    return times
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--minutes", type=float, default=60.0)
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--work", default="out/bench-slow-ulog")
     ap.add_argument("--before", help="another interpreter to compare with (an earlier checkout's venv)")
+    ap.add_argument("--bridge", action="store_true", help="replay with and without bridging, in this process")
     args = ap.parse_args()
     work = Path(args.work)
     work.mkdir(parents=True, exist_ok=True)
+    if args.bridge:
+        log = work / f"slow_dropouts_{args.minutes:g}min.ulg"
+        if not log.exists():
+            write_log(log, args.minutes, dropouts=True)
+        times = _time_bridge(log, args.rounds)
+        for label, ts in times.items():
+            print(f"{label}: median {statistics.median(ts):.2f} s over {len(ts)} runs ({', '.join(f'{t:.2f}' for t in ts)})")
+        ratio = statistics.median(times["bridging"]) / statistics.median(times["no bridging"])
+        print(f"ratio bridging/no bridging {ratio:.2f} (goal <= 1.5)")
+        return 0
     log = work / f"slow_{args.minutes:g}min.ulg"
     if not log.exists():
         write_log(log, args.minutes)

@@ -17,13 +17,14 @@ from dobwind.analysis.windunits import NoiseSource, wind_text, wind_units
 from dobwind.model.stability import unstable_reason
 from dobwind.model.airframe import DISCRETIZATIONS, Airframe
 from dobwind.model.step import build_step
+from dobwind.model.signals import log_signals
 
 AXES = "xyz"
 SCHEDULE_GRID_POINTS = 61
 
 
 def _noise_unit(af: Airframe) -> str:
-    return "N per m/s" if af.observer.acceleration == "velocity" else "N per m/s^2"
+    return "N per m/s" if not log_signals(af).measured_acceleration else "N per m/s^2"
 
 
 def schedule_check(af: Airframe) -> dict[str, Any]:

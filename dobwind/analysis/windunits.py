@@ -38,6 +38,7 @@ from dobwind.core.errors import InputError
 from dobwind.model import forceair
 from dobwind.model.airframe import Airframe
 from dobwind.model.step import StepModel
+from dobwind.model.signals import log_signals
 
 # Gauss-Hermite points per axis of the 2-D force noise: 24^2 airflow inversions per airspeed; the
 # scatter of a square-root law at zero airflow converges to 0.1 % with 16.
@@ -178,7 +179,7 @@ def wind_units(af: Airframe, model: StepModel, freqs_hz: list[float], airspeeds_
     noise = noise or noise_source(af, model, force_noise_n)
     jacobians = (jacobian_function(model, "force"), jacobian_function(model, "noise"))
     point = lambda s: wind_point(af, model, s, freqs_hz, noise, jacobians)  # noqa: E731
-    unit = "m/s" if af.observer.acceleration == "velocity" else "m/s^2"  # of the acceleration input, per sample
+    unit = "m/s" if not log_signals(af).measured_acceleration else "m/s^2"  # of the acceleration input, per sample
     return {"noise_source": noise.source, "input_noise": noise.input_sigma, "input_noise_unit": unit,
             "ramp_rate_mps2": RAMP_RATE_MPS2,
             "breakpoints": [point(s) for s in af.filter.speeds_mps],

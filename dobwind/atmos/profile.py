@@ -16,6 +16,7 @@ import numpy as np
 
 from dobwind.core.errors import InputError
 from dobwind.core.options import Bound
+from dobwind.model.kinds import Precision
 
 if TYPE_CHECKING:  # the model (CasADi) loads only when a profile runs, not with the parser (--bin)
     from dobwind.model.airframe import Airframe
@@ -126,7 +127,7 @@ def allowed_mask(names: list[str]) -> int:
     return mask
 
 
-def flight_samples(af: Airframe, path: str, backend: str = "python", precision: str = "single",
+def flight_samples(af: Airframe, path: str, backend: str = "python", precision: Precision = Precision.SINGLE,
                    rate_hz: float | None = None, allow: int = 0) -> Samples:
     """One log through the estimator, its rows put at their height above take-off, trusted rows kept."""
     from dobwind.io.autopilot import is_autopilot_log
@@ -168,7 +169,7 @@ def _integrated_height(t: np.ndarray, vel_d: np.ndarray) -> np.ndarray:
     return np.r_[0.0, np.cumsum(0.5 * (up[1:] + up[:-1]) * np.diff(t))]
 
 
-def flight_sums(airframe_path: str, path: str, bin_m: float, backend: str, precision: str,
+def flight_sums(airframe_path: str, path: str, bin_m: float, backend: str, precision: Precision,
                 rate_hz: float | None, allow: int) -> tuple[dict[int, np.ndarray], int, tuple[str, ...],
                                                             tuple[float, float] | None]:
     """A worker's job (top level, so a process pool can call it): (per-bin sums, trusted rows, notes, UTC

@@ -30,9 +30,8 @@ from typing import Any
 from dobwind.calibrate.hovernoise import HoverNoise
 from dobwind.model.airframe import Airframe
 from dobwind.calibrate.selfcheck import SelfCheck
+from dobwind.model.signals import log_signals
 
-# The routes with an acceleration input (the others derive it from the velocity).
-INPUT_ROUTES = ("ned", "specific_force")
 # The blend's time constant, s: crossover at 0.32 Hz, six times the low-pass floor (hovernoise.py), so the
 # accelerometer's noise below it is mostly replaced. The two paths sum to the true acceleration at every
 # frequency, so the crossover need not sit below the observer's bandwidth (0.5 Hz on the m300); what a
@@ -57,7 +56,7 @@ def needs_blend_check(af: Airframe, check: SelfCheck, hover: HoverNoise) -> bool
     that figure above the target."""
     obs, noise = af.observer, check.still_noise_mps
     already = 0.0 < obs.acceleration_bias_time_s <= BLEND_TIME_S
-    return (obs.acceleration in INPUT_ROUTES and not already and noise is not None and hover.target_mps > 0
+    return (log_signals(af).measured_acceleration and not already and noise is not None and hover.target_mps > 0
             and noise * hover.min_change > hover.target_mps)
 
 

@@ -25,6 +25,8 @@ from dobwind.model import reference
 from dobwind.model.airframe import Airframe
 from dobwind.model.status import accepted
 from dobwind.model.step import StepModel
+from dobwind.model.kinds import DragFrame
+from dobwind.model.signals import log_signals
 
 
 @dataclass(frozen=True)
@@ -123,7 +125,7 @@ class DragReducer:
     """fitfamily.drag_samples for one log, block by block: the step's rejections carried (a row is
     usable a settling time after the last one) and one LogSampler per drag-law frame."""
 
-    def __init__(self, cal: Airframe, settle_s: float, dt_s: float, frames: tuple[str, ...],
+    def __init__(self, cal: Airframe, settle_s: float, dt_s: float, frames: tuple[DragFrame, ...],
                  rate_hz: float = dragfit.DECIMATED_RATE_HZ) -> None:
         self.cal, self.settle = cal, settle_s
         self.samplers = {frame: dragfit.LogSampler(cal, cal.filter.cutoffs_hz[0], dt_s, frame, rate_hz=rate_hz)
@@ -142,12 +144,12 @@ class DragReducer:
         usable = ~rejected & (t - last_reject >= self.settle)
         airflow = log.true_wind - log.stack("vel_n", "vel_e", "vel_d")
         af = self.cal
-        rpm = log.stack(*[f"rpm_{i + 1}" for i in range(af.thrust.rotors)]) if af.thrust.source == "rpm" else None
+        rpm = log.stack(*log_signals(af).rpm_columns()) if log_signals(af).rotor_speeds else None
         thrust = dragfit.thrust_ned(af, rpm, log.columns.get("thrust"), q)
         for frame, sampler in self.samplers.items():
             sampler.add(t, force, airflow, thrust, yaw, usable, q, log.columns.get("segment"))
 
-    def result(self, frame: str) -> dict[str, np.ndarray]:
+    def result(self, frame: DragFrame) -> dict[str, np.ndarray]:
         return self.samplers[frame].result()
 
 
@@ -164,7 +166,7 @@ class Reduced:
     settle_s: float
 
 
-def reduce_logs(af: Airframe, sources: list[LogSource], shapes: list[LogShape], frames: tuple[str, ...],
+def reduce_logs(af: Airframe, sources: list[LogSource], shapes: list[LogShape], frames: tuple[DragFrame, ...],
                 dynamic: bool, points: bool) -> Reduced:
     """The calibration airframe's step over each log a block at a time (one pass for the drag samples
     and the chunk means alike, as fit.calibration_run is shared)."""

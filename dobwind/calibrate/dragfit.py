@@ -36,6 +36,8 @@ from dobwind.model.forceair import (FOURFOLD_KEYS, HORIZONTAL_DRAG_KEYS, QUADRAT
                                     body_drag_basis, drag_airflow_numpy, heading_force, heading_to_ned,
                                     horizontal_drag_basis, law_decreasing, term_matrix)
 from dobwind.model.terms import Term
+from dobwind.model.kinds import DragFrame
+from dobwind.model.signals import log_signals
 
 PARAMETERS = HORIZONTAL_DRAG_KEYS + ("ox", "oy") + VERTICAL_DRAG_KEYS + ("kappa",)
 # The body-frame law adds rotor drag (linear in airflow, growing with rotor speed ~ sqrt(thrust)).
@@ -69,8 +71,8 @@ BODY_HORIZONTAL_SETS = (("l0",), ("q0",), ("l0", "q0"), ("lr", "q0"), ("l0", "q0
 ALWAYS = ("ox", "oy", "kappa")
 
 
-def parameters_of(frame: str) -> tuple[str, ...]:
-    return BODY_PARAMETERS if frame == "body" else PARAMETERS
+def parameters_of(frame: DragFrame) -> tuple[str, ...]:
+    return BODY_PARAMETERS if frame == DragFrame.BODY else PARAMETERS
 
 
 @dataclass(frozen=True)
@@ -83,7 +85,7 @@ class DragSamples:
     airflow: np.ndarray      # (N, 3) H-filtered true relative airflow, heading frame, m/s
     group: np.ndarray        # (N,) calibration block
     log_index: np.ndarray    # (N,) which log
-    frame: str = "heading"   # the drag law's frame; "body" also needs the two fields below
+    frame: DragFrame = DragFrame.HEADING   # the drag law's frame; the body frame also needs the two fields below
     rotation: np.ndarray | None = None  # (N, 3, 3) body -> NED at the sample (unfiltered, as the step sees it)
     rotor: np.ndarray | None = None     # (N,) sqrt(u_f / (m g)) at the sample, nominal thrust
     hold: np.ndarray | None = None      # (N,) the log's segment (a run of one `segment` label), when it has one
@@ -176,11 +178,11 @@ def _forward_fill(x: np.ndarray, valid: np.ndarray, carried: np.ndarray | None =
 COLUMN_BLOCK_ROWS = 65536
 
 
-def _unit_columns(frame: str, af: Airframe, airflow_ned: np.ndarray, thrust: np.ndarray, c: np.ndarray,
+def _unit_columns(frame: DragFrame, af: Airframe, airflow_ned: np.ndarray, thrust: np.ndarray, c: np.ndarray,
                   s: np.ndarray, q: np.ndarray | None) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """(rows, 3, P) NED force per unit of each parameter for a run of rows, and what the body frame's
     inversion needs at each row (its attitude and rotor term)."""
-    if frame == "body":
+    if frame == DragFrame.BODY:
         rot = rotation_matrices(q / np.linalg.norm(q, axis=1)[:, None])
         rotor = np.sqrt(np.linalg.norm(thrust, axis=1) / (af.mass_kg * af.gravity_mps2))
         return body_columns(airflow_ned, rot, rotor, c, s, thrust), {"rotation": rot, "rotor": rotor}
@@ -228,7 +230,7 @@ class LogSampler:
     starts in steady state at the first valid row as it does at a clean log's first row. They still
     count in the row index and the segment runs (a segment began when its first row was logged)."""
 
-    def __init__(self, af: Airframe, cutoff_hz: float, dt_s: float, frame: str = "heading",
+    def __init__(self, af: Airframe, cutoff_hz: float, dt_s: float, frame: DragFrame = DragFrame.HEADING,
                  column_rows: int = COLUMN_BLOCK_ROWS, rate_hz: float = DECIMATED_RATE_HZ) -> None:
         self.af, self.frame, self.column_rows = af, frame, column_rows
         self.step = sample_step(dt_s, rate_hz)
@@ -244,7 +246,7 @@ class LogSampler:
     def _valid(self, airflow_ned: np.ndarray, thrust_ned: np.ndarray, yaw: np.ndarray,
                q: np.ndarray | None) -> np.ndarray:
         valid = np.isfinite(airflow_ned).all(axis=1) & np.isfinite(thrust_ned).all(axis=1) & np.isfinite(yaw)
-        if self.frame == "body":
+        if self.frame == DragFrame.BODY:
             valid &= np.isfinite(q).all(axis=1) & (np.linalg.norm(np.nan_to_num(q), axis=1) > 0)
         return valid
 
@@ -254,7 +256,7 @@ class LogSampler:
         """The next rows: ``thrust_ned`` is u_f z_b; ``usable`` marks rows the step accepted that are at
         least one settling time clear of a start or rejection; the body frame needs the attitude ``q``;
         with the log's ``segment`` labels each sample records its segment run and the time since it began."""
-        q = q if self.frame == "body" else None
+        q = q if self.frame == DragFrame.BODY else None
         self.segmented = segment is not None
         if not len(t):
             return
@@ -333,7 +335,7 @@ class LogSampler:
         out = {"observed": np.zeros((0, 3)), "cos_yaw": np.zeros(0), "sin_yaw": np.zeros(0), "time": np.zeros(0),
                "interval_s": np.zeros(0), "columns": np.zeros((0, 3, len(parameters_of(self.frame)))),
                "airflow": np.zeros((0, 3))}
-        if self.frame == "body":
+        if self.frame == DragFrame.BODY:
             out.update(rotation=np.zeros((0, 3, 3)), rotor=np.zeros(0))
         if self.segmented:
             out.update(hold=np.zeros(0, dtype=np.int64), hold_age_s=np.zeros(0))
@@ -346,7 +348,7 @@ def median_step(t: np.ndarray, af: Airframe) -> float:
 
 
 def log_samples(af: Airframe, cutoff_hz: float, t: np.ndarray, force_ned: np.ndarray, airflow_ned: np.ndarray,
-                thrust_ned: np.ndarray, yaw: np.ndarray, usable: np.ndarray, frame: str = "heading",
+                thrust_ned: np.ndarray, yaw: np.ndarray, usable: np.ndarray, frame: DragFrame = DragFrame.HEADING,
                 q: np.ndarray | None = None, segment: np.ndarray | None = None,
                 block_rows: int = COLUMN_BLOCK_ROWS, rate_hz: float = DECIMATED_RATE_HZ) -> dict[str, np.ndarray]:
     """One whole log's samples (LogSampler.add's arguments); the full-rate columns are built and
@@ -358,7 +360,7 @@ def log_samples(af: Airframe, cutoff_hz: float, t: np.ndarray, force_ned: np.nda
 
 def thrust_ned(af: Airframe, rotor_rpm: np.ndarray | None, thrust: np.ndarray | None, q: np.ndarray) -> np.ndarray:
     """u_f z_b (N, NED): the airframe's thrust (scale included) along the body's down axis."""
-    if af.thrust.source == "rpm":
+    if log_signals(af).rotor_speeds:
         omega = np.asarray(rotor_rpm) / af.thrust.max_rpm
         u_f = sum(c * np.sum(omega ** k, axis=1) for k, c in enumerate(af.thrust.coefficients)) * af.thrust.scale
     else:
@@ -374,7 +376,7 @@ def segment_runs(t: np.ndarray, segment: np.ndarray) -> tuple[np.ndarray, np.nda
     return np.cumsum(start) - 1, t - t[first]
 
 
-def merge(parts: list[dict[str, np.ndarray]], frame: str = "heading") -> DragSamples:
+def merge(parts: list[dict[str, np.ndarray]], frame: DragFrame = DragFrame.HEADING) -> DragSamples:
     """The logs' samples (LogSampler.result each) as one set: blocks numbered across logs. Each sample
     keeps its log's interval (LogSampler's step times the log's sample time)."""
     groups, offset = [], 0
@@ -385,7 +387,7 @@ def merge(parts: list[dict[str, np.ndarray]], frame: str = "heading") -> DragSam
     cat = {k: np.concatenate([p[k] for p in parts]) for k in ("observed", "columns", "cos_yaw", "sin_yaw", "airflow")}
     logs = np.concatenate([np.full(len(p["time"]), i) for i, p in enumerate(parts)])
     interval = np.concatenate([p["interval_s"] for p in parts])
-    body = {k: np.concatenate([p[k] for p in parts]) for k in ("rotation", "rotor")} if frame == "body" else {}
+    body = {k: np.concatenate([p[k] for p in parts]) for k in ("rotation", "rotor")} if frame == DragFrame.BODY else {}
     # Segment runs only when every log has them (holdcv falls back to fixed windows otherwise).
     holds = {k: np.concatenate([p[k] for p in parts]) for k in ("hold", "hold_age_s")} \
         if parts and all("hold" in p for p in parts) else {}
@@ -531,10 +533,10 @@ def run_verdicts(samples: DragSamples, active: tuple[str, ...], theta: np.ndarra
     return runmeans.verdicts(logs, speeds, errors, weights)
 
 
-def law_of(theta: np.ndarray, frame: str = "heading", exponent: float = 2.0) -> DragLaw:
+def law_of(theta: np.ndarray, frame: DragFrame = DragFrame.HEADING, exponent: float = 2.0) -> DragLaw:
     """The law as the fit sees it (for the body frame, the rotor term on the NOMINAL thrust)."""
     values = dict(zip(parameters_of(frame), (float(v) for v in theta)))
-    keys = HORIZONTAL_DRAG_KEYS + VERTICAL_DRAG_KEYS + ((ROTOR_DRAG_KEY,) if frame == "body" else ())
+    keys = HORIZONTAL_DRAG_KEYS + VERTICAL_DRAG_KEYS + ((ROTOR_DRAG_KEY,) if frame == DragFrame.BODY else ())
     return DragLaw(**{k: values[k] for k in keys}, frame=frame, exponent=float(exponent))
 
 
@@ -549,7 +551,7 @@ def with_exponent(samples: DragSamples, exponent: float) -> DragSamples:
     if exponent == samples.exponent:
         return samples
     air = samples.airflow
-    speed = np.linalg.norm(air, axis=1) if samples.frame == "body" else np.hypot(air[:, 0], air[:, 1])
+    speed = np.linalg.norm(air, axis=1) if samples.frame == DragFrame.BODY else np.hypot(air[:, 0], air[:, 1])
     factor = np.maximum(speed, 1e-9) ** (exponent - samples.exponent)
     columns = samples.columns.copy()
     for key in QUADRATIC_KEYS:   # the columns whose terms grow as s^p
@@ -568,10 +570,10 @@ def heading_forces(samples: DragSamples, theta: np.ndarray) -> np.ndarray:
 def predicted_airflow(samples: DragSamples, theta: np.ndarray) -> np.ndarray:
     """The step's inversion applied to the observed force: heading-frame airflow (N, 3)."""
     force = heading_forces(samples, theta)
-    if samples.frame != "body":
+    if samples.frame != DragFrame.BODY:
         return drag_airflow_numpy(law_of(theta, exponent=samples.exponent), force[:, 0], force[:, 1], force[:, 2])
     north, east = heading_to_ned(force[:, 0], force[:, 1], samples.cos_yaw, samples.sin_yaw)
-    ned = body_drag_airflow_numpy(law_of(theta, "body", samples.exponent), np.column_stack([north, east, force[:, 2]]),
+    ned = body_drag_airflow_numpy(law_of(theta, DragFrame.BODY, samples.exponent), np.column_stack([north, east, force[:, 2]]),
                                   samples.rotation, samples.rotor)
     return np.column_stack(heading_force(ned.T, samples.cos_yaw, samples.sin_yaw, (0.0, 0.0, 0.0)))
 
@@ -690,7 +692,7 @@ def choose_drag_law(samples: DragSamples, prefer: Prefer) -> DragChoice:
     them in every candidate."""
     vertical_full = VERTICAL_SETS[-1]
     folds, top = fold_splits(samples), top_split(samples)  # the same splits for every candidate
-    candidates = BODY_HORIZONTAL_SETS if samples.frame == "body" else HORIZONTAL_SETS
+    candidates = BODY_HORIZONTAL_SETS if samples.frame == DragFrame.BODY else HORIZONTAL_SETS
     if samples.anchor:
         candidates = anchored_sets(candidates)
     horizontal, theta, where, score, dropped = _choose_horizontal(samples, candidates, folds, top, prefer)
@@ -773,7 +775,7 @@ def decreasing_at(samples: DragSamples, theta: np.ndarray) -> str | None:
     """law_decreasing for the law ``theta`` over the samples' airflow (and rotor terms), or None."""
     speed = float(np.max(np.hypot(samples.airflow[:, 0], samples.airflow[:, 1]), initial=0.0))
     rotors = (float(np.min(samples.rotor)), float(np.max(samples.rotor))) \
-        if samples.frame == "body" and samples.rotor is not None and len(samples.rotor) else (1.0,)
+        if samples.frame == DragFrame.BODY and samples.rotor is not None and len(samples.rotor) else (1.0,)
     return law_decreasing(law_of(theta, samples.frame, samples.exponent), LAW_CHECK_SPEED_SHARE * speed, rotors)
 
 

@@ -19,7 +19,7 @@ import dataclasses
 import itertools
 import math
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -70,8 +70,11 @@ class Points:
         return len(self.m)
 
 
-@dataclass
+@dataclass(frozen=True)
 class FitReport:
+    """What `fit` measured and chose, as `fit --json` prints it (docs/fit-report.md; its schema is
+    docs/schemas/fit-report.schema.json). Built once per step of the fit: a step that adds to it
+    makes a new report (dataclasses.replace), it is never changed in place."""
     points: int = 0
     outliers_removed: int = 0
     zero_airflow_points: int = 0
@@ -118,6 +121,10 @@ class FitReport:
     excluded_logs: list[str] = field(default_factory=list)   # left out by --exclude-outliers
     hold_cv_without_outliers_mps: float | None = None  # the hold-level CV without the flagged logs (runmeans)
     warnings: list[str] = field(default_factory=list)
+
+    def as_dict(self) -> dict[str, Any]:
+        """The fields in declaration order, nested values copied (the schema's properties)."""
+        return dataclasses.asdict(self)
 
 
 def _term_matrix(terms: list[str], m: np.ndarray, n: np.ndarray, fz: np.ndarray) -> np.ndarray:
@@ -360,13 +367,13 @@ def fit_polynomial(af: Airframe, logs: list[FlightLog], terms: str = "auto", dyn
     """The paper's family from steady chunks (or manoeuvres with ``dynamic``); ``run``: the calibration
     run of ``af`` over ``logs``, when already made; ``points_of``: calibration_points of any airframe over
     the logs, made another way (then ``logs`` is not read)."""
-    report = FitReport()
     points_of = points_of or (lambda airframe: calibration_points(airframe, logs, dynamic, run))
-    af, points = _calibrated_points(af, points_of, report)
-    h_terms = _horizontal_terms(af, points, terms, report)
-    (report.horizontal_coefficients, report.horizontal_rmse_mps, report.horizontal_cv_rmse_mps,
-     report.horizontal_extrapolation_rmse_mps) = _least_squares(h_terms, points, points.speed_h)
-    vertical = _vertical_model(af, points, terms, report)
+    af, points, report = _calibrated_points(af, points_of)
+    h_terms, report = _horizontal_terms(af, points, terms, report)
+    coefficients, rmse, cv, extrapolation = _least_squares(h_terms, points, points.speed_h)
+    report = dataclasses.replace(report, horizontal_coefficients=coefficients, horizontal_rmse_mps=rmse,
+                                 horizontal_cv_rmse_mps=cv, horizontal_extrapolation_rmse_mps=extrapolation)
+    vertical, report = _vertical_model(af, points, terms, report)
     horizontal = ForceAirModel(tuple(parse_term(t) for t in h_terms), tuple(report.horizontal_coefficients))
     if not all(math.isfinite(c) for c in report.horizontal_coefficients + report.vertical_coefficients):
         raise CheckFailed("the least-squares fit gave non-finite coefficients")
@@ -380,12 +387,13 @@ def fit_polynomial(af: Airframe, logs: list[FlightLog], terms: str = "auto", dyn
     return new, report, points
 
 
-def _calibrated_points(af: Airframe, points_of: PointsOf, report: FitReport) -> tuple[Airframe, Points]:
+def _calibrated_points(af: Airframe, points_of: PointsOf) -> tuple[Airframe, Points, FitReport]:
     """The thrust scale and the force offset from zero-airflow data, then the cleaned calibration points
-    with the offset removed. Returns the airframe with the new thrust scale."""
+    with the offset removed. Returns the airframe with the new thrust scale and the report so far."""
     raw, _ = points_of(af)
     zero = _zero_airflow(raw)
-    report.zero_airflow_points = int(zero.sum())
+    zero_airflow_points = int(zero.sum())
+    warnings = []
     if zero.sum() >= 3:
         # Level hover in still air: the true thrust holds the weight, so the vertical force seen there
         # is a thrust-curve scale error. Calibrated as a scale it stays along the body axis when the
@@ -396,66 +404,68 @@ def _calibrated_points(af: Airframe, points_of: PointsOf, report: FitReport) -> 
         raw, _ = points_of(af)
         zero = _zero_airflow(raw)
     else:
-        report.warnings.append("no zero-airflow data: the thrust scale is kept from the airframe")
-    report.thrust_scale = af.thrust.scale
+        warnings.append("no zero-airflow data: the thrust scale is kept from the airframe")
     if zero.sum() >= 3:
         offset = (float(raw.m[zero].mean()), float(raw.n[zero].mean()), float(raw.fz[zero].mean()))
     elif _opposing_directions(raw):
         horizontal = _offset_from_directions(raw)
         offset = (horizontal[0], horizontal[1], af.observer.force_offset_n[2])
-        report.warnings.append("no zero-airflow data: the horizontal force offset comes from the airflow directions "
-                               "(the air moves along the force minus the offset); the vertical one is kept")
+        warnings.append("no zero-airflow data: the horizontal force offset comes from the airflow directions "
+                        "(the air moves along the force minus the offset); the vertical one is kept")
     else:
         offset = af.observer.force_offset_n
-        report.warnings.append("no zero-airflow data: the force offset is kept from the airframe")
-    report.force_offset_n = offset
+        warnings.append("no zero-airflow data: the force offset is kept from the airframe")
     shifted = Points(raw.m - offset[0], raw.n - offset[1], raw.fz - offset[2], raw.speed_h, raw.air_z,
                      raw.air_angle, raw.group)
-    points, report.outliers_removed = remove_outliers(shifted)
-    report.points = len(points)
+    points, outliers_removed = remove_outliers(shifted)
     if len(points) < MIN_POINTS:
         raise CheckFailed(f"only {len(points)} calibration points after cleaning (need {MIN_POINTS})")
 
     moving = points.speed_h >= 1.0
     bins = np.floor((np.degrees(points.air_angle[moving]) % 360) / 30).astype(int)
-    report.directions = int(sum(np.sum(bins == b) >= 3 for b in range(12)))
     levels = np.round(points.speed_h / 0.5)
-    report.speeds = int(sum(np.sum(levels == v) >= 3 for v in np.unique(levels)))
-    return af, points
+    report = FitReport(points=len(points), outliers_removed=outliers_removed, zero_airflow_points=zero_airflow_points,
+                       thrust_scale=af.thrust.scale, force_offset_n=offset,
+                       directions=int(sum(np.sum(bins == b) >= 3 for b in range(12))),
+                       speeds=int(sum(np.sum(levels == v) >= 3 for v in np.unique(levels))), warnings=warnings)
+    return af, points, report
 
 
-def _horizontal_terms(af: Airframe, points: Points, terms: str, report: FitReport) -> list[str]:
-    """The horizontal model's terms: chosen or the airframe's, narrowed when the data cannot support them."""
+def _horizontal_terms(af: Airframe, points: Points, terms: str, report: FitReport) -> tuple[list[str], FitReport]:
+    """The horizontal model's terms: chosen or the airframe's, narrowed when the data cannot support them;
+    the report with them and the reasons they were narrowed."""
+    warnings = list(report.warnings)
     if terms == "auto":
         candidates = HORIZONTAL_CANDIDATES if report.directions >= 4 else DIRECTION_FREE
         h_terms, _ = select_terms(candidates, points, points.speed_h)
     else:
         h_terms = list(af.horizontal.term_texts)
     if report.directions < 4 and any(parse_term(t).variables & {"m", "n"} for t in h_terms):
-        report.warnings.append(f"airflow from only {report.directions} direction(s) of 12 (30 deg bins): "
-                               "fitting a direction-independent model (fh^0.5, fh) instead of " + ", ".join(h_terms))
+        warnings.append(f"airflow from only {report.directions} direction(s) of 12 (30 deg bins): "
+                        "fitting a direction-independent model (fh^0.5, fh) instead of " + ", ".join(h_terms))
         h_terms = list(DIRECTION_FREE)
     if report.speeds < 3 and len(h_terms) > 1:
-        report.warnings.append(f"only {report.speeds} distinct airflow speed(s): fitting the one-term model "
-                               "speed = c * fh^0.5 (quadratic drag)")
+        warnings.append(f"only {report.speeds} distinct airflow speed(s): fitting the one-term model "
+                        "speed = c * fh^0.5 (quadratic drag)")
         h_terms = ["fh^0.5"]
-    report.horizontal_terms = h_terms
-    return h_terms
+    return h_terms, dataclasses.replace(report, horizontal_terms=h_terms, warnings=warnings)
 
 
-def _vertical_model(af: Airframe, points: Points, terms: str, report: FitReport) -> ForceAirModel:
-    """The vertical model fitted, or kept from the airframe when the data hardly move vertically."""
+def _vertical_model(af: Airframe, points: Points, terms: str, report: FitReport) -> tuple[ForceAirModel, FitReport]:
+    """The vertical model fitted, or kept from the airframe when the data hardly move vertically; the
+    report with it."""
     vertical = af.vertical
     vertical_span = float(np.ptp(points.air_z))
     if vertical_span < 1.0:
-        report.warnings.append(f"vertical airflow spans only {vertical_span:.2f} m/s in the data: the vertical model "
-                               "is kept from the airframe (fly climbs and descents to calibrate it)")
-        report.vertical_terms, report.vertical_coefficients = list(vertical.term_texts), list(vertical.coefficients)
-    else:
-        v_terms = (select_terms(VERTICAL_CANDIDATES, points, points.air_z, max_terms=4)[0] if terms == "auto"
-                   else list(vertical.term_texts))
-        report.vertical_terms = v_terms
-        (report.vertical_coefficients, report.vertical_rmse_mps, report.vertical_cv_rmse_mps,
-         report.vertical_extrapolation_rmse_mps) = _least_squares(v_terms, points, points.air_z)
-        vertical = ForceAirModel(tuple(parse_term(t) for t in v_terms), tuple(report.vertical_coefficients))
-    return vertical
+        warning = (f"vertical airflow spans only {vertical_span:.2f} m/s in the data: the vertical model "
+                   "is kept from the airframe (fly climbs and descents to calibrate it)")
+        return vertical, dataclasses.replace(report, warnings=[*report.warnings, warning],
+                                             vertical_terms=list(vertical.term_texts),
+                                             vertical_coefficients=list(vertical.coefficients))
+    v_terms = (select_terms(VERTICAL_CANDIDATES, points, points.air_z, max_terms=4)[0] if terms == "auto"
+               else list(vertical.term_texts))
+    coefficients, rmse, cv, extrapolation = _least_squares(v_terms, points, points.air_z)
+    vertical = ForceAirModel(tuple(parse_term(t) for t in v_terms), tuple(coefficients))
+    return vertical, dataclasses.replace(report, vertical_terms=v_terms, vertical_coefficients=coefficients,
+                                         vertical_rmse_mps=rmse, vertical_cv_rmse_mps=cv,
+                                         vertical_extrapolation_rmse_mps=extrapolation)

@@ -19,17 +19,18 @@ from dobwind.calibrate.fit import (CalibrationRun, FitReport, Points, PointsOf, 
 from dobwind.io.logs import FlightLog
 from dobwind.model.airframe import CALIBRATED, VERTICAL_FALLBACK, Airframe, ForceAirModel
 from dobwind.calibrate.selfcheck import SelfCheck, Thresholds, self_check, self_check_sources
+from dobwind.model.kinds import DragFrame
 
 LogReader = Callable[[str, Airframe], FlightLog]  # a calibration log's path -> the log with its true wind
 
 MODELS = ("auto", "drag", "drag-heading", "drag-body", "polynomial")
 # --model -> the drag-law frames it fits (both drag frames are scored alike and the better one is kept).
-DRAG_FRAMES_OF = {"auto": ("heading", "body"), "drag": ("heading", "body"), "drag-heading": ("heading",),
-                  "drag-body": ("body",), "polynomial": ()}
-FAMILY_OF_FRAME = {"heading": "drag", "body": "drag-body"}
+DRAG_FRAMES_OF = {"auto": (DragFrame.HEADING, DragFrame.BODY), "drag": (DragFrame.HEADING, DragFrame.BODY), "drag-heading": (DragFrame.HEADING,),
+                  "drag-body": (DragFrame.BODY,), "polynomial": ()}
+FAMILY_OF_FRAME = {DragFrame.HEADING: "drag", DragFrame.BODY: "drag-body"}
 
 
-def drag_samples(af: Airframe, logs: list[FlightLog], frames: tuple[str, ...] = ("heading",),
+def drag_samples(af: Airframe, logs: list[FlightLog], frames: tuple[DragFrame, ...] = (DragFrame.HEADING,),
                  run: CalibrationRun | None = None) -> tuple[dict[str, dragfit.DragSamples], list[int]]:
     """Decimated per-sample calibration data from every log for each drag-law frame (the same samples
     and blocks in each), and how many samples each log gave. ``run``: the calibration run of ``af``
@@ -55,7 +56,7 @@ def drag_airframe(af: Airframe, choice: dragfit.DragChoice, samples: dragfit.Dra
     thrust = dataclasses.replace(af.thrust, scale=af.thrust.scale * (1 - values["kappa"]))
     observer = dataclasses.replace(af.observer, force_offset_n=(values["ox"], values["oy"], 0.0))
     law = dragfit.law_of(choice.theta, samples.frame, samples.exponent)
-    if law.frame == "body":
+    if law.frame == DragFrame.BODY:
         # The fit's rotor term uses the nominal thrust; the step's, the scaled one (a factor 1 - kappa).
         law = dataclasses.replace(law, lr=law.lr / math.sqrt(1 - values["kappa"]))
     predicted = dragfit.predicted_airflow(samples, choice.theta)
@@ -98,13 +99,13 @@ def _polynomial_scores(fitted: Airframe, samples: dragfit.DragSamples) -> dict[s
 class _Calibration:
     """What the fit reads of its logs, however they were read: each drag-law frame's merged samples, the
     samples per log, the polynomial family's points of any airframe, and the self-check's replay."""
-    by_frame: dict[str, dragfit.DragSamples]
+    by_frame: dict[DragFrame, dragfit.DragSamples]
     per_log: list[int]
     points_of: PointsOf
     check: Callable[[Airframe, float | None, float, Thresholds], SelfCheck]
 
 
-def _whole_logs(af: Airframe, log_paths: list[str], frames: tuple[str, ...], dynamic: bool,
+def _whole_logs(af: Airframe, log_paths: list[str], frames: tuple[DragFrame, ...], dynamic: bool,
                 still_air: bool, log_reader: LogReader | None = None) -> _Calibration:
     """Every log read whole and reduced in one block (the reference the streamed fit is held to)."""
     logs = read_calibration_logs(af, log_paths, still_air, log_reader)
@@ -114,7 +115,7 @@ def _whole_logs(af: Airframe, log_paths: list[str], frames: tuple[str, ...], dyn
                         lambda new, cv, speed, limits: self_check(new, logs, per_log, cv, speed, limits))
 
 
-def _streamed_logs(af: Airframe, log_paths: list[str], frames: tuple[str, ...], dynamic: bool, still_air: bool,
+def _streamed_logs(af: Airframe, log_paths: list[str], frames: tuple[DragFrame, ...], dynamic: bool, still_air: bool,
                    points: bool, block_bytes: int, log_reader: LogReader | None = None) -> _Calibration:
     """Every log read ``block_bytes`` at a time, once for its shape, once for the calibration step (drag
     samples and chunk means together), again for the points of a rescaled airframe and for the
@@ -178,16 +179,16 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynami
         try:
             other = _fit_once(accelroute.blended(af), log_paths, options)
         except CheckFailed as exc:
-            report.acceleration_route = accelroute.blend_record(af, check, None, False, str(exc))
-            report.warnings.append(accelroute.failed_blend_warning(str(exc)))
+            report = dataclasses.replace(report, acceleration_route=accelroute.blend_record(af, check, None, False, str(exc)),
+                                         warnings=[*report.warnings, accelroute.failed_blend_warning(str(exc))])
         else:
             blend_check = other[3]
             kept = accelroute.keeps_blend(check, blend_check)
             record = accelroute.blend_record(af, check, blend_check, kept)
             if kept:
                 new, report, points, check = other
-            report.acceleration_route = record
-    report.self_check = dataclasses.asdict(check)
+            report = dataclasses.replace(report, acceleration_route=record)
+    report = dataclasses.replace(report, self_check=dataclasses.asdict(check))
     # The self-check's replay measured the observer noise; the sigma outputs add it to the residuals (#10).
     new = dataclasses.replace(new, uncertainty=with_observer_noise(new.uncertainty, check.noise_h_mps, check.noise_up_mps))
     return new, report, points
@@ -205,10 +206,9 @@ def refit_without_outliers(first: Fit, log_paths: list[str], fit: Callable[[list
     if not excluded or not kept:
         return first
     new, report, points = fit(kept)
-    report.excluded_logs = excluded
-    report.warnings.append(f"--exclude-outliers: fitted without {', '.join(excluded)} (flagged as outliers by the fit "
-                           "on every log); the self-check replays only the logs kept")
-    return new, report, points
+    warning = (f"--exclude-outliers: fitted without {', '.join(excluded)} (flagged as outliers by the fit "
+               "on every log); the self-check replays only the logs kept")
+    return new, dataclasses.replace(report, excluded_logs=excluded, warnings=[*report.warnings, warning]), points
 
 
 def _fit_once(af: Airframe, log_paths: list[str],
@@ -219,12 +219,12 @@ def _fit_once(af: Airframe, log_paths: list[str],
     limits, block_bytes, hover = options.limits, options.block_bytes, options.hover
     frames = DRAG_FRAMES_OF[model]
     if block_bytes is None:
-        calibration = _whole_logs(af, log_paths, frames or ("heading",), dynamic, still_air, options.log_reader)
+        calibration = _whole_logs(af, log_paths, frames or (DragFrame.HEADING,), dynamic, still_air, options.log_reader)
     else:
-        calibration = _streamed_logs(af, log_paths, frames or ("heading",), dynamic, still_air,
+        calibration = _streamed_logs(af, log_paths, frames or (DragFrame.HEADING,), dynamic, still_air,
                                      model in ("polynomial", "auto"), block_bytes, options.log_reader)
     by_frame, per_log = calibration.by_frame, calibration.per_log
-    samples = by_frame.get("heading", next(iter(by_frame.values())))
+    samples = by_frame.get(DragFrame.HEADING, next(iter(by_frame.values())))
     families, scores, failures = _drag_families(af, by_frame, frames, len(samples))
     if model in ("polynomial", "auto"):
         try:
@@ -237,21 +237,12 @@ def _fit_once(af: Airframe, log_paths: list[str],
         raise CheckFailed("; ".join(failures) or "no model could be fitted")
     chosen = choose_family(list(families), scores)
     new, report, points = families[chosen]
-    report.model, report.families, report.samples = chosen, scores, len(samples)
-    for key in ("hold_cv_speed_mps", "hold_cv_by_speed", "hold_extrapolation_speed_mps"):
-        setattr(report, key, scores.get(chosen, {}).get(key))
-    report.warnings += failures
-    sparse = holdcv.sparse_windows(report.hold_cv_by_speed, float(np.median(samples.rates_hz()))) if len(samples) else None
-    report.warnings += [sparse] if sparse else []
-    vertical = vertical_warning(report.vertical_cv_rmse_mps, samples.airflow[:, 2] if len(samples) else np.zeros(0))
-    report.warnings += [vertical + VERTICAL_FALLBACK_NOTE] if vertical else []
+    report, vertical = _chosen_report(report, chosen, scores, samples, failures)
     # Unidentified, the vertical law is not used: the step publishes zero vertical wind and flags it.
     new = dataclasses.replace(new, vertical_law=VERTICAL_FALLBACK if vertical else "fitted")
-    for run in report.runs:
-        run["log"] = log_paths[run["log"]]  # the index into the logs given -> its path
-    for index, count in enumerate(per_log):
-        if count == 0:
-            report.warnings.append(f"{log_paths[index]}: contributed no usable sample")
+    report = dataclasses.replace(report, runs=[{**run, "log": log_paths[run["log"]]} for run in report.runs],  # index -> path
+                                 warnings=[*report.warnings, *(f"{log_paths[index]}: contributed no usable sample"
+                                                               for index, count in enumerate(per_log) if count == 0)])
     speed_range = _speed_range(samples, points)
     cv = report.hold_cv_speed_mps if report.hold_cv_speed_mps is not None else report.horizontal_cv_rmse_mps
     exempt = (runmeans.exempt_outliers(report.runs, report.anchored)
@@ -259,12 +250,28 @@ def _fit_once(af: Airframe, log_paths: list[str],
     if exempt:  # the fit's own outliers: judged on the logs that agree (runmeans.exempt_outliers)
         cv = report.hold_cv_without_outliers_mps
         limits = dataclasses.replace(limits, outlier_logs=tuple(exempt))
-        report.warnings.append(runmeans.exempt_warning(report.runs, exempt))
+        report = dataclasses.replace(report, warnings=[*report.warnings, runmeans.exempt_warning(report.runs, exempt)])
     check = calibration.check(new, cv, speed_range, limits)
-    new, check, report.low_pass, quiet_warnings = _quiet_hover(
+    new, check, low_pass, quiet_warnings = _quiet_hover(
         new, check, hover, lambda af_: calibration.check(af_, cv, speed_range, limits))
-    report.warnings += quiet_warnings
-    return new, report, points, check
+    return new, dataclasses.replace(report, low_pass=low_pass, warnings=[*report.warnings, *quiet_warnings]), points, check
+
+
+def _chosen_report(report: FitReport, chosen: str, scores: dict[str, dict[str, Any]], samples: dragfit.DragSamples,
+                   failures: list[str]) -> tuple[FitReport, str | None]:
+    """The chosen family's report with the choice, every family's scores, the chosen one's hold-level
+    figures and the warnings about the data (the other families' failures first); and the vertical
+    warning, when the vertical law is not identified (None when it is)."""
+    chosen_scores = scores.get(chosen, {})
+    hold_cv_by_speed = chosen_scores.get("hold_cv_by_speed")
+    sparse = holdcv.sparse_windows(hold_cv_by_speed, float(np.median(samples.rates_hz()))) if len(samples) else None
+    vertical = vertical_warning(report.vertical_cv_rmse_mps, samples.airflow[:, 2] if len(samples) else np.zeros(0))
+    warnings = [*report.warnings, *failures, *([sparse] if sparse else []),
+                *([vertical + VERTICAL_FALLBACK_NOTE] if vertical else [])]
+    return dataclasses.replace(report, model=chosen, families=scores, samples=len(samples),
+                               hold_cv_speed_mps=chosen_scores.get("hold_cv_speed_mps"), hold_cv_by_speed=hold_cv_by_speed,
+                               hold_extrapolation_speed_mps=chosen_scores.get("hold_extrapolation_speed_mps"),
+                               warnings=warnings), vertical
 
 
 VERTICAL_FALLBACK_NOTE = (f'; the fitted airframe says force_air.vertical_law = "{VERTICAL_FALLBACK}": its '
@@ -334,7 +341,7 @@ def choose_family(names: list[str], scores: dict[str, dict[str, Any]]) -> str:
     return best
 
 
-def _drag_families(af: Airframe, by_frame: dict[str, dragfit.DragSamples], frames: tuple[str, ...],
+def _drag_families(af: Airframe, by_frame: dict[DragFrame, dragfit.DragSamples], frames: tuple[DragFrame, ...],
                    samples: int) -> tuple[dict[str, Family], dict[str, dict[str, Any]], list[str]]:
     """Each drag frame's law chosen and scored, the body frame's with its exponent (dragexponent):
     (fitted families, their scores, why a family was not)."""
@@ -355,7 +362,7 @@ def _drag_families(af: Airframe, by_frame: dict[str, dragfit.DragSamples], frame
             continue
         hold = holdcv.hold_cv(by_frame[frame], dragfit.drag_fit_predict(choice.active))
         picked = dragexponent.ExponentChoice(2.0, by_frame[frame], choice, hold)
-        if frame == "body":  # the heading frame's exponent would absorb the tilt (dragexponent's note)
+        if frame == DragFrame.BODY:  # the heading frame's exponent would absorb the tilt (dragexponent's note)
             picked = dragexponent.choose_exponent(by_frame[frame], choice,
                                                   lambda s, c: _uninvertible(s, c) is None, hold)
         families[family], scores[family] = _drag_family(af, picked)
@@ -364,14 +371,14 @@ def _drag_families(af: Airframe, by_frame: dict[str, dragfit.DragSamples], frame
 
 def _drag_family(af: Airframe, picked: dragexponent.ExponentChoice) -> tuple[Family, dict[str, Any]]:
     fitted = drag_airframe(af, picked.choice, picked.samples)
-    report = _drag_report(picked.choice, picked.samples, fitted)
-    report.exponent_scores = {f"{p:g}": s for p, s in sorted(picked.scores.items())}
+    report = dataclasses.replace(_drag_report(picked.choice, picked.samples, fitted),
+                                 exponent_scores={f"{p:g}": s for p, s in sorted(picked.scores.items())})
     flagged = [run["log"] for run in report.runs if run["outlier"]]  # log indices here
     if runmeans.exempt_outliers(report.runs, report.anchored):
         # The hold-level CV the self-check judges when it leaves the flagged logs out (fitfamily._fit_once).
         keep = ~np.isin(picked.samples.log_index, flagged)
         hold = holdcv.hold_cv(picked.samples.select(keep), dragfit.drag_fit_predict(picked.choice.active))
-        report.hold_cv_without_outliers_mps = hold.rms_mps if hold is not None else None
+        report = dataclasses.replace(report, hold_cv_without_outliers_mps=hold.rms_mps if hold is not None else None)
     scores = _family_scores((picked.choice.cv_h_mps, picked.choice.cv_v_mps), picked.choice.extrapolation_h_mps,
                             picked.hold)
     if report.anchored:
@@ -442,15 +449,13 @@ def _speed_range(samples: dragfit.DragSamples, points: Points | None) -> float:
 
 def _drag_report(choice: dragfit.DragChoice, samples: dragfit.DragSamples, fitted: Airframe) -> FitReport:
     values = dict(zip(samples.parameters, (float(v) for v in choice.theta)))
-    report = FitReport(points=len(samples), thrust_scale=fitted.thrust.scale)
     # As written to the airframe (the rotor term on the scaled thrust), with the offsets and kappa.
-    report.drag = {**{k: values[k] for k in samples.parameters}, **{
+    drag = {**{k: values[k] for k in samples.parameters}, **{
         k: v for k, v in fitted.drag.as_dict().items() if k != "frame"}}  # type: ignore[union-attr]
-    report.force_offset_n = (values["ox"], values["oy"], 0.0)
-    report.horizontal_rmse_mps, report.horizontal_cv_rmse_mps = choice.rmse_h_mps, _none(choice.cv_h_mps)
-    report.horizontal_extrapolation_rmse_mps = _none(choice.extrapolation_h_mps)
-    report.vertical_rmse_mps, report.vertical_cv_rmse_mps = choice.rmse_v_mps, _none(choice.cv_v_mps)
-    report.not_increasing = list(choice.dropped)
-    report.anchored = samples.anchor
-    report.runs = [dataclasses.asdict(v) for v in dragfit.run_verdicts(samples, choice.active, choice.theta)]
-    return report
+    return FitReport(points=len(samples), thrust_scale=fitted.thrust.scale, drag=drag,
+                     force_offset_n=(values["ox"], values["oy"], 0.0),
+                     horizontal_rmse_mps=choice.rmse_h_mps, horizontal_cv_rmse_mps=_none(choice.cv_h_mps),
+                     horizontal_extrapolation_rmse_mps=_none(choice.extrapolation_h_mps),
+                     vertical_rmse_mps=choice.rmse_v_mps, vertical_cv_rmse_mps=_none(choice.cv_v_mps),
+                     not_increasing=list(choice.dropped), anchored=samples.anchor,
+                     runs=[dataclasses.asdict(v) for v in dragfit.run_verdicts(samples, choice.active, choice.theta)])

@@ -9,6 +9,7 @@ from dobwind.calibrate.fit import FOLDS, FitReport, Points
 from dobwind.model.airframe import Airframe
 from dobwind.model.forceair import term_matrix
 from dobwind.model.terms import parse_term
+from dobwind.model.kinds import DragFrame
 
 
 def _term_matrix(terms: list[str], m: np.ndarray, n: np.ndarray, fz: np.ndarray) -> np.ndarray:
@@ -145,7 +146,7 @@ def drag_plot(af: Airframe, path: str) -> None:
     for label, (vx, vy, vz), pick in (("x (forward)", (speed, zero, zero), 0), ("y (right)", (zero, speed, zero), 1),
                                       ("z (down)", (zero, zero, speed), 2)):
         # The body-frame law at hover thrust (rotor term 1); the heading-frame law of level flight.
-        force = body_drag_force(af.drag, vx, vy, vz, 1.0, 1e-9) if af.drag.frame == "body" else drag_force(af.drag, vx, vy, vz)
+        force = body_drag_force(af.drag, vx, vy, vz, 1.0, 1e-9) if af.drag.frame == DragFrame.BODY else drag_force(af.drag, vx, vy, vz)
         ax.plot(speed, force[pick] + zero, label=f"air along body {label}")
     ax.set_xlabel("relative airflow speed along the axis (m/s)")
     ax.set_ylabel("force (N)")

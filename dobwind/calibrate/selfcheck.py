@@ -31,6 +31,7 @@ from dobwind.model.errors import CheckFailed
 from dobwind.model.status import accepted
 from dobwind.model.step import StepModel, build_step
 from dobwind.calibrate.thresholds import Thresholds  # noqa: F401 (re-exported: the check's parameters)
+from dobwind.model.kinds import Precision
 
 WARMUP_S = 5.0            # the observer and filter start up: not scored (as `replay`)
 SEGMENT_SETTLE_S = 5.0    # a segment's first seconds are a transition: not scored (as `replay`), or the
@@ -105,7 +106,7 @@ def _compiled(model: StepModel) -> CStep | None:
     if shutil.which(system_compiler()) is None:
         return None
     try:
-        return compile_step(model, "double")
+        return compile_step(model, Precision.DOUBLE)
     except (CheckFailed, OSError):
         return None
 

@@ -42,6 +42,7 @@ from dobwind.model.airframe import Airframe
 from dobwind.model.forceair import wind_from_deg
 from dobwind.calibrate.windrows import LogRows
 from dobwind.model.status import accepted
+from dobwind.model.signals import log_signals
 
 LAW = ("l0", "q0", "ox", "oy", "q2c", "q2s")
 LAW_BOUNDS = {"l0": (0.0, np.inf), "q0": (0.0, np.inf), "kappa": (-1.0, 1.0)}
@@ -128,7 +129,7 @@ def _rows(cal: Airframe, log: FlightLog, force: np.ndarray, ok: np.ndarray, grou
           dt: float) -> LogRows:
     q = log.stack("q_w", "q_x", "q_y", "q_z")
     yaw = heading_yaw(log, q)[ok]
-    rpm = log.stack(*[f"rpm_{i + 1}" for i in range(cal.thrust.rotors)])[ok] if cal.thrust.source == "rpm" else None
+    rpm = log.stack(*log_signals(cal).rpm_columns())[ok] if log_signals(cal).rotor_speeds else None
     thrust = log.columns["thrust"][ok] if "thrust" in log.columns else None
     t_ned = np.nan_to_num(dragfit.thrust_ned(cal, rpm, thrust, q[ok]))
     times = log.time_s[ok]

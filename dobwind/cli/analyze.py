@@ -9,20 +9,40 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from dobwind.analysis.design import WindTarget, design_gain, design_gain_for_wind, observer_bandwidth_hz, with_gains
-from dobwind.analysis.windunits import NoiseSource, noise_source
-from dobwind.analysis.report import analyze, text, write_plots
+from dobwind.cli.common import AIRFRAME_HELP, JSON_HELP, Command
+from dobwind.core import options as opt
 from dobwind.core.errors import EXIT_CHECK_FAILED, InputError
-from dobwind.io.jsonout import print_json
-from dobwind.io.logs import write_atomically
-from dobwind.model.airframe import Airframe, load_airframe, parse_airframe, resolve_airframe_path
-from dobwind.model.airframe_toml import dump_airframe
-from dobwind.model.step import build_step
 from dobwind.core.options import MAX_AIRSPEEDS, MAX_FREQUENCIES, WindTargetSpec
-from dobwind.io.tomledit import replace_array
 from dobwind.io.outputs import OutputFiles, Target, check_targets
+
+if TYPE_CHECKING:
+    from dobwind.analysis.windunits import NoiseSource
+    from dobwind.model.airframe import Airframe
+
+
+def add(command: Command) -> None:
+    p = command("analyze", "observer and filter poles, bandwidth, Bode plots; --bandwidth designs gains")
+    p.add_argument("airframe", help=AIRFRAME_HELP)
+    p.add_argument("-o", "--output", help="folder for the PNG plots (none are drawn without it); with --bandwidth: "
+                   "the new airframe TOML with the designed gains (default: none, nothing written)")
+    p.add_argument("--json", action="store_true", help=JSON_HELP)
+    p.add_argument("--freq", type=opt.FREQUENCY, nargs="+", default=[0.1, 0.5, 1.0],
+                   help=f"frequencies to report gain and phase at, Hz ({opt.FREQUENCY.text()}, below the Nyquist "
+                        f"frequency 1/(2 sample_time); at most {opt.MAX_FREQUENCIES})")
+    p.add_argument("--bandwidth", type=opt.DESIGN_TARGET, help="design the observer gains (kg/s, equal on x y z) that give "
+                   f"this -3 dB bandwidth, Hz ({opt.DESIGN_TARGET.text()}; Hz below the Nyquist frequency), or "
+                   "this wind noise along the airflow or ramp lag at an airspeed, then analyse the airframe with "
+                   "those gains (default: none, analyse the gains in the file)")
+    p.add_argument("--airspeed", type=opt.AIRSPEED, nargs="+", default=[],
+                   help=f"airspeeds to report the wind-unit figures at besides the schedule's breakpoints, m/s "
+                        f"({opt.AIRSPEED.text()}; at most {opt.MAX_AIRSPEEDS})")
+    p.add_argument("--force-noise", type=opt.FORCE_NOISE, metavar="N",
+                   help="1-sigma scatter of the observer's horizontal force estimate before the low-pass, per "
+                        f"axis, at the file's gains, N ({opt.FORCE_NOISE.text()}); default: from the wind noise "
+                        "the fit recorded in the airframe ([uncertainty] noise_h), else the wind noise is not given")
+    p.set_defaults(func=run)
 
 
 def _check_frequencies(af: Airframe, source: str, freqs_hz: list[float]) -> None:
@@ -36,9 +56,16 @@ def _check_frequencies(af: Airframe, source: str, freqs_hz: list[float]) -> None
                              f"(1 / (2 * observer.sample_time))")
 
 
-def analyze_command(args: argparse.Namespace) -> int:
+def run(args: argparse.Namespace) -> int:
     """Analyse the airframe; with --bandwidth, first replace its gains by the designed ones, write that
     airframe to -o (a TOML file in this mode, not a plot folder) and analyse it."""
+    from dobwind.analysis.report import analyze, text, write_plots
+    from dobwind.analysis.windunits import noise_source
+    from dobwind.io.jsonout import print_json
+    from dobwind.io.logs import write_atomically
+    from dobwind.model.airframe import load_airframe
+    from dobwind.model.step import build_step
+
     designing = args.bandwidth is not None
     target = None if args.output is None else Target("-o", args.output, "file" if designing else "dir")
     if target is not None:
@@ -90,6 +117,8 @@ def analyze_command(args: argparse.Namespace) -> int:
 
 def _designed(af: Airframe, args: argparse.Namespace, noise: NoiseSource | None) -> tuple[Airframe, dict[str, Any]]:
     """The airframe with the gains that give --bandwidth, and what to report about the design."""
+    from dobwind.analysis.design import WindTarget, design_gain, design_gain_for_wind, observer_bandwidth_hz, with_gains
+
     target = args.bandwidth
     try:
         if isinstance(target, WindTargetSpec):
@@ -115,6 +144,10 @@ def designed_text(source: str, af: Airframe, bandwidth_hz: float) -> str:
     """The airframe file's own text with the designed gains put in (its comments kept); the full dump
     when the gains are written in a form the text edit does not handle, or the edit would not parse
     back to ``af``'s gains."""
+    from dobwind.io.tomledit import replace_array
+    from dobwind.model.airframe import parse_airframe, resolve_airframe_path
+    from dobwind.model.airframe_toml import dump_airframe
+
     path = resolve_airframe_path(source)
     literal = "[" + ", ".join(repr(float(g)) for g in af.observer.gains) + "]"
     comment = f"kg/s: {bandwidth_hz:.4g} Hz bandwidth (designed by `dobwind analyze {path.name} --bandwidth`)"

@@ -7,28 +7,21 @@ classic tilt-angle method calibrated on the same sweep.
 """
 from __future__ import annotations
 
+import argparse
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
-
-from dobwind.replay import baseline
-from dobwind.analysis.report import analyze, write_plots
-from dobwind.generate.emit import generate_to_dir
-from dobwind.calibrate.fitreport import fit_plot, text_report
-from dobwind.calibrate.fitfamily import fit_airframe
-from dobwind.harness.verify import verify_airframe
-from dobwind.io.logs import read_log, required_columns, write_atomically
-from dobwind.model import reference
-from dobwind.model.airframe import Airframe, load_airframe
-from dobwind.model.airframe_toml import dump_airframe, rehashed
-from dobwind.model.exercise import flight_inputs
-from dobwind.model.step import build_step
-from dobwind.io.outputs import Target, staged_folder
-from dobwind.io.plots import replay_plot
-from dobwind.replay.replay import replay, score, score_wind
+from dobwind.cli.common import Command
 from dobwind.core.resources import shipped_airframe
-from dobwind.simulate.simulate import write_log
+from dobwind.io.outputs import Target, check_replaceable, check_targets, staged_folder
+from dobwind.model.kinds import Precision
+
+if TYPE_CHECKING:
+    from dobwind.model.airframe import Airframe
+
+# The pipeline's modules (CasADi, SciPy, Matplotlib: seconds) are imported by the steps that use them,
+# not when the command line's parser is built.
 
 REFERENCE_AIRFRAME = shipped_airframe()  # package data: works from a wheel as from the checkout
 SCENARIO_SEEDS = {"sweep": 1, "vertical": 2, "tunnel": 3, "still-air": 4, "outdoor": 5}
@@ -39,6 +32,19 @@ PAPER = {"tunnel_speed": "0.11 / 0.21", "tunnel_direction": "2.8 / 5.3",
 
 def _fmt(a: float | None, b: float | None, digits: int = 3) -> str:
     return "-" if a is None or b is None else f"{a:.{digits}f} / {b:.{digits}f}"
+
+
+def add(command: Command) -> None:
+    p = command("demo", "the whole pipeline on the reference airframe")
+    p.add_argument("-o", "--output", default="out/demo", help="folder for logs, fitted airframe, plots and C")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    target = Target("-o", args.output, "dir")
+    check_targets([target])
+    check_replaceable(target, is_demo_name)
+    return run_demo(args.output)
 
 
 def is_demo_name(name: str) -> bool:
@@ -56,6 +62,9 @@ def run_demo(out_dir: str) -> int:
 
 def _pipeline(out: Path, shown: Path) -> int:
     """Writes into ``out``; names ``shown`` (where the folder will be) in what it prints."""
+    from dobwind.analysis.report import analyze, write_plots
+    from dobwind.model.airframe import load_airframe
+
     start = time.perf_counter()
     af = load_airframe(REFERENCE_AIRFRAME)
     logs = _simulate(af, out, shown)
@@ -74,6 +83,8 @@ def _pipeline(out: Path, shown: Path) -> int:
 
 def _simulate(af: Airframe, out: Path, shown: Path) -> dict[str, str]:
     """The demo's scenario logs: name -> CSV path."""
+    from dobwind.simulate.simulate import write_log
+
     logs = {}
     for name, seed in SCENARIO_SEEDS.items():
         path = out / "logs" / f"{name}.csv"
@@ -86,6 +97,11 @@ def _simulate(af: Airframe, out: Path, shown: Path) -> dict[str, str]:
 
 def _fit(af: Airframe, logs: dict[str, str], out: Path) -> Airframe:
     """Calibrate on the sweep and vertical logs; writes the fitted airframe and its plot."""
+    from dobwind.calibrate.fitfamily import fit_airframe
+    from dobwind.calibrate.fitreport import fit_plot, text_report
+    from dobwind.io.logs import write_atomically
+    from dobwind.model.airframe_toml import dump_airframe, rehashed
+
     fitted, fit_report, points = fit_airframe(af, [logs["sweep"], logs["vertical"]], "auto")
     fitted_path = out / f"{af.name}_fitted.toml"
     fitted = rehashed(fitted)  # the C generated from it names this file, not the one fitted from
@@ -99,7 +115,10 @@ def _fit(af: Airframe, logs: dict[str, str], out: Path) -> Airframe:
 
 
 def _generate_and_verify(fitted: Airframe, out: Path, shown: Path) -> bool:
-    written = generate_to_dir(fitted, out / "c" / fitted.name, "single")
+    from dobwind.generate.emit import generate_to_dir
+    from dobwind.harness.verify import verify_airframe
+
+    written = generate_to_dir(fitted, out / "c" / fitted.name, Precision.SINGLE)
     print(f"== generate: {', '.join(p.name for p in written)} in {shown / 'c' / fitted.name}")
     verification = verify_airframe(fitted, "both", steps=20000)
     worst = {p.precision: p.flight.worst_ratio for p in verification.precisions if p.flight}
@@ -110,10 +129,17 @@ def _generate_and_verify(fitted: Airframe, out: Path, shown: Path) -> bool:
 
 def _replay_scenarios(af: Airframe, fitted: Airframe, logs: dict[str, str], out: Path) -> dict[str, tuple[dict, dict]]:
     """Scenario -> (our scores through the single-precision C, the tilt method's); draws each replay."""
+    import numpy as np
+
+    from dobwind.io.logs import read_log, required_columns
+    from dobwind.io.plots import replay_plot
+    from dobwind.replay import baseline
+    from dobwind.replay.replay import replay, score, score_wind
+
     tilt = baseline.calibrate([read_log(logs["sweep"], required_columns(af) + [("wind_n", "truth")])])
     results = {}
     for name in ("tunnel", "still-air", "outdoor"):
-        model, log, traj = replay(fitted, logs[name], backend="c", precision="single")
+        model, log, traj = replay(fitted, logs[name], backend="c", precision=Precision.SINGLE)
         ours = score(log, traj, model)
         tilt_wind = baseline.estimate(tilt, log)
         theirs = score_wind(log, tilt_wind, np.zeros(log.rows, dtype=int))
@@ -156,6 +182,10 @@ def _print_results(results: dict[str, tuple[dict, dict]], shown: Path) -> None:
 
 
 def _time_reference(fitted: Airframe, start: float) -> None:
+    from dobwind.model import reference
+    from dobwind.model.exercise import flight_inputs
+    from dobwind.model.step import build_step
+
     model = build_step(fitted)
     rows_in = flight_inputs(model, 100_000, seed=3)
     rolled = reference.rolled_step(model)

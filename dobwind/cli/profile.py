@@ -8,20 +8,47 @@ from pathlib import Path
 
 import numpy as np
 
+from dobwind.cli.common import AIRFRAME_HELP, JSON_HELP, Command, add_many_options
+from dobwind.core import options as opt
 from dobwind.io import cfnames
 from dobwind.cli.campaign import Done, expand_logs, format_table, run_all
 from dobwind.core.errors import InputError
 from dobwind.io.netcdf import is_netcdf
 from dobwind.io.outputs import OutputFiles, Target, check_targets
-from dobwind.atmos.profile import allowed_mask, combine, coverage, flight_sums, table
+from dobwind.atmos.profile import BIN, allowed_mask, combine, coverage, flight_sums, table
 from dobwind.core.progress import wanted
+from dobwind.model.kinds import PRECISIONS, Precision
 
 CSV_COLUMNS = ("height_bottom_m", "height_top_m", "height_m", "count", "speed_mean_mps", "speed_std_mps",
                "vector_speed_mps", "direction_from_deg", "direction_spread_deg", "northward_mean_mps",
                "eastward_mean_mps", "up_mean_mps", "up_std_mps", "sigma_h_mps", "sigma_up_mps")
 
 
-def _job(airframe: str, log: str, bin_m: float, backend: str, precision: str, rate: float | None,
+def add(command: Command) -> None:
+    p = command("profile", "wind speed, direction and vertical wind binned by height above take-off, over "
+                "one or many flights")
+    p.add_argument("airframe", help=AIRFRAME_HELP)
+    p.add_argument("logs", nargs="+", help="flight logs (autopilot logs with global position; CSV logs with "
+                   "lat, lon, alt columns, else height from vel_d) or folders of them")
+    p.add_argument("-o", "--output", required=True, help="the profile to write: .csv or CF-NetCDF .nc (required)")
+    p.add_argument("--bin", type=BIN, default=5.0, metavar="M", help=f"height bin, m ({BIN.text()}; default 5)")
+    p.add_argument("--plot", help="PNG of speed, direction and vertical wind against height with wind barbs "
+                   "(default: none, not drawn)")
+    p.add_argument("--allow", action="append", metavar="FLAG",
+                   help="also use rows carrying this quality flag (e.g. extrapolated; repeatable; default: none, "
+                   "status 0 rows only)")
+    p.add_argument("--backend", choices=("python", "c"), default="python",
+                   help="run the CasADi reference (python) or the generated C, compiled on the fly (c)")
+    p.add_argument("--precision", choices=PRECISIONS, default=Precision.SINGLE, help="C backend precision")
+    p.add_argument("--rate", type=opt.ULOG_RATE,
+                   help=f"autopilot logs only: resample at this rate, Hz ({opt.ULOG_RATE.text()}) (default: none, "
+                   "the airframe's observer rate, 1/observer.sample_time)")
+    p.add_argument("--json", action="store_true", help=JSON_HELP)
+    add_many_options(p, "profile")
+    p.set_defaults(func=run)
+
+
+def _job(airframe: str, log: str, bin_m: float, backend: str, precision: Precision, rate: float | None,
          allow: int) -> Done:
     try:
         return Done(log, flight_sums(airframe, log, bin_m, backend, precision, rate, allow))
@@ -31,7 +58,7 @@ def _job(airframe: str, log: str, bin_m: float, backend: str, precision: str, ra
         return Done(log, None, f"dobwind profile: internal error on {log}: {type(exc).__name__}: {exc}", 1)
 
 
-def profile_command(args: argparse.Namespace) -> int:
+def run(args: argparse.Namespace) -> int:
     from dobwind.model.airframe import load_airframe
 
     logs = expand_logs(args.logs)

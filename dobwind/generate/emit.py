@@ -8,9 +8,10 @@ from dobwind.io.atomic import write_text_atomically
 from dobwind.codegen.generate import generate_code, is_generated_name
 from dobwind.model.airframe import Airframe
 from dobwind.io.outputs import Target, check_replaceable, staged_folder
+from dobwind.model.kinds import Precision
 
 
-def generate_to_dir(af: Airframe, out_dir: str | Path, precision: str = "single", option: str = "-o",
+def generate_to_dir(af: Airframe, out_dir: str | Path, precision: Precision = Precision.SINGLE, option: str = "-o",
                     source: str | None = None, integration: str | None = None,
                     gate: Callable[[Path], None] | None = None) -> list[Path]:
     """Renders everything, then replaces ``out_dir`` as a whole (a sibling folder swapped in), so a

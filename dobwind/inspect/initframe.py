@@ -21,6 +21,7 @@ from dobwind.inspect.loginspect import LogSummary
 from dobwind.model.airframe import PRIOR, STANDARD_GRAVITY, parse_airframe
 from dobwind.model.airframe_toml import airframe_document, dumps
 from dobwind.model.ranges import NAME_MAX_CHARS, RANGES
+from dobwind.model.kinds import DragFrame
 
 # Observer rates a starter airframe picks from (Hz): the usual logging rates of PX4 and ArduPilot.
 COMMON_RATES_HZ = (10.0, 20.0, 25.0, 50.0, 100.0)
@@ -106,7 +107,7 @@ def _drag(mass: float) -> dict[str, Any]:
     area = REFERENCE_MASS_KG / REFERENCE_BALLISTIC_KG_M2 * (mass / REFERENCE_MASS_KG) ** (2.0 / 3.0)
     q0 = 0.5 * AIR_DENSITY_KG_M3 * area
     l0 = REFERENCE_MOMENTUM_PER_S * mass
-    return {"model": "drag", "drag": {"frame": "heading", "l0": l0, "q0": q0, "lz": l0, "qz": VERTICAL_AREA_RATIO * q0}}
+    return {"model": "drag", "drag": {"frame": DragFrame.HEADING, "l0": l0, "q0": q0, "lz": l0, "qz": VERTICAL_AREA_RATIO * q0}}
 
 
 def _acceleration(s: LogSummary) -> str:

@@ -31,19 +31,21 @@ def is_autopilot_log(path: str) -> bool:
 
 
 def read_autopilot(path: str, af: Airframe, rate_hz: float | None = None,
-                   topics: dict[str, str] | None = None) -> AutopilotFlight:
+                   topics: dict[str, str] | None = None, bridge_gaps: bool = False) -> AutopilotFlight:
+    """``bridge_gaps``: feed short silences interpolated (dobwind/io/bridge.py), as replay does; off, every
+    NO_DATA row has NaN inputs (what fit's samples rely on)."""
     kind = log_kind(path)
     if kind == "ulog":
         from dobwind.io.ulog import read_ulog
 
-        return read_ulog(path, af, rate_hz)
+        return read_ulog(path, af, rate_hz, bridge_gaps)
     if kind == "dataflash":
         from dobwind.io.dataflash import read_dataflash
 
-        return read_dataflash(path, af, rate_hz)
+        return read_dataflash(path, af, rate_hz, bridge_gaps)
     from dobwind.io.rosbag import read_rosbag
 
-    return read_rosbag(path, af, rate_hz, topics or {})
+    return read_rosbag(path, af, rate_hz, topics or {}, bridge_gaps)
 
 
 PX4_WIND_COLUMNS = ("timestamp", "windspeed_north", "windspeed_east", "variance_north", "variance_east", "status")

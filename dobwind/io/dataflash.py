@@ -33,8 +33,10 @@ from dobwind.core.errors import InputError
 from dobwind.io.quietfd import quiet_fds
 from dobwind.io.logs import FlightLog
 from dobwind.model.airframe import Airframe
+from dobwind.io.bridge import blanked, bridge, largest_silences
 from dobwind.io.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, hold,
                               interp, quaternions, source_gaps, topic_tolerances, uniform_clock)
+from dobwind.model.signals import log_signals
 
 # (role, candidates as (message, instance field or None, instance value)), first found wins.
 VELOCITY = (("XKF1", "C", 0), ("NKF1", None, 0))
@@ -172,7 +174,7 @@ def _ground(msgs, clock: np.ndarray, notes: list[str]) -> np.ndarray:
     return ground
 
 
-def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None) -> AutopilotFlight:
+def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None, bridge_gaps: bool = False) -> AutopilotFlight:
     msgs = load_messages(path)
     notes = ["messages " + ", ".join(f"{n} {len(r)}" for n, r in msgs.items() if r) + "; not in the log: "
              + (", ".join(n for n, r in msgs.items() if not r) or "none")]
@@ -181,16 +183,16 @@ def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None) -> Aut
     att_name, att = _require(path, pick_stream(msgs, ATTITUDE, ["Q1", "Q2", "Q3", "Q4"]), "attitude", "XKQ (or NKQ1, NKQ)")
     used = {vel_name: vel, att_name: att}
     imu = None
-    if af.observer.acceleration == "specific_force" or (af.observer.acceleration == "ned" and not msgs["PSCN"]):
+    if log_signals(af).specific_force or (log_signals(af).ned_acceleration and not msgs["PSCN"]):
         imu = _require(path, pick_stream(msgs, IMU, ["AccX", "AccY", "AccZ"]), "specific force", "IMU")[1]
         used["IMU"] = imu
     psc = None
-    if af.observer.acceleration == "ned" and msgs["PSCN"]:
+    if log_signals(af).ned_acceleration and msgs["PSCN"]:
         psc = [_require(path, pick_stream(msgs, ((m, None, 0),), [f]), "NED acceleration", m)[1]
                for m, f in (("PSCN", "AN"), ("PSCE", "AE"), ("PSCD", "AD"))]
         used.update(PSCN=psc[0], PSCE=psc[1], PSCD=psc[2])
     escs, ctun = [], None
-    if af.thrust.source == "rpm":
+    if log_signals(af).rotor_speeds:
         escs = _esc_streams(path, msgs, af.thrust.rotors)
     else:
         ctun = _require(path, pick_stream(msgs, (("CTUN", None, 0),), ["ThO", "ThH"]), "collective thrust", "CTUN (ThO, ThH)")[1]
@@ -202,6 +204,7 @@ def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None) -> Aut
                                         af.limits.max_dt_s, {name: ROTOR_MAX_GAP_S for name in esc_names})
     notes += slow
     no_data, culprits = source_gaps(tolerances, clock)
+    gappy = no_data.copy()
     if no_data.any():
         notes.append(count_note(no_data, f"with a message gap (longer than max_dt {af.limits.max_dt_s:g} s or, for a "
                                          f"slow message, than its own tolerance; ESC: {ROTOR_MAX_GAP_S:g} s; by "
@@ -218,8 +221,13 @@ def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None) -> Aut
     wind = pick_stream(msgs, AP_WIND, ["VWN", "VWE"])
     ap_wind = None if wind is None else (f"ArduPilot {wind[0]}", wind[1]["t"] - clock[0],
                                          np.column_stack([wind[1]["VWN"], wind[1]["VWE"], np.zeros(len(wind[1]["t"]))]))
-    return AutopilotFlight(FlightLog(path, blank(cols, no_data | landed)), no_data, landed, ap_wind, tuple(notes),
-                           float(clock[0]))
+    bridged = None
+    if bridge_gaps:
+        bridged, note = bridge(af, tolerances, clock, gappy, landed | (no_data & ~gappy), ("CTUN",))
+        notes += note
+    return AutopilotFlight(FlightLog(path, blank(cols, blanked(no_data, landed, bridged))), no_data, landed, ap_wind,
+                           tuple(notes), float(clock[0]), bridged=bridged,
+                           silences=largest_silences(tolerances, clock))
 
 
 def _columns(af: Airframe, vel, att, imu, psc, escs, ctun, msgs, clock: np.ndarray, notes: list[str]) -> dict:
@@ -229,12 +237,12 @@ def _columns(af: Airframe, vel, att, imu, psc, escs, ctun, msgs, clock: np.ndarr
     q = quaternions(att["t"], np.column_stack([att[f"Q{i}"] for i in range(1, 5)]), clock)
     cols.update(q_w=q[:, 0], q_x=q[:, 1], q_y=q[:, 2], q_z=q[:, 3])
     sf = interp(imu, ["AccX", "AccY", "AccZ"], clock) if imu is not None else None
-    if af.observer.acceleration == "specific_force":
+    if log_signals(af).specific_force:
         cols.update(sf_x=sf[:, 0], sf_y=sf[:, 1], sf_z=sf[:, 2])
-    elif af.observer.acceleration == "ned" and psc is not None:
+    elif log_signals(af).ned_acceleration and psc is not None:
         cols.update(acc_n=np.interp(clock, psc[0]["t"], psc[0]["AN"]), acc_e=np.interp(clock, psc[1]["t"], psc[1]["AE"]),
                     acc_d=np.interp(clock, psc[2]["t"], psc[2]["AD"]))
-    elif af.observer.acceleration == "ned":
+    elif log_signals(af).ned_acceleration:
         acc = _rotate(q, sf) + np.array([0.0, 0.0, af.gravity_mps2])
         cols.update(acc_n=acc[:, 0], acc_e=acc[:, 1], acc_d=acc[:, 2])
         notes.append("no PSCN/PSCE/PSCD: NED acceleration is the IMU's specific force rotated by XKQ, plus gravity")

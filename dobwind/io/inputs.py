@@ -7,6 +7,7 @@ import numpy as np
 
 from dobwind.model.attitude import yaw_from_quaternion
 from dobwind.model.step import StepModel
+from dobwind.model.signals import log_signals
 
 if TYPE_CHECKING:  # logs.py re-exports this module's functions, so it cannot be imported here at run time
     from dobwind.io.logs import FlightLog
@@ -33,7 +34,7 @@ def step_inputs(model: StepModel, log: FlightLog, previous_t: float | None = Non
     if "specific_force" in model.inputs:
         values["specific_force"] = log.stack("sf_x", "sf_y", "sf_z")
     if "rotor_rpm" in model.inputs:
-        values["rotor_rpm"] = log.stack(*[f"rpm_{i + 1}" for i in range(af.thrust.rotors)])
+        values["rotor_rpm"] = log.stack(*log_signals(af).rpm_columns())
     if "thrust" in model.inputs:
         values["thrust"] = log.columns["thrust"]
     return model.inputs.pack(values, rows=log.rows)

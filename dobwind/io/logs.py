@@ -60,19 +60,8 @@ class FlightLog:
 
 
 def required_columns(af: Airframe) -> list[tuple[str, str]]:
-    """(column, what it is for) that the airframe needs."""
-    cols = [("t", "sample time"), ("vel_n", "ground velocity"), ("vel_e", "ground velocity"),
-            ("vel_d", "ground velocity"), ("q_w", "attitude"), ("q_x", "attitude"), ("q_y", "attitude"),
-            ("q_z", "attitude")]
-    if af.thrust.source == "rpm":
-        cols += [(f"rpm_{i + 1}", "rotor speed") for i in range(af.thrust.rotors)]
-    else:
-        cols.append(("thrust", "collective thrust"))
-    if af.observer.acceleration == "ned":
-        cols += [(c, "acceleration (observer.acceleration = \"ned\")") for c in ("acc_n", "acc_e", "acc_d")]
-    elif af.observer.acceleration == "specific_force":
-        cols += [(c, "specific force (observer.acceleration = \"specific_force\")") for c in ("sf_x", "sf_y", "sf_z")]
-    return cols
+    """(column, what it is for) that the airframe needs (model/signals.py)."""
+    return log_signals(af).columns()
 
 
 @dataclass(frozen=True)
@@ -247,3 +236,4 @@ def write_estimates(path: str | Path, t: np.ndarray, outputs: np.ndarray, status
 # The older import path of the input packing (dobwind.io.inputs imports nothing from this module at run time).
 from dobwind.io.inputs import heading_yaw, step_inputs  # noqa: E402,F401
 from dobwind.model.attitude import yaw_from_quaternion  # noqa: E402,F401
+from dobwind.model.signals import log_signals

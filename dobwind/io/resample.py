@@ -32,6 +32,10 @@ class AutopilotFlight:
     warnings: tuple[str, ...] = ()          # said on stderr too: the user must not miss them
     findings: tuple = ()                    # replay's plausibility findings (dobwind.replay.plausibility.Finding)
     autopilot_wind_variance: np.ndarray | None = None  # (north, east) variances, m²/s², per autopilot_wind row
+    # NO_DATA rows inside a short silence whose inputs were interpolated and fed (dobwind/io/bridge.py);
+    # None when the reader was not asked to bridge (then every NO_DATA row is blanked).
+    bridged: np.ndarray | None = None
+    silences: tuple[tuple[str, float, float], ...] = ()  # (stream, its gap tolerance, its longest silence), s
 
     @property
     def px4_wind(self) -> tuple[str, np.ndarray, np.ndarray] | None:  # the name the ULog path had first

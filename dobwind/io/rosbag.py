@@ -28,8 +28,10 @@ import numpy as np
 from dobwind.core.errors import InputError
 from dobwind.io.logs import FlightLog
 from dobwind.model.airframe import Airframe
+from dobwind.io.bridge import blanked, bridge, largest_silences
 from dobwind.io.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, count_note, quaternions, source_gaps,
                               topic_tolerances, uniform_clock)
+from dobwind.model.signals import log_signals
 
 PX4_TOPICS = {"velocity": "/fmu/out/vehicle_odometry", "attitude": "/fmu/out/vehicle_attitude",
               "imu": "/fmu/out/sensor_combined", "esc": "/fmu/out/esc_status",
@@ -215,7 +217,7 @@ def bag_setup(path: str, overrides: dict[str, str], from_airframe: dict[str, str
 
 
 def read_rosbag(path: str, af: Airframe, rate_hz: float | None = None,
-                overrides: dict[str, str] | None = None) -> AutopilotFlight:
+                overrides: dict[str, str] | None = None, bridge_gaps: bool = False) -> AutopilotFlight:
     setup, wanted = bag_setup(path, overrides or {}, dict(af.ros2_topics))
     collective = af.thrust.source == "collective"
     if collective and setup != "px4":
@@ -238,12 +240,12 @@ def read_rosbag(path: str, af: Airframe, rate_hz: float | None = None,
             raise InputError(path, f"topic {wanted['imu' if role == 'attitude' and setup == 'mavros' else role]}",
                              f"missing from the bag or fewer than two messages ({what}){hint}")
     notes = [f"{setup} topics: " + ", ".join(f"{r} {wanted[r]} ({len(msgs[r])})" for r in wanted if msgs[r])]
-    return _assemble(path, af, s, rate_hz, notes, wanted["wind"])
+    return _assemble(path, af, s, rate_hz, notes, wanted["wind"], bridge_gaps)
 
 
 def _assemble(path: str, af: Airframe, s: dict, rate_hz: float | None, notes: list[str],
-              wind_topic: str = "wind") -> AutopilotFlight:
-    rpm = af.thrust.source == "rpm"
+              wind_topic: str = "wind", bridge_gaps: bool = False) -> AutopilotFlight:
+    rpm = log_signals(af).rotor_speeds
     used = {r: s[r] for r in ("velocity", "attitude", "imu") + (("esc",) if rpm else ("thrust", "hover")) if s[r]}
     att_t = s["attitude"]["t"]
     # The hover estimate, a slowly learned constant, is held past its last message and has no gaps.
@@ -261,9 +263,9 @@ def _assemble(path: str, af: Airframe, s: dict, rate_hz: float | None, notes: li
     v = np.column_stack([np.interp(clock, s["velocity"]["t"], s["velocity"]["v"][:, i]) for i in range(3)])
     cols = {"t": clock - clock[0], "vel_n": v[:, 0], "vel_e": v[:, 1], "vel_d": v[:, 2],
             "q_w": q[:, 0], "q_x": q[:, 1], "q_y": q[:, 2], "q_z": q[:, 3]}
-    if af.observer.acceleration == "specific_force":
+    if log_signals(af).specific_force:
         cols.update(sf_x=sf[:, 0], sf_y=sf[:, 1], sf_z=sf[:, 2])
-    elif af.observer.acceleration == "ned":
+    elif log_signals(af).ned_acceleration:
         acc = rotate(q, sf) + np.array([0.0, 0.0, af.gravity_mps2])
         cols.update(acc_n=acc[:, 0], acc_e=acc[:, 1], acc_d=acc[:, 2])
         notes.append("NED acceleration is the IMU's specific force rotated to NED, plus gravity")
@@ -279,8 +281,13 @@ def _assemble(path: str, af: Airframe, s: dict, rate_hz: float | None, notes: li
                                        f"{culprits})", "NO_DATA"))
     wind = s["wind"]
     ap_wind = None if wind is None else (f"ROS 2 {wind_topic}", wind["t"] - clock[0], wind["v"])
-    return AutopilotFlight(FlightLog(path, blank(cols, no_data | landed)), no_data, landed, ap_wind, tuple(notes),
-                           float(clock[0]))
+    bridged = None
+    if bridge_gaps:
+        bridged, note = bridge(af, tolerances, clock, gappy, landed | (no_data & ~gappy), ("thrust",))
+        notes += note
+    return AutopilotFlight(FlightLog(path, blank(cols, blanked(no_data, landed, bridged))), no_data, landed, ap_wind,
+                           tuple(notes), float(clock[0]), bridged=bridged,
+                           silences=largest_silences(tolerances, clock))
 
 
 def _collective(af: Airframe, thrust: dict, hover: dict, clock: np.ndarray) -> np.ndarray:

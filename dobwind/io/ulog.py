@@ -26,8 +26,10 @@ import numpy as np
 from dobwind.core.errors import InputError
 from dobwind.io.logs import FlightLog
 from dobwind.model.airframe import Airframe
+from dobwind.io.bridge import blanked, bridge, largest_silences
 from dobwind.io.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, hold,
                               interp, quaternions, source_gaps, topic_tolerances, uniform_clock, wind_active)
+from dobwind.model.signals import log_signals
 
 PX4_WIND_TOPICS = (("wind", "windspeed_north", "windspeed_east"),
                    ("wind_estimate", "windspeed_north", "windspeed_east"),
@@ -168,21 +170,21 @@ def _ground(ulog, clock: np.ndarray, notes: list[str]) -> np.ndarray:
 
 
 def _needs(af: Airframe) -> dict[str, tuple[list[str], str]]:
-    ned = af.observer.acceleration == "ned"
+    ned = log_signals(af).ned_acceleration
     need: dict[str, tuple[list[str], str]] = {
         "vehicle_local_position": (["vx", "vy", "vz"] + (["ax", "ay", "az"] if ned else []),
                                    "ground velocity" + (" and acceleration" if ned else "")),
         "vehicle_attitude": ([f"q[{i}]" for i in range(4)], "attitude"),
     }
-    if af.observer.acceleration == "specific_force":
+    if log_signals(af).specific_force:
         need["sensor_combined"] = ([f"accelerometer_m_s2[{i}]" for i in range(3)], "specific force")
-    if af.thrust.source == "rpm":
+    if log_signals(af).rotor_speeds:
         need["esc_status"] = ([f"esc[{i}].esc_rpm" for i in range(af.thrust.rotors)],
                               f"rotor speeds of {af.thrust.rotors} motors (thrust.source = \"rpm\")")
     return need
 
 
-def read_ulog(path: str, af: Airframe, rate_hz: float | None = None) -> UlogFlight:
+def read_ulog(path: str, af: Airframe, rate_hz: float | None = None, bridge_gaps: bool = False) -> UlogFlight:
     ulog, complaint = open_ulog(path)
     need = _needs(af)
     topics = {name: _topic(ulog, name, fields, ("esc_count", "esc_online_flags") if name == "esc_status" else ())
@@ -222,7 +224,7 @@ def read_ulog(path: str, af: Airframe, rate_hz: float | None = None) -> UlogFlig
     cols = _columns(af, topics, thrust_src, hover_topic, hover_param, yaw_src, clock, notes)
     landed = _ground(ulog, clock, notes)
     gappy = no_data.copy()
-    if af.thrust.source == "rpm":
+    if log_signals(af).rotor_speeds:
         dead, note = esc_missing(topics["esc_status"], af.thrust.rotors, clock, ~landed & ~no_data)
         no_data |= dead
         if note:
@@ -233,8 +235,14 @@ def read_ulog(path: str, af: Airframe, rate_hz: float | None = None) -> UlogFlig
                                        f"than its own tolerance; esc_status: {ROTOR_MAX_GAP_S:g} s; by topic: "
                                        f"{culprits})", "NO_DATA"))
     warnings = (f"{path}: {cut} ({clock[-1] - clock[0]:.2f} s readable)",) if cut else ()
-    return UlogFlight(FlightLog(path, blank(cols, no_data | landed)), no_data, landed, px4, tuple(notes),
-                      float(clock[0]), warnings, autopilot_wind_variance=px4_var)
+    bridged = None
+    if bridge_gaps:
+        bridged, note = bridge(af, tolerances, clock, gappy, landed | (no_data & ~gappy),
+                              (thrust_src[0],) if thrust_src else ())
+        notes += note
+    return UlogFlight(FlightLog(path, blank(cols, blanked(no_data, landed, bridged))), no_data, landed, px4,
+                      tuple(notes), float(clock[0]), warnings, autopilot_wind_variance=px4_var, bridged=bridged,
+                           silences=largest_silences(tolerances, clock))
 
 
 def _px4_wind(ulog, clock: np.ndarray):
@@ -259,16 +267,16 @@ def _columns(af: Airframe, topics: dict, thrust_src, hover_topic, hover_param, y
     cols: dict[str, np.ndarray] = {"t": clock - clock[0]}
     vel = interp(lp, ["vx", "vy", "vz"], clock)
     cols.update(vel_n=vel[:, 0], vel_e=vel[:, 1], vel_d=vel[:, 2])
-    if af.observer.acceleration == "ned":
+    if log_signals(af).ned_acceleration:
         acc = interp(lp, ["ax", "ay", "az"], clock)
         cols.update(acc_n=acc[:, 0], acc_e=acc[:, 1], acc_d=acc[:, 2])
-    if af.observer.acceleration == "specific_force":
+    if log_signals(af).specific_force:
         sf = interp(topics["sensor_combined"], [f"accelerometer_m_s2[{i}]" for i in range(3)], clock)
         cols.update(sf_x=sf[:, 0], sf_y=sf[:, 1], sf_z=sf[:, 2])
     att = topics["vehicle_attitude"]
     q = quaternions(att["t"], np.column_stack([att[f"q[{i}]"] for i in range(4)]), clock)
     cols.update(q_w=q[:, 0], q_x=q[:, 1], q_y=q[:, 2], q_z=q[:, 3])
-    if af.thrust.source == "rpm":
+    if log_signals(af).rotor_speeds:
         rpm = interp(topics["esc_status"], [f"esc[{i}].esc_rpm" for i in range(af.thrust.rotors)], clock)
         for i in range(af.thrust.rotors):
             cols[f"rpm_{i + 1}"] = rpm[:, i]

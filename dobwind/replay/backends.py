@@ -8,9 +8,10 @@ import numpy as np
 from dobwind.model import reference
 from dobwind.model.reference import Trajectory
 from dobwind.model.step import StepModel
+from dobwind.model.kinds import Precision
 
 
-def run_backend(model: StepModel, inputs: np.ndarray, backend: str, precision: str = "single") -> Trajectory:
+def run_backend(model: StepModel, inputs: np.ndarray, backend: str, precision: Precision = Precision.SINGLE) -> Trajectory:
     return Runner(model, backend, precision).run(inputs)
 
 
@@ -28,7 +29,7 @@ class Runner:
     """The chosen backend over consecutive chunks of one log, the estimator state carried from each chunk
     to the next: the results are those of one pass over the whole log, bit for bit."""
 
-    def __init__(self, model: StepModel, backend: str, precision: str = "single") -> None:
+    def __init__(self, model: StepModel, backend: str, precision: Precision = Precision.SINGLE) -> None:
         self._model, self._backend, self._precision = model, backend, precision
         if backend == "python":
             self._rolled = rolled_reference(model)
@@ -44,7 +45,7 @@ class Runner:
             traj = reference.run(self._model, inputs, self._state, self._rolled)
             self._state = traj.states[-1].copy()
             return traj
-        if self._precision == "single":
+        if self._precision == Precision.SINGLE:
             inputs = inputs.astype(np.float32).astype(np.float64)
         traj = self._cstep.run(inputs, self._state, keep_states=False)
         self._state = traj.states[-1].copy()

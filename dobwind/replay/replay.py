@@ -19,6 +19,7 @@ from dobwind.model.status import STATUS_LANDED, STATUS_NO_DATA, accepted
 from dobwind.model.step import StepModel, build_step
 from dobwind.replay.scoring import (MIN_SPEED_FOR_DIRECTION, SEGMENT_SETTLE_S, UNIT_KEYS, WARMUP_S,  # noqa: F401 (re-exported)
                              WindScore, with_unit_keys)
+from dobwind.model.kinds import Precision
 
 
 def score(log: FlightLog, traj: Trajectory, model: StepModel) -> dict:
@@ -38,7 +39,7 @@ def score_wind(log: FlightLog, wind: np.ndarray, status: np.ndarray) -> dict:
     return scorer.result()
 
 
-def replay(af: Airframe, log_path: str, backend: str = "python", precision: str = "single"):
+def replay(af: Airframe, log_path: str, backend: str = "python", precision: Precision = Precision.SINGLE):
     """The whole log in memory: (model, log, trajectory). The command streams with ``replay_stream``."""
     model = build_step(af)
     log = read_log(log_path, required_columns(af))
@@ -62,7 +63,7 @@ class WindSeries:
     truth: np.ndarray | None
 
 
-def replay_stream(af: Airframe, log_path: str, backend: str = "python", precision: str = "single",
+def replay_stream(af: Airframe, log_path: str, backend: str = "python", precision: Precision = Precision.SINGLE,
                   output: TextIO | None = None, keep_series: bool = False,
                   progress: Callable[[int], None] | None = None, block_bytes: int = BLOCK_BYTES) -> Streamed:
     """replay() in bounded memory: the log is read, stepped, scored and written chunk by chunk."""
@@ -102,21 +103,25 @@ def replay_stream(af: Airframe, log_path: str, backend: str = "python", precisio
                     tuple(checks.findings()))
 
 
-def replay_ulog(af: Airframe, path: str, backend: str = "python", precision: str = "single",
-                rate_hz: float | None = None, topics: dict[str, str] | None = None):
+def replay_ulog(af: Airframe, path: str, backend: str = "python", precision: Precision = Precision.SINGLE,
+                rate_hz: float | None = None, topics: dict[str, str] | None = None, bridge_gaps: bool = True):
     """An autopilot log (PX4 ULog, ArduPilot DataFlash, ROS 2 bag; by its name) through the estimator:
     (model, flight, trajectory); rows without data carry the NO_DATA status bit, rows on the ground
-    LANDED, instead of the step's own rejection."""
+    LANDED, instead of the step's own rejection. ``bridge_gaps``: short silences do not restart the
+    settling (dobwind/io/bridge.py); False replays as before it (every NO_DATA row rejected)."""
     from dobwind.io.autopilot import read_autopilot
+    from dobwind.io.bridge import hold_bridged
 
     model = build_step(af)
-    flight = read_autopilot(path, af, rate_hz, topics)
+    flight = read_autopilot(path, af, rate_hz, topics, bridge_gaps=bridge_gaps)
     traj = run_backend(model, step_inputs(model, flight.log), backend, precision)
     # Rows that were not fed carry only replay's reasons, not the step's reaction to their NaN inputs.
+    # Bridged rows were fed (the observer runs on) but are NO_DATA too, with the estimate from before.
     skipped = np.where(flight.no_data, STATUS_NO_DATA, 0) | np.where(flight.landed, STATUS_LANDED, 0)
     status = np.where(skipped != 0, skipped, traj.status)
-    flight, status = _plausibility(af, model, path, flight, traj.outputs, status)
-    return model, flight, Trajectory(traj.states, traj.outputs, status)
+    outputs = traj.outputs if flight.bridged is None else hold_bridged(traj.outputs, flight.bridged)
+    flight, status = _plausibility(af, model, path, flight, outputs, status)
+    return model, flight, Trajectory(traj.states, outputs, status)
 
 
 def _plausibility(af: Airframe, model: StepModel, path: str, flight, outputs: np.ndarray, status: np.ndarray):

@@ -19,6 +19,8 @@ import numpy as np
 
 from dobwind.model.airframe import Airframe
 from dobwind.model.status import STATUS_BITS, STATUS_LANDED, STATUS_NO_DATA, STATUS_SUSPECT, accepted
+from dobwind.model.kinds import Precision
+from dobwind.model.signals import log_signals
 
 ANALYSIS_FREQUENCIES_HZ = [0.1, 0.5, 1.0]
 
@@ -51,7 +53,7 @@ def _png(path: Path, caption: str) -> Figure:
 def airframe_rows(af: Airframe) -> list[tuple[str, str]]:
     obs = af.observer
     thrust = (f"{af.thrust.rotors} rotors, rpm (max {af.thrust.max_rpm:g} rev/min), scale {af.thrust.scale:g}"
-              if af.thrust.source == "rpm" else f"collective, scale {af.thrust.scale:g}")
+              if log_signals(af).rotor_speeds else f"collective, scale {af.thrust.scale:g}")
     rows = [("name", af.name), ("mass", f"{af.mass_kg:g} kg"), ("thrust", thrust),
             ("observer", f"{obs.discretization}, gains {', '.join(f'{g:.4g}' for g in obs.gains)} kg/s, "
                          f"sample time {obs.sample_time_s:g} s, acceleration input '{obs.acceleration}'"),
@@ -145,7 +147,7 @@ def scratch() -> tempfile.TemporaryDirectory:
     return tempfile.TemporaryDirectory(prefix="dobwind-report-")
 
 
-def load_flight(af: Airframe, log_path: str, backend: str, precision: str) -> tuple[Flight, dict | None, dict | None]:
+def load_flight(af: Airframe, log_path: str, backend: str, precision: Precision) -> tuple[Flight, dict | None, dict | None]:
     """Replays the log: (the flight, score() against the truth or None, the autopilot comparison or None)."""
     from dobwind.replay.replay import replay, score
 
@@ -163,7 +165,7 @@ def load_flight(af: Airframe, log_path: str, backend: str, precision: str) -> tu
     return flight, metrics, None
 
 
-def _autopilot_flight(af: Airframe, log_path: str, name: str, backend: str, precision: str) -> tuple[Flight, None, dict | None]:
+def _autopilot_flight(af: Airframe, log_path: str, name: str, backend: str, precision: Precision) -> tuple[Flight, None, dict | None]:
     """Any autopilot log (ULog, DataFlash, ROS 2 bag) on its own clock (seconds since boot, TimeUS,
     the bag's clock), the autopilot's wind only where it is active, and the comparison with it."""
     from dobwind.replay.replay import reference_lines, replay_ulog
@@ -184,7 +186,7 @@ def _autopilot_flight(af: Airframe, log_path: str, name: str, backend: str, prec
 
 
 def flight_report(af: Airframe, airframe_path: str, log_path: str, backend: str = "python",
-                  precision: str = "single") -> tuple[str, str]:
+                  precision: Precision = Precision.SINGLE) -> tuple[str, str]:
     """(the HTML page, a one-line summary for the terminal)."""
     flight, metrics, comparison = load_flight(af, log_path, backend, precision)
     with scratch() as work:

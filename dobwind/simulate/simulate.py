@@ -30,6 +30,7 @@ from dobwind.core.errors import InputError
 from dobwind.model.airframe import Airframe
 from dobwind.model.numeric import rpm_for_rotor_thrust
 from dobwind.simulate.vehicle import Sensors, VehicleSpec, body_force, thrust_factor
+from dobwind.model.signals import log_signals
 
 SCENARIOS = ("sweep", "vertical", "tunnel", "still-air", "outdoor", "box", "one-heading")
 
@@ -289,7 +290,7 @@ def _channel_generators(rng: np.random.Generator, plan: _Plan, af: Airframe) -> 
     scales = _channel_scales(plan)
     out: dict[str, np.random.Generator] = {}
     for name, width in _CHANNELS:
-        if name == "rpm" and af.thrust.source != "rpm":
+        if name == "rpm" and not log_signals(af).rotor_speeds:
             continue
         cols = af.thrust.rotors if width is None else width
         out[name] = np.random.Generator(type(rng.bit_generator)())
@@ -400,7 +401,7 @@ def _sensor_columns(af: Airframe, sensors: TrueVehicle | Sensors, dyn: _Dynamics
     for i, part in enumerate(("q_w", "q_x", "q_y", "q_z")):
         cols[part] = xyzw[:, (3, 0, 1, 2)[i]]
     cols["thrust"] = dyn.logged_thrust * (1 + sensors.thrust_bias) * (1 + gens["thrust"].normal(0, scales["thrust"], n))
-    if af.thrust.source == "rpm":
+    if log_signals(af).rotor_speeds:
         rotors = af.thrust.rotors
         imbalance = 1 + dyn.rotor_imbalance * np.where(np.arange(rotors) % 2 == 0, 1.0, -1.0)
         per_rotor = (dyn.u_f / rotors)[:, None] / (dyn.factor[:, None] * imbalance[None, :])

@@ -5,8 +5,8 @@
  * d9fe9baff7b6cfef8d666b58101c13ced95956e1653f591ef4ca4a5757c1bf1d.
  * DO NOT EDIT: regenerate with `dobwind generate <airframe file>`.
  *
- * Total ops per accepted step: 341 (32 math-library calls), of which
- * 99 validate the input and 24 check the result.
+ * Total ops per accepted step: 294 (16 math-library calls), of which
+ * 52 validate the input and 24 check the result.
  */
 #include "m300_wind.h"
 
@@ -35,10 +35,27 @@ M300_WIND_INLINE uint32_t m300_wind_bits(float x)
     return u;
 }
 
+/* The raw bits as a signed integer, for validation's fast path (finite values only: the finiteness test
+ * is in the same conjunction): against a positive constant c, x <= c and c <= x are these integers'
+ * comparisons, since negative floats (-0 included) have negative patterns and positive ones order as
+ * their bits. */
+M300_WIND_INLINE int32_t m300_wind_sbits(float x)
+{
+    return (int32_t)m300_wind_bits(x);
+}
+
+/* 0 <= x for a finite x (validation's fast path), -0 included: adding 0x7fffffff maps +0 and the
+ * positive patterns to 0x7fffffff and above, -0 to 0xffffffff, and the other negative ones below. */
+M300_WIND_INLINE int m300_wind_nonnegative(float x)
+{
+    return (m300_wind_bits(x) + (0x7fffffffu)) >= (0x7fffffffu);
+}
+
 /* x's place in the IEEE order as an integer (monotonic, -0 and +0 both 0); a NaN gets a key above
  * every number (nan_high: x on the left of <= or <) or below every number (x on the right), so that
- * the test fails for a NaN as an IEEE comparison does. */
-M300_WIND_INLINE int32_t m300_wind_key(float x, int nan_high)
+ * the test fails for a NaN as an IEEE comparison does. The rejection path's tests and the result
+ * check call it; not forced inline (it runs rarely, and every inlined copy costs flash). */
+static int32_t m300_wind_key(float x, int nan_high)
 {
     const uint32_t u = m300_wind_bits(x);
     const uint32_t magnitude = u & 0x7fffffffu;
@@ -49,11 +66,12 @@ M300_WIND_INLINE int32_t m300_wind_key(float x, int nan_high)
     return (u >> 31) != 0u ? -(int32_t)magnitude : (int32_t)magnitude;
 }
 
-/* |x| as bits, for tests |x| <= c with a constant c >= 0: the magnitude bits order as the magnitudes
- * do, and a NaN's lie above every number's, so the test fails for a NaN */
-M300_WIND_INLINE uint32_t m300_wind_magnitude(float x)
+/* key() of a constant limit (never a NaN), inline so that the compiler folds it to an integer */
+M300_WIND_INLINE int32_t m300_wind_key_c(float c)
 {
-    return m300_wind_bits(x) & 0x7fffffffu;
+    const uint32_t u = m300_wind_bits(c);
+    const uint32_t magnitude = u & 0x7fffffffu;
+    return (u >> 31) != 0u ? -(int32_t)magnitude : (int32_t)magnitude;
 }
 
 /* The value of v, which the compiler cannot see through: the argument reductions below subtract the
@@ -202,128 +220,122 @@ void m300_wind_init(m300_wind_state_t *state)
 
 int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_wind_output_t *out)
 {
-    /* ---- validate: reject NaN/inf, bad dt, non-unit quaternion, excessive tilt, negative thrust (99 ops) ---- */
+    /* ---- validate: reject NaN/inf, bad dt, non-unit quaternion, excessive tilt, negative thrust (52 ops and a loop) ---- */
     {
+        /* NONFINITE's test, |x| <= 1e+06 for each of the 16 input elements, on the bits (a NaN's or an
+         * infinity's magnitude bits are above every number's): limit - |x| is negative for an element
+         * beyond, so the sign bit of the OR of the differences decides. The input struct holds floats only
+         * (the sizeof below fails to compile otherwise), read as bytes as C and C++ allow. */
+        int finite;
+        {
+            uint32_t over = 0u;
+            size_t k;
+            (void)sizeof(char[sizeof *in == 16 * sizeof(float) ? 1 : -1]);
+            for (k = 0; k < 16; ++k) {
+                uint32_t u;
+                memcpy(&u, (const unsigned char *)in + k * sizeof u, sizeof u);
+                over |= 0x49742400u - (u & 0x7fffffffu);
+            }
+            finite = (over >> 31) == 0u;
+        }
         const float t0 = in->vel_ned[0] * in->vel_ned[0];
         const float t1 = in->vel_ned[1] * in->vel_ned[1];
         const float t2 = t0 + t1;
         const float t3 = in->vel_ned[2] * in->vel_ned[2];
         const float t4 = t2 + t3;
-        const int t5 = m300_wind_key(22500.0f, 0) < m300_wind_key(t4, 0);
+        const int t5 = m300_wind_sbits(22500.0f) < m300_wind_sbits(t4);
         const float t6 = in->acc_ned[0] * in->acc_ned[0];
         const float t7 = in->acc_ned[1] * in->acc_ned[1];
         const float t8 = t6 + t7;
         const float t9 = in->acc_ned[2] * in->acc_ned[2];
         const float t10 = t8 + t9;
-        const int t11 = m300_wind_key(9617.03809f, 0) < m300_wind_key(t10, 0);
+        const int t11 = m300_wind_sbits(9617.03809f) < m300_wind_sbits(t10);
         const int t12 = t5 | t11;
-        const int t13 = m300_wind_key(18000.0f, 0) < m300_wind_key(in->rotor_rpm[0], 0);
+        const int t13 = m300_wind_sbits(18000.0f) < m300_wind_sbits(in->rotor_rpm[0]);
         const int t14 = t12 | t13;
-        const int t15 = m300_wind_key(18000.0f, 0) < m300_wind_key(in->rotor_rpm[1], 0);
+        const int t15 = m300_wind_sbits(18000.0f) < m300_wind_sbits(in->rotor_rpm[1]);
         const int t16 = t14 | t15;
-        const int t17 = m300_wind_key(18000.0f, 0) < m300_wind_key(in->rotor_rpm[2], 0);
+        const int t17 = m300_wind_sbits(18000.0f) < m300_wind_sbits(in->rotor_rpm[2]);
         const int t18 = t16 | t17;
-        const int t19 = m300_wind_key(18000.0f, 0) < m300_wind_key(in->rotor_rpm[3], 0);
+        const int t19 = m300_wind_sbits(18000.0f) < m300_wind_sbits(in->rotor_rpm[3]);
         const int t20 = t18 | t19;
-        const float t22 = fabsf(in->dt);
-        const int t23 = m300_wind_magnitude(t22) <= m300_wind_bits(1000000.0f);
-        const float t24 = fabsf(in->vel_ned[0]);
-        const int t25 = m300_wind_magnitude(t24) <= m300_wind_bits(1000000.0f);
-        const int t26 = t23 & t25;
-        const float t27 = fabsf(in->vel_ned[1]);
-        const int t28 = m300_wind_magnitude(t27) <= m300_wind_bits(1000000.0f);
-        const int t29 = t26 & t28;
-        const float t30 = fabsf(in->vel_ned[2]);
-        const int t31 = m300_wind_magnitude(t30) <= m300_wind_bits(1000000.0f);
-        const int t32 = t29 & t31;
-        const float t33 = fabsf(in->acc_ned[0]);
-        const int t34 = m300_wind_magnitude(t33) <= m300_wind_bits(1000000.0f);
-        const int t35 = t32 & t34;
-        const float t36 = fabsf(in->acc_ned[1]);
-        const int t37 = m300_wind_magnitude(t36) <= m300_wind_bits(1000000.0f);
-        const int t38 = t35 & t37;
-        const float t39 = fabsf(in->acc_ned[2]);
-        const int t40 = m300_wind_magnitude(t39) <= m300_wind_bits(1000000.0f);
-        const int t41 = t38 & t40;
-        const float t42 = fabsf(in->q[0]);
-        const int t43 = m300_wind_magnitude(t42) <= m300_wind_bits(1000000.0f);
-        const int t44 = t41 & t43;
-        const float t45 = fabsf(in->q[1]);
-        const int t46 = m300_wind_magnitude(t45) <= m300_wind_bits(1000000.0f);
-        const int t47 = t44 & t46;
-        const float t48 = fabsf(in->q[2]);
-        const int t49 = m300_wind_magnitude(t48) <= m300_wind_bits(1000000.0f);
-        const int t50 = t47 & t49;
-        const float t51 = fabsf(in->q[3]);
-        const int t52 = m300_wind_magnitude(t51) <= m300_wind_bits(1000000.0f);
-        const int t53 = t50 & t52;
-        const float t54 = fabsf(in->rotor_rpm[0]);
-        const int t55 = m300_wind_magnitude(t54) <= m300_wind_bits(1000000.0f);
-        const int t56 = t53 & t55;
-        const float t57 = fabsf(in->rotor_rpm[1]);
-        const int t58 = m300_wind_magnitude(t57) <= m300_wind_bits(1000000.0f);
-        const int t59 = t56 & t58;
-        const float t60 = fabsf(in->rotor_rpm[2]);
-        const int t61 = m300_wind_magnitude(t60) <= m300_wind_bits(1000000.0f);
-        const int t62 = t59 & t61;
-        const float t63 = fabsf(in->rotor_rpm[3]);
-        const int t64 = m300_wind_magnitude(t63) <= m300_wind_bits(1000000.0f);
-        const int t65 = t62 & t64;
-        const float t66 = fabsf(in->yaw_ref);
-        const int t67 = m300_wind_magnitude(t66) <= m300_wind_bits(1000000.0f);
-        const int t68 = t65 & t67;
-        const int t72 = m300_wind_key(1.00000007e-05f, 0) <= m300_wind_key(in->dt, 0);
-        const int t73 = m300_wind_key(in->dt, 1) <= m300_wind_key(0.100009993f, 1);
-        const int t74 = t72 & t73;
-        const float t78 = in->q[0] * in->q[0];
-        const float t79 = in->q[1] * in->q[1];
-        const float t80 = t78 + t79;
-        const float t81 = in->q[2] * in->q[2];
-        const float t82 = t80 + t81;
-        const float t83 = in->q[3] * in->q[3];
-        const float t84 = t82 + t83;
-        const int t85 = m300_wind_key(0.810000002f, 0) <= m300_wind_key(t84, 0);
-        const int t86 = m300_wind_key(t84, 1) <= m300_wind_key(1.20999992f, 1);
-        const int t87 = t85 & t86;
-        const float t91 = 0.5f * t84;
-        const float t92 = t78 - t79;
-        const float t93 = t92 - t81;
-        const float t94 = t93 + t83;
-        const int t95 = t91 <= t94;
-        const int t99 = m300_wind_key(0.0f, 0) <= m300_wind_key(in->rotor_rpm[0], 0);
-        const int t100 = m300_wind_key(0.0f, 0) <= m300_wind_key(in->rotor_rpm[1], 0);
-        const int t101 = t99 & t100;
-        const int t102 = m300_wind_key(0.0f, 0) <= m300_wind_key(in->rotor_rpm[2], 0);
-        const int t103 = t101 & t102;
-        const int t104 = m300_wind_key(0.0f, 0) <= m300_wind_key(in->rotor_rpm[3], 0);
-        const int t105 = t103 & t104;
-        const int t109 = t68 & t74;
-        const int t110 = t109 & t87;
-        const int t111 = t110 & t95;
-        const int t112 = t111 & t105;
-        const int t113 = !t20;
-        const int t114 = t112 & t113;
-        if (!(t114)) {
+        const int t21 = m300_wind_sbits(1.00000007e-05f) <= m300_wind_sbits(in->dt);
+        const int t22 = m300_wind_sbits(in->dt) <= m300_wind_sbits(0.100009993f);
+        const int t23 = t21 & t22;
+        const float t24 = in->q[0] * in->q[0];
+        const float t25 = in->q[1] * in->q[1];
+        const float t26 = t24 + t25;
+        const float t27 = in->q[2] * in->q[2];
+        const float t28 = t26 + t27;
+        const float t29 = in->q[3] * in->q[3];
+        const float t30 = t28 + t29;
+        const int t31 = m300_wind_sbits(0.810000002f) <= m300_wind_sbits(t30);
+        const int t32 = m300_wind_sbits(t30) <= m300_wind_sbits(1.20999992f);
+        const int t33 = t31 & t32;
+        const float t34 = 0.5f * t30;
+        const float t35 = t24 - t25;
+        const float t36 = t35 - t27;
+        const float t37 = t36 + t29;
+        const int t38 = t34 <= t37;
+        const int t39 = m300_wind_nonnegative(in->rotor_rpm[0]);
+        const int t40 = m300_wind_nonnegative(in->rotor_rpm[1]);
+        const int t41 = t39 & t40;
+        const int t42 = m300_wind_nonnegative(in->rotor_rpm[2]);
+        const int t43 = t41 & t42;
+        const int t44 = m300_wind_nonnegative(in->rotor_rpm[3]);
+        const int t45 = t43 & t44;
+        const int t46 = finite & t23;
+        const int t47 = t46 & t33;
+        const int t48 = t47 & t38;
+        const int t49 = t48 & t45;
+        const int t50 = !t20;
+        const int t51 = t49 & t50;
+        if (!(t51)) {
             /* rejected: the estimate is untouched and the last accepted output repeated; only the gap
              * bookkeeping records that this sample was missed. The status bits are assembled here only. */
-            float status;
-            const float t21 = (t20 ? 2048.0f : 0.0f);
-            const int t69 = !t68;
-            const float t70 = (t69 ? 1.0f : 0.0f);
-            const float t71 = t21 + t70;
-            const int t75 = !t74;
-            const float t76 = (t75 ? 2.0f : 0.0f);
-            const float t77 = t71 + t76;
-            const int t88 = !t87;
-            const float t89 = (t88 ? 4.0f : 0.0f);
-            const float t90 = t77 + t89;
-            const int t96 = !t95;
-            const float t97 = (t96 ? 8.0f : 0.0f);
-            const float t98 = t90 + t97;
-            const int t106 = !t105;
-            const float t107 = (t106 ? 16.0f : 0.0f);
-            const float t108 = t98 + t107;
-            status = t108;
+            int status;
+            const int r0 = m300_wind_key_c(22500.0f) < m300_wind_key(t4, 0);
+            const int r1 = m300_wind_key_c(9617.03809f) < m300_wind_key(t10, 0);
+            const int r2 = r0 | r1;
+            const int r3 = m300_wind_key_c(18000.0f) < m300_wind_key(in->rotor_rpm[0], 0);
+            const int r4 = r2 | r3;
+            const int r5 = m300_wind_key_c(18000.0f) < m300_wind_key(in->rotor_rpm[1], 0);
+            const int r6 = r4 | r5;
+            const int r7 = m300_wind_key_c(18000.0f) < m300_wind_key(in->rotor_rpm[2], 0);
+            const int r8 = r6 | r7;
+            const int r9 = m300_wind_key_c(18000.0f) < m300_wind_key(in->rotor_rpm[3], 0);
+            const int r10 = r8 | r9;
+            const int r11 = (r10 ? 2048 : 0);
+            const int r12 = !finite;
+            const int r13 = (r12 ? 1 : 0);
+            const int r14 = r11 | r13;
+            const int r15 = m300_wind_key_c(1.00000007e-05f) <= m300_wind_key(in->dt, 0);
+            const int r16 = m300_wind_key(in->dt, 1) <= m300_wind_key_c(0.100009993f);
+            const int r17 = r15 & r16;
+            const int r18 = !r17;
+            const int r19 = (r18 ? 2 : 0);
+            const int r20 = r14 | r19;
+            const int r21 = m300_wind_key_c(0.810000002f) <= m300_wind_key(t30, 0);
+            const int r22 = m300_wind_key(t30, 1) <= m300_wind_key_c(1.20999992f);
+            const int r23 = r21 & r22;
+            const int r24 = !r23;
+            const int r25 = (r24 ? 4 : 0);
+            const int r26 = r20 | r25;
+            const int r27 = t34 <= t37;
+            const int r28 = !r27;
+            const int r29 = (r28 ? 8 : 0);
+            const int r30 = r26 | r29;
+            const int r31 = m300_wind_key_c(0.0f) <= m300_wind_key(in->rotor_rpm[0], 0);
+            const int r32 = m300_wind_key_c(0.0f) <= m300_wind_key(in->rotor_rpm[1], 0);
+            const int r33 = r31 & r32;
+            const int r34 = m300_wind_key_c(0.0f) <= m300_wind_key(in->rotor_rpm[2], 0);
+            const int r35 = r33 & r34;
+            const int r36 = m300_wind_key_c(0.0f) <= m300_wind_key(in->rotor_rpm[3], 0);
+            const int r37 = r35 & r36;
+            const int r38 = !r37;
+            const int r39 = (r38 ? 16 : 0);
+            const int r40 = r30 | r39;
+            status = r40;
             state->run_s = 0.0f;
             state->check_follows = 0.0f;
             *out = state->last;
@@ -676,7 +688,7 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const float t15 = t13 + t14;
         const float t16 = fabsf(acc_bias_new[2]);
         const float t17 = t15 + t16;
-        const int t18 = m300_wind_key(t17, 1) <= m300_wind_key(9.99999939e+29f, 1);
+        const int t18 = m300_wind_key(t17, 1) <= m300_wind_key_c(9.99999939e+29f);
         const float t19 = (t18 ? acc_status : 0.0f);
         const int t20 = !t18;
         const float t21 = (t20 ? 32.0f : 0.0f);

@@ -1,0 +1,60 @@
+"""`dobwind generate AIRFRAME`: the C for an airframe (and an autopilot's integration), written only
+after the stability gate and, unless --no-selftest, after its compiled self-test passed."""
+from __future__ import annotations
+
+import argparse
+import sys
+from functools import partial
+from pathlib import Path
+
+from dobwind.model.kinds import PRECISIONS, Precision
+from dobwind.cli.common import AIRFRAME_HELP, Command
+from dobwind.io.outputs import Target, check_replaceable, check_targets
+
+
+def add(command: Command) -> None:
+    p = command("generate", "emit C for an airframe")
+    p.add_argument("airframe", help=AIRFRAME_HELP)
+    p.add_argument("-o", "--output", help="output folder (default: generated_c/<name>/ in the working directory)")
+    p.add_argument("--precision", choices=PRECISIONS, default=Precision.SINGLE,
+                   help="floating-point type of the generated C: float (single) or double")
+    p.add_argument("--target", choices=("px4", "ardupilot"), help="also write that autopilot's integration "
+                   "beside the C: px4/ (a PX4 work-queue module, its .msg and parameter) or AP_DOBWind/ (an "
+                   "ArduPilot library with its DataFlash message); single precision (default: the C only)")
+    p.add_argument("--no-selftest", action="store_true",
+                   help="skip the final gate: by default the generated C and its self-test are compiled with the "
+                   "host compiler ($CC, default cc) and run, and C that fails its golden vectors is refused "
+                   "(exit 1, nothing written); without a host compiler generate warns on stderr and still writes")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from dobwind.model.stability import require_stable
+    from dobwind.codegen.generate import is_generated_name
+    from dobwind.generate.emit import generate_to_dir
+    from dobwind.model.airframe import load_airframe
+
+    if args.output is not None:
+        check_targets([Target("-o", args.output, "dir")], [args.airframe])
+    af = load_airframe(args.airframe)
+    require_stable(af, "refusing to generate code", args.airframe)  # the same gate as `check`
+    out_dir = args.output if args.output is not None else f"generated_c/{af.name}"
+    target = Target("-o", out_dir, "dir")
+    check_targets([target], [args.airframe])
+    check_replaceable(target, is_generated_name)
+    gate = None if args.no_selftest else partial(selftest_gate, af.name)
+    files = generate_to_dir(af, out_dir, args.precision, source=args.airframe, integration=args.target,
+                            gate=gate)
+    for path in files:
+        print(path)
+    return 0
+
+
+def selftest_gate(name: str, folder: Path, command: str = "generate") -> None:
+    """generate's last gate (also `check`'s): the C in ``folder`` compiled and run against its golden vectors."""
+    from dobwind.harness.build import system_compiler
+    from dobwind.generate.selftest_gate import run_selftest
+
+    result = run_selftest(folder, name, system_compiler())
+    if not result.ran:
+        sys.stderr.write(f"dobwind {command}: warning: {result.summary}\n")

@@ -1,0 +1,95 @@
+"""The body-frame drag law regrouped for its inversion: the value and the Jacobian that the step's Newton
+steps evaluate, written so that their shared parts are computed once.
+
+``forceair.body_drag_force`` writes the law as a sum over coefficients (one basis vector each: what the
+fit needs). Every in-plane term is a scalar times the airflow a_xy or times a_xy turned 90 deg, so
+
+    F_xy = P a_xy + Q (-a_y, a_x),    F_z = R a_z + i1 s_h + i2 s_h^2,    R = lz + qz s
+
+with P and Q scalars of the airflow (docs/model.md has the law):
+
+    P = l0 + lr rotor + q0 g + (l2c + q2c g) cos 2theta + q1c k a_x + q4c g cos 4theta
+    Q = (l2s + q2s g) sin 2theta + q4s g sin 4theta,      g = s^(p-1), k = s^(p-2)
+
+The Jacobian then needs only the gradients of the three scalars P, Q and F_z (automatic
+differentiation of a scalar shares its parts; of the summed vector law it repeats them per coefficient
+and per component):
+
+    J_xy = [[P, -Q], [Q, P]] (first two columns) + a_xy (grad P)^T + (-a_y, a_x) (grad Q)^T
+
+The same law to rounding (tests/test_dragform.py compares it with body_drag_force and with a finite-
+difference Jacobian). Works on SX only; the coefficient fields of ``law`` are floats or SX symbols.
+"""
+from __future__ import annotations
+
+import casadi as ca
+
+
+def _present(value) -> bool:
+    """A term is kept when its coefficient is a symbol or a nonzero number."""
+    return isinstance(value, ca.SX) or value != 0.0
+
+
+def _is_two(exponent) -> bool:
+    return not isinstance(exponent, ca.SX) and exponent == 2.0
+
+
+def _sum(terms: list) -> ca.SX:
+    total = ca.SX(0) if not terms else terms[0]
+    for term in terms[1:]:
+        total = total + term
+    return total
+
+
+def body_law_scalars(law, a: ca.SX, rotor: ca.SX, eps: float) -> tuple[ca.SX, ca.SX, ca.SX]:
+    """(P, Q, F_z) of the body-frame law at the body-frame airflow ``a`` (3 x 1), both speeds smoothed
+    by ``eps`` as in the Newton steps of forceair."""
+    ax, ay, az = a[0], a[1], a[2]
+    sh2 = ax * ax + ay * ay + eps * eps
+    s = ca.sqrt(sh2 + az * az)
+    inv = 1 / sh2  # one division for both double-angle terms
+    cos2, sin2 = (ax * ax - ay * ay) * inv, 2 * ax * ay * inv
+    quadratic = _is_two(law.exponent)
+    g = s if quadratic else s ** (law.exponent - 1.0)
+    p_terms = [law.l0 + law.lr * rotor if _present(law.lr) else ca.SX(law.l0)]
+    if _present(law.q0):
+        p_terms.append(law.q0 * g)
+    aniso = [c for c in (law.l2c if _present(law.l2c) else None, law.q2c * g if _present(law.q2c) else None)
+             if c is not None]
+    if aniso:
+        p_terms.append(_sum(aniso) * cos2)
+    if _present(law.q1c):
+        p_terms.append(law.q1c * (ax if quadratic else s ** (law.exponent - 2.0) * ax))
+    skew = [c for c in (law.l2s if _present(law.l2s) else None, law.q2s * g if _present(law.q2s) else None)
+            if c is not None]
+    q_terms = [_sum(skew) * sin2] if skew else []
+    if _present(law.q4c) or _present(law.q4s):
+        cos4, sin4 = cos2 * cos2 - sin2 * sin2, 2 * sin2 * cos2
+        if _present(law.q4c):
+            p_terms.append(law.q4c * g * cos4)
+        if _present(law.q4s):
+            q_terms.append(law.q4s * g * sin4)
+    fz_terms = [(law.lz + law.qz * s if _present(law.qz) else ca.SX(law.lz)) * az]
+    if _present(law.i1):
+        fz_terms.append(law.i1 * ca.sqrt(sh2))
+    if _present(law.i2):
+        fz_terms.append(law.i2 * sh2)
+    return _sum(p_terms), _sum(q_terms), _sum(fz_terms)
+
+
+def body_law_value(p: ca.SX, q: ca.SX, fz: ca.SX, a: ca.SX) -> ca.SX:
+    """The law's body-frame force from its scalars."""
+    return ca.vertcat(p * a[0] - q * a[1], p * a[1] + q * a[0], fz)
+
+
+def body_law_and_jacobian(law, a: ca.SX, rotor: ca.SX, eps: float) -> tuple[ca.SX, ca.SX]:
+    """(force, 3 x 3 Jacobian d force / d a), symbolic in ``a`` (an SX symbol: the gradients need it)."""
+    p, q, fz = body_law_scalars(law, a, rotor, eps)
+    gp, gq, gz = ca.gradient(p, a), ca.gradient(q, a), ca.gradient(fz, a)
+    ax, ay = a[0], a[1]
+    jx = [ax * gp[j] - ay * gq[j] for j in range(3)]
+    jy = [ay * gp[j] + ax * gq[j] for j in range(3)]
+    jx[0], jx[1] = p + jx[0], jx[1] - q
+    jy[0], jy[1] = q + jy[0], p + jy[1]
+    jacobian = ca.vertcat(ca.horzcat(*jx), ca.horzcat(*jy), gz.T)
+    return body_law_value(p, q, fz, a), jacobian
