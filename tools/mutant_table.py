@@ -87,8 +87,7 @@ def _validation_mutants(af: Airframe) -> list[CMutant]:
           if af.thrust.source == "rpm"],
         CMutant("BAD_THRUST bit dropped", "validate", r"\? 16 :", "? 0 :"),
         CMutant("TILT bit 8 -> 4", "validate", r"\? 8 :", "? 4 :"),
-        CMutant("rejection resets no run_s", "validate",
-                r"state->run_s = 0\.0f?;((?:\s*state->check_follows = 0\.0f?;)?\s*\*out = state->last;\s*return \(int\)status;)",
+        CMutant("rejection resets no run_s", "validate", r"state->run_s = 0\.0f?;((?:\s*state->check_follows = 0\.0f?;)?\s*\*out = state->last;\s*return \(int\)status;)",
                 r"\1"),
         CMutant("rejection returns 0", "validate", r"return \(int\)status;", "(void)status; return 0;"),
     ]

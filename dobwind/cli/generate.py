@@ -51,6 +51,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def selftest_gate(name: str, folder: Path, command: str = "generate") -> None:
+    """generate's last gate (also `check`'s): the C in ``folder`` compiled and run against its golden vectors."""
     from dobwind.harness.build import system_compiler
     from dobwind.generate.selftest_gate import run_selftest
 
