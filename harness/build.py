@@ -81,6 +81,11 @@ def write_shim(model: StepModel, precision: Precision, out_dir: Path) -> Path:
         save_state=[f"x[{i}] = (double){p};" for i, p in enumerate(state)],
         load_input=[f"{p} = ({real})u[{i}];" for i, p in enumerate(inputs)],
         save_output=[f"y[{i}] = (double){p};" for i, p in enumerate(outputs)],
+        real=real,
+        load_state_native=[f"{p} = x[{i}];" for i, p in enumerate(state)],
+        save_state_native=[f"x[{i}] = {p};" for i, p in enumerate(state)],
+        load_input_native=[f"{p} = u[{i}];" for i, p in enumerate(inputs)],
+        save_output_native=[f"y[{i}] = {p};" for i, p in enumerate(outputs)],
     )
     path = out_dir / "dobwind_shim.c"
     path.write_text(text)

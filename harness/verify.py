@@ -17,6 +17,7 @@ from dobwind.harness.build import Compiler, available_compilers, build_shared_li
 from dobwind.harness.compare import Comparison, compare
 from dobwind.harness.flagsets import FLAG_SETS, FlagSet, Toolchain, available_toolchains, build_selftest, compile_c
 from dobwind.harness.cstep import CStep
+from dobwind.harness.isolated import implies_fast_math, run_isolated
 from dobwind.model import reference
 from dobwind.model.airframe import Airframe
 from dobwind.model.boundaries import boundary_cases
@@ -146,6 +147,12 @@ def verify_precision(model: StepModel, precision: Precision, steps: int, seed: i
     """With ``c_dir`` the C in that folder is checked as it is (a hand edit shows); otherwise fresh C.
     With ``flags`` (an autopilot's set, harness/flagsets.py) the C is also compiled with it by every
     toolchain, and the self-test and the library compared with the reference are built with it."""
+    # The references first, before any library is loaded into this process (see _run_c), and in IEEE
+    # arithmetic: a process a fast-math library was loaded into would compute them with subnormals flushed.
+    if _flushes_subnormals():
+        raise CheckFailed("this process flushes subnormals to zero (a fast-math library was loaded into it): "
+                          "the reference and the limit cases would be wrong")
+    checks = references if references is not None else ReferenceChecks.build(model, precision, steps, seed)
     report = PrecisionReport(precision)
     if c_dir is None:
         write_files(generate_code(model.airframe, precision, model).files, work)
@@ -167,11 +174,28 @@ def verify_precision(model: StepModel, precision: Precision, steps: int, seed: i
     except CheckFailed as exc:
         report.selftest = str(exc).strip().splitlines()[-1]
     extra = () if flags is None else tuple(f for f in flags.c if f not in ("-Werror", "-Wfatal-errors"))
-    cstep = CStep(model, build_shared_library(model, precision, code_dir, work, extra))
-    checks = references if references is not None else ReferenceChecks.build(model, precision, steps, seed)
-    report.cases = compare(model, cstep.cases(checks.states, checks.inputs), checks.cases, TOLERANCE[precision])
-    report.flight = compare(model, cstep.run(checks.flight_inputs), checks.flight, TOLERANCE[precision])
+    cases, flight = _run_c(model, precision, build_shared_library(model, precision, code_dir, work, extra), extra, checks)
+    report.cases = compare(model, cases, checks.cases, TOLERANCE[precision])
+    report.flight = compare(model, flight, checks.flight, TOLERANCE[precision])
     return report
+
+
+def _run_c(model: StepModel, precision: Precision, library: Path, flags: tuple[str, ...],
+           checks: "ReferenceChecks") -> tuple[Trajectory, Trajectory]:
+    """The C's answers to the checks. A library built with fast-math flags sets flush-to-zero for the
+    process that loads it (gcc's crtfastmath): it runs in a child, fed in its own type, so that neither
+    this process's arithmetic nor the subnormal limit rows are flushed (harness/isolated.py)."""
+    if implies_fast_math(flags):
+        return run_isolated(library, precision, (model.state.size, model.outputs.size), checks.states,
+                            checks.inputs, checks.flight_inputs)
+    cstep = CStep(model, library)
+    return cstep.cases(checks.states, checks.inputs), cstep.run(checks.flight_inputs)
+
+
+def _flushes_subnormals() -> bool:
+    """Whether this process's arithmetic flushes subnormals (compared by bits: denormals-are-zero would
+    make a float comparison see the smallest subnormal as 0 too)."""
+    return int((np.array([5e-324]) * 1.0).view(np.uint64)[0]) != 1
 
 
 @dataclass(frozen=True)

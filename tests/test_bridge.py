@@ -136,6 +136,30 @@ def test_bridged_rows_are_inside_short_silences_of_every_stream_with_a_gap():
     assert not bridged_rows(streams, clock, {"slow": 0.5, "fast": 1.0}).any()
 
 
+def test_overlapping_silences_of_two_streams_are_one_silence_against_the_bound():
+    """Each silence within its bound, but the position's and the attitude's overlap in a chain: the inputs
+    are interpolated without a break from the chain's first sample to its last, which is one silence of
+    that length (the bound's derivation), so the chain is bridged only when that is within the bound."""
+    clock = np.round(np.arange(0.0, 10.0, 0.01), 6)
+    grid = np.round(np.arange(0.0, 10.001, 0.01), 6)
+
+    def silent(over):
+        return grid[~np.any([(grid > a) & (grid < b) for a, b in over], axis=0)]
+
+    pos = [(2.0, 2.6), (2.8, 3.4), (3.6, 4.2)]    # 0.6 s each
+    att = [(2.4, 3.0), (3.2, 3.8)]                # 0.6 s each, overlapping the position's
+    streams = {"pos": (silent(pos), 0.1), "att": (silent(att), 0.1)}
+    chain = (clock > 2.0 + 1e-9) & (clock < 4.2 - 1e-9)
+    assert not bridged_rows(streams, clock, {"pos": 0.8, "att": 0.8})[chain].any()  # 2.2 s joined
+    assert bridged_rows(streams, clock, {"pos": 2.2, "att": 0.8})[chain].all()  # the longest bound holds it
+    # Two that overlap but join to 0.8 s stay bridged, and a separate short one is untouched by the chain.
+    pair = {"pos": (silent([(6.0, 6.6)]), 0.1), "att": (silent([(6.2, 6.8)]), 0.1)}
+    joined = bridged_rows(pair, clock, {"pos": 0.8, "att": 0.8})
+    assert np.array_equal(joined, (clock > 6.0 + 1e-9) & (clock < 6.8 - 1e-9))
+    both = {name: (np.intersect1d(streams[name][0], pair[name][0]), 0.1) for name in streams}
+    assert np.array_equal(bridged_rows(both, clock, {"pos": 0.8, "att": 0.8}), joined)
+
+
 def test_holding_repeats_the_last_row_before_each_bridged_run():
     values = np.arange(10.0)[:, None] * np.array([[1.0, -1.0]])
     mask = np.zeros(10, dtype=bool)
@@ -147,16 +171,19 @@ def test_holding_repeats_the_last_row_before_each_bridged_run():
 
 # --- replay on synthetic ULogs -----------------------------------------------------------------------------
 
-def _dropout_ulog(path, cols, silences=(), jitter=0.0, seed=0):
+def _dropout_ulog(path, cols, silences=(), jitter=0.0, seed=0, attitude_silences=()):
     """PX4's default rates (local position at 10 Hz, ESCs at 4 Hz, attitude at the full 100 Hz) with the
-    local position silent over each (start, end) of ``silences``; ``jitter`` moves every timestamp by up to
-    that fraction of its topic's period (uniform)."""
+    local position silent over each (start, end) of ``silences`` and the attitude over each of
+    ``attitude_silences``; ``jitter`` moves every timestamp by up to that fraction of its topic's period
+    (uniform)."""
     rng = np.random.default_rng(seed)
     n, t = len(cols["t"]), cols["t"]
     every = lambda k: (np.arange(n) % k) == 0  # noqa: E731
-    lp_keep = every(10)
+    lp_keep, att_keep = every(10), np.ones(n, dtype=bool)
     for start, end in silences:
         lp_keep &= ~((t > start) & (t < end))
+    for start, end in attitude_silences:
+        att_keep &= ~((t > start) & (t < end))
 
     def jittered(rows, period):
         for r in rows:
@@ -169,7 +196,7 @@ def _dropout_ulog(path, cols, silences=(), jitter=0.0, seed=0):
         Topic("vehicle_local_position", [("uint64_t", "timestamp")] + [("float", f) for f in lp],
               jittered(_rows(cols, ["vel_n", "vel_e", "vel_d", "acc_n", "acc_e", "acc_d"], lp, lp_keep), 0.1)),
         Topic("vehicle_attitude", [("uint64_t", "timestamp"), ("float[4]", "q")],
-              jittered(_rows(cols, ["q_w", "q_x", "q_y", "q_z"], [f"q[{i}]" for i in range(4)]), 0.01)),
+              jittered(_rows(cols, ["q_w", "q_x", "q_y", "q_z"], [f"q[{i}]" for i in range(4)], att_keep), 0.01)),
         Topic("vehicle_attitude_setpoint", [("uint64_t", "timestamp"), ("float", "yaw_body")],
               jittered(_rows(cols, ["yaw_ref"], ["yaw_body"], every(10)), 0.1)),
         Topic("esc_status", [("uint64_t", "timestamp"), ("uint8_t", "esc_count"), ("esc_report[8]", "esc")],
@@ -240,6 +267,42 @@ def test_a_bound_ten_times_longer_would_bridge_the_long_silence(dropouts, monkey
     t = flight.log.time_s
     assert flight.bridged[_rows_in(t, 20.0, 21.5)].all()
     assert not (traj.status[_rows_in(t, 21.5, 22.0)] & SETTLING).any()
+
+
+# The position silent 0.56 s four times and the attitude 0.56 s three times, each silence within the bound
+# but overlapping: one chain from 12.0 to 15.0 s.
+CHAIN_POSITION = ((12.02, 12.58), (12.82, 13.38), (13.62, 14.18), (14.42, 14.98))
+CHAIN_ATTITUDE = ((12.42, 12.98), (13.22, 13.78), (14.02, 14.58))
+
+
+@pytest.fixture(scope="module")
+def chain(tmp_path_factory):
+    af, cols = _flight()
+    path = _dropout_ulog(tmp_path_factory.mktemp("chain") / "chain.ulg", cols, CHAIN_POSITION,
+                         attitude_silences=CHAIN_ATTITUDE)
+    return af, str(path)
+
+
+def test_a_chain_of_overlapping_short_silences_longer_than_the_bound_resets(chain):
+    af, path = chain
+    assert 0.6 < airframe_bound_s(af) < 3.0  # the premise: each silence within the bound, the chain beyond
+    model, flight, traj = replay_ulog(af, path)
+    t, settle = flight.log.time_s, model.settling_time_s
+    assert np.all(traj.status[_rows_in(t, 12.0, 15.0)] & STATUS_NO_DATA)
+    assert flight.bridged is None or not flight.bridged[_rows_in(t, 11.9, 15.1)].any()
+    assert np.all(traj.status[_rows_in(t, 15.0, 15.0 + settle - 0.05)] == SETTLING)
+    assert np.all(traj.status[_rows_in(t, 15.0 + settle + 0.05, 20.0)] == 0)
+
+
+def test_without_joining_overlapping_silences_the_chain_would_be_bridged(chain, monkeypatch):
+    """The mutation "chains not held to the bound": the 3 s chain is bridged and the row after it trusted
+    at once, which the test above forbids."""
+    af, path = chain
+    monkeypatch.setattr(bridge, "_within_bounds", lambda rows, *_: np.ones(len(rows), dtype=bool))
+    _, flight, traj = replay_ulog(af, path)
+    t = flight.log.time_s
+    assert flight.bridged[_rows_in(t, 12.05, 14.95)].all()
+    assert not (traj.status[_rows_in(t, 15.0, 15.5)] & SETTLING).any()
 
 
 def test_the_estimate_after_a_bridged_silence_joins_the_uninterrupted_one(tmp_path):

@@ -18,7 +18,9 @@ way, but its rows are trusted: the worst error of any row inside or after it is 
 accepts in a trusted row. A silence is bridged when the worst error it leaves in the trusted rows after
 it (its after error) is no larger than that. Past ``BRIDGE_CAP_S`` a silence is never bridged: the one
 step per silence of the argument stops being a fair model once a whole manoeuvre (a stop and a turn, about
-a second for a multirotor's position loop) fits inside it.
+a second for a multirotor's position loop) fits inside it. Silences of several streams that overlap are
+one silence for this (``_within_bounds``): some input is interpolated throughout, so a chain of them,
+each within its bound, is bridged only when the whole chain is.
 
 Held streams (setpoints: the collective thrust, ArduPilot's CTUN) are not interpolated but held, so the
 impulse is not kept: a step at the silence's start is missed until its end, and the error is then
@@ -101,9 +103,12 @@ def bridged_rows(streams: dict[str, tuple[np.ndarray, float]], t_dst: np.ndarray
     """Rows of t_dst inside a gap (``resample.gaps``) of some stream where every stream with a gap there
     has samples on both sides no more than its bound (``bounds[name]``) apart. Rows outside a stream's
     span (before its first or after its last sample) are never bridged: there is nothing to interpolate
-    towards."""
+    towards. Silences of several streams that overlap or touch make one silence (``_within_bounds``)."""
     in_gap = np.zeros(len(t_dst), dtype=bool)
     bridgeable = np.ones(len(t_dst), dtype=bool)
+    first = np.full(len(t_dst), np.inf)    # per row: the earliest sample before a silence it is in
+    last = np.full(len(t_dst), -np.inf)    # and the latest sample after one
+    bound = np.zeros(len(t_dst))           # and the longest bound among those silences' streams
     for name, (t_src, max_gap) in streams.items():
         covers = t_src[0] <= t_dst[0] and t_src[-1] >= t_dst[-1]
         if covers and (len(t_src) < 2 or float(np.diff(t_src).max()) <= max_gap):
@@ -113,10 +118,35 @@ def bridged_rows(streams: dict[str, tuple[np.ndarray, float]], t_dst: np.ndarray
             continue
         idx = np.searchsorted(t_src, t_dst, side="right")
         inside = (idx > 0) & (t_dst <= t_src[-1])
-        span = t_src[np.clip(idx, 0, len(t_src) - 1)] - t_src[np.clip(idx - 1, 0, len(t_src) - 1)]
+        before = t_src[np.clip(idx - 1, 0, len(t_src) - 1)]
+        after = t_src[np.clip(idx, 0, len(t_src) - 1)]
         in_gap |= own
-        bridgeable &= ~own | (inside & (span <= bounds[name]))
-    return in_gap & bridgeable
+        bridgeable &= ~own | (inside & (after - before <= bounds[name]))
+        first = np.where(own, np.minimum(first, before), first)
+        last = np.where(own, np.maximum(last, after), last)
+        bound = np.where(own, np.maximum(bound, bounds[name]), bound)
+    rows = in_gap & bridgeable
+    return rows & _within_bounds(rows, first, last, bound)
+
+
+def _within_bounds(rows: np.ndarray, first: np.ndarray, last: np.ndarray, bound: np.ndarray) -> np.ndarray:
+    """False on each maximal run of ``rows`` whose silences, joined, last longer than the longest bound
+    among them. The bound's derivation assumes one silence of at most the bound, with interpolated
+    inputs from its first sample to its last; a chain of overlapping silences (the position, then the
+    attitude, then the position again) is interpolated without a break over its whole length, so it is
+    one silence of that length. A silence of one stream alone is within its bound already."""
+    keep = np.ones(len(rows), dtype=bool)
+    if not rows.any():
+        return keep
+    edges = np.diff(np.r_[0, rows.astype(np.int8), 0])
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    # reduceat runs from one start to the next: the rows between two runs are masked out.
+    latest = np.maximum.reduceat(np.where(rows, last, -np.inf), starts)
+    length = latest - np.minimum.reduceat(np.where(rows, first, np.inf), starts)
+    longest = np.maximum.reduceat(np.where(rows, bound, 0.0), starts)
+    for start, end, too_long in zip(starts, ends, length > longest):
+        keep[start:end] = not too_long
+    return keep
 
 
 def hold_bridged(values: np.ndarray, bridged: np.ndarray) -> np.ndarray:
