@@ -199,3 +199,47 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
             item.add_marker(pytest.mark.fuzz)
         for marker in _needs(path):
             item.add_marker(getattr(pytest.mark, marker))
+
+
+# --- shared fits -------------------------------------------------------------------------------------
+# `dobwind fit` is the suite's most expensive step (30-140 s each on a loaded two-core machine), and some
+# modules run the same fit twice only to read it two ways (--json and the text report). The fit is a pure
+# function of the airframe, the log files and the options, so a module may opt in to ``shared_fits``: the
+# command line runs whole each time (parsing, writing, printing, exit status), and fitfamily.fit_airframe
+# computes each distinct call once per module. A changed log (size or mtime) or option is a new call.
+
+def _fit_key(args: tuple, kwargs: dict) -> str:
+    af, paths, *rest = args
+    files = [(str(p), Path(p).stat().st_size, Path(p).stat().st_mtime_ns) if Path(p).is_file() else (str(p),)
+             for p in paths]
+    return repr((af, files, rest, sorted(kwargs.items())))
+
+
+class FitMemo:
+    """fit_airframe, computed once per distinct call; every caller gets its own deep copy (the caller may
+    change what it is given). ``calls`` and ``computed`` let a test see the sharing happen."""
+
+    def __init__(self, fit):
+        self.fit, self.results, self.calls, self.computed = fit, {}, 0, 0
+
+    def __call__(self, *args, **kwargs):
+        import copy
+
+        self.calls += 1
+        if kwargs.get("log_reader") is not None:  # a reader object has no content key: never shared
+            return self.fit(*args, **kwargs)
+        key = _fit_key(args, kwargs)
+        if key not in self.results:
+            self.computed += 1
+            self.results[key] = self.fit(*args, **kwargs)
+        return copy.deepcopy(self.results[key])
+
+
+@pytest.fixture(scope="module")
+def shared_fits():
+    from dobwind.calibrate import fitfamily
+
+    memo = FitMemo(fitfamily.fit_airframe)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(fitfamily, "fit_airframe", memo)
+        yield memo
