@@ -204,7 +204,7 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
 # --- shared fits -------------------------------------------------------------------------------------
 # `dobwind fit` is the suite's most expensive step (30-140 s each on a loaded two-core machine), and some
 # modules run the same fit twice only to read it two ways (--json and the text report). The fit is a pure
-# function of the airframe, the log files and the options, so a module may opt in to ``shared_fits``: the
+# function of the airframe, the log files and the options, so a test may ask for ``shared_fits``: the
 # command line runs whole each time (parsing, writing, printing, exit status), and fitfamily.fit_airframe
 # computes each distinct call once per module. A changed log (size or mtime) or option is a new call.
 
@@ -236,10 +236,17 @@ class FitMemo:
 
 
 @pytest.fixture(scope="module")
-def shared_fits():
+def _fit_memo() -> FitMemo:
     from dobwind.calibrate import fitfamily
 
-    memo = FitMemo(fitfamily.fit_airframe)
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(fitfamily, "fit_airframe", memo)
-        yield memo
+    return FitMemo(fitfamily.fit_airframe)
+
+
+@pytest.fixture
+def shared_fits(_fit_memo: FitMemo, monkeypatch: pytest.MonkeyPatch) -> FitMemo:
+    """The module's memo in place of fit_airframe, for the requesting test only (the results outlive it,
+    the patch does not: a later test of the module that patches the fit's internals gets the real one)."""
+    from dobwind.calibrate import fitfamily
+
+    monkeypatch.setattr(fitfamily, "fit_airframe", _fit_memo)
+    return _fit_memo

@@ -51,3 +51,16 @@ def test_a_call_with_a_log_reader_is_never_shared(tmp_path):
     memo("af", ["x.csv"], log_reader=reader)
     memo("af", ["x.csv"], log_reader=reader)
     assert len(seen) == 2 and memo.computed == 0
+
+
+def test_the_fixture_puts_the_memo_in_place_for_the_asking_test(shared_fits):
+    from dobwind.calibrate import fitfamily
+
+    assert fitfamily.fit_airframe is shared_fits and isinstance(shared_fits, FitMemo)
+
+
+def test_and_a_later_test_of_the_module_gets_the_real_fit():
+    """Runs after the test above (file order): the memo's patch ended with it."""
+    from dobwind.calibrate import fitfamily
+
+    assert not isinstance(fitfamily.fit_airframe, FitMemo)
