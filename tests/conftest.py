@@ -206,3 +206,54 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
             item.add_marker(pytest.mark.fuzz)
         for marker in _needs(path):
             item.add_marker(getattr(pytest.mark, marker))
+
+
+# --- shared fits -------------------------------------------------------------------------------------
+# `dobwind fit` is the suite's most expensive step (30-140 s each on a loaded two-core machine), and some
+# modules run the same fit twice only to read it two ways (--json and the text report). The fit is a pure
+# function of the airframe, the log files and the options, so a test may ask for ``shared_fits``: the
+# command line runs whole each time (parsing, writing, printing, exit status), and fitfamily.fit_airframe
+# computes each distinct call once per module. A changed log (size or mtime) or option is a new call.
+
+def _fit_key(args: tuple, kwargs: dict) -> str:
+    af, paths, *rest = args
+    files = [(str(p), Path(p).stat().st_size, Path(p).stat().st_mtime_ns) if Path(p).is_file() else (str(p),)
+             for p in paths]
+    return repr((af, files, rest, sorted(kwargs.items())))
+
+
+class FitMemo:
+    """fit_airframe, computed once per distinct call; every caller gets its own deep copy (the caller may
+    change what it is given). ``calls`` and ``computed`` let a test see the sharing happen."""
+
+    def __init__(self, fit):
+        self.fit, self.results, self.calls, self.computed = fit, {}, 0, 0
+
+    def __call__(self, *args, **kwargs):
+        import copy
+
+        self.calls += 1
+        if kwargs.get("log_reader") is not None:  # a reader object has no content key: never shared
+            return self.fit(*args, **kwargs)
+        key = _fit_key(args, kwargs)
+        if key not in self.results:
+            self.computed += 1
+            self.results[key] = self.fit(*args, **kwargs)
+        return copy.deepcopy(self.results[key])
+
+
+@pytest.fixture(scope="module")
+def _fit_memo() -> FitMemo:
+    from dobwind.calibrate import fitfamily
+
+    return FitMemo(fitfamily.fit_airframe)
+
+
+@pytest.fixture
+def shared_fits(_fit_memo: FitMemo, monkeypatch: pytest.MonkeyPatch) -> FitMemo:
+    """The module's memo in place of fit_airframe, for the requesting test only (the results outlive it,
+    the patch does not: a later test of the module that patches the fit's internals gets the real one)."""
+    from dobwind.calibrate import fitfamily
+
+    monkeypatch.setattr(fitfamily, "fit_airframe", _fit_memo)
+    return _fit_memo

@@ -157,7 +157,7 @@ def _still_air_wind(airframe, noisy, capsys) -> float:
     return json.loads(capsys.readouterr().out)["mean_estimated_wind"]["horizontal_mps"]
 
 
-def test_fit_blends_the_noisy_input_and_an_unseen_still_air_flight_reads_less(noisy, tmp_path, capsys):
+def test_fit_blends_the_noisy_input_and_an_unseen_still_air_flight_reads_less(noisy, tmp_path, capsys, shared_fits):
     capsys.readouterr()
     out = tmp_path / "fit.toml"
     assert main(["fit", noisy["airframe"], noisy["sweep"], noisy["vertical"], "-o", str(out), "--json"]) == 0
@@ -178,7 +178,7 @@ def test_fit_blends_the_noisy_input_and_an_unseen_still_air_flight_reads_less(no
     assert _still_air_wind(out, noisy, capsys) < 0.5 * _still_air_wind(unblended, noisy, capsys)
 
 
-def test_the_text_report_shows_both_noise_figures(noisy, tmp_path, capsys):
+def test_the_text_report_shows_both_noise_figures(noisy, tmp_path, capsys, shared_fits):
     capsys.readouterr()
     assert main(["fit", noisy["airframe"], noisy["sweep"], noisy["vertical"], "-o", str(tmp_path / "t.toml")]) == 0
     text = capsys.readouterr()

@@ -86,7 +86,7 @@ def _still_air_wind(airframe, noisy, capsys) -> float:
     return json.loads(capsys.readouterr().out)["mean_estimated_wind"]["horizontal_mps"]
 
 
-def test_fit_lowers_the_zero_airflow_cutoff_of_a_noisy_vehicle_and_still_air_reads_less(noisy, tmp_path, capsys):
+def test_fit_lowers_the_zero_airflow_cutoff_of_a_noisy_vehicle_and_still_air_reads_less(noisy, tmp_path, capsys, shared_fits):
     kept = _fit(noisy, tmp_path / "kept.toml", capsys, "--hover-noise", "0")
     assert kept["low_pass"] == {}
     assert load_airframe(tmp_path / "kept.toml").filter.cutoffs_hz == (0.2, 0.35, 0.5)
@@ -112,7 +112,7 @@ def test_fit_lowers_the_zero_airflow_cutoff_of_a_noisy_vehicle_and_still_air_rea
     assert _still_air_wind(tmp_path / "low.toml", noisy, capsys) < 0.85 * _still_air_wind(tmp_path / "kept.toml", noisy, capsys)
 
 
-def test_the_text_report_says_what_the_fit_did_to_the_low_pass(noisy, tmp_path, capsys):
+def test_the_text_report_says_what_the_fit_did_to_the_low_pass(noisy, tmp_path, capsys, shared_fits):
     capsys.readouterr()
     assert main(["fit", noisy["airframe"], noisy["sweep"], noisy["vertical"], "-o", str(tmp_path / "t.toml")]) == 0
     out = capsys.readouterr().out

@@ -6,6 +6,7 @@ from __future__ import annotations
 import pytest
 
 from dobwind.codegen.generate import generate_code
+from dobwind.harness.verify import ReferenceChecks
 from tools.mutant_table import CMutant, ModelMutant, c_mutants, model_mutants
 from tools.mutants import AnchorError, Outcome, apply_c_mutant, check_c, run_model_mutant, table
 from dobwind.model.airframe import load_airframe
@@ -16,6 +17,20 @@ from tests.helpers import M300
 @pytest.fixture(scope="module")
 def model():
     return build_step(load_airframe(M300))
+
+
+@pytest.fixture(scope="module")
+def code(model) -> dict[str, dict[str, str]]:
+    """The generated files in each precision, made once for the module (about a second each; every test
+    below mutates its own copy of the text, never these)."""
+    return {precision: generate_code(model.airframe, precision, model).files for precision in ("single", "double")}
+
+
+@pytest.fixture(scope="module")
+def references(model) -> dict[str, ReferenceChecks]:
+    """The reference's answers to verify's cases in each precision, once for the module: `make mutants`
+    shares one per precision across its whole table in the same way (tools/mutants.run_c_mutants)."""
+    return {precision: ReferenceChecks.build(model, precision, 300, 1) for precision in ("single", "double")}
 
 
 def _mutant(model, name: str) -> CMutant:
@@ -32,20 +47,20 @@ C_KINDS = ["m*g x1.001", "dt upper bound <= becomes <", "NaN wind_from_deg outpu
 
 @pytest.mark.parametrize("precision", ["single", "double"])
 @pytest.mark.parametrize("name", C_KINDS)
-def test_a_c_mutant_is_caught_by_verify_and_the_self_test(model, tmp_path, name, precision):
-    files = generate_code(model.airframe, precision, model).files
+def test_a_c_mutant_is_caught_by_verify_and_the_self_test(model, code, references, tmp_path, name, precision):
+    files = code[precision]
     source = "m300_wind.c"
     mutated = apply_c_mutant(files[source], _mutant(model, name), precision, "m300_wind_")
     assert mutated != files[source]
-    found = check_c(model, dict(files, **{source: mutated}), precision, 300, tmp_path, "mutant")
+    found = check_c(model, dict(files, **{source: mutated}), precision, 300, tmp_path, "mutant", references[precision])
     assert "self-test" in found and "verify cases" in found, found
 
 
-def test_the_unmutated_c_passes_the_same_checks(model, tmp_path):
+def test_the_unmutated_c_passes_the_same_checks(model, code, references, tmp_path):
     """The other half of the tests above: the checks do not simply fail on everything."""
     for precision in ("single", "double"):
-        files = generate_code(model.airframe, precision, model).files
-        assert check_c(model, files, precision, 300, tmp_path, f"clean-{precision}") == ()
+        files = code[precision]
+        assert check_c(model, files, precision, 300, tmp_path, f"clean-{precision}", references[precision]) == ()
 
 
 # The model mutants issue #10 names: verify cannot see them (the C and the reference change together),
@@ -60,8 +75,8 @@ def test_the_named_model_mutants_are_caught_by_the_suite(tmp_path, name):
     assert outcome.caught_by == ("test test_step_matches_independent_transcription",), outcome
 
 
-def test_an_anchor_that_does_not_match_stops_the_run(model):
-    text = generate_code(model.airframe, "single", model).files["m300_wind.c"]
+def test_an_anchor_that_does_not_match_stops_the_run(code):
+    text = code["single"]["m300_wind.c"]
     with pytest.raises(AnchorError, match="matched 0 times"):
         apply_c_mutant(text, CMutant("no such code", "validate", r"in->no_such_input", "x"), "single", "m300_wind_")
     with pytest.raises(AnchorError, match="region 'no_such_section'"):

@@ -188,7 +188,7 @@ def sweep(tmp_path_factory):
 
 
 @pytest.mark.parametrize("columns", [["wind_n"], ["rpm_1"]])
-def test_fit_of_a_log_whose_first_rows_are_invalid(sweep, columns, capsys):
+def test_fit_of_a_log_whose_first_rows_are_invalid(sweep, columns, capsys, shared_fits):
     """End to end: the NaN rows used to reach the filters, every sample's regressors were NaN and the fit
     died in the least squares (a traceback). Now the fit is written and close to the clean log's: only
     the first second differs (the regressors' filters start at row 50; with NaN rpm the step also
@@ -206,7 +206,7 @@ def test_fit_of_a_log_whose_first_rows_are_invalid(sweep, columns, capsys):
         assert getattr(got.drag, key) == pytest.approx(getattr(clean.drag, key), rel=0.02), key
 
 
-def test_fit_with_a_log_without_a_valid_row(sweep, capsys):
+def test_fit_with_a_log_without_a_valid_row(sweep, capsys, shared_fits):
     """A third log whose true wind is missing on every row: it used to give NaN samples (its rows were
     all 'before the first valid one', kept as they were) and the fit died in the least squares. Now it
     contributes no sample, the fit says so, and the drag law is the one the other two logs give."""

@@ -209,7 +209,7 @@ def tiny(tmp_path_factory):
     return paths
 
 
-def test_a_good_fit_passes_and_its_replay_matches_replay(tiny, tmp_path, capsys):
+def test_a_good_fit_passes_and_its_replay_matches_replay(tiny, tmp_path, capsys, shared_fits):
     out = tmp_path / "good.toml"
     capsys.readouterr()
     assert main(["fit", tiny["airframe"], tiny["sweep"], tiny["vertical"], "-o", str(out), "--json"]) == 0
@@ -256,7 +256,7 @@ def test_the_self_check_runs_the_compiled_double_step_or_without_a_compiler_the_
     assert dc.asdict(with_c) == dc.asdict(without_c) and with_c.points_kept > 0 and with_c.noise_h_mps > 0
 
 
-def test_fit_records_the_observer_noise_of_its_own_replay(tiny, tmp_path, capsys):
+def test_fit_records_the_observer_noise_of_its_own_replay(tiny, tmp_path, capsys, shared_fits):
     """Issue #10: sigma = the residual table at the speed plus the observer noise. The self-check's
     replay measures the noise (scatter about each segment's mean error) on each log; the same vehicle
     and estimator give the same noise on both logs, and the written airframe carries their pooled value,
