@@ -2,7 +2,9 @@
 kernel's whole range, and the M4F cycle table against the Cortex-M4 TRM."""
 from __future__ import annotations
 
+
 import math
+import re
 import os
 import subprocess
 from pathlib import Path
@@ -127,6 +129,8 @@ def test_status_bits_are_assembled_only_on_rejection():
         source = generate_code(load_airframe(M300), precision).files["m300_wind.c"]
         validate = source[source.index("---- validate:"):source.index("---- attitude:")]
         fast, reject = validate.split("if (!(", 1)
-        assert "? 1.0" not in fast and "status" not in fast  # no bit sums on an accepted sample
-        for bit in ("1.0", "2.0", "4.0", "8.0", "16.0"):  # NONFINITE ... BAD_THRUST
-            assert f"? {bit}" in reject
+        # no bit assembly on an accepted sample; the rejection path ORs the bits as ints (no float ==
+        # under -Wfloat-equal, no int/float conversions)
+        assert not re.search(r"\? \d+(\.0f?)? : 0\)", fast) and "status" not in fast
+        for bit in (1, 2, 4, 8, 16, 2048):  # NONFINITE ... BAD_THRUST, IMPLAUSIBLE
+            assert f"? {bit} : 0)" in reject, bit
