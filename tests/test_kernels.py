@@ -2,7 +2,6 @@
 kernel's whole range, and the M4F cycle table against the Cortex-M4 TRM."""
 from __future__ import annotations
 
-
 import math
 import re
 import os
