@@ -19,6 +19,7 @@ from dobwind.io.resample import DEFAULT_GAP_POLICY
 from dobwind.model.status import STATUS_BITS, STATUS_NO_DATA, accepted
 from dobwind.replay.replay import replay_ulog
 from tests.helpers import M300
+from tests.test_fieldreplay import _flight, _rows  # the same 40 s m300 flight and ULog rows
 from tests.ulog_writer import Topic, write_ulog
 
 SETTLING = next(bit.value for bit in STATUS_BITS if bit.name == "SETTLING")
@@ -26,22 +27,6 @@ BAD_DT = next(bit.value for bit in STATUS_BITS if bit.name == "BAD_DT")
 CEILING = DEFAULT_GAP_POLICY.ceiling_s
 ESC_REPORT = {"esc_report": [("int32_t", "esc_rpm"), ("float", "esc_voltage")]}
 T0_US = 5_000_000  # the ULog's clock at the first sample: 5 s since boot
-
-
-def _flight(scenario="still-air", hold_s=1.5):
-    """About 40 s of hovering and 2 m/s moves with m300, sampled at 100 Hz; the simulator's timestamps
-    already jitter by 10 % of a period (1 sigma)."""
-    from dobwind.model.airframe import load_airframe
-    from dobwind.simulate.simulate import simulate
-
-    af = load_airframe(M300)
-    return af, simulate(af, scenario, seed=4, hold_s=hold_s, rate_hz=100.0)
-
-
-def _rows(cols, keys, names, keep=None):
-    idx = np.arange(len(cols["t"])) if keep is None else np.flatnonzero(keep)
-    return [{"timestamp": int(round(T0_US + cols["t"][k] * 1e6)), **{n: float(cols[c][k]) for c, n in zip(keys, names)}}
-            for k in idx]
 
 
 # --- the bound: independent transcriptions of its derivation ------------------------------------------------

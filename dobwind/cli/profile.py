@@ -8,8 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dobwind.cli.common import AIRFRAME_HELP, JSON_HELP, Command, add_many_options
-from dobwind.core import options as opt
+from dobwind.cli.common import add_backend_options, AIRFRAME_HELP, JSON_HELP, Command, add_many_options
 from dobwind.io import cfnames
 from dobwind.cli.campaign import Done, expand_logs, format_table, run_all
 from dobwind.core.errors import InputError
@@ -17,7 +16,7 @@ from dobwind.io.netcdf import is_netcdf
 from dobwind.io.outputs import OutputFiles, Target, check_targets
 from dobwind.atmos.profile import BIN, allowed_mask, combine, coverage, flight_sums, table
 from dobwind.core.progress import wanted
-from dobwind.model.kinds import PRECISIONS, Precision
+from dobwind.model.kinds import Precision
 
 CSV_COLUMNS = ("height_bottom_m", "height_top_m", "height_m", "count", "speed_mean_mps", "speed_std_mps",
                "vector_speed_mps", "direction_from_deg", "direction_spread_deg", "northward_mean_mps",
@@ -37,12 +36,7 @@ def add(command: Command) -> None:
     p.add_argument("--allow", action="append", metavar="FLAG",
                    help="also use rows carrying this quality flag (e.g. extrapolated; repeatable; default: none, "
                    "status 0 rows only)")
-    p.add_argument("--backend", choices=("python", "c"), default="python",
-                   help="run the CasADi reference (python) or the generated C, compiled on the fly (c)")
-    p.add_argument("--precision", choices=PRECISIONS, default=Precision.SINGLE, help="C backend precision")
-    p.add_argument("--rate", type=opt.ULOG_RATE,
-                   help=f"autopilot logs only: resample at this rate, Hz ({opt.ULOG_RATE.text()}) (default: none, "
-                   "the airframe's observer rate, 1/observer.sample_time)")
+    add_backend_options(p)
     p.add_argument("--json", action="store_true", help=JSON_HELP)
     add_many_options(p, "profile")
     p.set_defaults(func=run)

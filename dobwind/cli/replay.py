@@ -9,11 +9,10 @@ import sys
 from functools import partial
 from typing import Any, Callable
 
-from dobwind.cli.common import AIRFRAME_HELP, JSON_HELP, Command, add_many_options, print_json
-from dobwind.core import options as opt
+from dobwind.cli.common import add_backend_options, AIRFRAME_HELP, JSON_HELP, Command, add_many_options, print_json
 from dobwind.core.errors import InputError
 from dobwind.io.outputs import OutputFiles, Target, check_targets
-from dobwind.model.kinds import PRECISIONS, Precision
+from dobwind.model.kinds import Precision
 
 
 def add(command: Command, entry: Callable[[list[str]], int]) -> None:
@@ -26,12 +25,7 @@ def add(command: Command, entry: Callable[[list[str]], int]) -> None:
     p.add_argument("-o", "--output", help="estimate CSV, one row per log row (docs/formats.md), or CF-NetCDF when the "
                    "name ends in .nc; with several logs a folder, one file per log named after it (default: none, "
                    "not written)")
-    p.add_argument("--backend", choices=("python", "c"), default="python",
-                   help="run the CasADi reference (python) or the generated C, compiled on the fly (c)")
-    p.add_argument("--precision", choices=PRECISIONS, default=Precision.SINGLE, help="C backend precision")
-    p.add_argument("--rate", type=opt.ULOG_RATE,
-                   help=f"autopilot logs only: resample at this rate, Hz ({opt.ULOG_RATE.text()}) (default: none, "
-                   "the airframe's observer rate, 1/observer.sample_time)")
+    add_backend_options(p)
     p.add_argument("--px4-wind", help="autopilot logs: also write the estimate as PX4's wind message holds it "
                    "(timestamp, north/east wind and their variances) to this CSV (default: none)")
     p.add_argument("--topic", action="append", metavar="ROLE=NAME",
