@@ -12,7 +12,7 @@ def add(command: Command) -> None:
     p = command("report", "one self-contained HTML page: airframe, estimate vs truth or the autopilot, errors, "
                 "status counts, analysis figures")
     p.add_argument("airframe", help=AIRFRAME_HELP)
-    p.add_argument("log", help="flight log: CSV (docs/formats.md) or PX4 ULog (.ulg)")
+    p.add_argument("log", help="flight log: CSV (docs/formats.md), PX4 ULog (.ulg), ArduPilot DataFlash (.bin) or ROS 2 bag")
     p.add_argument("-o", "--output", required=True, help="the HTML file to write (required; figures are inlined)")
     p.add_argument("--backend", choices=("python", "c"), default="python",
                    help="run the CasADi reference (python) or the generated C, compiled on the fly (c)")
