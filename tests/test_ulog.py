@@ -123,6 +123,19 @@ def test_collective_mapping_recovers_newtons(tmp_path, source):
     assert np.all(np.isfinite(traj.outputs))
 
 
+@pytest.mark.parametrize("rpm", [True, False])
+def test_the_gap_note_names_esc_status_tolerance_only_when_the_airframe_reads_it(tmp_path, rpm):
+    af, cols = _flight()
+    if rpm:
+        path = _ulog(tmp_path / "rpm.ulg", cols, gap=(10.0, 11.2))
+    else:
+        af = _collective()
+        path = _ulog(tmp_path / "coll.ulg", cols, esc=False, thrust="thrust_setpoint", hover=0.42, gap=(10.0, 11.2))
+    _, flight, _ = replay_ulog(af, str(path), rate_hz=100.0)
+    note = next(n for n in flight.notes if "topic gap" in n)
+    assert ("esc_status:" in note) == rpm and "vehicle_attitude" in note.split("by topic: ")[1]
+
+
 def test_missing_topic_exits_2_naming_it(tmp_path, capsys):
     _, cols = _flight()
     path = _ulog(tmp_path / "noesc.ulg", cols, esc=False)

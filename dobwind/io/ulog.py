@@ -231,9 +231,10 @@ def read_ulog(path: str, af: Airframe, rate_hz: float | None = None, bridge_gaps
             notes.append(note)
     px4, px4_var = _px4_wind(ulog, clock)
     if gappy.any():
+        # esc_status has its own fixed tolerance; name it only when this airframe reads it
+        esc = f"esc_status: {ROTOR_MAX_GAP_S:g} s; " if "esc_status" in tolerances else ""
         notes.append(count_note(gappy, f"with a topic gap (longer than max_dt {max_gap:g} s or, for a slow topic, "
-                                       f"than its own tolerance; esc_status: {ROTOR_MAX_GAP_S:g} s; by topic: "
-                                       f"{culprits})", "NO_DATA"))
+                                       f"than its own tolerance; {esc}by topic: {culprits})", "NO_DATA"))
     warnings = (f"{path}: {cut} ({clock[-1] - clock[0]:.2f} s readable)",) if cut else ()
     bridged = None
     if bridge_gaps:
