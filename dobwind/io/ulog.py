@@ -210,7 +210,10 @@ def read_ulog(path: str, af: Airframe, rate_hz: float | None = None, bridge_gaps
         notes.append(f"hover thrust from the MPC_THR_HOVER parameter ({hover_param:.3f})")
     yaw_src = _topic(ulog, "vehicle_attitude_setpoint", ["yaw_body"])
     if yaw_src is None:
-        notes.append("no vehicle_attitude_setpoint: the heading frame follows the vehicle's own yaw")
+        # PX4 v1.15 and later log vehicle_attitude_setpoint without yaw_body: say which of the two is missing
+        logged = any(d.name == "vehicle_attitude_setpoint" for d in ulog.data_list)
+        what = "vehicle_attitude_setpoint has no yaw_body" if logged else "no vehicle_attitude_setpoint"
+        notes.append(f"{what}: the heading frame follows the vehicle's own yaw")
 
     used = {n: d for n, d in topics.items() if d is not None}
     if thrust_src:
