@@ -22,7 +22,9 @@ r U(r) >= F* ("slowest") and the largest r with r L(r) <= F* ("fastest"). The go
 for the whole family when the slowest reading is above the logged speed + tol or the fastest below
 it - tol. Not covered: a law whose h is concave somewhere (a knee: linear drag that stops growing),
 or an exponent below 2 (l + q s^0.5 is concave). ``zero_slope_needed`` is how steep at zero airflow a
-law would have to be for some law to read the held-out run and the training runs within tol.
+law would have to be for some law to read the held-out run and the training runs within tol, and
+``excess_force_n`` how much of the held-out run's mean force (N) is above the most any law under the
+bounds gives at its speed + tol (what a force offset of its own would have to remove).
 """
 from __future__ import annotations
 
@@ -59,6 +61,7 @@ class HeldOutBound:
     slowest_mps: float
     fastest_mps: float
     zero_slope_needed: float
+    excess_force_n: float             # the run's mean force above the most any such law gives at speed + tol
     left_out: tuple[str, ...] = ()    # training runs not used (as a fit that flags them would)
 
     @property
@@ -176,8 +179,10 @@ def held_out_bounds(runs: list[RunForce], zero_slope: float | None, left_out: tu
             continue
         training = [r for r in runs if r is not run and r.name not in left_out]
         slowest, fastest = _bound(run, training, zero_slope, top, tol)
+        reach = run.speed_mps + tol
+        most = reach * float(upper_envelope(training_bounds(training, zero_slope, tol), np.array([reach]))[0])
         found.append(HeldOutBound(run.name, run.speed_mps, slowest, fastest,
-                                  zero_slope_needed(run, training, top, tol), left_out))
+                                  zero_slope_needed(run, training, top, tol), max(run.force_n - most, 0.0), left_out))
     return found
 
 
@@ -185,10 +190,10 @@ def lines(bounds: list[HeldOutBound], zero_slope: float | None) -> list[str]:
     """The table the realdata check prints."""
     shown = "none" if zero_slope is None else f"{zero_slope:.2f} N/(m/s)"
     out = [f"  h(0) <= the zero-airflow run's within-run slope, {shown}; each training run read within {GOAL_MPS} m/s",
-           "  held out     logged m/s  slowest  fastest  h(0) needed  trained without"]
+           "  held out     logged m/s  slowest  fastest  h(0) needed  force over N  trained without"]
     for b in bounds:
         flag = ("  no convex law reads every training run within the goal" if not b.training_consistent
                 else "  BEYOND the goal for every convex law" if b.beyond_goal else "")
         out.append(f"  {b.name:12s} {b.speed_mps:10.2f}  {b.slowest_mps:7.2f}  {b.fastest_mps:7.2f}  "
-                   f"{b.zero_slope_needed:11.2f}  {', '.join(b.left_out) or '-'}{flag}")
+                   f"{b.zero_slope_needed:11.2f}  {b.excess_force_n:12.2f}  {', '.join(b.left_out) or '-'}{flag}")
     return out

@@ -60,6 +60,13 @@ def test_slowest_and_fastest_readings_follow_the_closed_forms():
     needed = (held.force_n / r - h1 * r / (8.0 - tol)) / (1 - r / (8.0 - tol))
     top = lb.REACH * 8.0
     assert lb.zero_slope_needed(held, training, top, tol) == pytest.approx(max(needed, 0.0), abs=2e-3)
+    # The force above reach: the run's mean force less r times the chord at r = 4 + tol (none when below it).
+    heavy = RunForce("4", 4.0, held.force_n + 1.5, math.nan, math.nan)
+    (bound,) = [b for b in lb.held_out_bounds([heavy, training[0]], g, tol=tol) if b.name == "4"]
+    assert bound.beyond_goal and bound.excess_force_n > 0.4
+    assert bound.excess_force_n == pytest.approx(heavy.force_n - r * (g + (h1 - g) * r / (8.0 - tol)), abs=1e-9)
+    (light,) = [b for b in lb.held_out_bounds([held, training[0]], g, tol=tol) if b.name == "4"]
+    assert light.excess_force_n == 0.0 and not light.beyond_goal
 
 
 def test_runs_of_one_convex_law_are_bracketed_and_within_reach():
