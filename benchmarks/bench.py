@@ -240,8 +240,8 @@ def _handwritten_rows(model: StepModel, pdir: Path, data: Path, driver: Path) ->
     reference (on a flight without bad samples for the limit without validation, which does not
     reject them)."""
     name, source, rows = model.airframe.name, handwritten_source(model.airframe.name), []
-    for label, flags in HANDWRITTEN_VARIANTS:
-        exe = pdir / ("hw" + "_valid" * bool(flags))
+    for variant, (label, flags) in enumerate(HANDWRITTEN_VARIANTS):
+        exe = pdir / f"hw{variant}"
         run([system_compiler(), *FLAGS, *flags, f"-I{pdir}", str(driver), str(source), str(data), "-o", str(exe), "-lm"])
         flash = cycles = None
         if cortex.available():
