@@ -29,11 +29,10 @@ from dobwind.model.version import VERSION
 from dobwind.model.kinds import DragFrame, Precision
 
 SELFTEST_ROWS = 120
-# The types of the bit-pattern comparisons of the rejection tests (printer.CPrinter._bit_exact, source.c.j2).
+# The types of the bit-pattern tests of validation and the result check (codegen/bitranges.py, source.c.j2).
 IEEE_TYPES = {
-    Precision.SINGLE: {"bits": "uint32_t", "key": "int32_t", "abs_mask": "0x7fffffffu", "inf": "0x7f800000u", "sign_shift": 31},
-    Precision.DOUBLE: {"bits": "uint64_t", "key": "int64_t", "abs_mask": "(~(uint64_t)0 >> 1)", "inf": "((uint64_t)0x7ffu << 52)",
-               "sign_shift": 63},
+    Precision.SINGLE: {"bits": "uint32_t", "abs_mask": "0x7fffffffu", "sign_shift": 31},
+    Precision.DOUBLE: {"bits": "uint64_t", "abs_mask": "(~(uint64_t)0 >> 1)", "sign_shift": 63},
 }
 
 _ENV = jinja2.Environment(
