@@ -74,3 +74,15 @@ def test_a_mutated_bound_is_caught():
     wrong = bitranges.comparison(SINGLE, False, True, float(np.float32(c)))
     patterns = np.array([SINGLE.pattern(c)], dtype=np.uint32)
     assert not np.array_equal(_member(wrong, patterns), patterns.view(np.float32) <= np.float32(c))
+
+
+def test_the_generated_tests_of_one_value_are_one_interval():
+    """dt's two bounds are printed as one subtraction and one comparison, with the airframe's limits as
+    literals (the float on the safe side of each), and no test is printed twice."""
+    from dobwind.codegen.generate import generate_code
+    from dobwind.model.airframe import load_airframe
+    from tests.helpers import M300
+
+    source = generate_code(load_airframe(M300), "single").files["m300_wind.c"]
+    dt = "m300_wind_within(m300_wind_bits(in->dt), m300_wind_bits(1.00000007e-05f), m300_wind_bits(0.100009993f))"
+    assert source.count(dt) == 1 and source.count("m300_wind_bits(in->dt)") == 1
