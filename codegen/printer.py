@@ -66,16 +66,11 @@ class CPrinter:
     # and cost about 2 KB of flash and hundreds of cycles on a Cortex-M; see codegen/kernels.py. Double
     # precision keeps libm so that it stays bit-identical to the CasADi reference.
     kernel_prefix: str | None = None
-    # Print constants compared with < or <= on the safe side (the validation limits and the result
-    # check; see _compared). Off elsewhere: a constant that also appears in an fmin/fmax (the settling
-    # time's cap) must stay the same float in both places.
+    # The rejection tests (validation and the result check): a comparison with a constant is printed as a
+    # test of the value's bit pattern (codegen/sections.py _RangeTest, codegen/bitranges.py) with the
+    # constant on the safe side (see _compared). Off elsewhere: a constant that also appears in an
+    # fmin/fmax (the settling time's cap) must stay the same float in both places.
     directed_limits: bool = False
-    # Validation's fast path (the int "every test passed"): its conjunction includes the finiteness test
-    # (|x| <= 1e6 for every input, itself a test on the bits), so the other tests only decide for finite
-    # values, and a test against a positive constant is a signed comparison of the raw bits (negative
-    # floats, -0 included, are negative integers; positive ones order as their bits). The rejection path
-    # assembles the status bits with the NaN-exact key instead (sections.build_validation).
-    assume_finite: bool = False
 
     @property
     def inline_kernels(self) -> bool:
@@ -99,35 +94,6 @@ class CPrinter:
         # Every negative literal, -0.0 included (value < 0 is False for it), goes in parentheses so that
         # a negation printed before it can never make "--0.0f".
         return f"({text})" if math.copysign(1.0, value) < 0 else text
-
-    def _bit_exact(self, args: list[str], bools: list[bool], op: int,
-                   constant_arg: Callable[[int], float | None], magnitude: Callable[[int], bool]) -> str | None:
-        """A rejection test of a value against a constant limit, printed as a call of the generated
-        file's bit-pattern comparisons (source.c.j2): integer tests on the IEEE 754 bits decide as the
-        reference does even where the integrator's flags flush subnormals to zero or assume no NaN
-        (-funsafe-math-optimizations, -ffast-math). None: not such a test (two variables, or a truth value)."""
-        if not self.directed_limits or self.kernel_prefix is None or op not in (ca.OP_LT, ca.OP_LE) or any(bools):
-            return None
-        constants = [constant_arg(0), constant_arg(1)]
-        if (constants[0] is None) == (constants[1] is None):
-            return None
-        sign = _COMPARE[op]
-        k = self.kernel_prefix
-        side = 1 if constants[1] is not None else 0  # the constant's: x <= c, x < c, or c <= x, c < x
-        limit = self._compared(args, bools, side, op, constant_arg)
-        value = args[1 - side]
-        if side == 1 and magnitude(0) and constants[1] >= 0.0:  # |y| <= c: the magnitude bits suffice (NaN is above any c)
-            return f"{k}magnitude({value}) {sign} {k}bits({limit})"
-        c = float(limit.strip("()f"))
-        if self.assume_finite and c > 0.0:
-            pair = (f"{k}sbits({value})", f"{k}sbits({limit})")
-            return f"{pair[1 - side]} {sign} {pair[side]}"
-        if self.assume_finite and c == 0.0 and side == 0:  # 0 <= x, 0 < x (rpm, thrust)
-            return f"{k}nonnegative({value})" if op == ca.OP_LE else f"{k}sbits({value}) > 0"
-        # key() is a function the compiler need not inline (it runs on rejection); the constant's key is
-        # key_c(), forced inline, which the compiler folds to an integer.
-        keys = (f"{k}key({value}, {side})", f"{k}key_c({limit})")
-        return f"{keys[1 - side]} {sign} {keys[side]}"
 
     def _compared(self, args: list[str], bools: list[bool], i: int, op: int,
                   constant_arg: Callable[[int], float | None]) -> str:
@@ -155,13 +121,12 @@ class CPrinter:
         return f"(({self.real})({condition}))"
 
     def operation(self, op: int, args: list[str], bools: list[bool],
-                  constant_arg: Callable[[int], float | None],
-                  magnitude: Callable[[int], bool] = lambda i: False) -> tuple[str, bool]:
+                  constant_arg: Callable[[int], float | None]) -> tuple[str, bool]:
         """C expression for one SX operation and whether it is a truth value (printed as int).
 
         Truth values from comparisons stay ``int`` in C: converting them to floating point and back at
         every logical step would cost instructions for nothing. ``constant_arg(i)`` is argument i's
-        value when it is a constant, ``magnitude(i)`` whether it is an absolute value (fabs).
+        value when it is a constant.
         """
         def num(i: int) -> str:  # an argument in arithmetic context
             return f"(({self.real}){args[i]})" if bools[i] else args[i]
@@ -173,7 +138,7 @@ class CPrinter:
         arithmetic = self._arithmetic(op, num, constant_arg)
         if arithmetic is not None:
             return arithmetic, False
-        logical = self._bit_exact(args, bools, op, constant_arg, magnitude) or self._logical(op, args, bools, constant_arg)
+        logical = self._logical(op, args, bools, constant_arg)
         if logical is not None:
             return logical, True
         raise NotImplementedError(f"CasADi operation {op} has no C printing")

@@ -6,11 +6,9 @@ from dataclasses import dataclass
 
 import casadi as ca
 
-from dobwind.codegen.printer import CALL_OPS, CPrinter
+from dobwind.codegen import bitranges
+from dobwind.codegen.printer import CALL_OPS, CPrinter, directed_float
 from dobwind.model.step import FINITE_SIGNAL, Stage, StepModel, validate_given_finite
-
-_NOT_OPS = {ca.OP_CONST, ca.OP_INPUT, ca.OP_OUTPUT}
-
 
 @dataclass(frozen=True)
 class Section:
@@ -60,6 +58,15 @@ def _pruned(stage: Stage, keep: list[int]) -> ca.Function:
 
 
 @dataclass(frozen=True)
+class _RangeTest:
+    """A truth value not printed yet: ``operand``'s bit pattern lies in ``intervals`` (codegen/bitranges.py).
+    Tests of one operand combine (and, or, not) into one such set before they are printed."""
+    operand: str
+    intervals: tuple[bitranges.Interval, ...]
+    named: tuple[tuple[int, str], ...]  # the limits' patterns and their C literals, for readable bounds
+
+
+@dataclass(frozen=True)
 class _Instruction:
     op: int
     args: tuple[int, ...]
@@ -83,18 +90,6 @@ def _instructions(function: ca.Function) -> list[_Instruction]:
     return out
 
 
-def _needed_by(code: list[_Instruction], output: int) -> set[int]:
-    """Indices of the instructions that output number ``output`` depends on."""
-    needed: set[tuple[int, int]] = set()
-    marked: set[int] = set()
-    for k in range(len(code) - 1, -1, -1):
-        ins = code[k]
-        if (ins.op == ca.OP_OUTPUT and ins.res[0] == output) or (ins.defines is not None and ins.defines in needed):
-            needed.update(ins.uses)
-            marked.add(k)
-    return marked
-
-
 def _has_normal_reciprocal(value: float | None) -> bool:
     """A constant divisor whose reciprocal is a normal float (then x / c becomes x * (1/c))."""
     return value is not None and value != 0.0 and 1.2e-38 < abs(1.0 / value) < 3.4e38
@@ -116,6 +111,10 @@ class _Writer:
         self.sincos: dict[tuple[int, int], str] = {}     # angle value -> its sincos temporary
         self.reciprocal: dict[tuple[int, int], str] = {}  # denominator value -> 1/it
         self.magnitudes: set[str] = set()  # temporaries holding an absolute value (fabs)
+        # The rejection tests (a printer with directed_limits): comparisons with a constant kept as bit-pattern
+        # sets until something other than another test of the same operand reads them (_RangeTest).
+        self.range_tests = printer.directed_limits and printer.kernel_prefix is not None
+        self.tests: dict[int, _RangeTest] = {}
         # Single precision: a denominator used more than once becomes one reciprocal and products
         # (a division costs 14 cycles on a Cortex-M4F, a product 1). Double keeps every division, so
         # that it stays bit-identical to the reference.
@@ -140,6 +139,52 @@ class _Writer:
             self.ints.add(name)
             return name
         return None
+
+    def combine_test(self, ins: _Instruction) -> bool:
+        """A comparison of a value with a constant, or a not/and/or of such tests on one value: kept as a
+        _RangeTest (not printed yet). False: another operation."""
+        f = bitranges.fmt(self.printer.precision)
+        if ins.op in (ca.OP_LT, ca.OP_LE) and len(ins.args) == 2 and not any(self.is_bool.get(a, False) for a in ins.args):
+            consts = [self.constants.get(a) for a in ins.args]
+            if (consts[0] is None) == (consts[1] is None):
+                return False
+            left = consts[0] is not None  # c < x, c <= x
+            strict = ins.op == ca.OP_LT
+            # The float on the safe side of the double limit (see CPrinter._compared): x <= c with the largest
+            # float <= c, c <= x with the smallest float >= c; strict tests the other way.
+            value = consts[0] if left else consts[1]
+            limit = directed_float(value, up=left != strict) if f.bits == 32 else value
+            operand = self.work[ins.args[1 if left else 0]]
+            intervals = bitranges.comparison(f, left, strict, limit)
+            if operand in self.magnitudes:  # |y|: only patterns below the sign bit occur
+                intervals = bitranges.intersection(f, intervals, ((0, f.sign - 1),))
+            self.define_test(ins, _RangeTest(operand, intervals, ((f.pattern(limit), self.printer.literal(limit)),)))
+            return True
+        tests = [self.tests.get(a) for a in ins.args]
+        if not tests or any(t is None for t in tests) or len({t.operand for t in tests}) != 1:
+            return False
+        if ins.op == ca.OP_NOT:
+            intervals = bitranges.complement(f, tests[0].intervals)
+        elif ins.op == ca.OP_AND:
+            intervals = bitranges.intersection(f, tests[0].intervals, tests[1].intervals)
+        elif ins.op == ca.OP_OR:
+            intervals = bitranges.union(f, tests[0].intervals, tests[1].intervals)
+        else:
+            return False
+        named = tuple(dict.fromkeys(n for t in tests for n in t.named))
+        self.define_test(ins, _RangeTest(tests[0].operand, intervals, named))
+        return True
+
+    def define_test(self, ins: _Instruction, test: _RangeTest) -> None:
+        self.tests[ins.res[0]] = test
+        self.work[ins.res[0]], self.is_bool[ins.res[0]] = "", True
+        self.constants.pop(ins.res[0], None)
+
+    def materialize(self, slot: int, lines: list[str]) -> None:
+        """Prints the pending test in ``slot`` as an int temporary (codegen/bitranges.py's sets as C)."""
+        test = self.tests.pop(slot, None)
+        if test is not None:
+            self.work[slot] = self.temp("int", _test_text(self.printer, test), lines)
 
     def temp(self, ctype: str, expr: str, lines: list[str], counted: bool = True) -> str:
         name = f"{self.temp_prefix}{self.serial}"
@@ -171,6 +216,8 @@ class _Writer:
     def emit(self, ins: _Instruction, function: ca.Function, stage: Stage, out_names: list[str],
              sizes: dict[str, int], lines: list[str]) -> None:
         p = self.printer
+        if ins.op in (ca.OP_CONST, ca.OP_INPUT):
+            self.tests.pop(ins.res[0], None)  # a reused slot: the test it held is dead
         if ins.op == ca.OP_CONST:
             value = float(function.instruction_constant(self.index))
             self.work[ins.res[0]], self.constants[ins.res[0]], self.is_bool[ins.res[0]] = p.literal(value), value, False
@@ -181,6 +228,12 @@ class _Writer:
             self.work[ins.res[0]], self.is_bool[ins.res[0]] = c_element(signal, ins.args[1], sizes[signal], p), boolean
             self.constants.pop(ins.res[0], None)
             return
+        if self.range_tests and self.combine_test(ins):
+            return
+        for slot in ins.args:
+            self.materialize(slot, lines)
+        if ins.op != ca.OP_OUTPUT:
+            self.tests.pop(ins.res[0], None)
         if ins.op == ca.OP_OUTPUT:
             signal = out_names[ins.res[0]]
             value = self.work[ins.args[0]]
@@ -198,14 +251,55 @@ class _Writer:
         boolean = False
         if name is None:
             expr, boolean = p.operation(ins.op, [self.work[a] for a in ins.args], [self.is_bool[a] for a in ins.args],
-                                        lambda i: self.constants.get(ins.args[i]) if i < len(ins.args) else None,
-                                        lambda i: self.work[ins.args[i]] in self.magnitudes)
+                                        lambda i: self.constants.get(ins.args[i]) if i < len(ins.args) else None)
             name = self.temp("int" if boolean else p.real, expr, lines)
             self.calls += ins.op in CALL_OPS
             if ins.op == ca.OP_FABS:
                 self.magnitudes.add(name)
         self.work[ins.res[0]], self.is_bool[ins.res[0]] = name, boolean
         self.constants.pop(ins.res[0], None)
+
+
+def _pattern_text(printer: CPrinter, f: bitranges.Format, pattern: int, named: tuple[tuple[int, str], ...]) -> str:
+    """A bound of a bit-pattern interval in C: the limit's own literal through bits() where it is one
+    (or one pattern beside it, for a strict test), the special patterns in hexadecimal."""
+    k = printer.kernel_prefix
+    for limit, literal in named:
+        for offset, suffix in ((0, ""), (1, " + 1u"), (-1, " - 1u")):
+            if pattern == limit + offset and not (limit + offset) & ~f.top:
+                return f"({k}bits({literal}){suffix})" if suffix else f"{k}bits({literal})"
+    return f"0x{pattern:08x}u" if f.bits == 32 else f"UINT64_C(0x{pattern:016x})"
+
+
+def _interval_text(printer: CPrinter, f: bitranges.Format, u: str, interval: bitranges.Interval,
+                   named: tuple[tuple[int, str], ...]) -> str:
+    lo, hi = interval
+    text = lambda pattern: _pattern_text(printer, f, pattern, named)  # noqa: E731
+    if lo == hi:
+        return f"{u} == {text(lo)}"
+    if lo == 0:
+        return f"{u} <= {text(hi)}"
+    if hi == f.top:
+        return f"{u} >= {text(lo)}"
+    return f"{printer.kernel_prefix}within({u}, {text(lo)}, {text(hi)})"  # lo > hi: wraps around
+
+
+def _test_text(printer: CPrinter, test: _RangeTest) -> str:
+    """The test as C: the set or the negation of its complement, whichever prints fewer comparisons (then
+    fewer wrapped intervals: ``!within(dt, lo, hi)`` rather than the wrapped interval beyond it)."""
+    f = bitranges.fmt(printer.precision)
+    u = f"{printer.kernel_prefix}bits({test.operand})"
+    options = []
+    for negated, intervals in ((False, test.intervals), (True, bitranges.complement(f, test.intervals))):
+        printed = bitranges.wrapped(f, intervals)
+        cost = (len(printed), sum(lo > hi for lo, hi in printed), negated)
+        options.append((cost, negated, printed))
+    _, negated, printed = min(options)
+    if not printed:
+        return "1" if negated else "0"
+    parts = [_interval_text(printer, f, u, interval, test.named) for interval in printed]
+    text = parts[0] if len(parts) == 1 else " || ".join(f"({part})" for part in parts)
+    return f"!({text})" if negated else text
 
 
 def _declarations(out_names: list[str], sizes: dict[str, int], printer: CPrinter) -> tuple[str, ...]:
@@ -229,60 +323,24 @@ def build_section(stage: Stage, used: set[str], sizes: dict[str, int], printer: 
 
 @dataclass(frozen=True)
 class Validation:
-    """The validate stage split in two: the fast path computes only the int ``accept`` (every test
-    passed); the status bits are assembled in ``reject_lines``, which run only on a rejection."""
-    section: Section          # lines: the fast path
-    accept: str               # C int expression, nonzero when the sample passes every test
-    reject_lines: tuple[str, ...]
+    """The validate stage as one pass: ``section`` computes the int ``status`` (0: accepted), every test an
+    exact integer test of bit patterns (codegen/bitranges.py), so that one computation gives both the
+    decision and each status bit as the reference's for any input, NaN included."""
+    section: Section
 
 
 def build_validation(stage: Stage, sizes: dict[str, int], printer: CPrinter) -> Validation:
-    """The fast path computes what ``accepted`` needs, its tests printed for finite values (the
-    conjunction includes the finiteness test, see CPrinter.assume_finite); the rejection path computes
-    ``status`` on its own (temporaries r0, r1, ...) with the NaN-exact tests, so that each bit is the
-    reference's for any input."""
-    out_names = list(stage.outputs)  # ("status", "accepted")
-    function = _pruned(stage, list(range(len(out_names))))
+    out_names = list(stage.outputs)  # ("status", "accepted"): "accepted" is status == 0, not printed
+    keep = [out_names.index("status")]
+    function = _pruned(stage, keep)
     code = _instructions(function)
-    computed: dict[int, str] = {}
-    fast_lines = _emit_subset(function, code, _needed_by(code, out_names.index("accepted")), stage, out_names, sizes,
-                              _Writer(dataclasses.replace(printer, assume_finite=True), code), computed)
-    # The rejection path reuses the fast path's arithmetic (sums of squares: the same either way) and
-    # prints again only the tests and what depends on them.
-    slow = _Writer(printer, code, temp_prefix="r")
-    slow.integer_status = True
-    slow_lines = _emit_subset(function, code, _needed_by(code, out_names.index("status")), stage, out_names, sizes, slow,
-                              computed, reuse=True)
-    fast_writer = fast_lines[1]
-    section = Section(stage.name, stage.doc, (), tuple(fast_lines[0]), fast_writer.ops, fast_writer.calls)
-    if fast_lines[2] is None:
-        raise ValueError("the validate stage has no accepted output")
-    return Validation(section, fast_lines[2], ("int status;", *slow_lines[0]))
-
-
-def _emit_subset(function: ca.Function, code: list[_Instruction], subset: set[int], stage: Stage,
-                 out_names: list[str], sizes: dict[str, int], writer: "_Writer", computed: dict[int, str],
-                 reuse: bool = False) -> tuple[list[str], "_Writer", str | None]:
-    """The instructions of ``subset`` printed by ``writer``: (lines, writer, the accepted expression).
-    The ``accepted`` output is not assigned but returned: the template tests it. ``computed``: instruction
-    -> the temporary holding its floating-point value; filled, or (``reuse``) read instead of printing."""
+    writer = _Writer(printer, code)
+    writer.integer_status = True
     lines: list[str] = []
-    accept = None
     for k, ins in enumerate(code):
-        if k not in subset:
-            continue
         writer.index = k
-        if ins.op == ca.OP_OUTPUT and out_names[ins.res[0]] == "accepted":
-            accept = writer.work[ins.args[0]]
-            continue
-        if reuse and k in computed:
-            writer.work[ins.res[0]], writer.is_bool[ins.res[0]] = computed[k], False
-            writer.constants.pop(ins.res[0], None)
-            continue
-        writer.emit(ins, function, stage, out_names, sizes, lines)
-        if not reuse and ins.op not in _NOT_OPS and not writer.is_bool[ins.res[0]]:
-            computed[k] = writer.work[ins.res[0]]
-    return lines, writer, accept
+        writer.emit(ins, function, stage, ["status"], sizes, lines)
+    return Validation(Section(stage.name, stage.doc, (), tuple(lines), writer.ops, writer.calls))
 
 
 def build_sections(model: StepModel, printer: CPrinter) -> tuple[Validation, tuple[Section, ...], Section]:

@@ -53,10 +53,23 @@ def _literal(v: float) -> str:
     return f"{float(np.float32(v)):.9e}f"
 
 
+def _glitched(model, inputs: np.ndarray) -> np.ndarray:
+    """0.5 s of -5 m/s^2 on every acceleration axis (model/biasgate.py's glitch), after the check has learnt
+    the flight's spread."""
+    out = inputs.copy()
+    columns = [model.inputs.element_names().index(f"acc_ned[{i}]") for i in range(3)]
+    start = ROWS // 2
+    out[start:start + int(0.5 / model.airframe.observer.sample_time_s), columns] -= 5.0
+    return out
+
+
 @pytest.mark.parametrize("label,flags", HANDWRITTEN_VARIANTS)
 def test_the_hand_written_step_matches_the_reference(tmp_path, label, flags):
     model = build_step(load_airframe(M300))
-    inputs = flight_inputs(model, ROWS, seed=3, bad_every=23 if flags else 0).astype(np.float32).astype(np.float64)
+    inputs = flight_inputs(model, ROWS, seed=3, bad_every=23 if flags else 0)
+    if "-DHANDWRITTEN_ACC_CHECK" in flags:
+        inputs = _glitched(model, inputs)
+    inputs = inputs.astype(np.float32).astype(np.float64)
     write_files(generate_code(model.airframe, "single", model).files, tmp_path)
     data = ",\n".join("{" + ", ".join(_literal(v) for v in row) + "}" for row in inputs)
     driver = tmp_path / "driver.c"
@@ -72,3 +85,5 @@ def test_the_hand_written_step_matches_the_reference(tmp_path, label, flags):
     np.testing.assert_allclose(got[:, 1:5], want.outputs[:, columns], rtol=1e-4, atol=2e-4)
     if flags:
         assert (got[:, 0] != 0).any()  # the bad samples were there, and rejected with the reference's bits
+    if "-DHANDWRITTEN_ACC_CHECK" in flags:
+        assert (want.status.astype(int) & 2048).any()  # the glitch tripped the check, as it does by hand

@@ -123,13 +123,15 @@ def test_single_precision_step_uses_the_kernels_and_shares_divisions():
     assert dstep.count("/ in->dt") == 3 and "expm1(" in dstep and "atan2(" in dstep
 
 
-def test_status_bits_are_assembled_only_on_rejection():
+def test_status_bits_are_assembled_as_ints_in_one_pass():
+    """Validation computes the status once (issue #32: no second, NaN-exact copy of the tests for the
+    rejection path): every bit ORed as an int (no float == under -Wfloat-equal, no int/float conversions),
+    every limit test on the bit patterns, and the rejection branch tests that int."""
     for precision in ("single", "double"):
         source = generate_code(load_airframe(M300), precision).files["m300_wind.c"]
         validate = source[source.index("---- validate:"):source.index("---- attitude:")]
-        fast, reject = validate.split("if (!(", 1)
-        # no bit assembly on an accepted sample; the rejection path ORs the bits as ints (no float ==
-        # under -Wfloat-equal, no int/float conversions)
-        assert not re.search(r"\? \d+(\.0f?)? : 0\)", fast) and "status" not in fast
+        body, reject = validate.split("if (status != 0) {", 1)
         for bit in (1, 2, 4, 8, 16, 2048):  # NONFINITE ... BAD_THRUST, IMPLAUSIBLE
-            assert f"? {bit} : 0)" in reject, bit
+            assert f"? {bit} : 0)" in body, bit
+        assert "m300_wind_key" not in source and "return status;" in reject
+        assert not re.search(r"\b(in->dt|in->rotor_rpm\[\d\]) (<|<=|>|>=) ", body)  # no float comparison of an input

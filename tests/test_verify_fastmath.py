@@ -31,16 +31,19 @@ def test_verify_with_px4_flags_passes_and_leaves_this_process_with_subnormals():
 
 def test_a_nonnegative_test_by_float_comparison_fails_the_reference_comparison_under_px4(tmp_path):
     """The mutant `x >= 0.0f` passes -1.4e-45 rpm under flush-to-zero (it compares as -0); the generated
-    test reads the sign bit. Only the limit rows tell them apart, so they must reach the C unflushed."""
+    test reads the bit pattern. Only the limit rows tell them apart, so they must reach the C unflushed."""
     model = build_step(load_airframe(M300))
     folder = tmp_path / "c"
     folder.mkdir()
     write_files(generate_code(model.airframe, Precision.SINGLE, model).files, folder)
     source = folder / "m300_wind.c"
     text = source.read_text()
-    original = "return (m300_wind_bits(x) + (0x7fffffffu)) >= (0x7fffffffu);"
-    assert original in text
-    source.write_text(text.replace(original, "return x >= 0.0f;"))
+    for i in range(4):  # 0 <= rpm on the patterns: +0 up to +inf, or -0 (codegen/bitranges.py)
+        rpm = f"m300_wind_bits(in->rotor_rpm[{i}])"
+        original = f"({rpm} <= 0x7f800000u) || ({rpm} == 0x80000000u)"
+        assert text.count(original) == 1
+        text = text.replace(original, f"in->rotor_rpm[{i}] >= 0.0f")
+    source.write_text(text)
     work = tmp_path / "work"
     work.mkdir()
     report = verify_precision(model, Precision.SINGLE, 300, 1, work, c_dir=folder, compilers=[],

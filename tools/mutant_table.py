@@ -59,37 +59,35 @@ def _validation_mutants(af: Airframe) -> list[CMutant]:
     cos_tilt = math.cos(math.radians(af.limits.max_tilt_deg))
     q_lo, q_hi = (1 - QUATERNION_NORM_TOLERANCE) ** 2, (1 + QUATERNION_NORM_TOLERANCE) ** 2
     top_dt = af.limits.max_dt_s * (1 + DT_TOLERANCE)
-    # The rejection tests compare bit patterns (codegen/printer.py _bit_exact), each twice: the fast path
-    # for finite values (<prefix>sbits(x) <= <prefix>sbits(c), <prefix>nonnegative(x)) and the rejection
-    # path's NaN-exact status bits (<prefix>key(x, 1) <= <prefix>key_c(c)); a mutant changes both. The
+    # The rejection tests are intervals of IEEE bit patterns (codegen/bitranges.py), computed once:
+    # ``<prefix>within(<prefix>bits(in->dt), <prefix>bits(lo), <prefix>bits(hi))`` for both dt bounds. The
     # finiteness test is one loop over the inputs (limit - |x| on the bits, OR-ed).
-    dt = r"\w+(?:sbits|key)\(in->dt(?:, [01])?\)"
+    dt = r"\w+bits\(in->dt\), "
     return [
-        CMutant("dt upper bound <= becomes <", "validate", rf"({dt}) <= ", r"\1 < ", count=2),
-        CMutant("dt upper bound x1.001", "validate", near=top_dt, scale=1.001, count=2),
-        CMutant("dt lower bound x10 (1e-5 -> 1e-4)", "validate", rf"(sbits|key_c)\(([^)]+)\) <= ({dt})",
-                r"\1(\2 * ({real})10) <= \3", count=2),
-        CMutant("dt lower bound <= becomes <", "validate", rf"(\)) <= ({dt})", r"\1 < \2", count=2),
+        CMutant("dt upper bound <= becomes <", "validate", rf"({dt}\w+bits\([^)]+\), )(\w+bits\([^)]+\))\)",
+                r"\1(\2 - 1u))"),
+        CMutant("dt upper bound x1.001", "validate", near=top_dt, scale=1.001),
+        CMutant("dt lower bound x10 (1e-5 -> 1e-4)", "validate", rf"({dt}\w+bits\()([^)]+)\)", r"\1\2 * ({real})10)"),
+        CMutant("dt lower bound <= becomes <", "validate", rf"({dt})(\w+bits\([^)]+\))", r"\1(\2 + 1u)"),
         CMutant("input limit loosened (the magnitude bits halved)", "validate", r"- \(u & (.*)\);",
                 r"- ((u & \1) >> 1);"),
         CMutant("input limit <= becomes <", "validate", r"(over \|= .+?) - \(u &", r"\1 - 1u - (u &"),
         CMutant("finiteness loop skips the last input", "validate", r"k < (\d+); \+\+k", r"k < \1 - 1; ++k"),
-        CMutant("quaternion lower bound 0.81 -> 0.8", "validate", near=q_lo, value=0.8, count=2),
-        CMutant("quaternion upper bound 1.21 -> 1.22", "validate", near=q_hi, value=1.22, count=2),
-        CMutant("quaternion lower bound <= becomes <", "validate", r"(0\.81\d*f?\)) <= ", r"\1 < ", count=2,
-                precisions=("double",)),
+        CMutant("quaternion lower bound 0.81 -> 0.8", "validate", near=q_lo, value=0.8),
+        CMutant("quaternion upper bound 1.21 -> 1.22", "validate", near=q_hi, value=1.22),
+        CMutant("quaternion lower bound <= becomes <", "validate", r"(\w+bits\(t\d+\), )(\w+bits\(0\.81\d*f?\))",
+                r"\1(\2 + 1u)", precisions=("double",)),
         CMutant("tilt threshold cos(max_tilt) -0.01", "validate", near=cos_tilt, value=cos_tilt - 0.01),
-        CMutant("tilt test <= becomes <", "validate", r"(= t\d+) <= (t\d+;)", r"\1 < \2", count=2,
-                precisions=("double",)),
+        CMutant("tilt test <= becomes <", "validate", r"(= t\d+) <= (t\d+;)", r"\1 < \2", precisions=("double",)),
         *[CMutant(f"rpm check on rotor {i + 1} dropped", "validate",
-                  rf"(?:\w+nonnegative\(in->rotor_rpm\[{i}\]\)|\w+key_c\(0\.0f?\) <= \w+key\(in->rotor_rpm\[{i}\], 0\));",
-                  f"in->rotor_rpm[{i}] == in->rotor_rpm[{i}];", count=2) for i in range(af.thrust.rotors)
+                  rf"\(\w+bits\(in->rotor_rpm\[{i}\]\) <= [^|]+\|\| \(\w+bits\(in->rotor_rpm\[{i}\]\) == [^;]+;",
+                  f"in->rotor_rpm[{i}] == in->rotor_rpm[{i}];") for i in range(af.thrust.rotors)
           if af.thrust.source == "rpm"],
         CMutant("BAD_THRUST bit dropped", "validate", r"\? 16 :", "? 0 :"),
         CMutant("TILT bit 8 -> 4", "validate", r"\? 8 :", "? 4 :"),
-        CMutant("rejection resets no run_s", "validate", r"state->run_s = 0\.0f?;((?:\s*state->check_follows = 0\.0f?;)?\s*\*out = state->last;\s*return \(int\)status;)",
+        CMutant("rejection resets no run_s", "validate", r"state->run_s = 0\.0f?;((?:\s*state->check_follows = 0\.0f?;)?\s*\*out = state->last;\s*return status;)",
                 r"\1"),
-        CMutant("rejection returns 0", "validate", r"return \(int\)status;", "(void)status; return 0;"),
+        CMutant("rejection returns 0", "validate", r"return status;", "(void)status; return 0;"),
     ]
 
 
@@ -111,8 +109,9 @@ def _estimate_mutants(af: Airframe) -> list[CMutant]:
         CMutant("settling time x1.1", "quality", near=settling_time_s(af), scale=1.1, count=None),
         CMutant("SETTLING bit dropped", "quality", r"\? 64\.0f? :", "? ({real})0 :"),
         CMutant("quaternion order in z_b (w*y -> x*y)", "attitude", r"in->q\[0\] \* in->q\[2\]", "in->q[1] * in->q[2]"),
-        CMutant("result limit 1e30 x10", "check_result", r"<= (\w+key_c)\(([\d.e+-]+f?)\);", r"<= \1(\2 * ({real})10);"),
-        CMutant("result limit <= becomes <", "check_result", r"<= (\w+key_c\([\d.e+-]+f?\);)", r"< \1", precisions=("double",)),
+        CMutant("result limit 1e30 x10", "check_result", r"<= (\w+bits)\(([\d.e+-]+f?)\)\)", r"<= \1(\2 * ({real})10))"),
+        CMutant("result limit <= becomes <", "check_result", r"(\w+bits\(t\d+\)) <= (\w+bits\([\d.e+-]+f?\))", r"\1 < \2",
+                precisions=("double",)),
     ]
 
 
@@ -195,14 +194,13 @@ def _header_mutants(af: Airframe) -> list[CMutant]:
 
 def _plausibility_mutants(af: Airframe) -> list[CMutant]:
     """The IMPLAUSIBLE bounds (model/plausibility.py), crossed by the self-test's boundary rows."""
-    out = [CMutant("plausible: ground speed bound x1.1", "validate", near=MAX_GROUND_SPEED_MPS ** 2, scale=1.21, count=2),
+    out = [CMutant("plausible: ground speed bound x1.1", "validate", near=MAX_GROUND_SPEED_MPS ** 2, scale=1.21),
            CMutant("plausible: IMPLAUSIBLE bit dropped", "validate", r"\? 2048 :", "? 0 :")]
     if af.observer.acceleration == "ned":
-        out.append(CMutant("plausible: acceleration bound x1.1", "validate", near=MAX_ACCELERATION_MPS2 ** 2, scale=1.21,
-                           count=2))
+        out.append(CMutant("plausible: acceleration bound x1.1", "validate", near=MAX_ACCELERATION_MPS2 ** 2, scale=1.21))
     if af.thrust.source == "collective":
         out.append(CMutant("plausible: thrust bound x1.1", "validate",
-                           near=MAX_THRUST_TO_WEIGHT * af.mass_kg * af.gravity_mps2, scale=1.1, count=2))
+                           near=MAX_THRUST_TO_WEIGHT * af.mass_kg * af.gravity_mps2, scale=1.1))
     # No rpm-bound mutant: for a thrust curve as strong as m300's, 1.5 max_rpm lies beyond the 10 g and
     # 4-weight bounds whatever the other inputs, so moving it changes no status (an equivalent mutant).
     return out

@@ -5,8 +5,8 @@
  * d9fe9baff7b6cfef8d666b58101c13ced95956e1653f591ef4ca4a5757c1bf1d.
  * DO NOT EDIT: regenerate with `dobwind generate <airframe file>`.
  *
- * Total ops per accepted step: 294 (16 math-library calls), of which
- * 52 validate the input and 24 check the result.
+ * Total ops per accepted step: 298 (16 math-library calls), of which
+ * 56 validate the input and 24 check the result.
  */
 #include "m300_wind.h"
 
@@ -15,13 +15,15 @@
 #include <stdint.h>
 #include <string.h>
 
-/* The rejection tests compare a value with a constant limit on the value's IEEE 754 bit pattern, with
- * integer operations: they then decide exactly as the reference's comparisons do even under the
- * autopilots' flags, which flush subnormals to zero (-funsafe-math-optimizations links FTZ/DAZ: a
- * negative subnormal rpm would compare as 0) or let the compiler assume there is no NaN
- * (-ffinite-math-only, -ffast-math: a NaN would pass `!(x <= limit)`). memcpy, not a union, so that
- * C and C++ alike define it; the compiler folds the limits' keys to constants. Always inlined where
- * the compiler allows it: -Os would otherwise call them, and the call costs more than the test. */
+/* The rejection tests and the result check test a value's IEEE 754 bit pattern, as an unsigned integer,
+ * against intervals of patterns (codegen/bitranges.py): the non-negative floats order as their patterns
+ * from +0 up to +inf (0x7f8..), the negative ones from -0 (0x80..) down to -inf, and the NaNs lie beyond
+ * each infinity, so "x <= c" is a union of at most two intervals that no NaN is in. These decide exactly
+ * as the reference's comparisons do, for a NaN too, and under the autopilots' flags, which flush
+ * subnormals to zero (-funsafe-math-optimizations links FTZ/DAZ: a negative subnormal rpm would compare
+ * as 0) or let the compiler assume there is no NaN (-ffinite-math-only, -ffast-math). memcpy, not a
+ * union, so that C and C++ alike define it; the compiler folds the limits' patterns to constants. Always
+ * inlined where the compiler allows it: -Os would otherwise call them, and the call costs more than the test. */
 #if defined(__GNUC__)
 #define M300_WIND_INLINE static inline __attribute__((always_inline))
 #else
@@ -35,43 +37,11 @@ M300_WIND_INLINE uint32_t m300_wind_bits(float x)
     return u;
 }
 
-/* The raw bits as a signed integer, for validation's fast path (finite values only: the finiteness test
- * is in the same conjunction): against a positive constant c, x <= c and c <= x are these integers'
- * comparisons, since negative floats (-0 included) have negative patterns and positive ones order as
- * their bits. */
-M300_WIND_INLINE int32_t m300_wind_sbits(float x)
+/* lo <= u <= hi on the patterns, with one subtraction and one comparison (modulo 2^32: an
+ * interval with lo > hi wraps around the top pattern to 0) */
+M300_WIND_INLINE int m300_wind_within(uint32_t u, uint32_t lo, uint32_t hi)
 {
-    return (int32_t)m300_wind_bits(x);
-}
-
-/* 0 <= x for a finite x (validation's fast path), -0 included: adding 0x7fffffff maps +0 and the
- * positive patterns to 0x7fffffff and above, -0 to 0xffffffff, and the other negative ones below. */
-M300_WIND_INLINE int m300_wind_nonnegative(float x)
-{
-    return (m300_wind_bits(x) + (0x7fffffffu)) >= (0x7fffffffu);
-}
-
-/* x's place in the IEEE order as an integer (monotonic, -0 and +0 both 0); a NaN gets a key above
- * every number (nan_high: x on the left of <= or <) or below every number (x on the right), so that
- * the test fails for a NaN as an IEEE comparison does. The rejection path's tests and the result
- * check call it; not forced inline (it runs rarely, and every inlined copy costs flash). */
-static int32_t m300_wind_key(float x, int nan_high)
-{
-    const uint32_t u = m300_wind_bits(x);
-    const uint32_t magnitude = u & 0x7fffffffu;
-    const int32_t nan_key = (int32_t)(0x7f800000u + 1u);
-    if (magnitude > 0x7f800000u) {
-        return nan_high ? nan_key : -nan_key;
-    }
-    return (u >> 31) != 0u ? -(int32_t)magnitude : (int32_t)magnitude;
-}
-
-/* key() of a constant limit (never a NaN), inline so that the compiler folds it to an integer */
-M300_WIND_INLINE int32_t m300_wind_key_c(float c)
-{
-    const uint32_t u = m300_wind_bits(c);
-    const uint32_t magnitude = u & 0x7fffffffu;
-    return (u >> 31) != 0u ? -(int32_t)magnitude : (int32_t)magnitude;
+    return (uint32_t)(u - lo) <= (uint32_t)(hi - lo);
 }
 
 /* The value of v, which the compiler cannot see through: the argument reductions below subtract the
@@ -178,55 +148,20 @@ static float m300_wind_atan2(float y, float x)
 
 void m300_wind_init(m300_wind_state_t *state)
 {
-    size_t i;
-    for (i = 0; i < 3; ++i) {
-        state->f_obs[i] = 0.0f;
-    }
-    for (i = 0; i < 3; ++i) {
-        state->v_obs[i] = 0.0f;
-    }
-    for (i = 0; i < 3; ++i) {
-        state->f_filt[i] = 0.0f;
-    }
-    for (i = 0; i < 3; ++i) {
-        state->v_filt[i] = 0.0f;
-    }
-    for (i = 0; i < 3; ++i) {
-        state->vel_prev[i] = 0.0f;
-    }
-    for (i = 0; i < 3; ++i) {
-        state->acc_bias[i] = 0.0f;
-    }
-    for (i = 0; i < 3; ++i) {
-        state->acc_check[i] = 0.0f;
-    }
-    state->acc_noise = 0.0f;
-    state->check_follows = 0.0f;
-    for (i = 0; i < 3; ++i) {
-        state->last.force_ned[i] = 0.0f;
-    }
-    for (i = 0; i < 3; ++i) {
-        state->last.wind_ned[i] = 0.0f;
-    }
-    state->last.wind_speed_h = 0.0f;
-    state->last.wind_speed_up = 0.0f;
-    state->last.wind_from_deg = 0.0f;
-    state->last.wind_sigma_h = 0.0f;
-    state->last.wind_sigma_up = 0.0f;
-    state->initialized = 0.0f;
-    state->run_s = 0.0f;
-    (void)i;
+    /* every field starts at 0, and the all-zero pattern is +0 in IEEE 754 (one call, not a store per field) */
+    memset(state, 0, sizeof *state);
 }
 
 int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_wind_output_t *out)
 {
-    /* ---- validate: reject NaN/inf, bad dt, non-unit quaternion, excessive tilt, negative thrust (52 ops and a loop) ---- */
+    /* ---- validate: reject NaN/inf, bad dt, non-unit quaternion, excessive tilt, negative thrust (56 ops and a loop) ---- */
     {
         /* NONFINITE's test, |x| <= 1e+06 for each of the 16 input elements, on the bits (a NaN's or an
          * infinity's magnitude bits are above every number's): limit - |x| is negative for an element
          * beyond, so the sign bit of the OR of the differences decides. The input struct holds floats only
          * (the sizeof below fails to compile otherwise), read as bytes as C and C++ allow. */
         int finite;
+        int status;
         {
             uint32_t over = 0u;
             size_t k;
@@ -243,103 +178,65 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const float t2 = t0 + t1;
         const float t3 = in->vel_ned[2] * in->vel_ned[2];
         const float t4 = t2 + t3;
-        const int t5 = m300_wind_sbits(22500.0f) < m300_wind_sbits(t4);
-        const float t6 = in->acc_ned[0] * in->acc_ned[0];
-        const float t7 = in->acc_ned[1] * in->acc_ned[1];
-        const float t8 = t6 + t7;
-        const float t9 = in->acc_ned[2] * in->acc_ned[2];
-        const float t10 = t8 + t9;
-        const int t11 = m300_wind_sbits(9617.03809f) < m300_wind_sbits(t10);
-        const int t12 = t5 | t11;
-        const int t13 = m300_wind_sbits(18000.0f) < m300_wind_sbits(in->rotor_rpm[0]);
+        const float t5 = in->acc_ned[0] * in->acc_ned[0];
+        const float t6 = in->acc_ned[1] * in->acc_ned[1];
+        const float t7 = t5 + t6;
+        const float t8 = in->acc_ned[2] * in->acc_ned[2];
+        const float t9 = t7 + t8;
+        const int t10 = m300_wind_within(m300_wind_bits(t4), (m300_wind_bits(22500.0f) + 1u), 0x7f800000u);
+        const int t11 = m300_wind_within(m300_wind_bits(t9), (m300_wind_bits(9617.03809f) + 1u), 0x7f800000u);
+        const int t12 = t10 | t11;
+        const int t13 = m300_wind_within(m300_wind_bits(in->rotor_rpm[0]), (m300_wind_bits(18000.0f) + 1u), 0x7f800000u);
         const int t14 = t12 | t13;
-        const int t15 = m300_wind_sbits(18000.0f) < m300_wind_sbits(in->rotor_rpm[1]);
+        const int t15 = m300_wind_within(m300_wind_bits(in->rotor_rpm[1]), (m300_wind_bits(18000.0f) + 1u), 0x7f800000u);
         const int t16 = t14 | t15;
-        const int t17 = m300_wind_sbits(18000.0f) < m300_wind_sbits(in->rotor_rpm[2]);
+        const int t17 = m300_wind_within(m300_wind_bits(in->rotor_rpm[2]), (m300_wind_bits(18000.0f) + 1u), 0x7f800000u);
         const int t18 = t16 | t17;
-        const int t19 = m300_wind_sbits(18000.0f) < m300_wind_sbits(in->rotor_rpm[3]);
+        const int t19 = m300_wind_within(m300_wind_bits(in->rotor_rpm[3]), (m300_wind_bits(18000.0f) + 1u), 0x7f800000u);
         const int t20 = t18 | t19;
-        const int t21 = m300_wind_sbits(1.00000007e-05f) <= m300_wind_sbits(in->dt);
-        const int t22 = m300_wind_sbits(in->dt) <= m300_wind_sbits(0.100009993f);
-        const int t23 = t21 & t22;
-        const float t24 = in->q[0] * in->q[0];
-        const float t25 = in->q[1] * in->q[1];
-        const float t26 = t24 + t25;
-        const float t27 = in->q[2] * in->q[2];
-        const float t28 = t26 + t27;
-        const float t29 = in->q[3] * in->q[3];
+        const int t21 = (t20 ? 2048 : 0);
+        const int t22 = !finite;
+        const int t23 = (t22 ? 1 : 0);
+        const int t24 = t21 | t23;
+        const int t25 = !(m300_wind_within(m300_wind_bits(in->dt), m300_wind_bits(1.00000007e-05f), m300_wind_bits(0.100009993f)));
+        const int t26 = (t25 ? 2 : 0);
+        const int t27 = t24 | t26;
+        const float t28 = in->q[0] * in->q[0];
+        const float t29 = in->q[1] * in->q[1];
         const float t30 = t28 + t29;
-        const int t31 = m300_wind_sbits(0.810000002f) <= m300_wind_sbits(t30);
-        const int t32 = m300_wind_sbits(t30) <= m300_wind_sbits(1.20999992f);
-        const int t33 = t31 & t32;
-        const float t34 = 0.5f * t30;
-        const float t35 = t24 - t25;
-        const float t36 = t35 - t27;
-        const float t37 = t36 + t29;
-        const int t38 = t34 <= t37;
-        const int t39 = m300_wind_nonnegative(in->rotor_rpm[0]);
-        const int t40 = m300_wind_nonnegative(in->rotor_rpm[1]);
-        const int t41 = t39 & t40;
-        const int t42 = m300_wind_nonnegative(in->rotor_rpm[2]);
-        const int t43 = t41 & t42;
-        const int t44 = m300_wind_nonnegative(in->rotor_rpm[3]);
-        const int t45 = t43 & t44;
-        const int t46 = finite & t23;
-        const int t47 = t46 & t33;
-        const int t48 = t47 & t38;
-        const int t49 = t48 & t45;
-        const int t50 = !t20;
-        const int t51 = t49 & t50;
-        if (!(t51)) {
+        const float t31 = in->q[2] * in->q[2];
+        const float t32 = t30 + t31;
+        const float t33 = in->q[3] * in->q[3];
+        const float t34 = t32 + t33;
+        const int t35 = !(m300_wind_within(m300_wind_bits(t34), m300_wind_bits(0.810000002f), m300_wind_bits(1.20999992f)));
+        const int t36 = (t35 ? 4 : 0);
+        const int t37 = t27 | t36;
+        const float t38 = 0.5f * t34;
+        const float t39 = t28 - t29;
+        const float t40 = t39 - t31;
+        const float t41 = t40 + t33;
+        const int t42 = t38 <= t41;
+        const int t43 = !t42;
+        const int t44 = (t43 ? 8 : 0);
+        const int t45 = t37 | t44;
+        const int t46 = (m300_wind_bits(in->rotor_rpm[0]) <= 0x7f800000u) || (m300_wind_bits(in->rotor_rpm[0]) == 0x80000000u);
+        const int t47 = (m300_wind_bits(in->rotor_rpm[1]) <= 0x7f800000u) || (m300_wind_bits(in->rotor_rpm[1]) == 0x80000000u);
+        const int t48 = t46 & t47;
+        const int t49 = (m300_wind_bits(in->rotor_rpm[2]) <= 0x7f800000u) || (m300_wind_bits(in->rotor_rpm[2]) == 0x80000000u);
+        const int t50 = t48 & t49;
+        const int t51 = (m300_wind_bits(in->rotor_rpm[3]) <= 0x7f800000u) || (m300_wind_bits(in->rotor_rpm[3]) == 0x80000000u);
+        const int t52 = t50 & t51;
+        const int t53 = !t52;
+        const int t54 = (t53 ? 16 : 0);
+        const int t55 = t45 | t54;
+        status = t55;
+        if (status != 0) {
             /* rejected: the estimate is untouched and the last accepted output repeated; only the gap
-             * bookkeeping records that this sample was missed. The status bits are assembled here only. */
-            int status;
-            const int r0 = m300_wind_key_c(22500.0f) < m300_wind_key(t4, 0);
-            const int r1 = m300_wind_key_c(9617.03809f) < m300_wind_key(t10, 0);
-            const int r2 = r0 | r1;
-            const int r3 = m300_wind_key_c(18000.0f) < m300_wind_key(in->rotor_rpm[0], 0);
-            const int r4 = r2 | r3;
-            const int r5 = m300_wind_key_c(18000.0f) < m300_wind_key(in->rotor_rpm[1], 0);
-            const int r6 = r4 | r5;
-            const int r7 = m300_wind_key_c(18000.0f) < m300_wind_key(in->rotor_rpm[2], 0);
-            const int r8 = r6 | r7;
-            const int r9 = m300_wind_key_c(18000.0f) < m300_wind_key(in->rotor_rpm[3], 0);
-            const int r10 = r8 | r9;
-            const int r11 = (r10 ? 2048 : 0);
-            const int r12 = !finite;
-            const int r13 = (r12 ? 1 : 0);
-            const int r14 = r11 | r13;
-            const int r15 = m300_wind_key_c(1.00000007e-05f) <= m300_wind_key(in->dt, 0);
-            const int r16 = m300_wind_key(in->dt, 1) <= m300_wind_key_c(0.100009993f);
-            const int r17 = r15 & r16;
-            const int r18 = !r17;
-            const int r19 = (r18 ? 2 : 0);
-            const int r20 = r14 | r19;
-            const int r21 = m300_wind_key_c(0.810000002f) <= m300_wind_key(t30, 0);
-            const int r22 = m300_wind_key(t30, 1) <= m300_wind_key_c(1.20999992f);
-            const int r23 = r21 & r22;
-            const int r24 = !r23;
-            const int r25 = (r24 ? 4 : 0);
-            const int r26 = r20 | r25;
-            const int r27 = t34 <= t37;
-            const int r28 = !r27;
-            const int r29 = (r28 ? 8 : 0);
-            const int r30 = r26 | r29;
-            const int r31 = m300_wind_key_c(0.0f) <= m300_wind_key(in->rotor_rpm[0], 0);
-            const int r32 = m300_wind_key_c(0.0f) <= m300_wind_key(in->rotor_rpm[1], 0);
-            const int r33 = r31 & r32;
-            const int r34 = m300_wind_key_c(0.0f) <= m300_wind_key(in->rotor_rpm[2], 0);
-            const int r35 = r33 & r34;
-            const int r36 = m300_wind_key_c(0.0f) <= m300_wind_key(in->rotor_rpm[3], 0);
-            const int r37 = r35 & r36;
-            const int r38 = !r37;
-            const int r39 = (r38 ? 16 : 0);
-            const int r40 = r30 | r39;
-            status = r40;
+             * bookkeeping records that this sample was missed */
             state->run_s = 0.0f;
             state->check_follows = 0.0f;
             *out = state->last;
-            return (int)status;
+            return status;
         }
     }
 
@@ -688,7 +585,7 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const float t15 = t13 + t14;
         const float t16 = fabsf(acc_bias_new[2]);
         const float t17 = t15 + t16;
-        const int t18 = m300_wind_key(t17, 1) <= m300_wind_key_c(9.99999939e+29f);
+        const int t18 = (m300_wind_bits(t17) <= m300_wind_bits(9.99999939e+29f)) || (m300_wind_within(m300_wind_bits(t17), 0x80000000u, 0xff800000u));
         const float t19 = (t18 ? acc_status : 0.0f);
         const int t20 = !t18;
         const float t21 = (t20 ? 32.0f : 0.0f);
@@ -736,18 +633,19 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
     state->acc_check[2] = acc_check_new[2];
     state->acc_noise = acc_noise_new;
     state->check_follows = 1.0f;
-    out->force_ned[0] = state->last.force_ned[0] = f_filt_new[0];
-    out->force_ned[1] = state->last.force_ned[1] = f_filt_new[1];
-    out->force_ned[2] = state->last.force_ned[2] = f_filt_new[2];
-    out->wind_ned[0] = state->last.wind_ned[0] = wind_ned[0];
-    out->wind_ned[1] = state->last.wind_ned[1] = wind_ned[1];
-    out->wind_ned[2] = state->last.wind_ned[2] = wind_ned[2];
-    out->wind_speed_h = state->last.wind_speed_h = wind_speed_h;
-    out->wind_speed_up = state->last.wind_speed_up = wind_speed_up;
-    out->wind_from_deg = state->last.wind_from_deg = wind_from_deg;
-    out->wind_sigma_h = state->last.wind_sigma_h = wind_sigma_h;
-    out->wind_sigma_up = state->last.wind_sigma_up = wind_sigma_up;
+    state->last.force_ned[0] = f_filt_new[0];
+    state->last.force_ned[1] = f_filt_new[1];
+    state->last.force_ned[2] = f_filt_new[2];
+    state->last.wind_ned[0] = wind_ned[0];
+    state->last.wind_ned[1] = wind_ned[1];
+    state->last.wind_ned[2] = wind_ned[2];
+    state->last.wind_speed_h = wind_speed_h;
+    state->last.wind_speed_up = wind_speed_up;
+    state->last.wind_from_deg = wind_from_deg;
+    state->last.wind_sigma_h = wind_sigma_h;
+    state->last.wind_sigma_up = wind_sigma_up;
     state->initialized = 1.0f;
     state->run_s = run_s_new;
+    *out = state->last;
     return (int)quality_status; /* 0, or quality bits of an accepted sample (the header lists them) */
 }
