@@ -229,7 +229,7 @@ def test_a_good_fit_passes_and_its_replay_matches_replay(tiny, tmp_path, capsys,
     fitted = load_airframe(out)
     model, log, traj = replay(fitted, tiny["vertical"])
     by_segment = {r["segment"]: r["speed_error"] for r in score(log, traj, model)["per_segment"]["table"]}
-    mine = {r["segment"]: r["speed_error_mps"] for r in check_log(fitted, read_log(tiny["vertical"]), 1, 5.0).segments}
+    mine = {r.segment: r.speed_error_mps for r in check_log(fitted, read_log(tiny["vertical"]), 1, 5.0).segments}
     assert len(by_segment) >= 10 and set(by_segment) == set(mine)
     assert max(abs(by_segment[s] - mine[s]) for s in by_segment) < 0.01
 
