@@ -30,6 +30,7 @@ MODELS = ("auto", "drag", "drag-heading", "drag-body", "polynomial")
 DRAG_FRAMES_OF = {"auto": (DragFrame.HEADING, DragFrame.BODY), "drag": (DragFrame.HEADING, DragFrame.BODY), "drag-heading": (DragFrame.HEADING,),
                   "drag-body": (DragFrame.BODY,), "polynomial": ()}
 FAMILY_OF_FRAME = {DragFrame.HEADING: "drag", DragFrame.BODY: "drag-body"}
+UNSCORED = FamilyScores()  # a family fitted but not scored (under 100 samples) is ranked as having no figure
 
 
 def drag_samples(af: Airframe, logs: list[FlightLog], frames: tuple[DragFrame, ...] = (DragFrame.HEADING,),
@@ -326,9 +327,6 @@ FAMILY_TIE = 0.02
 # law won such ties on its hold means (by up to 30 %) four times in four, and read the tunnel's 10 m/s
 # hold, beyond the 8.4 m/s calibration, 0.11-0.51 m/s off, against 0.04-0.14 for the body-frame law.
 TIE_PREFERRED = "drag-body"
-
-
-UNSCORED = FamilyScores()  # what a family without scores is ranked by: nothing
 
 
 def _hold_level(scores: FamilyScores) -> float:
