@@ -107,3 +107,56 @@ def test_filtered_regression_recovers_a_known_law():
     for key, value in law.as_dict().items():
         assert got[key] == pytest.approx(value, abs=0.003 + 0.03 * abs(value)), key
     assert got["kappa"] == pytest.approx(kappa, abs=0.002)
+
+
+def test_direction_coverage_in_closed_form():
+    """Airflow evenly spread over the circle: a quarter in each 45-deg sector of the axis, 135/360 from the
+    front (within 67.5 deg of the nose) and as much from the back; one direction: one sector; airflow below
+    DIRECTION_MIN_SPEED_MPS has no direction and is not counted."""
+    theta = np.radians(np.arange(0.25, 360.0, 0.5))  # no sample on a sector boundary
+    even = dragfit.direction_coverage(3.0 * np.column_stack([np.cos(theta), np.sin(theta)]))
+    assert even.axial == pytest.approx((0.25,) * 4) and even.front == pytest.approx(135 / 360)
+    assert even.back == pytest.approx(135 / 360) and even.moving == 720 and even.allows(("l0", "q0", "l2c", "q1c"))
+    one = dragfit.direction_coverage(np.tile([[-4.0, 1.0]], (50, 1)))
+    assert sorted(one.axial) == [0.0, 0.0, 0.0, 1.0] and one.back == 1.0 and one.front == 0.0
+    assert one.allows(("l0", "q0")) and not one.allows(("l0", "q0", "q2c", "q2s")) and not one.allows(("q1c",))
+    slow = dragfit.direction_coverage(0.9 * np.column_stack([np.cos(theta), np.sin(theta)]))
+    assert slow.moving == 0 and not slow.allows(("l2c",))
+    # the front and back both seen, but half the axis never: the axial harmonics are still unidentified
+    ends = np.r_[np.radians(np.arange(-44.75, 45.0, 0.5)), np.radians(np.arange(135.25, 225.0, 0.5))]
+    half = dragfit.direction_coverage(3.0 * np.column_stack([np.cos(ends), np.sin(ends)]))
+    assert half.front == pytest.approx(0.5) and half.back == pytest.approx(0.5) and not half.allows(("l2c",))
+
+
+def _anisotropic_samples(yaw_spread_rad: float) -> dragfit.DragSamples:
+    """An anisotropic law (front/side drag 0.2/0.3 N per m/s) in 3-9 m/s of wind from the north, the
+    heading held for 20 s at a time within +-``yaw_spread_rad`` of north."""
+    af = load_airframe(M300)
+    law = DragLaw(0.25, 0.06, l2c=-0.05, q2c=-0.01)
+    rate, seconds = 20.0, 800.0
+    rng = np.random.default_rng(7)
+    t = np.arange(int(rate * seconds)) / rate
+    hold = int(rate * 20)
+    yaw = np.repeat(rng.uniform(-yaw_spread_rad, yaw_spread_rad, int(seconds / 20)), hold)
+    air = np.column_stack([np.repeat(rng.uniform(3, 9, int(seconds / 20)), hold), np.zeros((len(t), 2))])
+    c, s = np.cos(yaw), np.sin(yaw)
+    air_c = np.column_stack([c * air[:, 0] + s * air[:, 1], -s * air[:, 0] + c * air[:, 1], air[:, 2]])
+    fx, fy, fz = drag_force(law, air_c[:, 0], air_c[:, 1], air_c[:, 2])
+    force = np.column_stack([c * fx - s * fy, s * fx + c * fy, fz])
+    thrust = np.column_stack([np.zeros_like(t), np.zeros_like(t), np.full_like(t, 78.0)])
+    observed = observed_force(af, rate, force, 0.02, rng)
+    return dragfit.merge([dragfit.log_samples(af, 0.5, t, observed, air, thrust, yaw, np.ones(len(t), dtype=bool))])
+
+
+@pytest.mark.parametrize("spread_deg", [15.0, 180.0])
+def test_direction_harmonics_are_fitted_only_where_the_air_came_from_every_direction(spread_deg):
+    """Headings within 15 deg of the wind: the harmonics are not candidates (they would trade with the
+    isotropic terms and the offsets and extrapolate badly to directions never seen), and the choice says
+    why. Headings all round: the anisotropy is identified and kept."""
+    choice = dragfit.choose_drag_law(_anisotropic_samples(math.radians(spread_deg)), lambda samples, sets: 0)
+    harmonics = set(dragfit.AXIAL_HARMONICS + dragfit.FORE_AFT_HARMONICS)
+    if spread_deg < 90:
+        assert not harmonics & set(choice.active) and choice.directions is not None
+        assert not choice.directions.axial_identified()
+    else:
+        assert choice.directions is None and {"l2c", "q2c"} <= set(choice.active)

@@ -22,6 +22,7 @@ from dobwind.model.status import accepted
 from dobwind.replay.replay import replay_ulog
 from dobwind.simulate.simulate import simulate
 from dobwind.calibrate.sitlwind import PROFILE_LINEAR, PROFILE_NONE, PROFILE_SQRT, profile_speed, read_sitl_log, sitl_wind_ned
+from dobwind.calibrate import windsolve
 from dobwind.calibrate.windsolve import GroupWinds, estimate_winds
 from tests.dataflash_writer import write_dataflash
 from tests.helpers import airframe_dict
@@ -168,18 +169,41 @@ def test_truth_sitl_refuses_a_log_without_the_parameters(box, capsys, tmp_path):
     assert err.count("\n") == 1 and "SIM_WIND_SPD" in err and log in err and not out.exists()
 
 
-def test_wind_unknown_finds_the_wind_of_a_box_flight(box):
-    """Legs along four tracks, nose first: the joint solution is the simulator's mean wind within 0.25 m/s."""
-    tmp, path, af, cols = box
+@pytest.fixture(scope="module")
+def box_solution(box):
+    """The box flight as a CSV log, its (path, LogTime) list and the joint solution on it."""
+    tmp, _, af, cols = box
     csv = tmp / "box.csv"
     write_csv(csv, list(cols), np.column_stack([cols[k] for k in cols]), ["%.9g"] * len(cols))
-    solution = estimate_winds(af, [(str(csv), flight_of(str(csv), af, None))])
+    flights = [(str(csv), flight_of(str(csv), af, None))]
+    return csv, flights, estimate_winds(af, flights)
+
+
+def test_wind_unknown_finds_the_wind_of_a_box_flight(box, box_solution):
+    """Legs along four tracks, nose first: the joint solution is the simulator's mean wind within 0.25 m/s."""
+    _, _, af, cols = box
+    csv, _, solution = box_solution
     (group,) = solution.groups
     assert np.hypot(*(np.array(group.wind_ne) - _mean_wind(cols))) < 0.25, (group, _mean_wind(cols))
     assert group.sigma_mps < 0.5
     # As a truth: that wind on every row of the log.
     wind, known = GroupWinds(solution).wind(str(csv), flight_of(str(csv), af, None))
     assert known.all() and np.allclose(wind[:, :2], group.wind_ne) and np.all(wind[:, 2] == 0)
+
+
+def test_a_refusal_on_the_wind_1_sigma_says_how_long_a_flight_would_do(box, box_solution, monkeypatch):
+    """A flight that spans enough headings but leaves the wind 1-sigma above the limit is told the flight
+    time at which it would reach the limit, span x (sigma / limit)^2 (a mean's 1-sigma falls as
+    1/sqrt(time)): here the limit is set to half the box's own 1-sigma, so four times its span."""
+    af = box[2]
+    _, flights, solution = box_solution
+    (group,) = solution.groups
+    monkeypatch.setattr(windsolve, "MAX_WIND_SIGMA_MPS", group.sigma_mps / 2)
+    with pytest.raises(CheckFailed) as refused:
+        estimate_winds(af, flights)
+    span = group.t_end_s - group.t_start_s
+    assert f"about {4 * span:.0f} s of such flight instead of {span:.0f} s" in str(refused.value)
+    assert windsolve.flight_time_needed_s(0.3, 0.5, 80.0) == 80.0   # already within the limit: no longer flight
 
 
 def test_wind_unknown_refuses_a_flight_whose_nose_never_turns(box, tmp_path, capsys):

@@ -63,3 +63,20 @@ def test_neural_fly_constant_wind_fit_writes_a_model_and_names_its_outlier(resul
     flagged = [run for run in fit["per_run"] if run["outlier"]]
     assert len(flagged) == 1 and flagged[0]["error_mps"] > 0.5
     assert all(run["error_mps"] < 0.5 for run in fit["per_run"] if not run["outlier"])
+
+
+def test_neural_fly_leave_one_out_bounds_put_35wind_beyond_every_convex_law():
+    """The no-fit leave-one-out bounds (loobound.py): held out, 35wind cannot be read within 0.5 m/s by any
+    law with a convex force per m/s whose slope at zero airflow is the no-wind run's (it would need a
+    steeper one), whether or not 70wind trains; without 35wind, 70wind and 70p20sint are within reach."""
+    if len(realdata.runs(realdata.DEFAULT_DATA)) < 5:
+        pytest.skip("the Neural-Fly runs are not beside this checkout")
+    found = realdata.consistency()
+    slope = found["zero_slope_n_per_mps"]
+    assert 0.3 < slope < 0.8
+    bounds = {(b.name, b.left_out): b for b in found["held_out_bounds"]}
+    for left_out in ((), ("70wind",)):
+        held = bounds[("35wind", left_out)]
+        assert held.beyond_goal and held.slowest_mps > held.speed_mps + 0.5 and held.zero_slope_needed > slope
+    assert not bounds[("70wind", ("35wind",))].beyond_goal
+    assert not bounds[("70p20sint", ("35wind",))].beyond_goal

@@ -123,6 +123,32 @@ def test_collective_mapping_recovers_newtons(tmp_path, source):
     assert np.all(np.isfinite(traj.outputs))
 
 
+@pytest.mark.parametrize("rpm", [True, False])
+def test_the_gap_note_names_esc_status_tolerance_only_when_the_airframe_reads_it(tmp_path, rpm):
+    af, cols = _flight()
+    if rpm:
+        path = _ulog(tmp_path / "rpm.ulg", cols, gap=(10.0, 11.2))
+    else:
+        af = _collective()
+        path = _ulog(tmp_path / "coll.ulg", cols, esc=False, thrust="thrust_setpoint", hover=0.42, gap=(10.0, 11.2))
+    _, flight, _ = replay_ulog(af, str(path), rate_hz=100.0)
+    note = next(n for n in flight.notes if "topic gap" in n)
+    assert ("esc_status:" in note) == rpm and "vehicle_attitude" in note.split("by topic: ")[1]
+
+
+@pytest.mark.parametrize("setpoint", ["absent", "without yaw_body"])
+def test_the_heading_note_says_whether_the_setpoint_topic_or_its_yaw_is_missing(tmp_path, setpoint):
+    af, cols = _flight()
+    # PX4 v1.15+ logs vehicle_attitude_setpoint without yaw_body
+    extra = [Topic("vehicle_attitude_setpoint", [("uint64_t", "timestamp"), ("float[3]", "thrust_body")],
+                   _rows(cols, ["thrust"], ["thrust_body[2]"]))] if setpoint != "absent" else []
+    path = _ulog(tmp_path / "yaw.ulg", cols, attitude_setpoint=False, extra=extra)
+    _, flight, _ = replay_ulog(af, str(path), rate_hz=100.0)
+    note = next(n for n in flight.notes if "heading frame follows" in n)
+    assert note.startswith("no vehicle_attitude_setpoint" if setpoint == "absent"
+                           else "vehicle_attitude_setpoint has no yaw_body")
+
+
 def test_missing_topic_exits_2_naming_it(tmp_path, capsys):
     _, cols = _flight()
     path = _ulog(tmp_path / "noesc.ulg", cols, esc=False)

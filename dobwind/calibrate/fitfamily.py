@@ -483,4 +483,7 @@ def _drag_report(choice: dragfit.DragChoice, samples: dragfit.DragSamples, fitte
                      horizontal_extrapolation_rmse_mps=_none(choice.extrapolation_h_mps),
                      vertical_rmse_mps=choice.rmse_v_mps, vertical_cv_rmse_mps=_none(choice.cv_v_mps),
                      not_increasing=list(choice.dropped), anchored=samples.anchor,
+                     warnings=[] if choice.directions is None else [
+                         "drag law: no direction harmonics (anisotropy) fitted, an isotropic law instead: "
+                         f"{choice.directions.text()}; fly more headings relative to the wind to calibrate them"],
                      runs=dragfit.run_verdicts(samples, choice.active, choice.theta))

@@ -335,13 +335,24 @@ def coverage(logs: list[LogRows], winds: np.ndarray) -> Coverage:
                     (float(np.percentile(ground, 5)), float(np.percentile(ground, 95))))
 
 
-def _advice(spanned: Coverage) -> str:
-    """What to change: the flight pattern, or (when it spanned enough) the law's misfit: the drag signal
-    is lost in force the law cannot explain (thrust-model or timing errors, gusts)."""
+def flight_time_needed_s(sigma_mps: float, limit_mps: float, span_s: float) -> float:
+    """The flight time at which a wind 1-sigma of ``sigma_mps`` over ``span_s`` would reach ``limit_mps``,
+    when more of the same flight adds independent information: the 1-sigma of a mean falls as
+    1/sqrt(duration) (gusts and other random force errors; a bias of the law would not average out)."""
+    return span_s * max(sigma_mps / limit_mps, 1.0) ** 2
+
+
+def _advice(spanned: Coverage, sigma_mps: float, span_s: float) -> str:
+    """What to change: the flight pattern, or (when it spanned enough) the flight's length: the drag signal
+    is lost in force the law cannot explain (gusts, thrust-model or timing errors)."""
     if spanned.lacking() or spanned.ground_speed_mps[1] < 2.0:
         return "fly several headings and speeds (boxes, circles, back and forth in more than one direction)"
-    return ("the headings and speeds vary, but the force the drag law cannot explain hides the wind: longer legs "
-            "at steady speed, or a wind measured another way (--wind SPEED@FROM, --truth)")
+    needed = flight_time_needed_s(sigma_mps, MAX_WIND_SIGMA_MPS, span_s)
+    longer = (f"about {needed:.0f} s of such flight instead of {span_s:.0f} s would bring the 1-sigma to "
+              f"{MAX_WIND_SIGMA_MPS:g} m/s if that force is gusts (it averages out as 1/sqrt(time))"
+              if math.isfinite(needed) and needed > span_s else "longer legs at steady speed")
+    return (f"the headings and speeds vary, but the force the drag law cannot explain hides the wind: {longer}; "
+            "or a wind measured another way (--wind SPEED@FROM, --truth)")
 
 
 def _problem(af: Airframe, logs: list[LogRows], groups: int, kappa: float = 0.0) -> Problem:
@@ -390,7 +401,7 @@ def estimate_winds(af: Airframe, flights: list[tuple[str, LogTime]], segment_s: 
             f"--wind unknown: the flight does not identify the wind and the force-air law together (wind 1-sigma "
             f"{sigma[worst]:.2g} m/s for {spans[worst][0]}, limit {MAX_WIND_SIGMA_MPS:g}; Jacobian condition "
             f"{condition:.3g}, limit {MAX_CONDITION:g}; force the law leaves unexplained {misfit:.2g} N, "
-            f"{misfit / (af.mass_kg * af.gravity_mps2):.1%} of the weight): {what}; {_advice(spanned)}; "
+            f"{misfit / (af.mass_kg * af.gravity_mps2):.1%} of the weight): {what}; {_advice(spanned, float(sigma[worst]), spans[worst][2] - spans[worst][1])}; "
             f"{scale.text()}; nothing written")
     found = tuple(WindGroup(path, start, end, (float(w[0]), float(w[1])), float(s), int(n))
                   for (path, start, end), w, s, n in zip(spans, winds, sigma, counts))

@@ -111,6 +111,14 @@ def _topic(ulog, name: str, fields: list[str], optional: tuple[str, ...] = ()) -
     return None
 
 
+def _own_yaw_note(ulog) -> str:
+    """Why the heading frame follows the vehicle's own yaw: PX4 v1.15 and later log
+    vehicle_attitude_setpoint without yaw_body, older logs may lack the topic."""
+    logged = any(d.name == "vehicle_attitude_setpoint" for d in ulog.data_list)
+    what = "vehicle_attitude_setpoint has no yaw_body" if logged else "no vehicle_attitude_setpoint"
+    return f"{what}: the heading frame follows the vehicle's own yaw"
+
+
 def truncation(path: str) -> str | None:
     """How the file ends, when its last message is cut off (pyulog reads such a file silently): walks
     the message headers (u16 size, u8 type) from the end of the 16-byte file header."""
@@ -210,7 +218,7 @@ def read_ulog(path: str, af: Airframe, rate_hz: float | None = None, bridge_gaps
         notes.append(f"hover thrust from the MPC_THR_HOVER parameter ({hover_param:.3f})")
     yaw_src = _topic(ulog, "vehicle_attitude_setpoint", ["yaw_body"])
     if yaw_src is None:
-        notes.append("no vehicle_attitude_setpoint: the heading frame follows the vehicle's own yaw")
+        notes.append(_own_yaw_note(ulog))
 
     used = {n: d for n, d in topics.items() if d is not None}
     if thrust_src:
@@ -231,9 +239,10 @@ def read_ulog(path: str, af: Airframe, rate_hz: float | None = None, bridge_gaps
             notes.append(note)
     px4, px4_var = _px4_wind(ulog, clock)
     if gappy.any():
+        # esc_status has its own fixed tolerance; name it only when this airframe reads it
+        esc = f"esc_status: {ROTOR_MAX_GAP_S:g} s; " if "esc_status" in tolerances else ""
         notes.append(count_note(gappy, f"with a topic gap (longer than max_dt {max_gap:g} s or, for a slow topic, "
-                                       f"than its own tolerance; esc_status: {ROTOR_MAX_GAP_S:g} s; by topic: "
-                                       f"{culprits})", "NO_DATA"))
+                                       f"than its own tolerance; {esc}by topic: {culprits})", "NO_DATA"))
     warnings = (f"{path}: {cut} ({clock[-1] - clock[0]:.2f} s readable)",) if cut else ()
     bridged = None
     if bridge_gaps:
