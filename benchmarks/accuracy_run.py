@@ -132,11 +132,12 @@ def predicted_rms(fit: dict[str, Any], hold_speeds: list[float], scored_s: list[
     the holds' scored lengths, each band's bias and noise give the figure for a hold that long (the
     calibration's holds are shorter than the tunnel's: holdcv's note)."""
     from dobwind.calibrate.holdcv import HoldCV
+    from dobwind.calibrate.reportparts import HoldCvBySpeed
 
     cv, calibrated = fit.get("cv_rmse_mps"), fit.get("calibrated_speed_mps")
     if not hold_speeds or cv is None or calibrated is None:
         return None
-    hold = HoldCV.from_table(cv, fit.get("hold_cv_by_speed"), fit.get("hold_extrapolation_mps"))
+    hold = HoldCV.from_table(cv, HoldCvBySpeed.from_json(fit.get("hold_cv_by_speed")), fit.get("hold_extrapolation_mps"))
     lengths = scored_s if scored_s is not None else [None] * len(hold_speeds)
     return _rms([hold.predicted(s, calibrated, length) for s, length in zip(hold_speeds, lengths)])
 

@@ -65,9 +65,9 @@ def _score(fitted, log_path: Path, nominal: float, report) -> dict:
         "mean_up_mps": float(-mean[2]),
         "fit_terms": report.horizontal_terms, "fit_cv_rmse_mps": report.horizontal_cv_rmse_mps,
         "thrust_scale": report.thrust_scale, "warnings": report.warnings,
-        "fit_outliers": [Path(run["log"]).stem for run in report.runs if run["outlier"]],
+        "fit_outliers": [Path(str(run.log)).stem for run in report.runs if run.outlier],
         # the fit's own per-log table (its mean airflow error per training log, not a replay)
-        "training_errors_mps": {Path(run["log"]).stem: run["error_mps"] for run in report.runs},
+        "training_errors_mps": {Path(str(run.log)).stem: run.error_mps for run in report.runs},
     }
 
 
@@ -76,9 +76,9 @@ def _constant_wind_fit(af: Airframe, own: dict[str, Path]) -> dict:
     and the per-run table of its report (runmeans.py)."""
     names = [n for n in CONSTANT_WIND if n in own]
     _, report, _ = fit_airframe(af, [str(own[n]) for n in names], "auto")
-    return {"runs": names, "passed": bool(report.self_check["passed"]), "reasons": report.self_check["reasons"],
+    return {"runs": names, "passed": bool(report.self_check.passed), "reasons": report.self_check.reasons,
             "model": report.model, "anchored": report.anchored,
-            "per_run": [{**run, "log": Path(run["log"]).stem} for run in report.runs]}
+            "per_run": [{**dataclasses.asdict(run), "log": Path(str(run.log)).stem} for run in report.runs]}
 
 
 def _training_set(logs: dict[str, dict[str, Path]], data_dir: Path) -> str:

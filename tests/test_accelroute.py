@@ -17,7 +17,7 @@ from dobwind.core.errors import CheckFailed
 from dobwind.calibrate.fitreport import _low_pass_line, _route_line
 from dobwind.calibrate.hovernoise import HoverNoise
 from dobwind.model.airframe import load_airframe
-from dobwind.calibrate.selfcheck import SelfCheck
+from dobwind.calibrate.reportparts import AccelerationRoute, LowPassChange, SelfCheck
 from tests.helpers import make_airframe, noisy_flights
 
 
@@ -95,25 +95,25 @@ def test_fit_airframe_keeps_the_better_fit(monkeypatch, second, kept):
     # Airframe, report, points and self-check all come from the fit kept.
     assert new.observer.acceleration_bias_time_s == (BLEND_TIME_S if kept else 0.0)
     assert report.model == which and points == {"fit": which}
-    assert report.self_check["still_noise_mps"] == (0.05 if kept else 0.2)
-    assert report.self_check["noise_h_mps"] == (0.03 if kept else 0.3)
+    assert report.self_check.still_noise_mps == (0.05 if kept else 0.2)
+    assert report.self_check.noise_h_mps == (0.03 if kept else 0.3)
     # The sigma outputs take the observer noise of the fit kept, once.
     assert noise_used == [(0.03 if kept else 0.3, 0.04)]
     route = report.acceleration_route
-    assert route["kept"] is kept and route["bias_time_s"] == [0.0, BLEND_TIME_S]
+    assert route.kept is kept and route.bias_time_s == (0.0, BLEND_TIME_S)
     blend_warnings = [w for w in report.warnings if w.startswith("the acceleration blend")]
     if isinstance(second, Exception):
-        assert route["still_noise_mps"] == [0.2, None] and route["blend_passed"] is None
-        assert route["blend_reasons"] == ["no model could be fitted"]
+        assert route.still_noise_mps == (0.2, None) and route.blend_passed is None
+        assert route.blend_reasons == ["no model could be fitted"]
         # The user asked for less noise and got the first fit: one warning says why.
         assert blend_warnings == [f"the acceleration blend (acceleration_bias_time {BLEND_TIME_S:g} s) could not be "
                                   "fitted (no model could be fitted); the airframe's acceleration input is kept as written"]
     else:
         assert blend_warnings == []
-        assert route["still_noise_mps"] == [0.2, second.still_noise_mps] and route["blend_passed"] is True
+        assert route.still_noise_mps == (0.2, second.still_noise_mps) and route.blend_passed is True
 
 
-def _report_with(route: dict) -> str:
+def _report_with(route: AccelerationRoute | None) -> str:
     return "\n".join(_route_line(fitfamily.FitReport(model="drag", acceleration_route=route)))
 
 
@@ -126,14 +126,14 @@ def test_the_text_report_says_which_fit_was_kept():
     assert failing.startswith("acceleration not blended:") and failing.endswith("0.050 m/s, self-check failed")
     crashed = _report_with(blend_record(af, _check(True, 0.2), None, False, "no model could be fitted"))
     assert crashed.endswith("the blended fit failed (no model could be fitted)")
-    assert _report_with({}) == ""
+    assert _report_with(None) == ""
 
 
 @pytest.mark.parametrize("kept", [True, False])
 def test_the_low_pass_line_names_the_blended_fit_when_it_was_kept(kept):
     af = make_airframe(**{"observer.acceleration": "ned"})
     route = blend_record(af, _check(True, 0.2), _check(True, 0.05 if kept else 0.19), kept)
-    change = {"cutoff_hz": [0.2, 0.05], "still_noise_mps": [0.158, 0.079], "target_mps": 0.07}
+    change = LowPassChange((0.2, 0.05), (0.158, 0.079), 0.07)
     line = _low_pass_line(fitfamily.FitReport(model="drag", acceleration_route=route, low_pass=change))
     assert line == [f"low-pass at zero airflow{' (of the blended fit)' if kept else ''} lowered 0.2 -> 0.05 Hz: noise "
                     "at low airflow 0.158 -> 0.079 m/s per horizontal axis (target 0.07 m/s; --hover-noise)"]

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from dobwind.calibrate import dragexponent, dragfit, holdcv
+from dobwind.calibrate.reportparts import FamilyScores, HoldCvBySpeed, HoldScores
 from dobwind.model.airframe import load_airframe, parse_airframe
 from dobwind.model.airframe_toml import dump_airframe
 from dobwind.model.forceair import (DragLaw, body_drag_airflow_numpy, body_drag_basis, body_drag_force,
@@ -238,32 +239,36 @@ def test_rescaled_columns_are_the_exponents_own_in_steady_airflow(frame):
         np.testing.assert_allclose(got, value, rtol=1e-6, atol=1e-9, err_msg=key)
 
 
+def _scores(score_mps: float, hold_cv_mps: float, hold_extrapolation_mps: float) -> FamilyScores:
+    """A family's per-sample score and its hold-level figures (no bands: choose_family does not read them)."""
+    return FamilyScores(score_mps=score_mps, hold=HoldScores(hold_cv_mps, HoldCvBySpeed((), (), (), (), None),
+                                                             hold_extrapolation_mps))
+
+
 def test_a_tie_between_families_goes_to_the_body_frame_law():
     """Figures of a random vehicle's fit (rand3_4): the heading-frame law won the tie on its hold means
     and read the tunnel's 10 m/s hold 0.20 m/s off; the body-frame law read it 0.04 m/s off."""
     from dobwind.calibrate.fitfamily import FAMILY_TIE, choose_family
-    drag = {"score_mps": 0.226, "hold_cv_speed_mps": 0.076, "hold_extrapolation_speed_mps": 0.053}
-    body = {"score_mps": 0.228, "hold_cv_speed_mps": 0.076, "hold_extrapolation_speed_mps": 0.068}
+    drag, body = _scores(0.226, 0.076, 0.053), _scores(0.228, 0.076, 0.068)
     assert choose_family(["drag", "drag-body"], {"drag": drag, "drag-body": body}) == "drag-body"
     assert choose_family(["drag-body", "drag", "polynomial"],
-                         {"drag": drag, "drag-body": body, "polynomial": {**drag, "score_mps": 0.2255}}) == "drag-body"
+                         {"drag": drag, "drag-body": body, "polynomial": _scores(0.2255, 0.076, 0.053)}) == "drag-body"
     # beyond the tie the per-sample score decides, however good the other's hold means
-    body_far = {**body, "score_mps": 0.226 * (1 + FAMILY_TIE) + 1e-4, "hold_extrapolation_speed_mps": 0.02}
+    body_far = _scores(0.226 * (1 + FAMILY_TIE) + 1e-4, 0.076, 0.02)
     assert choose_family(["drag", "drag-body"], {"drag": drag, "drag-body": body_far}) == "drag"
 
 
 def test_without_the_body_frame_law_a_tie_goes_to_the_better_hold_means():
     from dobwind.calibrate.fitfamily import choose_family
-    drag = {"score_mps": 0.226, "hold_cv_speed_mps": 0.076, "hold_extrapolation_speed_mps": 0.053}
-    poly = {"score_mps": 0.2265, "hold_cv_speed_mps": 0.075, "hold_extrapolation_speed_mps": 0.039}
+    drag, poly = _scores(0.226, 0.076, 0.053), _scores(0.2265, 0.075, 0.039)
     assert choose_family(["drag", "polynomial"], {"drag": drag, "polynomial": poly}) == "polynomial"
     # a family without hold-level figures loses a tie, and nothing scored keeps the first
-    assert choose_family(["drag", "polynomial"], {"drag": poly, "polynomial": {"score_mps": 0.2262}}) == "drag"
+    assert choose_family(["drag", "polynomial"], {"drag": poly, "polynomial": FamilyScores(score_mps=0.2262)}) == "drag"
     assert choose_family(["drag", "polynomial"], {}) == "drag"
     # tied on the hold level as well (within FAMILY_TIE): the per-sample choice stays
-    close = {**poly, "score_mps": 0.2255, "hold_cv_speed_mps": 0.0755, "hold_extrapolation_speed_mps": 0.0535}
+    close = _scores(0.2255, 0.0755, 0.0535)
     assert choose_family(["drag", "polynomial"], {"drag": drag, "polynomial": close}) == "polynomial"
-    assert choose_family(["polynomial", "drag"], {"drag": {**drag, "score_mps": 0.2254}, "polynomial": close}) == "drag"
+    assert choose_family(["polynomial", "drag"], {"drag": _scores(0.2254, 0.076, 0.053), "polynomial": close}) == "drag"
 
 
 def test_the_set_chosen_again_must_still_beat_the_quadratic_law(monkeypatch):

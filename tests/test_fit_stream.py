@@ -77,7 +77,7 @@ def test_the_streamed_fit_writes_the_whole_log_fits_airframe_byte_for_byte(logs,
     paths = [logs["sweep"], logs["vertical"]]
     whole, whole_report, whole_points = fit_airframe(af, paths, model=model, dynamic=dynamic, block_bytes=None)
     streamed, report, points = fit_airframe(af, paths, model=model, dynamic=dynamic, block_bytes=BLOCK_BYTES)
-    assert whole_report.self_check["passed"] and whole_report.samples > 1000
+    assert whole_report.self_check.passed and whole_report.samples > 1000
     assert dump_airframe(streamed) == dump_airframe(whole)
     assert dataclasses.asdict(report) == dataclasses.asdict(whole_report)
     assert (points is None) == (whole_points is None)
@@ -188,12 +188,12 @@ def test_a_capped_calibration_is_thinned_evenly_and_streams_byte_for_byte(logs, 
     streamed, report, _ = fit_airframe(af, paths, model="drag-body", block_bytes=BLOCK_BYTES)
     assert dump_airframe(streamed) == dump_airframe(whole)
     assert dataclasses.asdict(report) == dataclasses.asdict(whole_report)
-    counts = [c["fit_samples"] for c in whole_report.self_check["logs"]]
-    full_counts = [c["fit_samples"] for c in full.self_check["logs"]]
+    counts = [c.fit_samples for c in whole_report.self_check.logs]
+    full_counts = [c.fit_samples for c in full.self_check.logs]
     assert all(abs(n - full_n / 5) <= 0.01 * full_n / 5 + 2 for n, full_n in zip(counts, full_counts)), (counts, full_counts)
     assert whole_report.samples == sum(counts)
     # The held-out holds are scored for as many seconds as at 10 Hz (fewer samples each).
-    window, full_window = whole_report.hold_cv_by_speed["window_s"], full.hold_cv_by_speed["window_s"]
+    window, full_window = whole_report.hold_cv_by_speed.window_s, full.hold_cv_by_speed.window_s
     assert window == pytest.approx(full_window, rel=0.25) and full_window > 1.0
     assert not any("the hold-level CV's windows hold" in w for w in whole_report.warnings + full.warnings)
     # A sweep with a vertical log identifies the vertical law: no warning that it does not.
@@ -207,13 +207,13 @@ def test_sparse_cv_windows_are_warned_of():
 
     rate_8h = dragfit.sample_rate_hz(8 * 3600.0)
     assert rate_8h == pytest.approx(1.25)
-    warning = sparse_windows({"window_s": 3.0}, rate_8h)
+    warning = sparse_windows(3.0, rate_8h)
     assert warning is not None and "3.8 samples" in warning and "1.25 Hz" in warning
-    assert sparse_windows({"window_s": 3.0}, dragfit.sample_rate_hz(3600.0)) is None
-    assert sparse_windows({"window_s": 3.2}, 1.25) is None  # exactly 4
+    assert sparse_windows(3.0, dragfit.sample_rate_hz(3600.0)) is None
+    assert sparse_windows(3.2, 1.25) is None  # exactly 4
     rate = 50.0 / 9  # a 50 Hz log at step 9: 4 samples are 0.72 s, whose product with the rate is 3.9999...
-    assert sparse_windows({"window_s": 4 / rate}, rate) is None
-    assert sparse_windows({"window_s": None}, 1.25) is None and sparse_windows(None, 1.25) is None
+    assert sparse_windows(4 / rate, rate) is None
+    assert sparse_windows(None, 1.25) is None
 
 
 def test_a_fit_sampled_too_sparsely_for_its_cv_says_so(logs, monkeypatch):

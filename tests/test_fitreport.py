@@ -7,14 +7,14 @@ import pytest
 
 from dobwind.calibrate.fit import FitReport
 from dobwind.calibrate.fitreport import text_report
+from dobwind.calibrate.reportparts import HoldCvBySpeed
 
 
 def _drag_report(model: str) -> FitReport:
     return FitReport(points=1000, thrust_scale=0.97, model=model, samples=1000,
                      drag={"lx": 0.1, "qx": 0.02}, force_offset_n=(0.0, 0.0, 0.0),
                      horizontal_rmse_mps=0.1, vertical_rmse_mps=0.05, hold_cv_speed_mps=0.05,
-                     hold_cv_by_speed={"speeds_mps": [1.0, 5.0], "rms_mps": [0.06, 0.04], "bias_mps": [0.03, 0.02],
-                                       "noise_mps_sqrt_s": [0.06, 0.06], "window_s": 3.0})
+                     hold_cv_by_speed=HoldCvBySpeed((1.0, 5.0), (0.06, 0.04), (0.03, 0.02), (0.06, 0.06), 3.0))
 
 
 @pytest.mark.parametrize("model", ["drag", "drag-body"])

@@ -12,6 +12,7 @@ from scipy.signal import lfilter
 
 from dobwind.cli.app import main
 from dobwind.calibrate.hovernoise import HoverNoise, quieter_schedule
+from dobwind.calibrate.reportparts import LowPassChange
 from dobwind.model.airframe import FilterSchedule, load_airframe
 from tests.helpers import noisy_flights
 
@@ -143,7 +144,7 @@ def test_each_pass_lowers_from_the_noise_the_last_check_measured():
     new, check, change, warnings = _quiet_hover(af, _check(True, 0.14), HoverNoise(floor_hz=0.01), recheck)
     assert seen == [0.05, 0.032] and not warnings
     assert new.filter.cutoffs_hz == (0.032, 0.35, 0.5) and check.still_noise_mps == 0.07
-    assert change == {"cutoff_hz": [0.2, 0.032], "still_noise_mps": [0.14, 0.07], "target_mps": 0.07}
+    assert change == LowPassChange((0.2, 0.032), (0.14, 0.07), 0.07)
 
 
 def test_a_lower_cutoff_that_fails_the_self_check_is_not_taken():
@@ -154,15 +155,15 @@ def test_a_lower_cutoff_that_fails_the_self_check_is_not_taken():
     af = make_airframe(**{"filter.speeds": [0.0, 3.0, 10.0], "filter.cutoffs": [0.2, 0.35, 0.5]})
     failing = _check(False, 0.05, ("sweep.csv: no scorable segment in the training replay",))
     new, check, change, warnings = _quiet_hover(af, _check(True, 0.14), HoverNoise(), lambda lowered: failing)
-    assert new is af and check.passed and change == {}
+    assert new is af and check.passed and change is None
     assert len(warnings) == 1 and "not lowered below 0.2 Hz" in warnings[0] and "no scorable segment" in warnings[0]
     # Nor one whose check finds no low-airflow segment left to measure (the truth's delay matching
     # follows the schedule, so segments near the 1 m/s line may change sides).
     new, check, change, warnings = _quiet_hover(af, _check(True, 0.14), HoverNoise(), lambda lowered: _check(True, None))
-    assert new is af and change == {} and "no low-airflow segment is left" in warnings[0]
+    assert new is af and change is None and "no low-airflow segment is left" in warnings[0]
     # A check that failed already may still get the quieter low-pass (it is written only with --force).
     new, _, change, warnings = _quiet_hover(af, _check(False, 0.14), HoverNoise(rounds=1), lambda lowered: failing)
-    assert new.filter.cutoffs_hz[0] == 0.05 and change["cutoff_hz"] == [0.2, 0.05] and not warnings
+    assert new.filter.cutoffs_hz[0] == 0.05 and change.cutoff_hz == (0.2, 0.05) and not warnings
 
 
 def test_the_noise_at_low_airflow_comes_from_segments_slow_in_both_airflow_and_wind(monkeypatch):
@@ -212,7 +213,7 @@ def test_noise_still_above_the_target_at_the_floor_is_a_warning():
 
     af = make_airframe(**{"filter.speeds": [0.0, 3.0, 10.0], "filter.cutoffs": [0.2, 0.35, 0.5]})
     new, check, change, warnings = _quiet_hover(af, _check(True, 0.5), HoverNoise(), lambda lowered: _check(True, 0.2))
-    assert new.filter.cutoffs_hz[0] == 0.05 and change["cutoff_hz"] == [0.2, 0.05]
+    assert new.filter.cutoffs_hz[0] == 0.05 and change.cutoff_hz == (0.2, 0.05)
     assert warnings == ["the noise at low airflow is 0.200 m/s per axis with the low-pass at zero airflow at its "
                         "floor, 0.05 Hz (--hover-noise 0.07)"]
     _, _, _, met = _quiet_hover(af, _check(True, 0.5), HoverNoise(), lambda lowered: _check(True, 0.07))
@@ -228,10 +229,10 @@ def test_a_lower_cutoff_that_is_not_quieter_is_not_taken():
 
     af = make_airframe(**{"filter.speeds": [0.0, 3.0, 10.0], "filter.cutoffs": [0.2, 0.35, 0.5]})
     new, check, change, warnings = _quiet_hover(af, _check(True, 0.81), HoverNoise(), lambda lowered: _check(True, 1.08))
-    assert new is af and check.still_noise_mps == 0.81 and change == {}
+    assert new is af and check.still_noise_mps == 0.81 and change is None
     assert len(warnings) == 1 and "not lowered below 0.2 Hz" in warnings[0] and "1.080" in warnings[0]
     measured = {0.05: 0.10, 0.0245: 0.12}   # 0.0245 = 0.05 (0.07 / 0.10)^2
     new, check, change, warnings = _quiet_hover(af, _check(True, 0.14), HoverNoise(floor_hz=0.01),
                                                 lambda lowered: _check(True, measured[lowered.filter.cutoffs_hz[0]]))
     assert new.filter.cutoffs_hz[0] == 0.05 and check.still_noise_mps == 0.10
-    assert change["still_noise_mps"] == [0.14, 0.10] and "not lowered below 0.05 Hz" in warnings[0]
+    assert change.still_noise_mps == (0.14, 0.10) and "not lowered below 0.05 Hz" in warnings[0]

@@ -142,11 +142,9 @@ def test_fit_json_with_a_non_finite_figure(tmp_path, capsys, monkeypatch):
     from dobwind.model.airframe import load_airframe
 
     af = load_airframe(M300)
-    from dataclasses import asdict
-
     from dobwind.calibrate.selfcheck import Thresholds, verdict
 
-    passed = asdict(verdict(af, [], 0.05, 8.0, Thresholds()))  # the self-check is not what this test is about
+    passed = verdict(af, [], 0.05, 8.0, Thresholds())  # the self-check is not what this test is about
     monkeypatch.setattr(fitfamily, "fit_airframe", lambda *a, **k: (af, fit.FitReport(points=9, self_check=passed), None))
     monkeypatch.setattr(fitreport, "fit_plot", lambda *a, **k: None)
     out = tmp_path / "fitted.toml"

@@ -115,8 +115,7 @@ def test_tukey_weights_follow_the_bisquare_closed_form():
 
 
 def test_refusal_advice_names_the_run_and_exclusion_refits_without_it():
-    runs = [{"log": "a.csv", "error_mps": 0.1, "weight": 1.0, "outlier": False},
-            {"log": "b.csv", "error_mps": 1.25, "weight": 0.0, "outlier": True}]
+    runs = [runmeans.RunVerdict("a.csv", 2.0, 0.1, 1.0, False), runmeans.RunVerdict("b.csv", 4.0, 1.25, 0.0, True)]
     advice = runmeans.outlier_advice(runs)
     assert advice is not None and "b.csv" in advice and "1.25 m/s" in advice and "--exclude-outliers" in advice
     assert "a.csv" not in advice
@@ -135,9 +134,8 @@ def test_refusal_advice_names_the_run_and_exclusion_refits_without_it():
     assert same is first and len(seen) == 1
 
 
-def _runs(flags: list[bool]) -> list[dict]:
-    return [{"log": f"{k}.csv", "error_mps": 1.0 if f else 0.1, "weight": 0.0 if f else 1.0, "outlier": f}
-            for k, f in enumerate(flags)]
+def _runs(flags: list[bool]) -> list[runmeans.RunVerdict]:
+    return [runmeans.RunVerdict(f"{k}.csv", 3.0, 1.0 if f else 0.1, 0.0 if f else 1.0, f) for k, f in enumerate(flags)]
 
 
 def test_only_a_minority_of_an_anchored_fits_outliers_is_exempt():
@@ -160,6 +158,6 @@ def test_the_self_check_does_not_judge_an_exempt_log_but_judges_the_others():
     assert not verdict(af, logs, 0.1, 10.0, Thresholds()).passed
     exempt = verdict(af, logs, 0.1, 10.0, Thresholds(outlier_logs=("2.csv",)))
     assert exempt.passed and exempt.outlier_logs == ["2.csv"]
-    logs[1].speed_rms_mps = 1.5   # another log failing is still refused
+    logs[1] = dataclasses.replace(logs[1], speed_rms_mps=1.5)   # another log failing is still refused
     again = verdict(af, logs, 0.1, 10.0, Thresholds(outlier_logs=("2.csv",)))
     assert not again.passed and any(r.startswith("1.csv") for r in again.reasons)

@@ -190,7 +190,7 @@ def test_each_reason_fails_the_check(case, expected):
         cv = None
     check = verdict(af, logs, cv, 10.0, Thresholds(cv_share=0.05, replay_share=0.1, floor_mps=0.2))
     assert not check.passed and len(check.reasons) == 1 and expected in check.reasons[0], check.reasons
-    assert "FAIL: " + check.reasons[0] in text_table(dataclasses.asdict(check))
+    assert "FAIL: " + check.reasons[0] in text_table(check)
 
 
 # --- the whole command ---------------------------------------------------------------------------
@@ -229,7 +229,7 @@ def test_a_good_fit_passes_and_its_replay_matches_replay(tiny, tmp_path, capsys,
     fitted = load_airframe(out)
     model, log, traj = replay(fitted, tiny["vertical"])
     by_segment = {r["segment"]: r["speed_error"] for r in score(log, traj, model)["per_segment"]["table"]}
-    mine = {r["segment"]: r["speed_error_mps"] for r in check_log(fitted, read_log(tiny["vertical"]), 1, 5.0).segments}
+    mine = {r.segment: r.speed_error_mps for r in check_log(fitted, read_log(tiny["vertical"]), 1, 5.0).segments}
     assert len(by_segment) >= 10 and set(by_segment) == set(mine)
     assert max(abs(by_segment[s] - mine[s]) for s in by_segment) < 0.01
 
@@ -305,7 +305,7 @@ def test_force_writes_a_model_that_failed_and_warns(tmp_path, capsys, monkeypatc
 
     af = load_airframe(M300)
     failed = verdict(af, [_log("a.csv", fit_samples=0)], 0.3, 10.0, Thresholds())
-    report = fit.FitReport(points=9, self_check=dataclasses.asdict(failed))
+    report = fit.FitReport(points=9, self_check=failed)
     monkeypatch.setattr(fitfamily, "fit_airframe", lambda *a, **k: (af, report, None))
     monkeypatch.setattr(fitreport, "fit_plot", lambda af, points, path: open(path, "wb").write(b"png"))
     out = tmp_path / "forced.toml"

@@ -34,12 +34,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Any
 
 from dobwind.calibrate.blendnoise import SensorNoise, blend_rms_ratio, quietest_blend_time
 from dobwind.calibrate.hovernoise import HoverNoise
 from dobwind.model.airframe import Airframe
-from dobwind.calibrate.selfcheck import SelfCheck
+from dobwind.calibrate.reportparts import AccelerationRoute, SelfCheck
 from dobwind.model.signals import log_signals
 
 # The blend's time constant, s: crossover at 0.32 Hz, six times the low-pass floor (hovernoise.py), so the
@@ -143,11 +142,11 @@ def failed_blend_warning(reason: str, time_s: float = BLEND_TIME_S) -> str:
 
 
 def blend_record(af: Airframe, check: SelfCheck, again: SelfCheck | None, kept: bool,
-                 failure: str = "", ratio: float | None = None, time_s: float = BLEND_TIME_S) -> dict[str, Any]:
+                 failure: str = "", ratio: float | None = None, time_s: float = BLEND_TIME_S) -> AccelerationRoute:
     """What the report keeps of the comparison (``again`` None: the blended fit itself failed; ``ratio``:
     the predicted RMS ratio of the acceleration noise, None when not predicted)."""
-    return {"acceleration": af.observer.acceleration, "bias_time_s": [af.observer.acceleration_bias_time_s, time_s],
-            "still_noise_mps": [check.still_noise_mps, None if again is None else again.still_noise_mps],
-            "blend_passed": None if again is None else again.passed,
-            "blend_reasons": [failure] if again is None else list(again.reasons), "kept": kept,
-            "predicted_ratio": ratio}
+    return AccelerationRoute(
+        acceleration=af.observer.acceleration, bias_time_s=(af.observer.acceleration_bias_time_s, time_s),
+        still_noise_mps=(check.still_noise_mps, None if again is None else again.still_noise_mps),
+        blend_passed=None if again is None else again.passed,
+        blend_reasons=[failure] if again is None else list(again.reasons), kept=kept, predicted_ratio=ratio)

@@ -15,6 +15,7 @@ Data that cannot determine direction-dependent terms (too few airflow directions
 """
 from __future__ import annotations
 
+import copy
 import dataclasses
 import itertools
 import math
@@ -27,6 +28,9 @@ from scipy.spatial import cKDTree
 from dobwind.calibrate.calpoints import POINT_KEYS, PointsReducer
 from dobwind.calibrate.dragfit import median_step
 from dobwind.calibrate.envelope import calibration_envelope, uncertainty_table
+from dobwind.calibrate.reportparts import (AccelerationRoute, FamilyScores, HoldCvBySpeed, LowPassChange, SelfCheck,
+                                          family_dict, part_dict)
+from dobwind.calibrate.runmeans import RunVerdict
 from dobwind.core.errors import CheckFailed, InputError
 from dobwind.io.logs import TRUTH_BOUNDS, TRUTH_COLUMNS, FlightLog, heading_yaw, read_log, required_columns, step_inputs
 from dobwind.model import forceair, reference
@@ -93,23 +97,22 @@ class FitReport:
     directions: int = 0
     speeds: int = 0
     model: str = "polynomial"
-    drag: dict[str, float] = field(default_factory=dict)
-    families: dict[str, dict] = field(default_factory=dict)
+    drag: dict[str, float] = field(default_factory=dict)  # the drag law's numbers by name, as written; empty: polynomial
+    # Every family tried, by name (drag, drag-body, polynomial); None: fitted but not scored (too few samples).
+    families: dict[str, FamilyScores | None] = field(default_factory=dict)
     samples: int = 0
     # Hold-level CV (dobwind/calibrate/holdcv.py): RMS of held-out hold-mean speed errors; what replay's per-hold
     # speed errors follow. horizontal_cv_rmse_mps stays the family's raw (per-sample or per-chunk) CV.
     hold_cv_speed_mps: float | None = None
-    hold_cv_by_speed: dict | None = None                 # {"speeds_mps": [...], "rms_mps": [...]}
+    hold_cv_by_speed: HoldCvBySpeed | None = None
     hold_extrapolation_speed_mps: float | None = None    # top blocks held out, hold-mean speed error
-    self_check: dict = field(default_factory=dict)
-    # The low-pass's first cutoff when the fit lowered it for the noise at low airflow (hovernoise.py):
-    # {"cutoff_hz": [before, after], "still_noise_mps": [before, after], "target_mps": ...}; else empty.
-    low_pass: dict = field(default_factory=dict)
+    self_check: SelfCheck | None = None                  # None (printed {}): not checked yet
+    # The low-pass's first cutoff when the fit lowered it for the noise at low airflow (hovernoise.py);
+    # None (printed {}) when it was kept.
+    low_pass: LowPassChange | None = None
     # When the noise at low airflow stayed above the target with an acceleration input, the fit with that
-    # input blended with the velocity's derivative (accelroute.py): {"acceleration", "bias_time_s": [the
-    # airframe's, the blend's], "still_noise_mps": [airframe's, blend's], "blend_passed" (None: the
-    # blended fit failed), "blend_reasons", "kept"}; else empty.
-    acceleration_route: dict = field(default_factory=dict)
+    # input blended with the velocity's derivative (accelroute.py); None (printed {}) when not tried.
+    acceleration_route: AccelerationRoute | None = None
     # Drag-law sets whose fitted law decreased somewhere (dragfit.choose_drag_law): never chosen, with where.
     not_increasing: list[str] = field(default_factory=list)
     # drag families: the hold-level score (m/s) of each exponent tried (dobwind/calibrate/dragexponent.py)
@@ -117,14 +120,21 @@ class FitReport:
     # drag families: whether the law was fitted on the logs' means (dobwind/calibrate/runmeans.py), and per log its
     # mean horizontal airflow error under the law, its weight and whether it looks like an outlier.
     anchored: bool = False
-    runs: list[dict] = field(default_factory=list)
+    runs: list[RunVerdict] = field(default_factory=list)
     excluded_logs: list[str] = field(default_factory=list)   # left out by --exclude-outliers
     hold_cv_without_outliers_mps: float | None = None  # the hold-level CV without the flagged logs (runmeans)
     warnings: list[str] = field(default_factory=list)
 
     def as_dict(self) -> dict[str, Any]:
-        """The fields in declaration order, nested values copied (the schema's properties)."""
-        return dataclasses.asdict(self)
+        """The fields in declaration order as plain JSON values, nested values copied (the schema's
+        properties; each nested part prints itself, reportparts.py)."""
+        out = {f.name: copy.deepcopy(getattr(self, f.name)) for f in dataclasses.fields(self)}
+        out.update(families={name: family_dict(scores) for name, scores in self.families.items()},
+                   hold_cv_by_speed=None if self.hold_cv_by_speed is None else self.hold_cv_by_speed.as_dict(),
+                   self_check=part_dict(self.self_check), low_pass=part_dict(self.low_pass),
+                   acceleration_route=part_dict(self.acceleration_route),
+                   runs=[dataclasses.asdict(run) for run in self.runs])
+        return out
 
 
 def _term_matrix(terms: list[str], m: np.ndarray, n: np.ndarray, fz: np.ndarray) -> np.ndarray:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Callable
 
 import numpy as np
 
@@ -19,6 +19,7 @@ from dobwind.calibrate.fit import (CalibrationRun, FitReport, Points, PointsOf, 
 from dobwind.io.logs import FlightLog
 from dobwind.model.signals import log_signals
 from dobwind.model.airframe import CALIBRATED, VERTICAL_FALLBACK, Airframe, ForceAirModel
+from dobwind.calibrate.reportparts import FamilyScores, HoldScores, LowPassChange
 from dobwind.calibrate.selfcheck import SelfCheck, Thresholds, self_check, self_check_sources
 from dobwind.model.kinds import DragFrame
 
@@ -29,6 +30,7 @@ MODELS = ("auto", "drag", "drag-heading", "drag-body", "polynomial")
 DRAG_FRAMES_OF = {"auto": (DragFrame.HEADING, DragFrame.BODY), "drag": (DragFrame.HEADING, DragFrame.BODY), "drag-heading": (DragFrame.HEADING,),
                   "drag-body": (DragFrame.BODY,), "polynomial": ()}
 FAMILY_OF_FRAME = {DragFrame.HEADING: "drag", DragFrame.BODY: "drag-body"}
+UNSCORED = FamilyScores()  # a family fitted but not scored (under 100 samples) is ranked as having no figure
 
 
 def drag_samples(af: Airframe, logs: list[FlightLog], frames: tuple[DragFrame, ...] = (DragFrame.HEADING,),
@@ -76,20 +78,15 @@ def _none(value: float) -> float | None:
 
 
 def _family_scores(cv: tuple[float, float], extrapolation: float,
-                   hold: holdcv.HoldCV | None) -> dict[str, Any]:
-    """cv_h_mps: per-sample vector error (selects the terms); hold_cv_*: hold-mean speed errors on the
+                   hold: holdcv.HoldCV | None) -> FamilyScores:
+    """cv_h_mps: per-sample vector error (selects the terms); hold: hold-mean speed errors on the
     same folds, what replay's per-hold speed errors follow (dobwind/calibrate/holdcv.py)."""
-    scores: dict[str, Any] = {"cv_h_mps": _none(cv[0]), "cv_v_mps": _none(cv[1]),
-                              "extrapolation_h_mps": _none(extrapolation),
-                              "score_mps": _none(dragfit.combined(cv[0], extrapolation))}
-    if hold is not None:
-        scores.update({"hold_cv_speed_mps": _none(hold.rms_mps),
-                       "hold_cv_by_speed": hold.band_table(),
-                       "hold_extrapolation_speed_mps": _none(hold.extrapolation_mps)})
-    return scores
+    held = None if hold is None else HoldScores(_none(hold.rms_mps), hold.band_table(), _none(hold.extrapolation_mps))
+    return FamilyScores(cv_h_mps=_none(cv[0]), cv_v_mps=_none(cv[1]), extrapolation_h_mps=_none(extrapolation),
+                        score_mps=_none(dragfit.combined(cv[0], extrapolation)), hold=held)
 
 
-def _polynomial_scores(fitted: Airframe, samples: dragfit.DragSamples) -> dict[str, Any]:
+def _polynomial_scores(fitted: Airframe, samples: dragfit.DragSamples) -> FamilyScores:
     fit_predict = dragfit.polynomial_fit_predict(list(fitted.horizontal.terms), list(fitted.vertical.terms),
                                                  fitted.observer.force_offset_n)
     return _family_scores(dragfit.grouped_cv(samples, fit_predict), dragfit.extrapolation_error(samples, fit_predict),
@@ -177,7 +174,7 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynami
     options = dataclasses.replace(options, log_reader=log_reader)
     new, report, points, check = _fit_once(af, log_paths, options)
     new, report, points, check = _maybe_blend(af, log_paths, options, (new, report, points, check))
-    report = dataclasses.replace(report, self_check=dataclasses.asdict(check))
+    report = dataclasses.replace(report, self_check=check)
     # The self-check's replay measured the observer noise; the sigma outputs add it to the residuals (#10).
     new = dataclasses.replace(new, uncertainty=with_observer_noise(new.uncertainty, check.noise_h_mps, check.noise_up_mps))
     return new, report, points
@@ -191,7 +188,7 @@ def _maybe_blend(af: Airframe, log_paths: list[str], options: FitOptions, first:
     """``first`` (the fit of ``af``), or the fit with its acceleration input blended with the velocity's
     derivative when that is tried and kept (accelroute.py)."""
     new, report, _, check = first
-    lowered = bool(report.low_pass)
+    lowered = report.low_pass is not None
     noise = None
     if log_signals(new).measured_acceleration and (lowered or accelroute.needs_blend_check(
             new, check, options.hover)) and options.log_reader is None:
@@ -218,9 +215,9 @@ def _maybe_blend(af: Airframe, log_paths: list[str], options: FitOptions, first:
     if not kept:
         return new, dataclasses.replace(report, acceleration_route=record), first[2], check
     blend_report = dataclasses.replace(other[1], acceleration_route=record)
-    if report.low_pass:  # lowered on the first fit: from the airframe's figure to the blend's, at that cutoff
-        blend_report = dataclasses.replace(blend_report, low_pass={
-            **report.low_pass, "still_noise_mps": [report.low_pass["still_noise_mps"][0], other[3].still_noise_mps]})
+    if report.low_pass is not None:  # lowered on the first fit: from the airframe's figure to the blend's, at that cutoff
+        blend_report = dataclasses.replace(blend_report, low_pass=dataclasses.replace(
+            report.low_pass, still_noise_mps=(report.low_pass.still_noise_mps[0], other[3].still_noise_mps)))
     return other[0], blend_report, other[2], other[3]
 
 
@@ -257,7 +254,7 @@ def _fit_once(af: Airframe, log_paths: list[str],
         try:
             fitted, report, points = fit_polynomial(af, [], terms, dynamic, points_of=calibration.points_of)
             families["polynomial"] = (fitted, report, points)
-            scores["polynomial"] = _polynomial_scores(fitted, samples) if len(samples) >= 100 else {}
+            scores["polynomial"] = _polynomial_scores(fitted, samples) if len(samples) >= 100 else None
         except CheckFailed as exc:
             failures.append(f"polynomial family: {exc}")
     if not families:
@@ -267,7 +264,7 @@ def _fit_once(af: Airframe, log_paths: list[str],
     report, vertical = _chosen_report(report, chosen, scores, samples, failures)
     # Unidentified, the vertical law is not used: the step publishes zero vertical wind and flags it.
     new = dataclasses.replace(new, vertical_law=VERTICAL_FALLBACK if vertical else "fitted")
-    report = dataclasses.replace(report, runs=[{**run, "log": log_paths[run["log"]]} for run in report.runs],  # index -> path
+    report = dataclasses.replace(report, runs=[dataclasses.replace(run, log=log_paths[run.log]) for run in report.runs],
                                  warnings=[*report.warnings, *(f"{log_paths[index]}: contributed no usable sample"
                                                                for index, count in enumerate(per_log) if count == 0)])
     speed_range = _speed_range(samples, points)
@@ -284,20 +281,21 @@ def _fit_once(af: Airframe, log_paths: list[str],
     return new, dataclasses.replace(report, low_pass=low_pass, warnings=[*report.warnings, *quiet_warnings]), points, check
 
 
-def _chosen_report(report: FitReport, chosen: str, scores: dict[str, dict[str, Any]], samples: dragfit.DragSamples,
+def _chosen_report(report: FitReport, chosen: str, scores: dict[str, FamilyScores | None], samples: dragfit.DragSamples,
                    failures: list[str]) -> tuple[FitReport, str | None]:
     """The chosen family's report with the choice, every family's scores, the chosen one's hold-level
     figures and the warnings about the data (the other families' failures first); and the vertical
     warning, when the vertical law is not identified (None when it is)."""
-    chosen_scores = scores.get(chosen, {})
-    hold_cv_by_speed = chosen_scores.get("hold_cv_by_speed")
-    sparse = holdcv.sparse_windows(hold_cv_by_speed, float(np.median(samples.rates_hz()))) if len(samples) else None
+    hold = (scores.get(chosen) or UNSCORED).hold
+    window_s = None if hold is None else hold.by_speed.window_s
+    sparse = holdcv.sparse_windows(window_s, float(np.median(samples.rates_hz()))) if len(samples) else None
     vertical = vertical_warning(report.vertical_cv_rmse_mps, samples.airflow[:, 2] if len(samples) else np.zeros(0))
     warnings = [*report.warnings, *failures, *([sparse] if sparse else []),
                 *([vertical + VERTICAL_FALLBACK_NOTE] if vertical else [])]
     return dataclasses.replace(report, model=chosen, families=scores, samples=len(samples),
-                               hold_cv_speed_mps=chosen_scores.get("hold_cv_speed_mps"), hold_cv_by_speed=hold_cv_by_speed,
-                               hold_extrapolation_speed_mps=chosen_scores.get("hold_extrapolation_speed_mps"),
+                               hold_cv_speed_mps=None if hold is None else hold.cv_speed_mps,
+                               hold_cv_by_speed=None if hold is None else hold.by_speed,
+                               hold_extrapolation_speed_mps=None if hold is None else hold.extrapolation_speed_mps,
                                warnings=warnings), vertical
 
 
@@ -331,49 +329,51 @@ FAMILY_TIE = 0.02
 TIE_PREFERRED = "drag-body"
 
 
-def _hold_level(scores: dict[str, Any]) -> float:
-    cv, extra = scores.get("hold_cv_speed_mps"), scores.get("hold_extrapolation_speed_mps")
+def _hold_level(scores: FamilyScores) -> float:
+    cv = None if scores.hold is None else scores.hold.cv_speed_mps
+    extra = None if scores.hold is None else scores.hold.extrapolation_speed_mps
     if cv is None:
         return math.inf
     return dragfit.combined(cv, math.nan if extra is None else extra)
 
 
-def choose_family(names: list[str], scores: dict[str, dict[str, Any]]) -> str:
+def choose_family(names: list[str], scores: dict[str, FamilyScores | None]) -> str:
     """Families fitted on the run means (a "run_loss" score): the lowest of it. Else the family with the
     lowest per-sample score (CV and extrapolation of the airflow). Among those
     within FAMILY_TIE of it: the body-frame drag law when it is one of them (TIE_PREFERRED); else the
     lowest hold-level score when it is FAMILY_TIE below the first's. The per-sample score carries each
     sample's noise, so two frames of one vehicle often tie on it while their hold means, which replay's
     per-hold errors follow, differ (0.066 against 0.060 m/s on a 1.8-exponent vehicle)."""
-    anchored = [k for k in names if scores.get(k, {}).get("run_loss") is not None]
+    ranked = {k: scores.get(k) or UNSCORED for k in names}
+    anchored = [k for k in names if ranked[k].run_loss is not None]
     if anchored:
         # Fitted on the run means (runmeans.py): the per-sample scores measure the within-log scatter
         # those fits do not let outvote the means, so the families are ranked as each fit ranked its
         # own starts, by the robust loss of the logs' mean errors (on the four Neural-Fly runs the
         # per-sample score took the body frame, 4.07 against 4.62 m/s, whose law left the zero-wind
         # run 0.59 m/s off; the heading frame's left each kept run within 0.35 m/s).
-        return min(anchored, key=lambda k: scores[k]["run_loss"])
-    per_sample = {k: scores.get(k, {}).get("score_mps") or math.inf for k in names}
+        return min(anchored, key=lambda k: ranked[k].run_loss)  # type: ignore[arg-type, return-value]
+    per_sample = {k: ranked[k].score_mps or math.inf for k in names}
     best = min(names, key=lambda k: per_sample[k])
     if not math.isfinite(per_sample[best]):
         return best
     tied = [k for k in names if per_sample[k] <= per_sample[best] * (1 + FAMILY_TIE)]
     if TIE_PREFERRED in tied:
         return TIE_PREFERRED
-    challenger = min(tied, key=lambda k: (_hold_level(scores.get(k, {})), per_sample[k]))
+    challenger = min(tied, key=lambda k: (_hold_level(ranked[k]), per_sample[k]))
     # A tie on the hold level too keeps the per-sample choice (the demo's m300: polynomial 0.054 against
     # drag-body 0.054 m/s; switching read its outdoor flight 0.145 instead of 0.077 m/s).
-    if _hold_level(scores.get(challenger, {})) < (1 - FAMILY_TIE) * _hold_level(scores.get(best, {})):
+    if _hold_level(ranked[challenger]) < (1 - FAMILY_TIE) * _hold_level(ranked[best]):
         return challenger
     return best
 
 
 def _drag_families(af: Airframe, by_frame: dict[DragFrame, dragfit.DragSamples], frames: tuple[DragFrame, ...],
-                   samples: int) -> tuple[dict[str, Family], dict[str, dict[str, Any]], list[str]]:
+                   samples: int) -> tuple[dict[str, Family], dict[str, FamilyScores | None], list[str]]:
     """Each drag frame's law chosen and scored, the body frame's with its exponent (dragexponent):
     (fitted families, their scores, why a family was not)."""
     families: dict[str, Family] = {}
-    scores: dict[str, dict[str, Any]] = {}
+    scores: dict[str, FamilyScores | None] = {}
     failures: list[str] = []
     for frame in frames:
         family = FAMILY_OF_FRAME[frame]
@@ -396,11 +396,11 @@ def _drag_families(af: Airframe, by_frame: dict[DragFrame, dragfit.DragSamples],
     return families, scores, failures
 
 
-def _drag_family(af: Airframe, picked: dragexponent.ExponentChoice) -> tuple[Family, dict[str, Any]]:
+def _drag_family(af: Airframe, picked: dragexponent.ExponentChoice) -> tuple[Family, FamilyScores]:
     fitted = drag_airframe(af, picked.choice, picked.samples)
     report = dataclasses.replace(_drag_report(picked.choice, picked.samples, fitted),
                                  exponent_scores={f"{p:g}": s for p, s in sorted(picked.scores.items())})
-    flagged = [run["log"] for run in report.runs if run["outlier"]]  # log indices here
+    flagged = [run.log for run in report.runs if run.outlier]  # log indices here
     if runmeans.exempt_outliers(report.runs, report.anchored):
         # The hold-level CV the self-check judges when it leaves the flagged logs out (fitfamily._fit_once).
         keep = ~np.isin(picked.samples.log_index, flagged)
@@ -408,9 +408,8 @@ def _drag_family(af: Airframe, picked: dragexponent.ExponentChoice) -> tuple[Fam
         report = dataclasses.replace(report, hold_cv_without_outliers_mps=hold.rms_mps if hold is not None else None)
     scores = _family_scores((picked.choice.cv_h_mps, picked.choice.cv_v_mps), picked.choice.extrapolation_h_mps,
                             picked.hold)
-    if report.anchored:
-        scores["run_loss"] = runmeans.cauchy_loss(np.array([run["error_mps"] for run in report.runs]))
-    return (fitted, report, None), {**scores, "exponent": picked.exponent}
+    run_loss = runmeans.cauchy_loss(np.array([run.error_mps for run in report.runs])) if report.anchored else None
+    return (fitted, report, None), dataclasses.replace(scores, run_loss=run_loss, exponent=picked.exponent)
 
 
 def _uninvertible(samples: dragfit.DragSamples, choice: dragfit.DragChoice) -> str | None:
@@ -427,10 +426,10 @@ def _uninvertible(samples: dragfit.DragSamples, choice: dragfit.DragChoice) -> s
 
 
 def _quiet_hover(af: Airframe, check: SelfCheck, hover: HoverNoise,
-                 recheck: Callable[[Airframe], SelfCheck]) -> tuple[Airframe, SelfCheck, dict[str, Any], list[str]]:
+                 recheck: Callable[[Airframe], SelfCheck]) -> tuple[Airframe, SelfCheck, LowPassChange | None, list[str]]:
     """The airframe with its first low-pass cutoff lowered until the self-check's noise at low airflow
     meets the target (at most ``hover.rounds`` more self-check passes), that last check, what changed
-    (empty when nothing did) and warnings. A lower cutoff settles more slowly: a schedule that turns a
+    (None when nothing did) and warnings. A lower cutoff settles more slowly: a schedule that turns a
     passing self-check into a failing one (short holds left with nothing to score, lag at wind changes)
     is not taken, nor one whose check no longer finds a low-airflow segment to measure."""
     before_hz, before_mps = af.filter.cutoffs_hz[0], check.still_noise_mps
@@ -461,9 +460,8 @@ def _quiet_hover(af: Airframe, check: SelfCheck, hover: HoverNoise,
         warnings.append(f"the noise at low airflow is {noise:.3f} m/s per axis with the low-pass at zero airflow at "
                         f"its floor, {hover.floor_hz:g} Hz (--hover-noise {hover.target_mps:g})")
     if af.filter.cutoffs_hz[0] == before_hz:
-        return af, check, {}, warnings
-    change = {"cutoff_hz": [before_hz, af.filter.cutoffs_hz[0]],
-              "still_noise_mps": [before_mps, check.still_noise_mps], "target_mps": hover.target_mps}
+        return af, check, None, warnings
+    change = LowPassChange((before_hz, af.filter.cutoffs_hz[0]), (before_mps, check.still_noise_mps), hover.target_mps)
     return af, check, change, warnings
 
 
@@ -488,4 +486,4 @@ def _drag_report(choice: dragfit.DragChoice, samples: dragfit.DragSamples, fitte
                      warnings=[] if choice.directions is None else [
                          "drag law: no direction harmonics (anisotropy) fitted, an isotropic law instead: "
                          f"{choice.directions.text()}; fly more headings relative to the wind to calibrate them"],
-                     runs=[dataclasses.asdict(v) for v in dragfit.run_verdicts(samples, choice.active, choice.theta)])
+                     runs=dragfit.run_verdicts(samples, choice.active, choice.theta))

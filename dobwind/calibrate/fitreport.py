@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from dobwind.calibrate.fit import FOLDS, FitReport, Points
+from dobwind.calibrate.reportparts import family_dict
 from dobwind.model.airframe import Airframe
 from dobwind.model.forceair import term_matrix
 from dobwind.model.terms import parse_term
@@ -24,51 +25,51 @@ def _errors(cv: float | None, extrapolated: float | None) -> str:
 def _hold_line(report: FitReport, scored_s: float = 15.0) -> list[str]:
     """The hold-level CV, split into what a longer hold keeps and what averages out (dobwind/calibrate/holdcv.py),
     and what that means for a hold scored for ``scored_s`` (replay scores a 20 s hold for 15 s)."""
-    table = report.hold_cv_by_speed or {}
-    if report.hold_cv_speed_mps is None or not table.get("bias_mps"):
+    table = report.hold_cv_by_speed
+    if report.hold_cv_speed_mps is None or table is None or not table.bias_mps:
         return []
     from dobwind.calibrate.holdcv import HoldCV
 
     hold = HoldCV.from_table(report.hold_cv_speed_mps, table)
-    speeds = table["speeds_mps"]
+    speeds = table.speeds_mps
     longer = [hold.predicted(v, float("inf"), scored_s) for v in speeds]
-    window = table.get("window_s")
+    window = table.window_s
     return [f"hold-level CV {report.hold_cv_speed_mps:.3f} m/s (held-out holds scored "
             f"{'?' if window is None else f'{window:.1f}'} s); by airflow speed "
-            + ", ".join(f"{v:.1f} m/s: {r:.3f} (bias {b:.3f})" for v, r, b in zip(speeds, table["rms_mps"], table["bias_mps"])),
+            + ", ".join(f"{v:.1f} m/s: {r:.3f} (bias {b:.3f})" for v, r, b in zip(speeds, table.rms_mps, table.bias_mps)),
             f"  expected on holds scored {scored_s:g} s: " + ", ".join(f"{v:.1f} m/s: {e:.3f}" for v, e in zip(speeds, longer))]
 
 
 def _low_pass_line(report: FitReport) -> list[str]:
     """What the fit did to the low-pass at zero airflow (dobwind/calibrate/hovernoise.py), if anything."""
     change = report.low_pass
-    if not change:
+    if change is None:
         return []
-    (f0, f1), (n0, n1) = change["cutoff_hz"], change["still_noise_mps"]
+    (f0, f1), (n0, n1) = change.cutoff_hz, change.still_noise_mps
     # After a kept blend the cutoff is the one the first fit chose (the blended fit is not lowered
     # further): the first figure is the airframe route's at its own cutoff, the second the blend's there.
-    route = report.acceleration_route or {}
-    whose = " (of the blended fit)" if route.get("kept") else ""
+    route = report.acceleration_route
+    whose = " (of the blended fit)" if route is not None and route.kept else ""
     return [f"low-pass at zero airflow{whose} lowered {f0:.3g} -> {f1:.3g} Hz: noise at low airflow {n0:.3f} -> {n1:.3f} m/s "
-            f"per horizontal axis (target {change['target_mps']:g} m/s; --hover-noise)"]
+            f"per horizontal axis (target {change.target_mps:g} m/s; --hover-noise)"]
 
 
 def _route_line(report: FitReport) -> list[str]:
     """The noise at low airflow with the airframe's acceleration input and with it blended with the
     velocity's derivative (dobwind/calibrate/accelroute.py), when the fit compared them."""
     route = report.acceleration_route
-    if not route:
+    if route is None:
         return []
-    before, after = route["still_noise_mps"]
-    was, blend = route["bias_time_s"]
-    if route["blend_passed"] is None:
-        outcome = f"the blended fit failed ({route['blend_reasons'][0]})"
+    before, after = route.still_noise_mps
+    was, blend = route.bias_time_s
+    if route.blend_passed is None:
+        outcome = f"the blended fit failed ({route.blend_reasons[0]})"
     else:
         outcome = (("no low-airflow segment" if after is None else f"{after:.3f} m/s")
-                   + ("" if route["blend_passed"] else ", self-check failed"))
-    head = "blended" if route["kept"] else "not blended"
+                   + ("" if route.blend_passed else ", self-check failed"))
+    head = "blended" if route.kept else "not blended"
     return [f"acceleration {head}: noise at low airflow {before:.3f} m/s per axis with acceleration = "
-            f"\"{route['acceleration']}\" (acceleration_bias_time {was:g} s); with acceleration_bias_time "
+            f"\"{route.acceleration}\" (acceleration_bias_time {was:g} s); with acceleration_bias_time "
             f"{blend:g} s, the low frequencies from the velocity, {outcome}"]
 
 
@@ -88,9 +89,9 @@ def runs_lines(report: FitReport) -> list[str]:
            "the robust loss of these errors (run_loss)" if report.anchored else "the law fitted on every sample")
     lines = [f"  per log ({how}): mean true airflow, error of the mean estimated airflow, weight"]
     for run in report.runs:
-        mark = "  OUTLIER: disagrees with the other logs" if run["outlier"] else ""
-        lines.append(f"    {run['log']}: {run['mean_speed_mps']:.2f} m/s, error {run['error_mps']:.2f} m/s, "
-                     f"weight {run['weight']:.2f}{mark}")
+        mark = "  OUTLIER: disagrees with the other logs" if run.outlier else ""
+        lines.append(f"    {run.log}: {run.mean_speed_mps:.2f} m/s, error {run.error_mps:.2f} m/s, "
+                     f"weight {run.weight:.2f}{mark}")
     return lines
 
 
@@ -101,8 +102,9 @@ def text_report(report: FitReport) -> str:
     vertical = ("kept from the airframe" if report.vertical_rmse_mps is None else
                 f"RMSE {report.vertical_rmse_mps:.3f} m/s, "
                 + _errors(report.vertical_cv_rmse_mps, report.vertical_extrapolation_rmse_mps))
-    families = [f"family {name}: " + ", ".join(f"{k} {'n/a' if v is None else f'{v:.3f}'}" for k, v in scores.items()
-                                              if v is None or isinstance(v, float))
+    # Every printed figure of each family, in the order --json prints them (reportparts.family_dict).
+    families = [f"family {name}: " + ", ".join(f"{k} {'n/a' if v is None else f'{v:.3f}'}"
+                                              for k, v in family_dict(scores).items() if v is None or isinstance(v, float))
                 for name, scores in report.families.items()]
     chosen = ([f"model: {report.model} (chosen by grouped CV and extrapolation of the airflow; a tie within 2 % "
                "goes to drag-body, else to a hold-level score 2 % better)"] + families

@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from dobwind.calibrate import dragfit
+from dobwind.calibrate.reportparts import HoldCvBySpeed
 
 HOLD_WINDOW_S = 10.0   # about a steady hold's scored part, for logs without a `segment` column
 HOLD_SETTLE_S = 5.0    # with segments: scored from this long after each segment's start, as replay does
@@ -41,11 +42,11 @@ MAX_BANDS = 5
 MIN_SAMPLES_PER_WINDOW = 4
 
 
-def sparse_windows(table: dict | None, rate_hz: float, minimum: int = MIN_SAMPLES_PER_WINDOW) -> str | None:
-    """A warning when the hold-level CV's scored windows (``table``: HoldCV.band_table()) hold fewer
-    than ``minimum`` samples at ``rate_hz``: a very long calibration is sampled sparsely
+def sparse_windows(window_s: float | None, rate_hz: float, minimum: int = MIN_SAMPLES_PER_WINDOW) -> str | None:
+    """A warning when the hold-level CV's scored windows (``window_s`` long: HoldCvBySpeed.window_s) hold
+    fewer than ``minimum`` samples at ``rate_hz``: a very long calibration is sampled sparsely
     (dragfit.MAX_SAMPLES), and the CV then cannot see the noise a hold averages."""
-    window = (table or {}).get("window_s")
+    window = window_s
     # The window's length is its count over the rate: the product gives the count back to rounding.
     if window is None or not round(window * rate_hz, 6) < minimum:
         return None
@@ -103,20 +104,21 @@ class HoldCV:
     top_errors_mps: np.ndarray | None = field(default=None, compare=False, repr=False)
     window_folds: np.ndarray | None = field(default=None, compare=False, repr=False)  # each window's CV fold
 
-    def band_table(self) -> dict:
+    def band_table(self) -> HoldCvBySpeed:
         """The bands as the fit reports them (`hold_cv_by_speed`); ``from_table`` reads them back."""
-        return {"speeds_mps": list(self.band_speeds_mps), "rms_mps": list(self.band_rms_mps),
-                "bias_mps": list(self.band_bias_mps), "noise_mps_sqrt_s": list(self.band_noise_mps_sqrt_s),
-                "window_s": self.window_s if math.isfinite(self.window_s) else None}
+        return HoldCvBySpeed(self.band_speeds_mps, self.band_rms_mps, self.band_bias_mps, self.band_noise_mps_sqrt_s,
+                             self.window_s if math.isfinite(self.window_s) else None)
 
     @staticmethod
-    def from_table(rms_mps: float, table: dict | None, extrapolation_mps: float | None = None) -> "HoldCV":
-        """A fit report's figures back as a HoldCV (missing bands, bias or noise: empty)."""
-        table = table or {}
-        return HoldCV(rms_mps, tuple(table.get("speeds_mps", ())), tuple(table.get("rms_mps", ())),
+    def from_table(rms_mps: float, table: HoldCvBySpeed | None, extrapolation_mps: float | None = None) -> "HoldCV":
+        """A fit report's figures back as a HoldCV (no table: no bands; a report read as JSON:
+        HoldCvBySpeed.from_json)."""
+        if table is None:
+            return HoldCV(rms_mps, (), (), math.nan if extrapolation_mps is None else extrapolation_mps)
+        return HoldCV(rms_mps, tuple(table.speeds_mps), tuple(table.rms_mps),
                       math.nan if extrapolation_mps is None else extrapolation_mps,
-                      tuple(table.get("bias_mps", ())), tuple(table.get("noise_mps_sqrt_s", ())),
-                      math.nan if table.get("window_s") is None else table["window_s"])
+                      tuple(table.bias_mps), tuple(table.noise_mps_sqrt_s),
+                      math.nan if table.window_s is None else table.window_s)
 
     def predicted(self, speed_mps: float, calibrated_mps: float, scored_s: float | None = None) -> float:
         """The error to expect on a hold at this airflow speed: the band's CV inside the calibrated

@@ -144,8 +144,8 @@ def anchored_fit(stats: RunStats, solve: Solver, run_errors: RunErrors) -> tuple
 
 @dataclass(frozen=True)
 class RunVerdict:
-    """One calibration log's figures under the fitted law."""
-    log: int
+    """One calibration log's figures under the fitted law: a row of the fit report's `runs`."""
+    log: int | str               # the log's index among the fit's logs; its path once the fit names it (fitfamily)
     mean_speed_mps: float        # the log's mean true horizontal airflow speed (H-filtered)
     error_mps: float             # size of the error of the log's mean estimated horizontal airflow vector
     weight: float                # its bisquare weight in the anchored fit (1 when not anchored)
@@ -173,7 +173,7 @@ def needs_anchor(errors: np.ndarray) -> bool:
 EXEMPT_SHARE = 1 / 3
 
 
-def exempt_outliers(runs: list[dict], anchored: bool) -> list[str]:
+def exempt_outliers(runs: list[RunVerdict], anchored: bool) -> list[str]:
     """The flagged logs (outlier_logs) of a fit anchored on the run means when they are fewer than
     EXEMPT_SHARE of all; else none: a fit that disowns more of its logs than that, or one fitted per
     sample (which weighted the flagged log in fully), is judged on all of them."""
@@ -181,26 +181,26 @@ def exempt_outliers(runs: list[dict], anchored: bool) -> list[str]:
     return flagged if anchored and 0 < len(flagged) < EXEMPT_SHARE * len(runs) else []
 
 
-def exempt_warning(runs: list[dict], exempt: list[str]) -> str:
+def exempt_warning(runs: list[RunVerdict], exempt: list[str]) -> str:
     """The warning a fit prints for the outliers its self-check does not judge."""
-    named = "; ".join(f"{run['log']} (mean airflow {run['error_mps']:.2f} m/s off, weight {run['weight']:.2f})"
-                      for run in runs if run["log"] in exempt)
+    named = "; ".join(f"{run.log} (mean airflow {run.error_mps:.2f} m/s off, weight {run.weight:.2f})"
+                      for run in runs if run.log in exempt)
     return (f"the fit flagged {named} as disagreeing with the other logs: weighted by the robust fit of the run "
             "means, left out of the hold-level CV and not held to the self-check's per-log limit; check that "
             "log's truth and thrust, or --exclude-outliers fits without it")
 
 
-def outlier_logs(runs: list[dict]) -> list[str]:
+def outlier_logs(runs: list[RunVerdict]) -> list[str]:
     """The logs a fit report's per-log table (FitReport.runs) flags as outliers."""
-    return [run["log"] for run in runs if run.get("outlier")]
+    return [run.log for run in runs if run.outlier]
 
 
-def outlier_advice(runs: list[dict]) -> str | None:
+def outlier_advice(runs: list[RunVerdict]) -> str | None:
     """What would make the data fit, for a refusal: which logs disagree with the others and by how much,
     and the option that fits without them; None when no log is flagged."""
-    flagged = [run for run in runs if run.get("outlier")]
+    flagged = [run for run in runs if run.outlier]
     if not flagged:
         return None
-    named = "; ".join(f"{run['log']} disagrees with the other logs: its mean airflow is {run['error_mps']:.2f} m/s "
-                      f"off under the law (weight {run['weight']:.2f})" for run in flagged)
+    named = "; ".join(f"{run.log} disagrees with the other logs: its mean airflow is {run.error_mps:.2f} m/s "
+                      f"off under the law (weight {run.weight:.2f})" for run in flagged)
     return f"{named}; --exclude-outliers fits again without {'it' if len(flagged) == 1 else 'them'}"

@@ -15,13 +15,13 @@ from __future__ import annotations
 
 import math
 import shutil
-from dataclasses import dataclass, field
 
 import numpy as np
 
 from dobwind.calibrate import dragfit
 from dobwind.calibrate.calstream import LogShape, LogSource, memory_source
 from dobwind.calibrate.envelope import pooled_noise, pooled_scatter, segment_scatter
+from dobwind.calibrate.reportparts import LogCheck, Segment, SelfCheck
 from dobwind.harness.build import system_compiler
 from dobwind.harness.cstep import CStep, compile_step
 from dobwind.io.logs import FlightLog, step_inputs
@@ -46,56 +46,18 @@ MIN_SPEED_FOR_DIRECTION_MPS = 1.0
 STILL_AIRFLOW_MPS = 1.0
 
 
-@dataclass
-class LogCheck:
-    log: str
-    rows: int
-    fit_samples: int            # decimated samples the fit took from this log
-    points_kept: int            # replayed samples scored (accepted, settled)
-    segments: list[dict] = field(default_factory=list)
-    speed_rms_mps: float | None = None
-    speed_max_mps: float | None = None
-    direction_mean_deg: float | None = None
-    direction_max_deg: float | None = None
-    # The scored samples' scatter about their segment means (envelope.observer_noise) and its dof.
-    noise_h_mps: float = 0.0
-    noise_up_mps: float = 0.0
-    noise_dof: int = 0
-    # The same scatter per horizontal axis (north and east pooled) on low-airflow segments only.
-    still_noise_mps: float = 0.0
-    still_dof: int = 0
-
-
-@dataclass
-class SelfCheck:
-    passed: bool
-    reasons: list[str]
-    cv_mps: float | None          # the CV judged: hold-level (the family's raw CV when that is missing)
-    speed_range_mps: float
-    cv_limit_mps: float
-    replay_limit_mps: float
-    direction_limit_deg: float
-    logs: list[LogCheck]
-    noise_h_mps: float = 0.0   # the observer noise over every log (horizontal speed, vertical wind)
-    noise_up_mps: float = 0.0
-    still_noise_mps: float | None = None  # per-axis horizontal noise at low airflow (None: no such segment)
-    outlier_logs: list[str] = field(default_factory=list)  # replayed, not judged (Thresholds.outlier_logs)
-
-
 def _wrap_deg(a: float) -> float:
     return (a + 180.0) % 360.0 - 180.0
 
 
-def _segment_row(label: int, est: np.ndarray, true: np.ndarray) -> dict:
+def _segment_row(label: int, est: np.ndarray, true: np.ndarray) -> Segment:
     est_mean, true_mean = est.mean(axis=0), true.mean(axis=0)
     est_speed, true_speed = math.hypot(*est_mean[:2]), math.hypot(*true_mean[:2])
     direction = None
     if true_speed >= MIN_SPEED_FOR_DIRECTION_MPS:
         angle = math.atan2(est_mean[1], est_mean[0]) - math.atan2(true_mean[1], true_mean[0])
         direction = abs(_wrap_deg(math.degrees(angle)))
-    return {"segment": label, "true_speed_mps": true_speed, "speed_error_mps": est_speed - true_speed,
-            "direction_error_deg": direction, "vertical_error_mps": float(est_mean[2] - true_mean[2]),
-            "points": int(len(est))}
+    return Segment(label, true_speed, est_speed - true_speed, direction, float(est_mean[2] - true_mean[2]), int(len(est)))
 
 
 def _compiled(model: StepModel) -> CStep | None:
@@ -142,7 +104,7 @@ def _segment_labels(log: FlightLog, t0: float) -> np.ndarray:
 
 # A scored segment: its row, the scatter of its speed and vertical errors, and (at low airflow only) of
 # its north and east errors.
-_Scored = tuple[dict, tuple[float, int], tuple[float, int], list[tuple[float, int]]]
+_Scored = tuple[Segment, tuple[float, int], tuple[float, int], list[tuple[float, int]]]
 
 
 class _Segments:
@@ -190,7 +152,7 @@ class _Segments:
             share = within_share(float(t[-1] - t[0]), self.still_tau)
             still = ([_scaled(segment_scatter(wind[:, 0] - truth[:, 0]), share),
                       _scaled(segment_scatter(wind[:, 1] - truth[:, 1]), share)]
-                     if max(float(np.mean(airflow_h)), row["true_speed_mps"]) < STILL_AIRFLOW_MPS else [])
+                     if max(float(np.mean(airflow_h)), row.true_speed_mps) < STILL_AIRFLOW_MPS else [])
             self.done[label] = (row, segment_scatter(errors_h), segment_scatter(errors_up), still)
 
 
@@ -249,18 +211,19 @@ def check_source(af: Airframe, source: LogSource, shape: LogShape, fit_samples: 
 def _log_check(path: str, rows: int, fit_samples: int,
                scored: list[_Scored]) -> LogCheck:
     segment_rows = [row for row, _, _, _ in scored]
-    check = LogCheck(path, rows, fit_samples, int(sum(r["points"] for r in segment_rows)), segment_rows)
-    check.noise_h_mps, check.noise_dof = pooled_scatter([h for _, h, _, _ in scored])
-    check.noise_up_mps, _ = pooled_scatter([up for _, _, up, _ in scored])
-    check.still_noise_mps, check.still_dof = pooled_scatter([axis for _, _, _, still in scored for axis in still])
+    noise_h, noise_dof = pooled_scatter([h for _, h, _, _ in scored])
+    noise_up, _ = pooled_scatter([up for _, _, up, _ in scored])
+    still, still_dof = pooled_scatter([axis for _, _, _, still in scored for axis in still])
+    figures: dict[str, float | None] = {}
     if segment_rows:
-        speed = np.array([r["speed_error_mps"] for r in segment_rows])
-        check.speed_rms_mps = float(np.sqrt(np.mean(speed ** 2)))
-        check.speed_max_mps = float(np.max(np.abs(speed)))
-        dirs = [r["direction_error_deg"] for r in segment_rows if r["direction_error_deg"] is not None]
-        check.direction_mean_deg = float(np.mean(dirs)) if dirs else None
-        check.direction_max_deg = float(np.max(dirs)) if dirs else None
-    return check
+        speed = np.array([r.speed_error_mps for r in segment_rows])
+        dirs = [r.direction_error_deg for r in segment_rows if r.direction_error_deg is not None]
+        figures = {"speed_rms_mps": float(np.sqrt(np.mean(speed ** 2))), "speed_max_mps": float(np.max(np.abs(speed))),
+                   "direction_mean_deg": float(np.mean(dirs)) if dirs else None,
+                   "direction_max_deg": float(np.max(dirs)) if dirs else None}
+    return LogCheck(path, rows, fit_samples, int(sum(r.points for r in segment_rows)), segment_rows, **figures,
+                    noise_h_mps=noise_h, noise_up_mps=noise_up, noise_dof=noise_dof, still_noise_mps=still,
+                    still_dof=still_dof)
 
 
 def check_log(af: Airframe, log: FlightLog, fit_samples: int, settle_s: float | None = None,
@@ -341,37 +304,37 @@ def self_check_sources(af: Airframe, sources: list[LogSource], shapes: list[LogS
 WORST_SEGMENTS_SHOWN = 5
 
 
-def _segment_lines(segments: list[dict]) -> list[str]:
-    worst = sorted(segments, key=lambda r: -abs(r["speed_error_mps"]))[:WORST_SEGMENTS_SHOWN]
+def _segment_lines(segments: list[Segment]) -> list[str]:
+    worst = sorted(segments, key=lambda r: -abs(r.speed_error_mps))[:WORST_SEGMENTS_SHOWN]
     lines = []
     for r in worst:
-        d = "-" if r["direction_error_deg"] is None else f"{r['direction_error_deg']:.2f}"
-        lines.append(f"      segment {r['segment']:5d}: true {r['true_speed_mps']:6.2f} m/s, speed error "
-                     f"{r['speed_error_mps']:+.3f} m/s, direction error {d} deg, vertical error "
-                     f"{r['vertical_error_mps']:+.3f} m/s, {r['points']} points")
+        d = "-" if r.direction_error_deg is None else f"{r.direction_error_deg:.2f}"
+        lines.append(f"      segment {r.segment:5d}: true {r.true_speed_mps:6.2f} m/s, speed error "
+                     f"{r.speed_error_mps:+.3f} m/s, direction error {d} deg, vertical error "
+                     f"{r.vertical_error_mps:+.3f} m/s, {r.points} points")
     return lines
 
 
-def text_table(check: dict) -> str:
+def text_table(check: SelfCheck) -> str:
     """The self-check (as stored in the fit report) for people: per log, and its worst segments."""
-    cv = "n/a" if check["cv_mps"] is None else f"{check['cv_mps']:.3f}"
+    cv = "n/a" if check.cv_mps is None else f"{check.cv_mps:.3f}"
     lines = [f"self-check: every calibration log replayed through the new airframe's step; calibrated speed "
-             f"range {check['speed_range_mps']:.2f} m/s; hold-level CV {cv} m/s (limit {check['cv_limit_mps']:.3f})",
-             f"  limits per log: segment speed error RMS <= {check['replay_limit_mps']:.3f} m/s, mean direction "
-             f"error <= {check['direction_limit_deg']:g} deg"]
-    for c in check["logs"]:
-        speed = "n/a" if c["speed_rms_mps"] is None else f"{c['speed_rms_mps']:.3f} / {c['speed_max_mps']:.3f} m/s"
-        direction = ("n/a" if c["direction_mean_deg"] is None else
-                     f"{c['direction_mean_deg']:.2f} / {c['direction_max_deg']:.2f} deg")
-        outlier = " (the fit's outlier: not judged)" if c["log"] in check.get("outlier_logs", []) else ""
-        lines.append(f"  {c['log']}: {c['fit_samples']} fit samples, {c['points_kept']} of {c['rows']} points kept "
-                     f"in {len(c['segments'])} segments; speed error RMS / max {speed}; direction mean / max "
+             f"range {check.speed_range_mps:.2f} m/s; hold-level CV {cv} m/s (limit {check.cv_limit_mps:.3f})",
+             f"  limits per log: segment speed error RMS <= {check.replay_limit_mps:.3f} m/s, mean direction "
+             f"error <= {check.direction_limit_deg:g} deg"]
+    for c in check.logs:
+        speed = "n/a" if c.speed_rms_mps is None else f"{c.speed_rms_mps:.3f} / {c.speed_max_mps:.3f} m/s"
+        direction = ("n/a" if c.direction_mean_deg is None else
+                     f"{c.direction_mean_deg:.2f} / {c.direction_max_deg:.2f} deg")
+        outlier = " (the fit's outlier: not judged)" if c.log in check.outlier_logs else ""
+        lines.append(f"  {c.log}: {c.fit_samples} fit samples, {c.points_kept} of {c.rows} points kept "
+                     f"in {len(c.segments)} segments; speed error RMS / max {speed}; direction mean / max "
                      f"{direction}{outlier}")
-        lines += _segment_lines(c["segments"])
-    lines.append(f"  observer noise (sample scatter about each segment's mean error): {check['noise_h_mps']:.3f} m/s "
-                 f"horizontal speed, {check['noise_up_mps']:.3f} m/s vertical; the sigma outputs include it")
-    if check.get("still_noise_mps") is not None:
-        lines.append(f"  at low airflow (segments under {STILL_AIRFLOW_MPS:g} m/s): {check['still_noise_mps']:.3f} m/s "
+        lines += _segment_lines(c.segments)
+    lines.append(f"  observer noise (sample scatter about each segment's mean error): {check.noise_h_mps:.3f} m/s "
+                 f"horizontal speed, {check.noise_up_mps:.3f} m/s vertical; the sigma outputs include it")
+    if check.still_noise_mps is not None:
+        lines.append(f"  at low airflow (segments under {STILL_AIRFLOW_MPS:g} m/s): {check.still_noise_mps:.3f} m/s "
                      "per horizontal axis")
-    lines.append("self-check: " + ("PASS" if check["passed"] else "FAIL: " + "; ".join(check["reasons"])))
+    lines.append("self-check: " + ("PASS" if check.passed else "FAIL: " + "; ".join(check.reasons)))
     return "\n".join(lines)

@@ -98,7 +98,7 @@ def run(args: argparse.Namespace) -> int:
         from dobwind.calibrate.fitfamily import refit_without_outliers
 
         new, report, points = refit_without_outliers((new, report, points), list(args.logs), fit)
-    passed = bool(report.self_check["passed"])
+    passed = bool(report.self_check.passed)
     written = passed or args.force  # a model that failed its self-check is written only when forced
     if written:
         text = (field.header(list(args.logs)) if field else "") + dump_airframe(new)
@@ -134,9 +134,9 @@ def refuse_out_of_range(text: str, output: str) -> None:
 
 def _fit_verdict(args: argparse.Namespace, report) -> int:
     """Exit 0 on a passing self-check; else say why (and which log disagrees) and refuse unless --force."""
-    if report.self_check["passed"]:
+    if report.self_check.passed:
         return 0
-    reasons = "; ".join(report.self_check["reasons"])
+    reasons = "; ".join(report.self_check.reasons)
     from dobwind.calibrate.runmeans import outlier_advice
 
     advice = None if args.exclude_outliers else outlier_advice(report.runs)
