@@ -63,3 +63,16 @@ def test_hover_thrust_is_not_called_an_airborne_median_when_nothing_was_airborne
     assert "airborne median" not in on_ground.vehicle.hover_source
     flying = inspect_log(str(_ekf2_plane_log(tmp_path / "f.bin", tho=0.4)))
     assert flying.airborne_s > 9.0 and flying.vehicle.hover_source == "CTUN.ThH (airborne median)"
+
+
+def test_init_does_not_print_zero_rotors_when_the_count_is_unknown(tmp_path, capsys):
+    """A collective-thrust log without ESC, CA_ROTOR_COUNT or actuator_motors: the file's comment said
+    "rotors: not used" while the summary printed "rotors 0"."""
+    pytest.importorskip("pyulog")
+    from tests.test_inspect import _px4_log
+
+    log = _px4_log(tmp_path / "f.ulg", esc=False, rotor_param=0)
+    assert main(["init", str(log), "--mass", "2", "-o", str(tmp_path / "v.toml")]) == 0
+    line = next(x for x in capsys.readouterr().out.splitlines() if x.strip().startswith("rotors"))
+    assert line.split()[1:] != ["0"] and "unknown" in line
+    assert "# rotors: not used" in (tmp_path / "v.toml").read_text()
