@@ -113,14 +113,23 @@ def _as_json(stats: dict[str, np.ndarray], done: list[Done], args: argparse.Name
 def _text(stats: dict[str, np.ndarray], done: list[Done]) -> str:
     rows = []
     for k in range(len(stats["count"])):
-        rows.append([f"{stats['height_bottom_m'][k]:g}-{stats['height_top_m'][k]:g}", str(stats["count"][k]),
+        rows.append([f"{stats['height_bottom_m'][k]:g} .. {stats['height_top_m'][k]:g}", str(stats["count"][k]),
                      f"{stats['speed_mean_mps'][k]:.2f}", f"{stats['speed_std_mps'][k]:.2f}",
                      f"{stats['direction_from_deg'][k]:.0f}", f"{stats['direction_spread_deg'][k]:.0f}",
-                     f"{stats['up_mean_mps'][k]:+.2f}", f"{stats['sigma_h_mps'][k]:.2f}"])
+                     _signed_or_dash(stats['up_mean_mps'][k]), _or_dash(stats['sigma_h_mps'][k])])
     flights = [f"{r.log}: {r.value[1]} trusted rows" + "".join(f"; {n}" for n in r.value[2]) if r.value is not None
                else f"{r.log}: failed" for r in done]
-    return "\n".join([format_table(["height m", "n", "speed", "spread", "from deg", "spread", "up m/s", "sigma_h"],
-                                   rows), *flights])
+    header = ["height m", "n", "speed m/s", "std m/s", "from deg", "spread deg", "up m/s", "sigma_h m/s"]
+    return "\n".join([format_table(header, rows), *flights])
+
+
+def _or_dash(value: float) -> str:
+    """NaN (no sample, an unknown sigma, no vertical wind) as '-', not as a number."""
+    return f"{value:.2f}" if np.isfinite(value) else "-"
+
+
+def _signed_or_dash(value: float) -> str:
+    return f"{value:+.2f}" if np.isfinite(value) else "-"
 
 
 def _write_csv(path: Path, stats: dict[str, np.ndarray], args: argparse.Namespace, af,
