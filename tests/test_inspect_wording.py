@@ -76,3 +76,22 @@ def test_init_does_not_print_zero_rotors_when_the_count_is_unknown(tmp_path, cap
     line = next(x for x in capsys.readouterr().out.splitlines() if x.strip().startswith("rotors"))
     assert line.split()[1:] != ["0"] and "unknown" in line
     assert "# rotors: not used" in (tmp_path / "v.toml").read_text()
+
+
+@pytest.mark.parametrize("command", [["inspect"], ["init", "--mass", "2", "-o", "OUT.toml"],
+                                     ["report", "AIRFRAME", "-o", "OUT.html"]])
+def test_a_plain_folder_is_named_as_a_folder_not_as_a_missing_metadata_file(command, tmp_path, capfd):
+    """A user who points a command at a folder of logs got "not a readable ROS 2 bag (FileNotFoundError:
+    Expected metadata file 'DIR' does not exist.)"."""
+    pytest.importorskip("rosbags")
+    from tests.helpers import M300
+
+    folder = tmp_path / "flights"
+    folder.mkdir()
+    _ardupilot_log(folder / "a.bin", esc_rpm=False)
+    args = [a.replace("OUT", str(tmp_path / "out")).replace("AIRFRAME", str(M300)) for a in command]
+    argv = [args[0], *args[1:2], str(folder), *args[2:]] if args[0] == "report" else [args[0], str(folder), *args[1:]]
+    assert main(argv) == 2
+    out, err = capfd.readouterr()
+    assert out == "" and err.count("\n") == 1 and str(folder) in err
+    assert "metadata.yaml" in err and "FileNotFoundError" not in err and "folder" in err
