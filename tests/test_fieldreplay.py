@@ -324,7 +324,7 @@ def _real(name: str):
 
 def test_the_m300_airframe_on_the_px4_sitl_x500_is_suspect(capsys):
     """The issue's example: 8-32 m/s of updraft from an airframe that is not this vehicle. The 10 s hop
-    has about 1.5 s of free-air hover (the rest is climb, descent and rotors spooling on the ground after
+    has 1.2 s of near-hover 0.5 m above the take-off (the rest is climb, descent and rotors spooling on the ground after
     the land detector flipped), too little for the hover balance: the vertical wind finds it."""
     log = _real("px4-ulog/sample_px4_events.ulg")
     assert main(["replay", str(M300), log, "--json"]) == 0
