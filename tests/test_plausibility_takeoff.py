@@ -1,7 +1,8 @@
 """The hover force balance judges free-air hover only (issue #36, a new user's pass): on the PX4 SITL
 x500 log the land detector declared flight ~2 s before lift-off (the rotors spooling up on the ground)
-and of the 10 s hop only 1.2 s of near-hover was 0.5 m above the take-off, so the median "near-hover" row was a ground row and
-replay told the user that `dobwind init`'s own airframe "does not fit this vehicle" (0.74x)."""
+and of the 10 s hop only 1.2 s of near-hover was 0.5 m above the take-off, so the median "near-hover"
+row was a ground row and replay told the user that `dobwind init`'s own airframe "does not fit this
+vehicle" (0.74x)."""
 from __future__ import annotations
 
 import numpy as np
