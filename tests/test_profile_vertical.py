@@ -48,3 +48,24 @@ def test_profile_of_a_zero_wind_vertical_law_prints_no_vertical_wind(two_flights
     assert np.isnan(zero["up_mean_mps"]).all() and zero["count"].sum() > 100
     assert 'vertical_law = "zero-wind"' in printed and "+0.00" not in printed
     assert "speed m/s" in printed.splitlines()[0]
+
+
+def test_a_prior_airframe_profile_names_the_reason_and_allowed_rows_are_not_called_trusted(two_flights, tmp_path,  # noqa: F811
+                                                                                            capfd):
+    """`init`'s starter on a log: the refusal only said "--allow admits quality-flagged rows"; with
+    `--allow uncalibrated` the rows were printed and written as "trusted rows"."""
+    folder, logs, _ = two_flights
+    prior = tmp_path / "prior.toml"
+    prior.write_text(M300.read_text() + '\n[calibration]\nstatus = "prior"\n')
+    out = tmp_path / "p.csv"
+    assert main(["profile", str(prior), str(logs[0]), "-o", str(out), "--jobs", "1"]) == 2
+    err = capfd.readouterr().err
+    assert err.count("\n") == 1 and "uncalibrated prior" in err and "--allow uncalibrated" in err
+    assert not out.exists()
+    assert main(["profile", str(prior), str(logs[0]), "-o", str(out), "--jobs", "1", "--allow", "uncalibrated"]) == 0
+    printed = capfd.readouterr().out
+    comment = out.read_text().splitlines()[0]
+    for text in (printed, comment):
+        assert "trusted rows" not in text and "UNCALIBRATED" in text
+    assert main(["profile", str(M300), str(logs[0]), "-o", str(out), "--jobs", "1"]) == 0
+    assert "trusted rows" in capfd.readouterr().out and "trusted rows only" in out.read_text().splitlines()[0]
