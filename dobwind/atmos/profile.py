@@ -26,7 +26,7 @@ BIN = Bound(0.1, 1000.0, "m")  # --bin: finer than GPS altitude is noise, coarse
 # Below this horizontal speed a sample's direction is noise and does not enter the direction spread.
 MIN_SPEED_FOR_DIRECTION_MPS = 0.5
 # The per-bin sums, in this order.
-SUMS = ("count", "north", "east", "up", "up2", "speed", "speed2", "cos", "sin", "n_dir",
+SUMS = ("count", "north", "east", "up", "up2", "n_up", "speed", "speed2", "cos", "sin", "n_dir",
         "sigma_h", "n_sigma_h", "sigma_up", "n_sigma_up")
 _I = {name: k for k, name in enumerate(SUMS)}
 
@@ -44,7 +44,9 @@ class Samples:
 
 def bin_sums(samples: Samples, bin_m: float) -> dict[int, np.ndarray]:
     """{bin index k (heights [k bin, (k+1) bin)): the sums of SUMS over its samples}."""
-    ok = np.isfinite(samples.height_m) & np.all(np.isfinite(samples.wind_ned), axis=1)
+    # A NaN vertical wind (an airframe whose vertical law is the zero-wind fallback) keeps the row for the
+    # horizontal statistics and leaves it out of the vertical ones.
+    ok = np.isfinite(samples.height_m) & np.all(np.isfinite(samples.wind_ned[:, :2]), axis=1)
     h, w = samples.height_m[ok], samples.wind_ned[ok]
     sh, su = samples.sigma_h[ok], samples.sigma_up[ok]
     k = np.floor(h / bin_m).astype(np.int64)
@@ -54,8 +56,9 @@ def bin_sums(samples: Samples, bin_m: float) -> dict[int, np.ndarray]:
     # The unit vector of the direction the wind blows FROM: (north, east) = -wind / speed.
     cos_from, sin_from = np.where(strong, -w[:, 0] / safe, 0.0), np.where(strong, -w[:, 1] / safe, 0.0)
     known_h, known_up = sh >= 0, su >= 0  # -1: the airframe records no uncertainty
-    up = -w[:, 2]
-    columns = np.column_stack([np.ones_like(h), w[:, 0], w[:, 1], up, up * up, speed, speed * speed,
+    has_up = np.isfinite(w[:, 2])
+    up = np.where(has_up, -w[:, 2], 0.0)
+    columns = np.column_stack([np.ones_like(h), w[:, 0], w[:, 1], up, up * up, has_up, speed, speed * speed,
                                cos_from, sin_from, strong, np.where(known_h, sh, 0.0), known_h,
                                np.where(known_up, su, 0.0), known_up])
     keys, inverse = np.unique(k, return_inverse=True)
@@ -89,7 +92,7 @@ def table(total: dict[int, np.ndarray], bin_m: float) -> dict[str, np.ndarray]:
     s = np.array([total.get(int(k), np.zeros(len(SUMS))) for k in keys])
     n = s[:, _I["count"]]
     with np.errstate(invalid="ignore", divide="ignore"):
-        mean_n, mean_e, mean_up = s[:, _I["north"]] / n, s[:, _I["east"]] / n, s[:, _I["up"]] / n
+        mean_n, mean_e, mean_up = s[:, _I["north"]] / n, s[:, _I["east"]] / n, s[:, _I["up"]] / s[:, _I["n_up"]]
         n_dir = s[:, _I["n_dir"]]
         resultant = np.hypot(s[:, _I["cos"]], s[:, _I["sin"]]) / n_dir
         spread = np.degrees(np.sqrt(-2.0 * np.log(np.clip(resultant, 1e-12, 1.0))))
@@ -104,7 +107,7 @@ def table(total: dict[int, np.ndarray], bin_m: float) -> dict[str, np.ndarray]:
         "direction_from_deg": np.where(n > 0, wind_from_deg(mean_n, mean_e), np.nan),
         "direction_spread_deg": np.where(n_dir > 1, spread, np.nan),
         "northward_mean_mps": mean_n, "eastward_mean_mps": mean_e,
-        "up_mean_mps": mean_up, "up_std_mps": _std(s[:, _I["up2"]], s[:, _I["up"]], n),
+        "up_mean_mps": mean_up, "up_std_mps": _std(s[:, _I["up2"]], s[:, _I["up"]], s[:, _I["n_up"]]),
         "sigma_h_mps": sigma_h, "sigma_up_mps": sigma_up,
     }
 
@@ -132,6 +135,7 @@ def flight_samples(af: Airframe, path: str, backend: str = "python", precision: 
     """One log through the estimator, its rows put at their height above take-off, trusted rows kept."""
     from dobwind.io.autopilot import is_autopilot_log
     from dobwind.io.position import local_height_on_rows, on_rows, read_geo
+    from dobwind.model.airframe import VERTICAL_FALLBACK
     from dobwind.replay.replay import replay, replay_ulog
 
     notes: list[str] = []
@@ -158,7 +162,12 @@ def flight_samples(af: Airframe, path: str, backend: str = "python", precision: 
     kept_t = t[keep & np.isfinite(height)]
     utc = (float(kept_t[0] + geo.utc_offset_s), float(kept_t[-1] + geo.utc_offset_s)) \
         if geo.utc_offset_s is not None and kept_t.size else None
-    return Samples(height[keep], out[keep][:, model.outputs.slice("wind_ned")],
+    wind = out[keep][:, model.outputs.slice("wind_ned")]
+    if af.vertical_law == VERTICAL_FALLBACK:
+        wind = wind.copy()
+        wind[:, 2] = np.nan  # the step publishes 0 there: not a measured calm, no vertical wind at all
+        notes.append(f'vertical wind: none (force_air.vertical_law = "{VERTICAL_FALLBACK}": not identified)')
+    return Samples(height[keep], wind,
                    out[keep][:, model.outputs.slice("wind_sigma_h")][:, 0],
                    out[keep][:, model.outputs.slice("wind_sigma_up")][:, 0], tuple(notes), utc)
 

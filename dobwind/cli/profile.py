@@ -78,8 +78,10 @@ def run(args: argparse.Namespace) -> int:
         return max(r.code for r in done)  # each log's reason is on stderr already: nothing written
     if not stats:
         where = ", ".join(logs[:3]) + (" ..." if len(logs) > 3 else "")
-        raise InputError(where, None, "no trusted estimate with a height in any log: nothing written (--allow "
-                         "admits quality-flagged rows)")
+        why = (f"{args.airframe} is an uncalibrated prior, so every estimate carries UNCALIBRATED: calibrate it "
+               "with `dobwind fit`, or --allow uncalibrated for a rough profile" if af.uncalibrated
+               else "--allow admits quality-flagged rows")
+        raise InputError(where, None, f"no trusted estimate with a height in any log: nothing written ({why})")
     span = coverage([r.value[3] for r in good])
     with OutputFiles(targets) as out:
         staged = out.stage(args.output)
@@ -96,7 +98,7 @@ def run(args: argparse.Namespace) -> int:
 
         print_json({**_as_json(stats, done, args), "time_coverage_utc": list(span) if span else None})
     else:
-        print(_text(stats, done))
+        print(_text(stats, done, kept_rows(args.allow)))
     return max(r.code for r in done)
 
 
@@ -110,17 +112,34 @@ def _as_json(stats: dict[str, np.ndarray], done: list[Done], args: argparse.Name
             "logs": logs}
 
 
-def _text(stats: dict[str, np.ndarray], done: list[Done]) -> str:
+def kept_rows(allow: list[str] | None) -> str:
+    """What the profile's rows are: "trusted rows" only without --allow; with it, say which flags got in
+    (an UNCALIBRATED row is not trusted, and the output must not call it so)."""
+    if not allow:
+        return "trusted rows"
+    return f"rows trusted or flagged only {'/'.join(sorted({a.strip().upper() for a in allow}))} (--allow)"
+
+
+def _text(stats: dict[str, np.ndarray], done: list[Done], kept: str = "trusted rows") -> str:
     rows = []
     for k in range(len(stats["count"])):
-        rows.append([f"{stats['height_bottom_m'][k]:g}-{stats['height_top_m'][k]:g}", str(stats["count"][k]),
+        rows.append([f"{stats['height_bottom_m'][k]:g} .. {stats['height_top_m'][k]:g}", str(stats["count"][k]),
                      f"{stats['speed_mean_mps'][k]:.2f}", f"{stats['speed_std_mps'][k]:.2f}",
                      f"{stats['direction_from_deg'][k]:.0f}", f"{stats['direction_spread_deg'][k]:.0f}",
-                     f"{stats['up_mean_mps'][k]:+.2f}", f"{stats['sigma_h_mps'][k]:.2f}"])
-    flights = [f"{r.log}: {r.value[1]} trusted rows" + "".join(f"; {n}" for n in r.value[2]) if r.value is not None
+                     _signed_or_dash(stats['up_mean_mps'][k]), _or_dash(stats['sigma_h_mps'][k])])
+    flights = [f"{r.log}: {r.value[1]} {kept}" + "".join(f"; {n}" for n in r.value[2]) if r.value is not None
                else f"{r.log}: failed" for r in done]
-    return "\n".join([format_table(["height m", "n", "speed", "spread", "from deg", "spread", "up m/s", "sigma_h"],
-                                   rows), *flights])
+    header = ["height m", "n", "speed m/s", "std m/s", "from deg", "spread deg", "up m/s", "sigma_h m/s"]
+    return "\n".join([format_table(header, rows), *flights])
+
+
+def _or_dash(value: float) -> str:
+    """NaN (no sample, an unknown sigma, no vertical wind) as '-', not as a number."""
+    return f"{value:.2f}" if np.isfinite(value) else "-"
+
+
+def _signed_or_dash(value: float) -> str:
+    return f"{value:+.2f}" if np.isfinite(value) else "-"
 
 
 def _write_csv(path: Path, stats: dict[str, np.ndarray], args: argparse.Namespace, af,
@@ -130,7 +149,7 @@ def _write_csv(path: Path, stats: dict[str, np.ndarray], args: argparse.Namespac
     formats = ["%.6g"] * len(CSV_COLUMNS)
     formats[CSV_COLUMNS.index("count")] = "%d"
     comments = [f"dobwind profile: airframe {af.name} ({Path(args.airframe).name}), bin {args.bin:g} m, "
-                "height above the take-off point; trusted rows only",
+                "height above the take-off point; " + (kept_rows(args.allow) if args.allow else "trusted rows only"),
                 f"UTC {span[0]} to {span[1]}" if span else "no GPS time in the logs: UTC unknown"]
     write_csv(path, list(CSV_COLUMNS), np.column_stack([stats[c] for c in CSV_COLUMNS]), formats, comments)
 
@@ -172,7 +191,7 @@ def _write_netcdf(path: Path, stats: dict[str, np.ndarray], args: argparse.Names
                                                   "m s-1", "mean calibrated 1-sigma of one vertical estimate"),
         "count": ("height", stats["count"].astype(np.int32),
                   {"standard_name": "number_of_observations", "units": "1",
-                   "long_name": "trusted estimate rows in the bin"}),
+                   "long_name": f"estimate rows in the bin ({kept_rows(args.allow)})"}),
         "height_bnds": (("height", "nv"), np.column_stack([stats["height_bottom_m"], stats["height_top_m"]]), {}),
     }
     ds = xr.Dataset(data, coords={"height": ("height", stats["height_m"], height_attrs)})

@@ -7,6 +7,10 @@ from dobwind.inspect.loginspect import LogSummary
 
 
 def inspect_log(path: str) -> LogSummary:
+    return _inspect(path).with_rpm_usability()
+
+
+def _inspect(path: str) -> LogSummary:
     from dobwind.io.autopilot import log_kind
 
     kind = log_kind(path)

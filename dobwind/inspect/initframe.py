@@ -210,7 +210,7 @@ def run_init(log: str, mass: float, output: str, name: str | None, as_json: bool
 def _summary_text(output: str, c: InitChoices) -> str:
     return "\n".join([f"wrote {output} (uncalibrated prior: estimates carry UNCALIBRATED until `dobwind fit`)",
                       f"  thrust       {c.thrust_reason}",
-                      f"  rotors       {c.rotors}",
+                      f"  rotors       {c.rotors or 'unknown (not used: collective thrust)'}",
                       f"  sample_time  {1 / c.rate_hz:g} s ({c.rate_reason})",
                       f"  max_dt       {c.max_dt_s:g} s",
                       f"  bandwidth    {c.bandwidth_hz:.3g} Hz (observer gains designed for it)",

@@ -57,7 +57,11 @@ def _streams(msgs: dict) -> list:
 
 def _stream_name(msgs: dict, name: str) -> str:
     rows = msgs.get(name) or [{}]
-    return f"{name} (primary core)" if "C" in rows[0] else f"{name} (I 0)" if name == "IMU" and "I" in rows[0] else name
+    if "C" in rows[0]:
+        return f"{name} (primary core)"
+    if name == "IMU" and "I" in rows[0]:
+        return f"{name} (I 0)"
+    return f"{name} (Instance 0)" if name == "ESC" and "Instance" in rows[0] else name
 
 
 def _role(msgs: dict, role: str, candidates, fields: list[str], missing: str) -> Role:
@@ -72,18 +76,20 @@ def _roles(msgs: dict, params: dict) -> tuple[Role, ...]:
     ctun = (("CTUN", None, 0),)
     psc = pick_stream(msgs, (("PSCN", None, 0),), ["AN"])
     imu = _role(msgs, "specific_force", IMU, ["AccX", "AccY", "AccZ"], "no IMU")
+    attitude = _role(msgs, "attitude", ATTITUDE, ["Q1", "Q2", "Q3", "Q4"], "no XKQ (or NKQ1, NKQ)")
+    quat = (attitude.source or "XKQ").split(".")[0]  # an EKF2 log's NKQ1, not XKQ
     acc = (Role("acceleration", "PSCN.AN, PSCE.AE, PSCD.AD", "PSCN") if psc is not None else
-           Role("acceleration", "IMU specific force rotated by XKQ, plus gravity", imu.stream, "no PSCN/PSCE/PSCD")
+           Role("acceleration", f"IMU specific force rotated by {quat}, plus gravity", imu.stream, "no PSCN/PSCE/PSCD")
            if imu.source else Role("acceleration", None, None, "no PSCN and no IMU"))
     hover = _role(msgs, "hover_thrust", ctun, ["ThH"], "no CTUN.ThH")
     heading = _role(msgs, "heading", (("ATT", None, 0),), ["DesYaw"], "")
     if heading.source is None:
         heading = Role("heading", "XKQ (the vehicle's own yaw)", _stream_name(msgs, "XKQ"), "no ATT.DesYaw")
     ground = (Role("ground", "EV landing events", "EV") if any(r.get("Id") in EV_GROUND for r in msgs["EV"]) else
-              Role("ground", "CTUN.ThO at 0", "CTUN", "no EV events") if msgs["CTUN"] else
-              Role("ground", None, None, "no EV events and no CTUN: replay treats every instant as airborne"))
+              Role("ground", "CTUN.ThO at 0", "CTUN", "no EV events") if _has_tho(msgs) else
+              Role("ground", None, None, "no EV events and no CTUN.ThO: replay treats every instant as airborne"))
     return (_role(msgs, "velocity", VELOCITY, ["VN", "VE", "VD"], "no XKF1 (or NKF1)"), acc, imu,
-            _role(msgs, "attitude", ATTITUDE, ["Q1", "Q2", "Q3", "Q4"], "no XKQ (or NKQ1, NKQ)"),
+            attitude,
             _role(msgs, "rpm", (("ESC", None, 0),), ["RPM"], "no ESC telemetry"),
             _role(msgs, "thrust", ctun, ["ThO"], "no CTUN.ThO"), hover, heading, ground,
             _role(msgs, "autopilot_wind", AP_WIND, ["VWN", "VWE"], "no XKF2 (or NKF2)"))
@@ -97,7 +103,12 @@ def _airborne(msgs: dict, end_s: float) -> tuple[tuple[tuple[float, float], ...]
     ctun = pick_stream(msgs, (("CTUN", None, 0),), ["ThO"])
     if ctun is not None:
         return intervals(ctun[1]["t"], ctun[1]["ThO"] > 0, end_s), "CTUN.ThO above 0 (no EV events)"
-    return (), "unknown: no EV events and no CTUN"
+    return (), "unknown: no EV events and no CTUN.ThO"
+
+
+def _has_tho(msgs: dict) -> bool:
+    """Whether CTUN carries ThO, as dataflash._ground asks (ArduPlane's CTUN has no ThO)."""
+    return bool(msgs["CTUN"]) and "ThO" in msgs["CTUN"][0]
 
 
 def _rotors(msgs: dict, params: dict, spans) -> tuple[int | None, str]:
@@ -144,7 +155,8 @@ def _rpm(msgs: dict, rotors: int | None, spans) -> tuple[bool, str, float | None
         values.append(rpm[up])
     share = min(shares)
     rpm_all = np.concatenate(values)
-    note = f"rpm > 0 in at least {100 * share:.0f} % of each ESC's airborne reports"
+    note = (f"rpm > 0 in {100 * share:.0f} % of the airborne reports of the ESC with the fewest"
+            f" ({100 * RPM_AIRBORNE_SHARE:.0f} % needed)")
     return share >= RPM_AIRBORNE_SHARE, note, float(np.median(rpm_all)), float(np.max(rpm_all))
 
 
@@ -152,7 +164,9 @@ def _hover(msgs: dict, params: dict, spans) -> tuple[float | None, str]:
     ctun = pick_stream(msgs, (("CTUN", None, 0),), ["ThH"])
     if ctun is not None:
         up = inside(ctun[1]["t"], spans)
-        return float(np.median(ctun[1]["ThH"][up] if up.any() else ctun[1]["ThH"])), "CTUN.ThH (airborne median)"
+        if up.any():
+            return float(np.median(ctun[1]["ThH"][up])), "CTUN.ThH (airborne median)"
+        return float(np.median(ctun[1]["ThH"])), "CTUN.ThH (median over the log: no airborne sample)"
     if "MOT_THST_HOVER" in params:
         return params["MOT_THST_HOVER"], "parameter MOT_THST_HOVER"
     return None, ""

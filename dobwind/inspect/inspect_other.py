@@ -21,7 +21,7 @@ def _bag_stamps(path: str, wanted: dict[str, str]) -> tuple[dict[str, np.ndarray
     """Receive times (s) of every message of the wanted topics (not deserialized) and the other topics."""
     from rosbags.rosbag2 import Reader
 
-    from dobwind.io.rosbag import present_topic
+    from dobwind.io.rosbag import not_a_bag, present_topic
 
     stamps: dict[str, list[int]] = {}
     try:
@@ -32,7 +32,7 @@ def _bag_stamps(path: str, wanted: dict[str, str]) -> tuple[dict[str, np.ndarray
             for conn, stamp, _ in reader.messages(connections=conns):
                 stamps.setdefault(conn.topic, []).append(stamp)
     except Exception as exc:  # rosbags raises its own kinds on damaged bags
-        raise InputError(path, None, f"not a readable ROS 2 bag ({type(exc).__name__}: {str(exc)[:100]})") from None
+        raise not_a_bag(path, exc) from None
     for role, name in names.items():
         wanted[role] = name or wanted[role]
     others = sorted(topics - set(stamps))

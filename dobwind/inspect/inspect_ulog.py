@@ -127,9 +127,10 @@ def _rpm(topics: dict, rotors: int | None, spans) -> tuple[bool, str, float | No
 def _hover(topics: dict, params: dict, spans) -> tuple[float | None, str]:
     hte = topics.get("hover_thrust_estimate")
     if hte is not None and "hover_thrust" in hte:
-        up = inside(hte["t"], spans) if spans else np.ones(len(hte["t"]), dtype=bool)
-        values = hte["hover_thrust"][up] if up.any() else hte["hover_thrust"]
-        return float(np.median(values)), "hover_thrust_estimate (airborne median)"
+        up = inside(hte["t"], spans) if spans else np.zeros(len(hte["t"]), dtype=bool)
+        if up.any():
+            return float(np.median(hte["hover_thrust"][up])), "hover_thrust_estimate (airborne median)"
+        return float(np.median(hte["hover_thrust"])), "hover_thrust_estimate (median over the log: no airborne sample)"
     if "MPC_THR_HOVER" in params:
         return float(params["MPC_THR_HOVER"]), "parameter MPC_THR_HOVER"
     return None, ""

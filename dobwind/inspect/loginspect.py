@@ -9,7 +9,7 @@ and inspect_other.py (ROS 2 bags, CSV); `dobwind init` (initframe.py) builds a s
 """
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -90,6 +90,15 @@ class LogSummary:
 
     def role(self, name: str) -> Role:
         return next(r for r in self.roles if r.role == name)
+
+    def with_rpm_usability(self) -> "LogSummary":
+        """The rpm role says when the ESC telemetry is logged but unusable (zeros in flight, as SITL logs
+        it): without this, inspect listed "rpm ESC.RPM" and "no usable rpm" side by side."""
+        if self.vehicle.rpm_nonzero_airborne or self.role("rpm").source is None:
+            return self
+        roles = tuple(replace(r, note=f"logged, not usable: {self.vehicle.rpm_note}") if r.role == "rpm" else r
+                      for r in self.roles)
+        return replace(self, roles=roles)
 
     def missing(self) -> list[str]:
         """Roles replay cannot fill, as sentences (the thrust need: rpm or the collective setpoint)."""

@@ -122,8 +122,17 @@ def collect_messages(path: str, wanted: dict[str, str]) -> tuple[dict[str, list]
     except InputError:
         raise
     except Exception as exc:  # rosbags raises its own kinds on damaged bags and unknown types
-        raise InputError(path, None, f"not a readable ROS 2 bag ({type(exc).__name__}: {str(exc)[:100]})") from None
+        raise not_a_bag(path, exc) from None
     return out, topics
+
+
+def not_a_bag(path: str, exc: Exception) -> InputError:
+    """The one-line complaint for a bag rosbags cannot open. A plain folder gets its own words: rosbags
+    says "Expected metadata file 'DIR' does not exist", which names neither the file nor the fix."""
+    if Path(path).is_dir() and not (Path(path) / "metadata.yaml").exists():
+        return InputError(path, None, "a folder without metadata.yaml, so not a ROS 2 bag: give one log file "
+                          "(replay and profile also take a folder of logs)")
+    return InputError(path, None, f"not a readable ROS 2 bag ({type(exc).__name__}: {str(exc)[:100]})")
 
 
 def message_stamp(msg, bag_ns: int, px4: bool) -> float:
@@ -203,7 +212,7 @@ def bag_setup(path: str, overrides: dict[str, str], from_airframe: dict[str, str
         with Reader(path) as reader:
             topics = {c.topic for c in reader.connections}
     except Exception as exc:
-        raise InputError(path, None, f"not a readable ROS 2 bag ({type(exc).__name__}: {str(exc)[:100]})") from None
+        raise not_a_bag(path, exc) from None
     # The bag's topics decide; only a bag with neither kind goes by the names the user gave.
     named = topics if any(t.startswith(("/fmu/", "/mavros/")) for t in topics) else set(overrides.values())
     px4 = not any(t.startswith("/mavros/") for t in named)

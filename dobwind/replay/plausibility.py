@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from dobwind.model.airframe import Airframe
-from dobwind.model.status import STATUS_BITS, STATUS_SUSPECT, accepted
+from dobwind.model.status import STATUS_BITS, STATUS_LANDED, STATUS_SUSPECT, accepted
 
 EXTRAPOLATED = next(bit.value for bit in STATUS_BITS if bit.name == "EXTRAPOLATED")
 SETTLING = next(bit.value for bit in STATUS_BITS if bit.name == "SETTLING")
@@ -41,6 +41,7 @@ class PlausibilityLimits:
     hover_speed_mps: float = 1.0           # near-hover: horizontal ground speed below this ...
     hover_climb_mps: float = 0.5           # ... and vertical speed below this
     hover_min_s: float = 3.0               # the balance is judged only over at least this much near-hover time
+    hover_min_height_m: float = 0.5        # ... at least this far above where the airborne stretch began
     vertical_wind_mps: float = 4.0         # sustained mean |vertical wind| beyond this ...
     vertical_window_s: float = 10.0        # ... over this long a window
     extrapolated_share: float = 0.5        # share of airborne estimates outside the calibrated envelope
@@ -112,9 +113,14 @@ def _dt(t: np.ndarray) -> float:
 def _hover_balance(af: Airframe, s: FlightSeries, ok: np.ndarray, limits: PlausibilityLimits) -> Finding | None:
     # SETTLING rows count: a short hop has little settled hover, and the observer's start from zero force
     # only pulls the median towards a balance of 1 (fewer findings, never a false one).
+    # Near the take-off height is no free-air hover: the land detector declares flight while the rotors
+    # still spool up on the ground (PX4's take-off ramp) and touches down before they stop, and the weight
+    # rests partly on the ground there (or in ground effect); counted, those rows read as a thrust short of
+    # the weight for an airframe that fits.
     with np.errstate(invalid="ignore"):
         hover = (ok & (np.hypot(s.vel[:, 0], s.vel[:, 1]) < limits.hover_speed_mps)
-                 & (np.abs(s.vel[:, 2]) < limits.hover_climb_mps))
+                 & (np.abs(s.vel[:, 2]) < limits.hover_climb_mps)
+                 & (_height_above_takeoff(s) >= limits.hover_min_height_m))
     if hover.sum() * _dt(s.t) < limits.hover_min_s:
         return None
     weight = af.mass_kg * af.gravity_mps2
@@ -123,6 +129,19 @@ def _hover_balance(af: Airframe, s: FlightSeries, ok: np.ndarray, limits: Plausi
         return None
     return Finding("hover_thrust", _hover_text(ratio, hover.sum() * _dt(s.t), limits), ratio,
                    limits.hover_thrust_tolerance, np.ones(len(s.t), dtype=bool))
+
+
+def _height_above_takeoff(s: FlightSeries) -> np.ndarray:
+    """Height (m) above the last LANDED row before each row, integrated from the ground velocity (a row
+    without velocity adds nothing); +inf before the first LANDED row (no take-off in the log: it began
+    in the air, or has no ground state, as a CSV log)."""
+    if not len(s.t):
+        return np.zeros(0)
+    landed = (s.status.astype(np.int64) & STATUS_LANDED) != 0
+    dt = np.diff(s.t, prepend=s.t[0])
+    height = np.cumsum(np.where(landed, 0.0, -np.nan_to_num(s.vel[:, 2]) * dt))
+    last = np.maximum.accumulate(np.where(landed, np.arange(len(s.t)), -1))
+    return np.where(last >= 0, height - height[np.maximum(last, 0)], np.inf)
 
 
 def _window_mean(t: np.ndarray, x: np.ndarray, valid: np.ndarray, window_s: float) -> np.ndarray:

@@ -55,6 +55,8 @@ def airframe_rows(af: Airframe) -> list[tuple[str, str]]:
     thrust = (f"{af.thrust.rotors} rotors, rpm (max {af.thrust.max_rpm:g} rev/min), scale {af.thrust.scale:g}"
               if log_signals(af).rotor_speeds else f"collective, scale {af.thrust.scale:g}")
     rows = [("name", af.name), ("mass", f"{af.mass_kg:g} kg"), ("thrust", thrust),
+            *([("calibration", "uncalibrated prior ([calibration] status = \"prior\"): every estimate carries "
+                               "UNCALIBRATED; the wind is a rough guess until `dobwind fit`")] if af.uncalibrated else []),
             ("observer", f"{obs.discretization}, gains {', '.join(f'{g:.4g}' for g in obs.gains)} kg/s, "
                          f"sample time {obs.sample_time_s:g} s, acceleration input '{obs.acceleration}'"),
             ("force-air model", af.force_air_model),
@@ -97,6 +99,36 @@ def error_rows(metrics: dict[str, Any]) -> list[tuple[str, str, str, str]]:
     return rows
 
 
+# The autopilot comparison (ulog.compare_with_px4) as the page shows it: key -> (what it is, unit).
+COMPARISON_ROWS = {
+    "overlap_rows": ("rows where both estimate", "rows"),
+    "active_share": ("share of the autopilot's samples that are active", "%"),
+    "mean_vector_difference_mps": ("mean of |ours - theirs|, row by row", "m/s"),
+    "difference_of_means_mps": ("|mean ours - mean theirs|", "m/s"),
+    "mean_difference_ne_mps": ("mean of ours - theirs (north, east)", "m/s"),
+    "mean_speed_difference_mps": ("mean speed difference (ours - theirs)", "m/s"),
+    "mean_wind_ours_ne_mps": ("our mean wind (north, east)", "m/s"),
+    "mean_wind_theirs_ne_mps": ("the autopilot's mean wind (north, east)", "m/s"),
+    "variance_north_m2s2": ("the autopilot's own variance, north", "m²/s²"),
+    "variance_east_m2s2": ("the autopilot's own variance, east", "m²/s²"),
+    "sigma_h_mps": ("the autopilot's own horizontal 1-sigma", "m/s"),
+}
+
+
+def comparison_rows(comparison: dict[str, Any]) -> list[tuple[str, str, str, str]]:
+    """(what, JSON key, value, unit) for each figure the comparison holds, in COMPARISON_ROWS' order;
+    numbers to 3 decimals (a raw float's 16 digits claim a precision the estimate does not have)."""
+    def fmt(key: str, value: Any) -> str:
+        if key == "active_share":
+            return f"{100 * value:.1f}"
+        if isinstance(value, (list, tuple)):
+            return ", ".join(f"{v:+.3f}" for v in value)
+        return str(value) if isinstance(value, int) else f"{value:.3f}"
+
+    return [(what, key, fmt(key, comparison[key]), unit) for key, (what, unit) in COMPARISON_ROWS.items()
+            if key in comparison]
+
+
 def render(af: Airframe, airframe_path: str, flight: Flight, metrics: dict[str, Any] | None,
            comparison: dict[str, Any] | None, figures: list[Figure], analysis: dict[str, Any]) -> str:
     import jinja2
@@ -112,6 +144,7 @@ def render(af: Airframe, airframe_path: str, flight: Flight, metrics: dict[str, 
         created=datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"), airframe_path=airframe_path,
         airframe=airframe_rows(af), flight=flight, accepted=int(valid.sum()), notes=flight.notes,
         errors=error_rows(metrics) if metrics else [], metrics=metrics, comparison=comparison,
+        comparison_rows=comparison_rows(comparison) if comparison else [],
         status=status_rows(flight.status), figures=figures, analysis=analysis)
 
 

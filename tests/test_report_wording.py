@@ -1,0 +1,66 @@
+"""What `dobwind report` says about the autopilot's wind and the airframe (issue #36, a new user's pass):
+an inactive autopilot wind was introduced as "compared with the autopilot's own estimate" above a table
+saying `active False`; active, the table dumped 16-digit floats with the units only in the JSON keys; and
+a page from an uncalibrated prior did not say so where the airframe is described."""
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from dobwind.cli.app import main
+from dobwind.report.report import comparison_rows
+from tests.helpers import M300
+
+pytest.importorskip("pyulog")
+
+
+def test_comparison_rows_name_units_and_round():
+    rows = comparison_rows({"topic": "wind", "active": True, "active_share": 0.25, "overlap_rows": 880,
+                            "mean_vector_difference_mps": 8.347086953436918, "mean_wind_ours_ne_mps": [0.79433, -0.1936],
+                            "variance_north_m2s2": 0.07387405464138562})
+    assert rows == [("rows where both estimate", "overlap_rows", "880", "rows"),
+                    ("share of the autopilot's samples that are active", "active_share", "25.0", "%"),
+                    ("mean of |ours - theirs|, row by row", "mean_vector_difference_mps", "8.347", "m/s"),
+                    ("our mean wind (north, east)", "mean_wind_ours_ne_mps", "+0.794, -0.194", "m/s"),
+                    ("the autopilot's own variance, north", "variance_north_m2s2", "0.074", "m²/s²")]
+
+
+def _errors_section(page: str) -> str:
+    return re.search(r"<h2>Errors</h2>(.*?)<h2>", page, re.S).group(1)
+
+
+def test_an_inactive_autopilot_wind_is_not_introduced_as_a_comparison(tmp_path):
+    from tests.test_fieldreplay import _flight, _slow_ulog
+
+    _, cols = _flight()
+    log = _slow_ulog(tmp_path / "z.ulg", cols, wind="zero")
+    assert main(["report", str(M300), str(log), "-o", str(tmp_path / "r.html")]) == 0
+    errors = _errors_section((tmp_path / "r.html").read_text())
+    assert "compared with" not in errors and "nothing to compare with" in errors and "False" not in errors
+
+
+def test_an_active_autopilot_wind_is_a_table_with_units(tmp_path):
+    from tests.test_fieldreplay import _flight, _slow_ulog
+
+    _, cols = _flight()
+    log = _slow_ulog(tmp_path / "w.ulg", cols, wind="late")
+    assert main(["report", str(M300), str(log), "-o", str(tmp_path / "r.html")]) == 0
+    errors = _errors_section((tmp_path / "r.html").read_text())
+    assert "compared with the autopilot" in errors and "mean_vector_difference_mps" in errors
+    row = re.search(r"<tr><td>mean of \|ours - theirs\|.*?</tr>", errors, re.S).group(0)
+    assert "m/s" in row and re.search(r'class="num">\d+\.\d{3}<', row)
+    assert not re.search(r"\d\.\d{7,}", errors)  # no raw float
+
+
+def test_a_prior_airframe_says_so_in_the_airframe_table(tmp_path):
+    from tests.test_fieldreplay import _flight, _slow_ulog
+
+    _, cols = _flight()
+    log = _slow_ulog(tmp_path / "z.ulg", cols, wind="zero")
+    prior = tmp_path / "prior.toml"
+    prior.write_text(M300.read_text() + '\n[calibration]\nstatus = "prior"\n')
+    for airframe, expected in ((M300, False), (prior, True)):
+        assert main(["report", str(airframe), str(log), "-o", str(tmp_path / "r.html")]) == 0
+        table = re.search(r"<h2>Airframe</h2>(.*?)</table>", (tmp_path / "r.html").read_text(), re.S).group(1)
+        assert ("uncalibrated prior" in table) is expected
