@@ -20,12 +20,19 @@ $(STAMP): pyproject.toml | system-deps
 	$(BIN)/pip install --quiet -e '.[dev,ulog,ardupilot,rosbag,netcdf,cfcheck]'
 	touch $(STAMP)
 
+# The suite runs on PYTEST_WORKERS processes (pytest-xdist, issue #34: CI has two cores). --dist loadfile
+# gives each worker whole modules, so a module-scoped fixture or shared fit is computed in one process;
+# --no-loadscope-reorder keeps the longest-first module order of tests/conftest.py (MODULE_SECONDS) so the
+# workers finish together. PYTEST_WORKERS=0 runs serially in one process (make test PYTEST_WORKERS=0).
+PYTEST_WORKERS ?= 2
+PYTEST_PARALLEL := $(if $(filter 0,$(PYTEST_WORKERS)),,-n $(PYTEST_WORKERS) --dist loadfile --no-loadscope-reorder)
+
 test: system-deps $(STAMP)
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q $(PYTEST_PARALLEL)
 
 # The quick part of the suite (markers in tests/conftest.py): every package, no slow fit and no fuzz case.
 test-fast: system-deps $(STAMP)
-	$(BIN)/python -m pytest -q -m "not slow and not fuzz"
+	$(BIN)/python -m pytest -q $(PYTEST_PARALLEL) -m "not slow and not fuzz"
 
 demo: $(STAMP)
 	$(BIN)/dobwind demo -o out/demo

@@ -91,6 +91,9 @@ SLOW: dict[str, tuple[str, ...]] = {
         "test_analyze_bandwidth_json",
         "test_verify_json_with_a_non_finite_figure",
     ),
+    "test_isolation.py": (  # a child pytest over four modules' quick tests
+        "test_representative_modules_write_nothing_into_the_checkout_and_run_from_elsewhere",
+    ),
     "test_json_style.py": (
         "test_check_analyze_replay_share_one_style",
     ),
@@ -207,6 +210,34 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
             item.add_marker(pytest.mark.fuzz)
         for marker in _needs(path):
             item.add_marker(getattr(pytest.mark, marker))
+    items[:] = longest_first(items)
+
+
+# --- module order for two workers ----------------------------------------------------------------------
+# `make test` gives each pytest-xdist worker whole modules (--dist loadfile), taken from a queue in
+# collection order. Two workers finish together when the long modules are handed out first and the short
+# ones fill the gaps at the end, so modules are collected longest-first: the seconds below are each module's
+# own time in a serial full run (the sum of its tests' setup, call and teardown in
+#   .venv/bin/python -m pytest -q -p no:xdist --junitxml=out.xml
+# then `python -m tools.module_seconds out.xml`, which prints this table). Refresh it by hand when a module
+# grows or shrinks a lot; a module not listed counts as 0 s and keeps its place among the short ones.
+# tests/test_parallel.py checks that every name here is an existing module.
+MODULE_SECONDS: dict[str, float] = {}
+
+
+def longest_first(items: list[pytest.Item]) -> list[pytest.Item]:
+    """The items regrouped by module, the modules by MODULE_SECONDS descending (ties and unlisted modules in
+    collection order), each module's tests in their own order: the order is the same in every worker,
+    as xdist requires, and a module stays contiguous."""
+    first_seen: dict[str, int] = {}
+    for item in items:
+        first_seen.setdefault(Path(str(item.path)).name, len(first_seen))
+
+    def rank(item: pytest.Item) -> tuple[float, int]:
+        name = Path(str(item.path)).name
+        return (-MODULE_SECONDS.get(name, 0.0), first_seen[name])
+
+    return sorted(items, key=rank)  # sorted is stable: a module's tests keep their order
 
 
 # --- shared fits -------------------------------------------------------------------------------------

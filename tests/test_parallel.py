@@ -1,0 +1,105 @@
+"""`make test` runs the suite on two pytest-xdist workers, whole modules each, longest module first (issue #34).
+
+What is checked: the make targets' pytest command lines (as make expands them, so a renamed variable or a
+dropped flag fails), the dev extra that installs xdist, and tests/conftest.py's module order: its table
+names only modules that exist, and the order it produces keeps each module whole and puts the long ones
+first."""
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+from tests.conftest import MODULE_SECONDS, longest_first
+from tests.helpers import ROOT
+from tools.module_seconds import module_of, module_seconds, table_lines
+
+
+def _pytest_lines(*args: str) -> list[str]:
+    """The pytest command lines `make -n` would run for ``args`` (nothing is run)."""
+    if shutil.which("make") is None:
+        pytest.skip("make is not installed")
+    done = subprocess.run(["make", "-n", "-s", *args], cwd=ROOT, capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    return [line for line in done.stdout.splitlines() if "-m pytest" in line]
+
+
+@pytest.mark.parametrize("target", ["test", "test-fast"])
+def test_the_make_targets_run_two_workers_by_whole_module(target):
+    (line,) = _pytest_lines(target)
+    assert re.search(r"(^| )-n 2( |$)", line), line
+    assert "--dist loadfile" in line, line
+    assert "--no-loadscope-reorder" in line, line  # else xdist reorders by test count, not by seconds
+
+
+@pytest.mark.parametrize("target", ["test", "test-fast"])
+def test_zero_workers_is_the_serial_run(target):
+    (line,) = _pytest_lines(target, "PYTEST_WORKERS=0")
+    assert " -n " not in line and "--dist" not in line, line
+    (line,) = _pytest_lines(target, "PYTEST_WORKERS=3")
+    assert re.search(r" -n 3 --dist loadfile", line), line
+
+
+def test_the_fast_target_still_skips_slow_and_fuzz():
+    (line,) = _pytest_lines("test-fast")
+    assert '-m "not slow and not fuzz"' in line or "-m not slow and not fuzz" in line, line
+
+
+def test_the_dev_extra_installs_xdist():
+    extras = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["project"]["optional-dependencies"]
+    assert any(re.match(r"pytest-xdist\b", req) for req in extras["dev"]), extras["dev"]
+
+
+def test_the_order_table_names_only_existing_modules():
+    missing = [name for name in MODULE_SECONDS if not (ROOT / "tests" / name).is_file()]
+    assert not missing, f"tests/conftest.py MODULE_SECONDS names modules that do not exist: {missing}"
+    assert all(name.startswith("test_") and seconds >= 0 for name, seconds in MODULE_SECONDS.items())
+
+
+@dataclass(frozen=True)
+class _Item:
+    """Just what longest_first reads of a pytest item."""
+    path: Path
+    name: str
+
+
+def test_longest_first_keeps_modules_whole_and_in_order(monkeypatch):
+    monkeypatch.setattr("tests.conftest.MODULE_SECONDS", {"test_b.py": 5.0, "test_c.py": 50.0})
+    items = [_Item(Path(f"/x/tests/{module}"), f"t{i}") for i, module in
+             enumerate(["test_a.py", "test_a.py", "test_b.py", "test_b.py", "test_c.py", "test_d.py", "test_c.py"])]
+    ordered = longest_first(items)
+    assert [(item.path.name, item.name) for item in ordered] == [
+        ("test_c.py", "t4"), ("test_c.py", "t6"),   # 50 s first, its tests in their own order
+        ("test_b.py", "t2"), ("test_b.py", "t3"),   # then 5 s
+        ("test_a.py", "t0"), ("test_a.py", "t1"),   # the unlisted ones in collection order
+        ("test_d.py", "t5"),
+    ]
+
+
+def test_the_collected_suite_is_in_table_order(pytestconfig):
+    """The live session's own order: the listed modules come first, longest first."""
+    session_modules = [name for name in dict.fromkeys(
+        Path(str(item.path)).name for item in pytestconfig.pluginmanager.get_plugin("session").items)]
+    listed = [name for name in session_modules if name in MODULE_SECONDS]
+    assert listed == session_modules[:len(listed)]
+    assert [MODULE_SECONDS[name] for name in listed] == sorted((MODULE_SECONDS[n] for n in listed), reverse=True)
+
+
+def test_the_table_tool_sums_each_module(tmp_path):
+    report = tmp_path / "suite.xml"
+    report.write_text(
+        '<testsuites><testsuite name="pytest">'
+        '<testcase classname="tests.test_a" name="t1" time="1.25"/>'
+        '<testcase classname="tests.test_b.TestX" name="t2" time="7.5"/>'
+        '<testcase classname="tests.test_a" name="t3" time="2.5"/>'
+        '<testcase classname="tests.test_c" name="t4" time="0.2"/>'
+        '<testcase classname="conftest" name="t5" time="9"/>'
+        "</testsuite></testsuites>", encoding="utf-8")
+    assert module_seconds(report) == {"test_b.py": 7.5, "test_a.py": 3.75, "test_c.py": 0.2}
+    assert table_lines(module_seconds(report)) == ['    "test_b.py": 8,', '    "test_a.py": 4,']
+    assert module_of("tests.test_codegen.TestX") == "test_codegen.py"
