@@ -216,13 +216,82 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
 # --- module order for two workers ----------------------------------------------------------------------
 # `make test` gives each pytest-xdist worker whole modules (--dist loadfile), taken from a queue in
 # collection order. Two workers finish together when the long modules are handed out first and the short
-# ones fill the gaps at the end, so modules are collected longest-first: the seconds below are each module's
-# own time in a serial full run (the sum of its tests' setup, call and teardown in
-#   .venv/bin/python -m pytest -q -p no:xdist --junitxml=out.xml
-# then `python -m tools.module_seconds out.xml`, which prints this table). Refresh it by hand when a module
-# grows or shrinks a lot; a module not listed counts as 0 s and keeps its place among the short ones.
-# tests/test_parallel.py checks that every name here is an existing module.
-MODULE_SECONDS: dict[str, float] = {}
+# ones fill the gaps at the end, so modules are collected longest-first. The seconds below are each module's
+# own time (the sum of its tests' setup, call and teardown) in a JUnit report of a full run, printed as this
+# table by tools/module_seconds.py (modules under 2 s are left out: they keep collection order, at the end):
+#   .venv/bin/python -m pytest -q -p no:xdist --junitxml=out/suite.xml
+#   .venv/bin/python -m tools.module_seconds out/suite.xml
+# Measured 2026-12-06 with -n 2 on the shared two-core machine under a load of 3-5 (other jobs running),
+# with the Neural-Fly data beside the checkout (test_real_data.py skips without it). Refresh it by hand
+# when a module grows or shrinks a lot; a stale table costs time, never a result. tests/test_parallel.py
+# checks that every name here is an existing module.
+MODULE_SECONDS: dict[str, float] = {
+    "test_cli_fuzz_generated.py": 121,
+    "test_fieldcal.py": 116,
+    "test_campaign_sample.py": 108,
+    "test_fit_schema.py": 96,
+    "test_outputs.py": 88,
+    "test_real_data.py": 81,
+    "test_airframe_ranges.py": 79,
+    "test_accuracy.py": 73,
+    "test_fit_stream.py": 72,
+    "test_range_walk.py": 66,
+    "test_drag_exponent.py": 61,
+    "test_accelroute.py": 46,
+    "test_cformat.py": 43,
+    "test_pipeline.py": 41,
+    "test_hardening.py": 36,
+    "test_fourfold.py": 33,
+    "test_sampler_robust.py": 30,
+    "test_autopilot_flags.py": 25,
+    "test_harness.py": 23,
+    "test_analysis.py": 23,
+    "test_dataflash.py": 22,
+    "test_analysis_goals.py": 22,
+    "test_body_drag.py": 21,
+    "test_mutants.py": 21,
+    "test_autopilot_targets.py": 20,
+    "test_hovernoise.py": 19,
+    "test_thrustscale.py": 16,
+    "test_report_wording.py": 16,
+    "test_ulog.py": 14,
+    "test_fieldreplay.py": 14,
+    "test_inspect.py": 14,
+    "test_atmos_netcdf.py": 13,
+    "test_atmos_profile.py": 11,
+    "test_casadi_lib.py": 11,
+    "test_quality.py": 11,
+    "test_bridge.py": 11,
+    "test_calibration_run.py": 10,
+    "test_windunits.py": 10,
+    "test_docfigures.py": 10,
+    "test_law_increasing.py": 10,
+    "test_blendnoise.py": 10,
+    "test_cli_fuzz.py": 10,
+    "test_selfcheck.py": 10,
+    "test_install.py": 9,
+    "test_model.py": 9,
+    "test_fit_input.py": 8,
+    "test_isolation.py": 8,
+    "test_cli_checks.py": 8,
+    "test_kernels.py": 8,
+    "test_analysis_defects.py": 7,
+    "test_report.py": 7,
+    "test_rosbag.py": 6,
+    "test_json_output.py": 6,
+    "test_stream.py": 6,
+    "test_analysis_families.py": 5,
+    "test_verify_fastmath.py": 5,
+    "test_verify_report.py": 5,
+    "test_cparse.py": 4,
+    "test_help.py": 4,
+    "test_codegen.py": 3,
+    "test_atmos_many.py": 3,
+    "test_profile_vertical.py": 2,
+    "test_handwritten_limit.py": 2,
+    "test_inspect_wording.py": 2,
+    "test_json_style.py": 2,
+}
 
 
 def longest_first(items: list[pytest.Item]) -> list[pytest.Item]:

@@ -1,6 +1,6 @@
 """Each test module's seconds in a JUnit XML report, printed as tests/conftest.py's MODULE_SECONDS table.
 
-Measure with a serial full run (one process, so a module's time is its own and not its neighbour's):
+Measure with a full run, serial or on workers (each test is timed in the process that runs it):
     .venv/bin/python -m pytest -q -p no:xdist --junitxml=out/suite.xml
     .venv/bin/python -m tools.module_seconds out/suite.xml
 and paste the printed lines over the table. A module's seconds are the sum of its test cases' times
@@ -30,7 +30,7 @@ def module_seconds(report: Path) -> dict[str, float]:
     return dict(sorted(totals.items(), key=lambda kv: (-kv[1], kv[0])))
 
 
-def table_lines(seconds: dict[str, float], floor: float = 1.0) -> list[str]:
+def table_lines(seconds: dict[str, float], floor: float = 2.0) -> list[str]:
     """The table's body: modules of at least ``floor`` seconds (shorter ones keep collection order anyway)."""
     return [f'    "{name}": {value:.0f},' for name, value in seconds.items() if value >= floor]
 
