@@ -87,11 +87,30 @@ def test_a_steady_wind_blows_away_from_where_it_comes_from(text, ned):
     np.testing.assert_allclose(parse_wind(text).vector(), ned, atol=1e-12)
 
 
-@pytest.mark.parametrize("text", ["5", "5@", "@90", "fast@90", "-1@90", "500@0", "5@90,200"])
+@pytest.mark.parametrize("text", ["5", "5@", "@90", "fast@90", "-1@90", "500@0", "5@90,200", "5@400", "5@-10",
+                                  "5@360.5", "1e400@90", "5@1e400", "5@90,1e400", "5@90,-1e400", "nan@90", "5@inf"])
 def test_a_bad_wind_is_an_input_error_naming_the_option(text):
     with pytest.raises(InputError) as caught:
         parse_wind(text)
-    assert caught.value.source == "--wind"
+    assert caught.value.source == "--wind" and text in str(caught.value)
+
+
+@pytest.mark.parametrize("text, part", [("5@400", "direction 400 deg"), ("-2@90", "speed -2 m/s"),
+                                        ("5@90,-150", "updraft -150 m/s")])
+def test_fit_refuses_a_wind_out_of_range_in_one_line_naming_the_field(box, tmp_path, capsys, text, part):
+    """A mast bearing is 0-360: 400 is a typo, not 40 (it was silently wrapped before); the line says which
+    field is wrong, and nothing is read or written."""
+    _, path, _, _ = box
+    out = tmp_path / "never.toml"
+    assert main(["fit", str(path), "x.csv", f"--wind={text}", "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--wind" in err and part in err and "Traceback" not in err
+    assert not out.exists()
+
+
+def test_a_bearing_of_360_is_north():
+    np.testing.assert_allclose(parse_wind("4@360").vector(), parse_wind("4@0").vector(), atol=1e-12)
+    assert parse_wind("4@360").from_deg == 0.0
 
 
 def test_sitl_profiles_in_closed_form():

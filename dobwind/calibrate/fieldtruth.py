@@ -10,7 +10,6 @@ on a guess.
 """
 from __future__ import annotations
 
-import math
 import re
 from dataclasses import dataclass
 from typing import Callable, Protocol
@@ -87,17 +86,23 @@ _WIND = re.compile(rf"^\s*({_NUMBER})\s*@\s*({_NUMBER})\s*(?:,\s*({_NUMBER})\s*)
 
 
 def parse_wind(text: str) -> SteadyWind:
-    """`--wind SPEED@FROM[,UP]`; a bad value is an InputError naming the option."""
+    """`--wind SPEED@FROM[,UP]`; a bad value is an InputError naming the option and the value. The
+    direction is a compass bearing as a vane or mast gives it, [0, 360] (360 is north, stored as 0):
+    anything else is more likely a typo or a swapped field than a bearing, so it is refused, not wrapped."""
     match = _WIND.match(text)
     if match is None:
         raise InputError("--wind", None, f"{text!r} is not {WIND_SYNTAX}, nor 'unknown'")
     speed, from_deg = float(match.group(1)), float(match.group(2))
     up = float(match.group(3)) if match.group(3) is not None else 0.0
-    if not 0 <= speed <= TRUE_WIND_MAX_MPS or abs(up) > TRUE_WIND_MAX_MPS:
-        raise InputError("--wind", None, f"{text!r}: speed must be in [0, {TRUE_WIND_MAX_MPS:g}] m/s and "
-                         f"|updraft| at most {TRUE_WIND_MAX_MPS:g} m/s")
-    if not math.isfinite(from_deg):
-        raise InputError("--wind", None, f"{text!r}: the direction must be a finite number of degrees")
+    # NaN cannot pass the regex, but an overflowing literal (1e400) reads as inf: the comparisons refuse it.
+    if not 0 <= speed <= TRUE_WIND_MAX_MPS:
+        raise InputError("--wind", None, f"{text!r}: the speed {speed:g} m/s must be in [0, {TRUE_WIND_MAX_MPS:g}] m/s")
+    if not 0 <= from_deg <= 360:
+        raise InputError("--wind", None, f"{text!r}: the direction {from_deg:g} deg must be in [0, 360] deg "
+                         "(the bearing the wind blows from, clockwise from north)")
+    if not abs(up) <= TRUE_WIND_MAX_MPS:
+        raise InputError("--wind", None, f"{text!r}: the updraft {up:g} m/s must be in "
+                         f"[-{TRUE_WIND_MAX_MPS:g}, {TRUE_WIND_MAX_MPS:g}] m/s")
     return SteadyWind(speed, from_deg % 360.0, up)
 
 
