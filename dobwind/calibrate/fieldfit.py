@@ -111,7 +111,7 @@ def add_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--wind", metavar="SPEED@FROM[,UP]|unknown", action="append", default=[],
                    help="the true wind for logs without wind columns (autopilot logs .ulg/.bin/ROS 2 bags, or CSV): a "
                    "steady wind of SPEED m/s blowing FROM degrees clockwise from north (0 to 360), optional updraft UP "
-                   "m/s (e.g. 6.5@270 or 6.5@270,0.2; a downdraft as --wind=6.5@270,-0.2), for every log, or repeated once per log in the logs' order; or 'unknown': one steady wind per log (or per "
+                   "m/s (e.g. 6.5@270, 6.5@270,0.2, or 6.5@270,-0.2 for a downdraft), for every log, or repeated once per log in the logs' order; or 'unknown': one steady wind per log (or per "
                    "--segment-s) estimated jointly with the force-air law from flight with varied headings and "
                    "speeds, mean vertical wind taken as zero; refused (exit 1) when the flight does not identify it")
     p.add_argument("--truth", metavar="FILE.csv|sitl",
