@@ -2,10 +2,16 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import PurePath
 
 from dobwind.model.kinds import PRECISIONS, Precision
 from dobwind.cli.common import AIRFRAME_HELP, Command
+from dobwind.core.errors import InputError
 from dobwind.io.outputs import OutputFiles, Target, check_targets
+
+# The page is HTML with its figures inlined; no other format is written, so a name that promises one
+# (r.pdf, r.png) would hold HTML under the wrong extension and open as a broken file.
+PAGE_SUFFIXES = (".html", ".htm")
 
 
 def add(command: Command) -> None:
@@ -13,17 +19,26 @@ def add(command: Command) -> None:
                 "status counts, analysis figures")
     p.add_argument("airframe", help=AIRFRAME_HELP)
     p.add_argument("log", help="flight log: CSV (docs/formats.md), PX4 ULog (.ulg), ArduPilot DataFlash (.bin) or ROS 2 bag")
-    p.add_argument("-o", "--output", required=True, help="the HTML file to write (required; figures are inlined)")
+    p.add_argument("-o", "--output", required=True, help="the HTML file to write, named .html or .htm (required; figures are inlined)")
     p.add_argument("--backend", choices=("python", "c"), default="python",
                    help="run the CasADi reference (python) or the generated C, compiled on the fly (c)")
     p.add_argument("--precision", choices=PRECISIONS, default=Precision.SINGLE, help="C backend precision")
     p.set_defaults(func=run)
 
 
+def check_page_name(path: str) -> None:
+    """Refuse an -o whose extension is not .html/.htm (case aside) before any log is read."""
+    suffix = PurePath(path).suffix
+    if suffix.lower() not in PAGE_SUFFIXES:
+        got = f"the extension {suffix!r}" if suffix else "no extension"
+        raise InputError("-o", None, f"{path}: {got}; report writes one HTML page, name it .html or .htm")
+
+
 def run(args: argparse.Namespace) -> int:
     from dobwind.model.airframe import load_airframe
     from dobwind.report.report import flight_report
 
+    check_page_name(args.output)
     target = Target("-o", args.output)
     check_targets([target], [args.airframe, args.log])
     af = load_airframe(args.airframe)
