@@ -163,8 +163,15 @@ def test_fit_from_a_dataflash_log_reads_the_simulator_wind_back(box, capsys, way
     assert code == 0, printed.err
     if way == "sitl":  # the simulator's turbulence is not in the log: the truth is its mean, and fit says so
         assert "SIM_WIND_TURB 0.3 > 0" in printed.err and "approximate" in printed.err
+        # the text report says, for the log, that its airflow came from the simulator's parameters
+        assert "wind truth per log" in printed.out
+        assert f"  {log}: the wind the simulator was told to blow" in printed.out and "--truth sitl" in printed.out
+        assert "estimated" not in printed.out.split("wind truth per log")[1].split("self-check")[0]
     else:
-        assert "(--wind)" in json.loads(printed.out)["wind_truth"]["truth"]
+        record = json.loads(printed.out)["wind_truth"]
+        assert "(--wind)" in record["truth"]
+        assert record["per_log"][log].startswith("a known steady wind on every airborne row (--wind)")
+        assert f"{float(f'{speed:.4f}'):g} m/s from {float(f'{from_deg:.4f}'):g} deg" in record["per_log"][log]
     text = out.read_text()
     assert text.startswith("# calibrated by `dobwind fit` from " + log)
     assert ("SIM_WIND_SPD" in text) if way == "sitl" else ("(--wind)" in text)
@@ -314,7 +321,12 @@ def test_fit_with_the_wind_unknown_calibrates_a_box_flight_end_to_end(box, capsy
                  "--hover-noise", "0", "--json"])
     printed = capsys.readouterr()
     assert code == 0, printed.err
-    assert "--wind unknown" in json.loads(printed.out)["wind_truth"]["truth"]
+    record = json.loads(printed.out)["wind_truth"]
+    assert "--wind unknown" in record["truth"]
+    # what the log's airflow was computed against: an estimated wind, not a known one, and where it held
+    said = record["per_log"][str(csv)]
+    assert said.startswith("not a known wind: estimated from this flight") and "identified" in said
+    assert "in 1 of 1 log" in said and "1-sigma" in said
     assert "# wind truth: estimated jointly with the force-air law" in out.read_text()
     from dobwind.replay.replay import replay
 
@@ -334,3 +346,52 @@ def test_truth_sitl_needs_a_dataflash_log_and_a_truth_file_must_overlap_the_log(
     with pytest.raises(InputError) as caught:
         with_truth("f.csv", LogTime(log, 0.0), series)
     assert "where the truth is known" in caught.value.message
+
+
+def test_each_truth_says_what_it_gave_a_log(box_solution):
+    """The per-log wording of fit's report for each source: a known steady wind, a time series with its
+    span, a wind estimated per segment (identified, with its 1-sigma), the log's own columns and still air."""
+    from dobwind.calibrate.fieldfit import FieldTruth, truth_lines
+    from dobwind.calibrate.fieldtruth import PerLogWind
+
+    steady = SteadyWind(6.5, 270.0, 0.2)
+    assert steady.describe_log("a.ulg") == ("a known steady wind on every airborne row (--wind): 6.5 m/s from "
+                                            "270 deg, updraft 0.2 m/s")
+    per_log = PerLogWind((("a.ulg", steady), ("b.ulg", SteadyWind(3.0, 90.0))))
+    assert "3 m/s from 90 deg" in per_log.describe_log("b.ulg") and "6.5" not in per_log.describe_log("b.ulg")
+    series = WindSeries("mast.csv", np.array([100.0, 190.0]), np.zeros((2, 3)))
+    assert series.describe_log("a.ulg") == ("a known wind time series (--truth mast.csv), interpolated on the "
+                                            "log's clock; rows outside t 100..190 s not used")
+    _, _, solution = box_solution
+    (group,) = solution.groups
+    two = type(solution)((group, type(group)(group.path, 500.0, 560.0, (0.0, -4.0), 0.31, 90)), solution.law,
+                         solution.condition, solution.residual_rms_n)
+    said = GroupWinds(two).describe_log(group.path)
+    assert said.startswith("not a known wind: estimated from this flight") and "in 2 of 2 segments" in said
+    assert "t 500.0-560.0 s 4.00 m/s from 90 deg, 1-sigma 0.31 m/s" in said
+    assert GroupWinds(two).describe_log("other.ulg").startswith("no wind estimated")
+    lines = truth_lines(FieldTruth(per_log, lambda p, af: None), ["a.ulg", "b.ulg"], False)
+    assert lines[1].startswith("  a.ulg: a known steady wind") and lines[2].startswith("  b.ulg: a known steady wind")
+    assert "wind_n/wind_e/wind_d columns" in truth_lines(None, ["t.csv"], False)[1]
+    assert "zero wind (--still-air)" in truth_lines(None, ["t.csv"], True)[1]
+
+
+def test_a_refusal_with_several_winds_says_which_were_identified(box, monkeypatch):
+    """Two segments, the limit set between their 1-sigmas: the refusal names the one identified and the
+    one not, each with its span (one wind alone needs no list)."""
+    tmp, _, af, cols = box
+    csv = tmp / "two_segments.csv"
+    write_csv(csv, list(cols), np.column_stack([cols[k] for k in cols]), ["%.9g"] * len(cols))
+    flights = [(str(csv), flight_of(str(csv), af, None))]
+    half = float(cols["t"][-1] / 2) + 0.05
+    solution = estimate_winds(af, flights, segment_s=half)
+    sigmas = sorted(g.sigma_mps for g in solution.groups)
+    assert len(sigmas) == 2 and sigmas[1] > sigmas[0] * 1.01, sigmas
+    monkeypatch.setattr(windsolve, "MAX_WIND_SIGMA_MPS", (sigmas[0] + sigmas[1]) / 2)
+    with pytest.raises(CheckFailed) as refused:
+        estimate_winds(af, flights, segment_s=half)
+    text = str(refused.value)
+    good, bad = sorted(solution.groups, key=lambda g: g.sigma_mps)
+    assert f"{csv} t {good.t_start_s:.1f}-{good.t_end_s:.1f} s {good.sigma_mps:.2g} m/s identified" in text
+    assert f"{csv} t {bad.t_start_s:.1f}-{bad.t_end_s:.1f} s {bad.sigma_mps:.2g} m/s NOT identified" in text
+    assert text.count("identified") == 2   # the two verdicts ("does not identify" is not one)

@@ -46,9 +46,25 @@ class FieldTruth:
         """The written airframe's provenance comment (TOML comment lines)."""
         return "".join(f"# {line}\n" for line in provenance(log_paths, self.truth.describe()))
 
-    def record(self) -> dict:
-        """The truth for --json."""
-        return {"truth": self.truth.describe(), "summary": self.summary}
+    def record(self, log_paths: list[str]) -> dict:
+        """The truth for --json, with what it gave each log."""
+        return {"truth": self.truth.describe(), "summary": self.summary,
+                "per_log": {path: self.truth.describe_log(path) for path in log_paths}}
+
+
+COLUMNS_TRUTH = ("its own wind_n/wind_e/wind_d columns (a known wind: a tunnel run's set wind, a simulator's, "
+                 "or one measured beside the flight)")
+STILL_AIR_TRUTH = "zero wind (--still-air): the airflow is the vehicle's own motion"
+
+
+def truth_lines(field: FieldTruth | None, log_paths: list[str], still_air: bool) -> list[str]:
+    """fit's text lines naming, per log, the wind its airflow was computed against: the log's columns,
+    still air, or the --wind/--truth source (an estimated wind says so, and where it was identified)."""
+    lines = ["wind truth per log (the airflow above is this wind minus the ground velocity):"]
+    for path in log_paths:
+        said = field.truth.describe_log(path) if field else STILL_AIR_TRUTH if still_air else COLUMNS_TRUTH
+        lines.append(f"  {path}: {said}")
+    return lines
 
 
 def check_options(options: FieldOptions, logs: int) -> None:

@@ -48,6 +48,10 @@ class Truth(Protocol):
 
     def describe(self) -> str: ...
 
+    def describe_log(self, path: str) -> str:
+        """What this truth gave one log, for fit's per-log lines (what the airflow was computed against)."""
+        ...
+
 
 @dataclass(frozen=True)
 class SteadyWind:
@@ -67,6 +71,10 @@ class SteadyWind:
     def describe(self) -> str:
         return f"steady wind {self.speed_mps:g} m/s from {self.from_deg:g} deg, updraft {self.up_mps:g} m/s (--wind)"
 
+    def describe_log(self, path: str) -> str:
+        return (f"a known steady wind on every airborne row (--wind): {self.speed_mps:g} m/s from {self.from_deg:g} deg, "
+                f"updraft {self.up_mps:g} m/s")
+
 
 @dataclass(frozen=True)
 class PerLogWind:
@@ -78,6 +86,9 @@ class PerLogWind:
 
     def describe(self) -> str:
         return "; ".join(f"{path}: {wind.describe()}" for path, wind in self.winds)
+
+    def describe_log(self, path: str) -> str:
+        return dict(self.winds)[path].describe_log(path)
 
 
 WIND_SYNTAX = "SPEED@FROM[,UP] (m/s, degrees the wind blows from clockwise from north, optional updraft m/s)"
@@ -121,6 +132,10 @@ class WindSeries:
 
     def describe(self) -> str:
         return f"wind time series {self.path} (--truth, {len(self.t_s)} rows, t {self.t_s[0]:g}..{self.t_s[-1]:g} s)"
+
+    def describe_log(self, path: str) -> str:
+        return (f"a known wind time series (--truth {self.path}), interpolated on the log's clock; rows outside "
+                f"t {self.t_s[0]:g}..{self.t_s[-1]:g} s not used")
 
 
 TRUTH_FILE_FORMATS = ("t, wind_n, wind_e, wind_d", "t, speed, from_deg (and optionally up)")

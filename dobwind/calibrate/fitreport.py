@@ -87,7 +87,7 @@ def runs_lines(report: FitReport) -> list[str]:
         return []
     how = ("the law fitted on the logs' means, each weighted once (bisquare weights); the families ranked by "
            "the robust loss of these errors (run_loss)" if report.anchored else "the law fitted on every sample")
-    lines = [f"  per log ({how}): mean true airflow, error of the mean estimated airflow, weight"]
+    lines = [f"  per log ({how}): mean airflow against the wind truth (per log below), error of the mean estimated airflow, weight"]
     for run in report.runs:
         mark = "  OUTLIER: disagrees with the other logs" if run.outlier else ""
         lines.append(f"    {run.log}: {run.mean_speed_mps:.2f} m/s, error {run.error_mps:.2f} m/s, "

@@ -146,10 +146,15 @@ class SitlTruth:
         log = self._log(path)
         return sitl_wind_ned(log, flight.clock_s), np.ones(flight.log.rows, dtype=bool)
 
+    def _values(self, log: SitlLog) -> str:
+        t = log.t_alt_s[-1:]
+        values = ", ".join(f"{n} {float(log.value(n, t)[0]):g}" for n in (*REQUIRED, *DEFAULTS))
+        return f"{values}; altitude {log.altitude_source}"
+
     def describe(self) -> str:
-        parts = []
-        for path, log in self.logs.items():
-            t = log.t_alt_s[-1:]
-            values = ", ".join(f"{n} {float(log.value(n, t)[0]):g}" for n in (*REQUIRED, *DEFAULTS))
-            parts.append(f"{path}: {values}; altitude {log.altitude_source}")
+        parts = [f"{path}: {self._values(log)}" for path, log in self.logs.items()]
         return "ArduPilot SITL parameters (--truth sitl): " + "; ".join(parts)
+
+    def describe_log(self, path: str) -> str:
+        values = self._values(self.logs[path]) if path in self.logs else "not read"
+        return f"the wind the simulator was told to blow, from the log's own parameters (--truth sitl): {values}"

@@ -108,9 +108,12 @@ def run(args: argparse.Namespace) -> int:
             fit_plot(new, points, str(out.stage(plot)))
     if args.json:
         print_json({**report.as_dict(), "written": written, "airframe": str(args.output) if written else None,
-                     "plot": plot if written else None, **({"wind_truth": field.record()} if field else {})})
+                     "plot": plot if written else None, **({"wind_truth": field.record(list(args.logs))} if field else {})})
     else:
+        from dobwind.calibrate.fieldfit import truth_lines
+
         print(text_report(report))
+        print("\n".join(truth_lines(field, list(args.logs), args.still_air)))
         for line in field.summary if field else []:
             print(line)
         print(text_table(report.self_check))
