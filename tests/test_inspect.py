@@ -353,3 +353,38 @@ def test_replay_of_the_log_with_its_starter_airframe_names_the_bit(px4, capsys):
     counts = json.loads(capsys.readouterr().out)["status_counts"]
     accepted = {name: n for name, n in counts.items() if "LANDED" not in name and "NO_DATA" not in name}
     assert accepted and all("UNCALIBRATED" in name for name in accepted)
+
+
+def test_init_says_the_mass_is_unchecked_and_a_wrong_one_only_scales_the_law(px4, tmp_path, capsys):
+    """What init tells the user about --mass (text, --json and the file) is what the code does: at three
+    times the mass the starter's thrust and observer gains are exactly three times as large, and with its
+    force-air law three times the small one's too, replay reads the same wind on every row: a wrong mass
+    scales the law the forces are calibrated into, nothing else."""
+    from dobwind.model.airframe import parse_airframe
+    from dobwind.model.airframe_toml import airframe_document, dumps
+    from dobwind.replay.replay import replay_ulog
+
+    log, small_path = px4
+    big_path = tmp_path / "big.toml"
+    assert main(["init", str(log), "--mass", str(3 * REFERENCE_MASS_KG), "-o", str(big_path)]) == 0
+    out = capsys.readouterr().out
+    assert f"mass         {3 * REFERENCE_MASS_KG:g} kg from --mass, not checked against the log" in out
+    assert "a wrong mass scales the force-air law by the same factor" in out
+    assert "# mass: 6 kg from --mass, not checked against the log" in big_path.read_text()
+    assert main(["init", str(log), "--mass", "6", "-o", str(tmp_path / "j.toml"), "--json"]) == 0
+    mass = json.loads(capsys.readouterr().out)["mass"]
+    assert mass["kg"] == 6.0 and mass["source"] == "--mass" and mass["checked_against_log"] is False
+    assert "no absolute force" in mass["why"] and "same factor" in mass["if_wrong"]
+
+    small, big = load_airframe(small_path), load_airframe(big_path)
+    np.testing.assert_allclose(big.thrust.coefficients, 3 * np.asarray(small.thrust.coefficients), rtol=1e-12)
+    np.testing.assert_allclose(big.observer.gains, 3 * np.asarray(small.observer.gains), rtol=1e-9)
+    doc, law = airframe_document(big), airframe_document(small)["force_air"]
+    doc["force_air"] = {**law, "drag": {k: 3 * v for k, v in law["drag"].items()}}
+    scaled = parse_airframe(dumps(doc), "scaled.toml")
+    winds = []
+    for af in (small, scaled):
+        model, _, traj = replay_ulog(af, str(log))
+        winds.append(traj.outputs[:, model.outputs.slice("wind_ned")])
+    assert np.isfinite(winds[0]).any()
+    np.testing.assert_allclose(winds[1], winds[0], atol=1e-6, equal_nan=True)
