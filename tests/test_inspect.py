@@ -348,6 +348,18 @@ def test_the_starter_airframe_passes_verify(px4, capsys):
     assert "0 status mismatches" in capsys.readouterr().out
 
 
+def test_replay_says_how_many_rows_of_its_mean_wind_are_trusted(px4, capsys):
+    """The starter's estimates all carry UNCALIBRATED: the mean wind line says it is over accepted rows
+    of which none is trusted, so it does not read as a confident number."""
+    assert main(["replay", px4[1], str(px4[0]), "--json"]) == 0
+    counts = json.loads(capsys.readouterr().out)["status_counts"]
+    accepted = sum(n for name, n in counts.items() if "LANDED" not in name and "NO_DATA" not in name)
+    assert main(["replay", px4[1], str(px4[0])]) == 0
+    line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("mean horizontal wind"))
+    assert line.endswith(f"m/s (over the {accepted} accepted rows, 0 of them trusted; the others carry the "
+                         "quality flags in the status counts above)"), line
+
+
 def test_replay_of_the_log_with_its_starter_airframe_names_the_bit(px4, capsys):
     assert main(["replay", px4[1], str(px4[0]), "--json"]) == 0
     counts = json.loads(capsys.readouterr().out)["status_counts"]
@@ -388,3 +400,10 @@ def test_init_says_the_mass_is_unchecked_and_a_wrong_one_only_scales_the_law(px4
         winds.append(traj.outputs[:, model.outputs.slice("wind_ned")])
     assert np.isfinite(winds[0]).any()
     np.testing.assert_allclose(winds[1], winds[0], atol=1e-6, equal_nan=True)
+
+
+def test_a_mean_over_trusted_rows_only_says_so():
+    from dobwind.cli.replay import _over_rows
+
+    assert _over_rows({"valid_rows": 12, "status_counts": {"OK": 12, "LANDED": 3}}) == "(over the 12 accepted rows, all trusted)"
+    assert "5 of them trusted" in _over_rows({"valid_rows": 12, "status_counts": {"OK": 5, "SETTLING": 7}})

@@ -81,6 +81,12 @@ def _exponent_line(report: FitReport) -> list[str]:
     return [f"  exponent {exponent:g}, chosen by the hold-level score (CV and top holds, m/s) of each tried: {tried}"]
 
 
+# The drag law's coefficients (docs/formats.md, [force_air]): printed once under the law so that no
+# figure of the report stands without its unit.
+DRAG_UNITS = ("l0, l2c, l2s, lr, lz, i1 in N/(m/s); q0, q2c, q2s, q1c, q4c, q4s in N/(m/s)^exponent; qz, i2 in "
+              "N/(m/s)^2; ox, oy in N; kappa a share of the thrust (no unit)")
+
+
 def runs_lines(report: FitReport) -> list[str]:
     """Per calibration log: the mean airflow error the law leaves and whether it looks like an outlier."""
     if not report.runs:
@@ -115,6 +121,7 @@ def text_report(report: FitReport) -> str:
             f"{report.samples} samples; thrust scale {report.thrust_scale:.4f}; force offset "
             f"[{', '.join(f'{v:.3f}' for v in report.force_offset_n)}] N",
             f"drag law: {law}",
+            f"  units: {DRAG_UNITS}",
             *(f"  not chosen: {where}" for where in report.not_increasing),
             *_exponent_line(report),
             *runs_lines(report),

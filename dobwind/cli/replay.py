@@ -198,9 +198,19 @@ def _replay_ulog(args: argparse.Namespace, af) -> int:
     for note in flight.notes:
         print(f"  note: {note}")
     if summary["mean_wind_speed_h_mps"] is not None:
-        print(f"mean horizontal wind {summary['mean_wind_speed_h_mps']:.2f} m/s")
+        print(f"mean horizontal wind {summary['mean_wind_speed_h_mps']:.2f} m/s {_over_rows(summary)}")
     from dobwind.replay.replay import autopilot_wind_lines
 
     for line in autopilot_wind_lines(summary.get("px4")):
         print(line)
     return 0
+
+
+def _over_rows(summary: dict) -> str:
+    """Which rows the mean is over: every accepted row, flagged or not, so say how many of them are
+    trusted (status OK); an uncalibrated or settling estimate must not read as a confident number."""
+    accepted, trusted = summary["valid_rows"], summary["status_counts"].get("OK", 0)
+    if trusted == accepted:
+        return f"(over the {accepted} accepted rows, all trusted)"
+    return (f"(over the {accepted} accepted rows, {trusted} of them trusted; the others carry the quality flags "
+            "in the status counts above)")
