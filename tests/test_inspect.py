@@ -407,3 +407,12 @@ def test_a_mean_over_trusted_rows_only_says_so():
 
     assert _over_rows({"valid_rows": 12, "status_counts": {"OK": 12, "LANDED": 3}}) == "(over the 12 accepted rows, all trusted)"
     assert "5 of them trusted" in _over_rows({"valid_rows": 12, "status_counts": {"OK": 5, "SETTLING": 7}})
+
+
+def test_init_explains_its_acceleration_input(px4, tmp_path, capsys):
+    """The bare keyword `ned` is followed by what it is; every keyword init can choose has a meaning."""
+    from dobwind.inspect.initframe import ACCELERATION_MEANING
+
+    assert main(["init", str(px4[0]), "--mass", "2", "-o", str(tmp_path / "v.toml")]) == 0
+    assert "  acceleration ned (the log's own NED acceleration)" in capsys.readouterr().out.splitlines()
+    assert set(ACCELERATION_MEANING) == {"ned", "specific_force", "velocity"}

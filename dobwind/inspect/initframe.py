@@ -220,6 +220,11 @@ def run_init(log: str, mass: float, output: str, name: str | None, as_json: bool
     return 0
 
 
+# What each observer.acceleration input is, for the summary: the bare keyword means little to a new user.
+ACCELERATION_MEANING = {"ned": "the log's own NED acceleration", "specific_force": "the accelerometer's specific "
+                        "force, turned by the attitude", "velocity": "the velocity's derivative: the log has no acceleration"}
+
+
 def _summary_text(output: str, c: InitChoices, mass: float) -> str:
     return "\n".join([f"wrote {output} (uncalibrated prior: estimates carry UNCALIBRATED until `dobwind fit`)",
                       f"  mass         {mass:g} kg from --mass, {MASS_UNCHECKED}",
@@ -229,4 +234,4 @@ def _summary_text(output: str, c: InitChoices, mass: float) -> str:
                       f"  sample_time  {1 / c.rate_hz:g} s ({c.rate_reason})",
                       f"  max_dt       {c.max_dt_s:g} s",
                       f"  bandwidth    {c.bandwidth_hz:.3g} Hz (observer gains designed for it)",
-                      f"  acceleration {c.acceleration}"])
+                      f"  acceleration {c.acceleration} ({ACCELERATION_MEANING[c.acceleration]})"])
