@@ -98,8 +98,10 @@ def test_report_refuses_an_output_that_is_not_html(tmp_path, capsys, name, said)
     assert list(tmp_path.iterdir()) == [log]
 
 
-def test_report_takes_html_and_htm_whatever_the_case():
-    from dobwind.cli.report import check_page_name
+def test_report_takes_html_and_htm_whatever_the_case(tmp_path):
+    from dobwind.cli.report import PAGE_SUFFIXES
+    from dobwind.io.outputs import Target, check_target
 
+    (tmp_path / "dir.d").mkdir()
     for name in ("r.html", "R.HTML", "page.htm", "dir.d/r.Html"):
-        check_page_name(name)
+        check_target(Target("-o", str(tmp_path / name), suffixes=PAGE_SUFFIXES))

@@ -2,11 +2,9 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import PurePath
 
 from dobwind.model.kinds import PRECISIONS, Precision
 from dobwind.cli.common import AIRFRAME_HELP, Command
-from dobwind.core.errors import InputError
 from dobwind.io.outputs import OutputFiles, Target, check_targets
 
 # The page is HTML with its figures inlined; no other format is written, so a name that promises one
@@ -26,20 +24,11 @@ def add(command: Command) -> None:
     p.set_defaults(func=run)
 
 
-def check_page_name(path: str) -> None:
-    """Refuse an -o whose extension is not .html/.htm (case aside) before any log is read."""
-    suffix = PurePath(path).suffix
-    if suffix.lower() not in PAGE_SUFFIXES:
-        got = f"the extension {suffix!r}" if suffix else "no extension"
-        raise InputError("-o", None, f"{path}: {got}; report writes one HTML page, name it .html or .htm")
-
-
 def run(args: argparse.Namespace) -> int:
     from dobwind.model.airframe import load_airframe
     from dobwind.report.report import flight_report
 
-    check_page_name(args.output)
-    target = Target("-o", args.output)
+    target = Target("-o", args.output, suffixes=PAGE_SUFFIXES)
     check_targets([target], [args.airframe, args.log])
     af = load_airframe(args.airframe)
     page, summary = flight_report(af, args.airframe, args.log, args.backend, args.precision)
