@@ -416,3 +416,18 @@ def test_init_explains_its_acceleration_input(px4, tmp_path, capsys):
     assert main(["init", str(px4[0]), "--mass", "2", "-o", str(tmp_path / "v.toml")]) == 0
     assert "  acceleration ned (the log's own NED acceleration)" in capsys.readouterr().out.splitlines()
     assert set(ACCELERATION_MEANING) == {"ned", "specific_force", "velocity"}
+
+
+def test_arguments_swapped_say_which_file_is_which(px4, tmp_path, capsys):
+    """A ULog where the airframe belongs used to be "not UTF-8 text", an airframe where the log belongs
+    "column t: missing": each now says what the file is and the order the commands take."""
+    log, airframe = px4
+    for argv, said in ((["replay", str(log), airframe], "this is a PX4 ULog flight log, not an airframe TOML"),
+                       (["report", str(log), airframe, "-o", str(tmp_path / "r.html")], "PX4 ULog flight log"),
+                       (["replay", airframe, airframe], "a .toml file is an airframe, not a flight log"),
+                       (["inspect", airframe], "inspect and init take the log alone"),
+                       (["init", airframe, "--mass", "2", "-o", str(tmp_path / "v.toml")], "not a flight log")):
+        assert main(argv) == 2, argv
+        errors = [line for line in capsys.readouterr().err.splitlines() if ": warning: " not in line]
+        assert len(errors) == 1 and said in errors[0] and "AIRFRAME then LOG" in errors[0], (argv, errors)
+    assert list(tmp_path.iterdir()) == []
