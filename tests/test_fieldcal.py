@@ -370,6 +370,11 @@ def test_each_truth_says_what_it_gave_a_log(box_solution):
     assert said.startswith("not a known wind: estimated from this flight") and "in 2 of 2 segments" in said
     assert "t 500.0-560.0 s 4.00 m/s from 90 deg, 1-sigma 0.31 m/s" in said
     assert GroupWinds(two).describe_log("other.ulg").startswith("no wind estimated")
+    from dobwind.calibrate.fieldfit import ESTIMATED_SELF_CHECK
+
+    estimated = truth_lines(FieldTruth(GroupWinds(two), lambda p, af: None), [group.path], False)
+    assert estimated[-1] == ESTIMATED_SELF_CHECK and "not with an independent truth" in estimated[-1]
+    assert ESTIMATED_SELF_CHECK not in truth_lines(FieldTruth(steady, lambda p, af: None), ["a.ulg"], False)
     lines = truth_lines(FieldTruth(per_log, lambda p, af: None), ["a.ulg", "b.ulg"], False)
     assert lines[1].startswith("  a.ulg: a known steady wind") and lines[2].startswith("  b.ulg: a known steady wind")
     assert "wind_n/wind_e/wind_d columns" in truth_lines(None, ["t.csv"], False)[1]

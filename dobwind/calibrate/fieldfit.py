@@ -64,7 +64,15 @@ def truth_lines(field: FieldTruth | None, log_paths: list[str], still_air: bool)
     for path in log_paths:
         said = field.truth.describe_log(path) if field else STILL_AIR_TRUTH if still_air else COLUMNS_TRUTH
         lines.append(f"  {path}: {said}")
+    if field is not None and getattr(field.truth, "ESTIMATED", False):
+        lines.append(ESTIMATED_SELF_CHECK)
     return lines
+
+
+# With --wind unknown the self-check's "true" wind is the estimate itself: say what a PASS then means.
+ESTIMATED_SELF_CHECK = ("  (the self-check below compares with these estimated winds, not with an independent truth: a "
+                        "PASS says the law and the winds agree; their 1-sigma is the statistical part of their error, a misfit "
+                        "of the law adds a bias it does not show)")
 
 
 def check_options(options: FieldOptions, logs: int) -> None:

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
@@ -434,6 +435,8 @@ class GroupWinds:
     """The winds found, as a truth (fieldtruth.Truth): each log's groups, steady over their spans (rows
     before the first group's start and after the last's end take the nearest group's wind)."""
     solution: JointSolution
+    # fit's report says the self-check's "true" wind is this estimate (fieldfit.truth_lines)
+    ESTIMATED: ClassVar[bool] = True
 
     def wind(self, path: str, flight: LogTime) -> tuple[np.ndarray, np.ndarray]:
         mine = [g for g in self.solution.groups if g.path == path]
