@@ -431,3 +431,12 @@ def test_arguments_swapped_say_which_file_is_which(px4, tmp_path, capsys):
         errors = [line for line in capsys.readouterr().err.splitlines() if ": warning: " not in line]
         assert len(errors) == 1 and said in errors[0] and "AIRFRAME then LOG" in errors[0], (argv, errors)
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("mass", ["0", "-3", "nan", "inf", "-inf", "1e400", "0.001", "20000"])
+def test_init_refuses_a_mass_that_is_no_multirotors_in_one_line(px4, tmp_path, capsys, mass):
+    out = tmp_path / "v.toml"
+    assert main(["init", str(px4[0]), f"--mass={mass}", "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--mass" in err and "kg" in err and "Traceback" not in err
+    assert not out.exists()
