@@ -3,11 +3,16 @@ simulator's wind for an ArduPilot SITL log (`--truth sitl`): the figures of docs
 
     .venv/bin/python -m benchmarks.fieldcal AIRFRAME LOG [--sitl] [--rate HZ]
     .venv/bin/python -m benchmarks.fieldcal --end-to-end LOG --mass KG [--check LOG...]
+    .venv/bin/python -m benchmarks.fieldcal --split-time LOG --mass KG
 
 --end-to-end: an ArduPilot SITL log through the user's whole path, `dobwind init LOG --mass KG`, `dobwind
 fit START LOG --truth sitl`, then replay of LOG (and of each --check log, other SITL flights of the same
 vehicle) through the starter and the fitted airframe, with the goals of issue #36: mean airborne wind
 speed within 0.5 m/s and direction within 5 deg of the simulator's (1.0 m/s at twice the speed).
+
+--split-time: a held-out check on one SITL log (benchmarks/splittime.py): `dobwind init`, then a fit on
+the first half of the airborne time against the simulator's wind, the whole log replayed, figures for
+the held-out and the training half; then the same fitted on the second half.
 """
 from __future__ import annotations
 
@@ -95,9 +100,18 @@ def main() -> None:
     parser.add_argument("--sitl", action="store_true")
     parser.add_argument("--rate", type=float)
     parser.add_argument("--end-to-end", metavar="LOG", help="an ArduPilot SITL log: init, fit --truth sitl, replay")
-    parser.add_argument("--mass", type=float, help="with --end-to-end: the vehicle's mass (kg) for init")
+    parser.add_argument("--mass", type=float, help="with --end-to-end or --split-time: the vehicle's mass (kg) for init")
     parser.add_argument("--check", nargs="*", default=[], help="with --end-to-end: other SITL logs to replay")
+    parser.add_argument("--split-time", metavar="LOG", help="an ArduPilot SITL log: init, fit on one half of its "
+                        "airborne time, replay, figures for the held-out half; both ways round")
     args = parser.parse_args()
+    if args.split_time:
+        from benchmarks.splittime import run_split_time
+
+        if args.mass is None:
+            parser.error("--split-time needs --mass")
+        print(json.dumps(run_split_time(args.split_time, args.mass), indent=1))
+        return
     if args.end_to_end:
         import tempfile
         import sys

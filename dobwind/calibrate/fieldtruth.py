@@ -21,6 +21,7 @@ from dobwind.core.errors import InputError
 from dobwind.io.logs import TRUE_WIND_MAX_MPS, TRUTH_COLUMNS, FlightLog, read_log, required_columns
 from dobwind.model.airframe import Airframe
 from dobwind.io.resample import blank
+from dobwind.io.timewindow import TimeWindow
 
 
 def wind_from(speed_mps: np.ndarray | float, from_deg: np.ndarray | float) -> np.ndarray:
@@ -143,14 +144,17 @@ def read_truth_csv(path: str) -> WindSeries:
     return WindSeries(path, log.time_s.copy(), ned)
 
 
-def flight_of(path: str, af: Airframe, rate_hz: float | None) -> LogTime:
+def flight_of(path: str, af: Airframe, rate_hz: float | None, window: TimeWindow | None = None) -> LogTime:
     """A calibration log, airborne accepted rows only: an autopilot log through replay's reader (rows
-    without data or on the ground are NaN), or a CSV log with the airframe's columns."""
+    without data or on the ground are NaN), or a CSV log with the airframe's columns. ``window``: an
+    autopilot log's rows in that span of its clock only (dobwind/io/timewindow.py)."""
     from dobwind.io.autopilot import is_autopilot_log, read_autopilot
 
     if is_autopilot_log(path):
-        flight = read_autopilot(path, af, rate_hz)
+        flight = read_autopilot(path, af, rate_hz, window=window)
         return LogTime(flight.log, flight.t0_s)
+    if window is not None:
+        raise InputError(path, None, "a time window is for autopilot logs (a CSV log keeps its own clock)")
     return LogTime(read_log(path, required_columns(af)), 0.0)
 
 
@@ -169,9 +173,10 @@ def with_truth(path: str, flight: LogTime, truth: Truth) -> FlightLog:
 LogReader = Callable[[str, Airframe], FlightLog]
 
 
-def truth_reader(truth: Truth, rate_hz: float | None = None) -> LogReader:
-    """What fitfamily.fit_airframe calls for each calibration log (``log_reader``)."""
-    return lambda path, af: with_truth(path, flight_of(path, af, rate_hz), truth)
+def truth_reader(truth: Truth, rate_hz: float | None = None, window: TimeWindow | None = None) -> LogReader:
+    """What fitfamily.fit_airframe calls for each calibration log (``log_reader``); ``window``: each log's
+    rows in that span of its clock only (a fit on part of a flight, the rest held out)."""
+    return lambda path, af: with_truth(path, flight_of(path, af, rate_hz, window), truth)
 
 
 def provenance(log_paths: list[str], truth_text: str) -> list[str]:
