@@ -13,9 +13,11 @@ would have written is replayed anyway under ``forced`` (what `fit --force` gives
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 import os
+import sys
 import tempfile
 
 import numpy as np
@@ -130,6 +132,8 @@ def run_split_time(log: str, mass_kg: float) -> list[dict]:
 
     with tempfile.TemporaryDirectory() as tmp:
         start = os.path.join(tmp, "start.toml")
-        if dobwind(["init", log, "--mass", f"{mass_kg:g}", "-o", start]) != 0:
+        with contextlib.redirect_stdout(sys.stderr):  # init's summary: stdout stays the JSON
+            code = dobwind(["init", log, "--mass", f"{mass_kg:g}", "-o", start])
+        if code != 0:
             raise SystemExit(f"init failed on {log}")
         return split_check(load_airframe(start), log)
