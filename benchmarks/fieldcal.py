@@ -12,7 +12,8 @@ speed within 0.5 m/s and direction within 5 deg of the simulator's (1.0 m/s at t
 
 --split-time: a held-out check on one SITL log (benchmarks/splittime.py): `dobwind init`, then a fit on
 the first half of the airborne time against the simulator's wind, the whole log replayed, figures for
-the held-out and the training half; then the same fitted on the second half.
+the held-out and the training half; then the same fitted on the second half; the starter's own replay
+per half beside them.
 """
 from __future__ import annotations
 

@@ -26,6 +26,7 @@ from dobwind.calibrate.fieldtruth import LogTime, truth_reader
 from dobwind.calibrate.sitlwind import SitlTruth, read_sitl_log, sitl_wind_ned
 from dobwind.core.errors import CheckFailed
 from dobwind.io.autopilot import read_autopilot
+from dobwind.io.logs import FlightLog
 from dobwind.io.timewindow import TimeWindow
 from dobwind.model.airframe import Airframe, load_airframe
 from dobwind.model.forceair import wind_from_deg
@@ -70,7 +71,11 @@ def fit_window(af: Airframe, log: str, window: TimeWindow, model: str = "auto") 
     fitted = parse_airframe(dump_airframe(new), f"fitted on {window.describe()}")
     check = report.self_check
     refused = None if check.passed else "; ".join(check.reasons)
-    return WindowFit(fitted, refused, {"passed": bool(check.passed), "reasons": list(check.reasons)})
+    record = {"passed": bool(check.passed), "reasons": list(check.reasons), "family": report.model,
+              "law": fitted.force_air_model, "replay_speed_rms_mps": [c.speed_rms_mps for c in check.logs]}
+    if report.model == "polynomial":  # its steady points (the drag families count samples, not points)
+        record.update(points=report.points, airflow_directions_of_12=report.directions, airflow_speeds=report.speeds)
+    return WindowFit(fitted, refused, record)
 
 
 def half_figures(wind: np.ndarray, truth: np.ndarray, status: np.ndarray, rows: np.ndarray) -> dict:
@@ -96,6 +101,22 @@ def _errors(wind: np.ndarray, truth: np.ndarray) -> dict | None:
             "direction_error_deg": abs((est_from - true_from + 180.0) % 360.0 - 180.0)}
 
 
+def flight_figures(log: FlightLog, truth: np.ndarray, rows: np.ndarray) -> dict:
+    """What the vehicle did over ``rows``: ground and vertical speed, speed through the (true) air, and
+    where the airflow met it: the median angle of its motion through the air off the nose (0: nose
+    first, the airflow from ahead; 180: from behind)."""
+    vel = log.stack("vel_n", "vel_e", "vel_d")[rows]
+    through_air = vel[:, :2] - truth[rows, :2]
+    w, x, y, z = (log.columns[f"q_{c}"][rows] for c in "wxyz")
+    yaw = np.degrees(np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)))
+    off_nose = (np.degrees(np.arctan2(through_air[:, 1], through_air[:, 0])) - yaw + 180.0) % 360.0 - 180.0
+    return {"ground_speed_mps": float(np.mean(np.hypot(vel[:, 0], vel[:, 1]))),
+            "climb_rate_mps": float(-np.mean(vel[:, 2])),
+            "air_speed_h_mps": float(np.mean(np.hypot(through_air[:, 0], through_air[:, 1]))),
+            "airflow_off_nose_median_deg": float(np.median(np.abs(off_nose))),
+            "heading_median_deg": float(np.median(yaw) % 360.0)}
+
+
 def replay_halves(af: Airframe, log: str, windows: dict[str, TimeWindow]) -> dict[str, dict]:
     """The whole log replayed through ``af``; each window's airborne rows scored against SITL's wind."""
     model, flight, traj = replay_ulog(af, log)
@@ -103,7 +124,9 @@ def replay_halves(af: Airframe, log: str, windows: dict[str, TimeWindow]) -> dic
     truth = sitl_wind_ned(read_sitl_log(log), clock)
     wind = traj.outputs[:, model.outputs.slice("wind_ned")]
     airborne = ~flight.landed
-    return {name: half_figures(wind, truth, traj.status, airborne & w.mask(clock)) for name, w in windows.items()}
+    halves_rows = {name: airborne & w.mask(clock) for name, w in windows.items()}
+    return {name: {**half_figures(wind, truth, traj.status, rows), "flight": flight_figures(flight.log, truth, rows)}
+            for name, rows in halves_rows.items()}
 
 
 def split_check(af: Airframe, log: str, model: str = "auto", order: tuple[str, ...] = HALVES) -> list[dict]:
@@ -126,8 +149,9 @@ def split_check(af: Airframe, log: str, model: str = "auto", order: tuple[str, .
     return rows
 
 
-def run_split_time(log: str, mass_kg: float) -> list[dict]:
-    """`dobwind init LOG --mass KG`, then split_check on the starter."""
+def run_split_time(log: str, mass_kg: float) -> dict:
+    """`dobwind init LOG --mass KG`, then split_check on the starter; the starter's own replay per half
+    beside it (what the fit must beat; its rows carry UNCALIBRATED, so none is trusted)."""
     from dobwind.cli.app import main as dobwind
 
     with tempfile.TemporaryDirectory() as tmp:
@@ -136,4 +160,7 @@ def run_split_time(log: str, mass_kg: float) -> list[dict]:
             code = dobwind(["init", log, "--mass", f"{mass_kg:g}", "-o", start])
         if code != 0:
             raise SystemExit(f"init failed on {log}")
-        return split_check(load_airframe(start), log)
+        starter = load_airframe(start)
+    fits = split_check(starter, log)
+    prior = replay_halves(starter, log, halves(fits[0]["split_s"]))
+    return {"log": log, "mass_kg": mass_kg, "split_s": fits[0]["split_s"], "init_prior": prior, "fits": fits}
