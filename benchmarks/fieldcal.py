@@ -22,6 +22,7 @@ import json
 import numpy as np
 
 from dobwind.calibrate.fieldtruth import LogTime
+from dobwind.core.errors import InputError
 from dobwind.model.airframe import load_airframe
 from dobwind.model.forceair import wind_from_deg
 from dobwind.model.status import accepted
@@ -111,7 +112,13 @@ def main() -> None:
 
         if args.mass is None:
             parser.error("--split-time needs --mass")
-        print(json.dumps(run_split_time(args.split_time, args.mass), indent=1))
+        try:
+            print(json.dumps(run_split_time(args.split_time, args.mass), indent=1))
+        except InputError as exc:  # not a SITL log, no SIM_WIND_*, an empty half: one line, exit 2
+            import sys
+
+            sys.stderr.write(f"fieldcal --split-time: {exc}\n")
+            raise SystemExit(2) from None
         return
     if args.end_to_end:
         import tempfile

@@ -24,7 +24,7 @@ import numpy as np
 
 from dobwind.calibrate.fieldtruth import LogTime, truth_reader
 from dobwind.calibrate.sitlwind import SitlTruth, read_sitl_log, sitl_wind_ned
-from dobwind.core.errors import CheckFailed
+from dobwind.core.errors import CheckFailed, InputError
 from dobwind.io.autopilot import read_autopilot
 from dobwind.io.logs import FlightLog
 from dobwind.io.timewindow import TimeWindow
@@ -67,8 +67,12 @@ def fit_window(af: Airframe, log: str, window: TimeWindow, model: str = "auto") 
         new, report, _ = fit_airframe(af, [log], model=model, log_reader=truth_reader(SitlTruth(), None, window))
     except CheckFailed as exc:  # too little to fit at all: nothing to replay
         return WindowFit(None, str(exc), None)
-    # Through the TOML text as `fit` writes it and `replay` loads it, rounding included.
-    fitted = parse_airframe(dump_airframe(new), f"fitted on {window.describe()}")
+    # Through the TOML text as `fit` writes it and `replay` loads it, rounding included; `fit` refuses to
+    # write a text the loader would refuse (cli/fit.py, refuse_out_of_range), and so does this.
+    try:
+        fitted = parse_airframe(dump_airframe(new), f"fitted on {window.describe()}")
+    except InputError as exc:
+        return WindowFit(None, f"the fitted airframe would be refused: {exc}", None)
     check = report.self_check
     refused = None if check.passed else "; ".join(check.reasons)
     record = {"passed": bool(check.passed), "reasons": list(check.reasons), "family": report.model,

@@ -146,3 +146,18 @@ def test_a_fit_that_ignores_the_window_is_caught(split_log, monkeypatch):
     monkeypatch.setattr(splittime, "truth_reader", lambda truth, rate, window: truth_reader(truth, rate, None))
     row = split_check(af, log, model="drag-heading", order=("first",))[0]
     assert not _training_ok(row), row
+
+
+def test_split_time_on_a_log_without_the_simulator_wind_is_one_line_and_exit_2(tmp_path, monkeypatch, capsys):
+    import sys
+
+    from benchmarks.fieldcal import main as fieldcal
+
+    _, af = _airframe(tmp_path)
+    log = _dataflash(tmp_path / "no_wind.bin", af, simulate(af, "box", seed=5, hold_s=6.0, rate_hz=10.0), None)
+    monkeypatch.setattr(sys, "argv", ["fieldcal", "--split-time", log, "--mass", "3.0"])
+    with pytest.raises(SystemExit) as caught:
+        fieldcal()
+    err = capsys.readouterr().err.strip().splitlines()
+    assert caught.value.code == 2 and err[-1].startswith("fieldcal --split-time: " + log)
+    assert "SIM_WIND_SPD" in err[-1] and "Traceback" not in "\n".join(err)
