@@ -466,7 +466,7 @@ def _horizontal_terms(af: Airframe, points: Points, terms: str, report: FitRepor
 def _vertical_model(af: Airframe, points: Points, terms: str, report: FitReport) -> tuple[ForceAirModel, FitReport]:
     """The vertical model fitted, or kept from the airframe when the data hardly move vertically; the
     report with it. A drag-family starter (`dobwind init`'s prior) has no vertical table to keep: it is
-    fitted then, with the same warning (the family's vertical check may still fall back to zero)."""
+    fitted then, with a warning (the family's vertical check may still fall back to zero)."""
     vertical = af.vertical
     vertical_span = float(np.ptp(points.air_z))
     if vertical_span < 1.0 and vertical.terms:
