@@ -178,7 +178,10 @@ def autopilot_plot(path: str, title: str, flight, wind: np.ndarray, status: np.n
     ref, band = reference_lines(flight)
     clock = flight.log.time_s + flight.t0_s
     replay_plot(clock, np.where(accepted(status)[:, None], wind, np.nan), sitl_truth(flight), title, path,
-                [] if ref is None else [ref], status=status, band=band)
+                [] if ref is None else [ref], status=status, band=band, truth_label=SITL_LABEL)
+
+
+SITL_LABEL = "simulator wind (SIM_WIND_*)"
 
 
 def sitl_truth(flight) -> np.ndarray | None:
