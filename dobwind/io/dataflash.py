@@ -17,7 +17,9 @@ Messages (EKF3 names; EKF2 logs use the older names in brackets):
   k + 1. Reports are interpolated and may be up to ROTOR_MAX_GAP_S apart (as for PX4);
 - collective thrust: CTUN.ThO / CTUN.ThH (the learned hover throttle) times m g;
 - heading frame: ATT.DesYaw (deg), else the vehicle's own yaw;
-- ArduPilot's wind, for comparison: XKF2.VWN/VWE, primary core [NKF2].
+- ArduPilot's wind, for comparison: XKF2.VWN/VWE, primary core [NKF2];
+- a SITL log's simulated wind, for comparison: PARM SIM_WIND_* and the barometer altitude (BARO, else
+  CTUN.BAlt, POS, XKF1), evaluated by dobwind/io/sitlwind.py.
 On the ground: EV events (LAND_COMPLETE 18, LAND_COMPLETE_MAYBE 17 and DISARMED 11 start it,
 NOT_LANDED 28 ends it; a log starts on the ground); without EV messages, rows where CTUN.ThO is 0
 (motors at idle or stopped). Rows are resampled onto a uniform clock at the observer's rate as the ULog
