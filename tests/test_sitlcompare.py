@@ -183,6 +183,19 @@ def test_replay_plot_draws_the_simulator_wind(sitl_log, tmp_path, monkeypatch):
     assert "SIM_WIND" in drawn["label"]
 
 
+def test_a_csv_replay_says_its_calibration_too(sitl_log, tmp_path, capsys):
+    from dobwind.io.logs import write_csv
+
+    _, _, af, _, cols = sitl_log
+    prior = tmp_path / "prior.toml"
+    prior.write_text(dump_airframe(af) + '\n[calibration]\nstatus = "prior"\n')
+    csv = tmp_path / "box.csv"
+    write_csv(csv, list(cols), np.column_stack([cols[k] for k in cols]), ["%.9g"] * len(cols))
+    got = _replay_json(capsys, prior, str(csv))
+    assert got["calibration"]["status"] == "prior" and got["calibration"]["uncalibrated"] is True
+    assert "sitl_wind" not in got
+
+
 def test_the_calibration_record_of_a_prior_and_of_a_field_fit(sitl_log, tmp_path):
     """init's prior says so; fit's written header names the logs and the truth (what fieldfit writes)."""
     _, _, af, log, _ = sitl_log
