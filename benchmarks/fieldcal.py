@@ -49,7 +49,8 @@ def summary(airframe: str, log: str, sitl: bool, rate_hz: float | None) -> dict:
            "mean_abs_vertical_mps": float(np.mean(np.abs(wind[used, 2]))),
            "mean_vertical_up_mps": float(-mean[2])}
     if sitl:
-        from dobwind.calibrate.sitlwind import read_sitl_log, sitl_wind_ned
+        from dobwind.calibrate.sitlwind import read_sitl_log
+        from dobwind.io.sitlwind import sitl_wind_ned
 
         truth = sitl_wind_ned(read_sitl_log(log), LogTime(flight.log, flight.t0_s).clock_s)
         tmean = truth[used].mean(axis=0)

@@ -21,7 +21,8 @@ from dobwind.model.airframe_toml import dumps
 from dobwind.model.status import accepted
 from dobwind.replay.replay import replay_ulog
 from dobwind.simulate.simulate import simulate
-from dobwind.calibrate.sitlwind import PROFILE_LINEAR, PROFILE_NONE, PROFILE_SQRT, profile_speed, read_sitl_log, sitl_wind_ned
+from dobwind.calibrate.sitlwind import read_sitl_log
+from dobwind.io.sitlwind import PROFILE_LINEAR, PROFILE_NONE, PROFILE_SQRT, profile_speed, sitl_wind_ned
 from dobwind.calibrate import windsolve
 from dobwind.calibrate.windsolve import GroupWinds, estimate_winds
 from tests.dataflash_writer import write_dataflash

@@ -20,15 +20,9 @@ import numpy as np
 from dobwind.core.errors import InputError
 from dobwind.io.logs import TRUE_WIND_MAX_MPS, TRUTH_COLUMNS, FlightLog, read_log, required_columns
 from dobwind.model.airframe import Airframe
+from dobwind.model.forceair import wind_from_ne
 from dobwind.io.resample import blank
 from dobwind.io.timewindow import TimeWindow
-
-
-def wind_from(speed_mps: np.ndarray | float, from_deg: np.ndarray | float) -> np.ndarray:
-    """North and east components (N, 2) of a horizontal wind of ``speed_mps`` blowing FROM ``from_deg``
-    (clockwise from north): the air moves towards from + 180 deg."""
-    speed, rad = np.broadcast_arrays(np.asarray(speed_mps, dtype=float), np.radians(from_deg))
-    return np.column_stack([-speed * np.cos(rad), -speed * np.sin(rad)])
 
 
 @dataclass(frozen=True)
@@ -59,7 +53,7 @@ class SteadyWind:
     up_mps: float = 0.0
 
     def vector(self) -> np.ndarray:
-        n, e = wind_from(self.speed_mps, self.from_deg)[0]
+        n, e = wind_from_ne(self.speed_mps, self.from_deg)[0]
         return np.array([n, e, -self.up_mps])
 
     def wind(self, path: str, flight: LogTime) -> tuple[np.ndarray, np.ndarray]:
@@ -132,7 +126,7 @@ def read_truth_csv(path: str) -> WindSeries:
         ned = log.stack(*TRUTH_COLUMNS)
     elif log.has("speed", "from_deg"):
         up = cols["up"] if log.has("up") else np.zeros(log.rows)
-        ned = np.column_stack([wind_from(cols["speed"], cols["from_deg"]), -up])
+        ned = np.column_stack([wind_from_ne(cols["speed"], cols["from_deg"]), -up])
     else:
         raise InputError(path, "header", "a wind truth file needs the columns " + " or ".join(TRUTH_FILE_FORMATS))
     bad = ~np.isfinite(ned).all(axis=1) | (np.abs(ned) > TRUE_WIND_MAX_MPS).any(axis=1)
@@ -177,8 +171,3 @@ def truth_reader(truth: Truth, rate_hz: float | None = None, window: TimeWindow 
     """What fitfamily.fit_airframe calls for each calibration log (``log_reader``); ``window``: each log's
     rows in that span of its clock only (a fit on part of a flight, the rest held out)."""
     return lambda path, af: with_truth(path, flight_of(path, af, rate_hz, window), truth)
-
-
-def provenance(log_paths: list[str], truth_text: str) -> list[str]:
-    """The airframe's comment lines recording how it was calibrated."""
-    return ["calibrated by `dobwind fit` from " + ", ".join(log_paths), "wind truth: " + truth_text]
