@@ -21,7 +21,8 @@ from dobwind.model.airframe_toml import dumps
 from dobwind.model.status import accepted
 from dobwind.replay.replay import replay_ulog
 from dobwind.simulate.simulate import simulate
-from dobwind.calibrate.sitlwind import PROFILE_LINEAR, PROFILE_NONE, PROFILE_SQRT, profile_speed, read_sitl_log, sitl_wind_ned
+from dobwind.calibrate.sitlwind import read_sitl_log
+from dobwind.io.sitlwind import PROFILE_LINEAR, PROFILE_NONE, PROFILE_SQRT, profile_speed, sitl_wind_ned
 from dobwind.calibrate import windsolve
 from dobwind.calibrate.windsolve import GroupWinds, estimate_winds
 from tests.dataflash_writer import write_dataflash
@@ -65,7 +66,8 @@ def _from_deg(ne) -> float:
     return math.degrees(math.atan2(-ne[1], -ne[0])) % 360
 
 
-def _dataflash(path, af, cols, params: dict[str, float] | None) -> str:
+def _dataflash(path, af, cols, params: dict[str, float] | None, later: tuple = ()) -> str:
+    """``later``: more (message, fields) rows, put in time order (a parameter changed in flight)."""
     rows = [("PARM", {"TimeUS": 500_000, "Name": k, "Value": v}) for k, v in (params or {}).items()]
     rows.append(("EV", {"TimeUS": 1_000_000, "Id": 28}))  # NOT_LANDED: airborne from the start
     mg = af.mass_kg * af.gravity_mps2
@@ -76,6 +78,8 @@ def _dataflash(path, af, cols, params: dict[str, float] | None) -> str:
         rows.append(("CTUN", {"TimeUS": us, "ThO": cols["thrust"][k] / mg * HOVER, "ThH": HOVER}))
         rows.append(("ATT", {"TimeUS": us, "DesYaw": np.degrees(cols["yaw_ref"][k])}))
         rows.append(("BARO", {"TimeUS": us, "I": 0, "Alt": 20.0}))
+    if later:
+        rows = sorted([*rows, *later], key=lambda row: row[1]["TimeUS"])
     return str(write_dataflash(path, MESSAGES, rows))
 
 

@@ -7,7 +7,8 @@ import argparse
 from dataclasses import dataclass, field
 
 from dobwind.core.errors import InputError
-from dobwind.calibrate.fieldtruth import LogReader, PerLogWind, Truth, flight_of, parse_wind, provenance, read_truth_csv, truth_reader
+from dobwind.calibrate.fieldtruth import LogReader, PerLogWind, Truth, flight_of, parse_wind, read_truth_csv, truth_reader
+from dobwind.io.provenance import provenance
 from dobwind.model.airframe import Airframe
 from dobwind.core.options import Bound
 

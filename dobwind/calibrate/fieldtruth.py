@@ -19,14 +19,9 @@ import numpy as np
 from dobwind.core.errors import InputError
 from dobwind.io.logs import TRUE_WIND_MAX_MPS, TRUTH_COLUMNS, FlightLog, read_log, required_columns
 from dobwind.model.airframe import Airframe
+from dobwind.model.forceair import wind_from_ne
 from dobwind.io.resample import blank
-
-
-def wind_from(speed_mps: np.ndarray | float, from_deg: np.ndarray | float) -> np.ndarray:
-    """North and east components (N, 2) of a horizontal wind of ``speed_mps`` blowing FROM ``from_deg``
-    (clockwise from north): the air moves towards from + 180 deg."""
-    speed, rad = np.broadcast_arrays(np.asarray(speed_mps, dtype=float), np.radians(from_deg))
-    return np.column_stack([-speed * np.cos(rad), -speed * np.sin(rad)])
+from dobwind.io.timewindow import TimeWindow
 
 
 @dataclass(frozen=True)
@@ -61,7 +56,7 @@ class SteadyWind:
     up_mps: float = 0.0
 
     def vector(self) -> np.ndarray:
-        n, e = wind_from(self.speed_mps, self.from_deg)[0]
+        n, e = wind_from_ne(self.speed_mps, self.from_deg)[0]
         return np.array([n, e, -self.up_mps])
 
     def wind(self, path: str, flight: LogTime) -> tuple[np.ndarray, np.ndarray]:
@@ -151,7 +146,7 @@ def read_truth_csv(path: str) -> WindSeries:
         ned = log.stack(*TRUTH_COLUMNS)
     elif log.has("speed", "from_deg"):
         up = cols["up"] if log.has("up") else np.zeros(log.rows)
-        ned = np.column_stack([wind_from(cols["speed"], cols["from_deg"]), -up])
+        ned = np.column_stack([wind_from_ne(cols["speed"], cols["from_deg"]), -up])
     else:
         raise InputError(path, "header", "a wind truth file needs the columns " + " or ".join(TRUTH_FILE_FORMATS))
     bad = ~np.isfinite(ned).all(axis=1) | (np.abs(ned) > TRUE_WIND_MAX_MPS).any(axis=1)
@@ -163,14 +158,17 @@ def read_truth_csv(path: str) -> WindSeries:
     return WindSeries(path, log.time_s.copy(), ned)
 
 
-def flight_of(path: str, af: Airframe, rate_hz: float | None) -> LogTime:
+def flight_of(path: str, af: Airframe, rate_hz: float | None, window: TimeWindow | None = None) -> LogTime:
     """A calibration log, airborne accepted rows only: an autopilot log through replay's reader (rows
-    without data or on the ground are NaN), or a CSV log with the airframe's columns."""
+    without data or on the ground are NaN), or a CSV log with the airframe's columns. ``window``: an
+    autopilot log's rows in that span of its clock only (dobwind/io/timewindow.py)."""
     from dobwind.io.autopilot import is_autopilot_log, read_autopilot
 
     if is_autopilot_log(path):
-        flight = read_autopilot(path, af, rate_hz)
+        flight = read_autopilot(path, af, rate_hz, window=window)
         return LogTime(flight.log, flight.t0_s)
+    if window is not None:
+        raise InputError(path, None, "a time window is for autopilot logs (a CSV log keeps its own clock)")
     return LogTime(read_log(path, required_columns(af)), 0.0)
 
 
@@ -189,11 +187,7 @@ def with_truth(path: str, flight: LogTime, truth: Truth) -> FlightLog:
 LogReader = Callable[[str, Airframe], FlightLog]
 
 
-def truth_reader(truth: Truth, rate_hz: float | None = None) -> LogReader:
-    """What fitfamily.fit_airframe calls for each calibration log (``log_reader``)."""
-    return lambda path, af: with_truth(path, flight_of(path, af, rate_hz), truth)
-
-
-def provenance(log_paths: list[str], truth_text: str) -> list[str]:
-    """The airframe's comment lines recording how it was calibrated."""
-    return ["calibrated by `dobwind fit` from " + ", ".join(log_paths), "wind truth: " + truth_text]
+def truth_reader(truth: Truth, rate_hz: float | None = None, window: TimeWindow | None = None) -> LogReader:
+    """What fitfamily.fit_airframe calls for each calibration log (``log_reader``); ``window``: each log's
+    rows in that span of its clock only (a fit on part of a flight, the rest held out)."""
+    return lambda path, af: with_truth(path, flight_of(path, af, rate_hz, window), truth)
