@@ -330,7 +330,7 @@ def test_fit_with_the_wind_unknown_calibrates_a_box_flight_end_to_end(box, capsy
     # what the log's airflow was computed against: an estimated wind, not a known one, and where it held
     said = record["per_log"][str(csv)]
     assert said.startswith("not a known wind: estimated from this flight") and "identified" in said
-    assert "in 1 of 1 log" in said and "1-sigma" in said
+    assert "identified (1-sigma within 0.5 m/s): t " in said and "segments" not in said
     assert "# wind truth: estimated jointly with the force-air law" in out.read_text()
     from dobwind.replay.replay import replay
 
@@ -371,7 +371,7 @@ def test_each_truth_says_what_it_gave_a_log(box_solution):
     two = type(solution)((group, type(group)(group.path, 500.0, 560.0, (0.0, -4.0), 0.31, 90)), solution.law,
                          solution.condition, solution.residual_rms_n)
     said = GroupWinds(two).describe_log(group.path)
-    assert said.startswith("not a known wind: estimated from this flight") and "in 2 of 2 segments" in said
+    assert said.startswith("not a known wind: estimated from this flight") and "identified (1-sigma within 0.5 m/s) in all 2 segments: t " in said
     assert "t 500.0-560.0 s 4.00 m/s from 90 deg, 1-sigma 0.31 m/s" in said
     assert GroupWinds(two).describe_log("other.ulg").startswith("no wind estimated")
     from dobwind.calibrate.fieldfit import ESTIMATED_SELF_CHECK

@@ -462,5 +462,5 @@ class GroupWinds:
         if not mine:
             return "no wind estimated for this log (--wind unknown): its rows were not used"
         return (f"not a known wind: estimated from this flight jointly with the law (--wind unknown, mean vertical "
-                f"wind taken as zero), identified (1-sigma within {MAX_WIND_SIGMA_MPS:g} m/s) in {len(mine)} of "
-                f"{len(mine)} {'segments' if len(mine) > 1 else 'log'}: " + "; ".join(mine))
+                f"wind taken as zero), identified (1-sigma within {MAX_WIND_SIGMA_MPS:g} m/s)"
+                + (f" in all {len(mine)} segments: " if len(mine) > 1 else ": ") + "; ".join(mine))
