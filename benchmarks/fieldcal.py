@@ -3,11 +3,17 @@ simulator's wind for an ArduPilot SITL log (`--truth sitl`): the figures of docs
 
     .venv/bin/python -m benchmarks.fieldcal AIRFRAME LOG [--sitl] [--rate HZ]
     .venv/bin/python -m benchmarks.fieldcal --end-to-end LOG --mass KG [--check LOG...]
+    .venv/bin/python -m benchmarks.fieldcal --split-time LOG --mass KG
 
 --end-to-end: an ArduPilot SITL log through the user's whole path, `dobwind init LOG --mass KG`, `dobwind
 fit START LOG --truth sitl`, then replay of LOG (and of each --check log, other SITL flights of the same
 vehicle) through the starter and the fitted airframe, with the goals of issue #36: mean airborne wind
 speed within 0.5 m/s and direction within 5 deg of the simulator's (1.0 m/s at twice the speed).
+
+--split-time: a held-out check on one SITL log (benchmarks/splittime.py): `dobwind init`, then a fit on
+the first half of the airborne time against the simulator's wind, the whole log replayed, figures for
+the held-out and the training half; then the same fitted on the second half; the starter's own replay
+per half beside them.
 """
 from __future__ import annotations
 
@@ -16,6 +22,7 @@ import json
 import numpy as np
 
 from dobwind.calibrate.fieldtruth import LogTime
+from dobwind.core.errors import InputError
 from dobwind.model.airframe import load_airframe
 from dobwind.model.forceair import wind_from_deg
 from dobwind.model.status import accepted
@@ -42,7 +49,8 @@ def summary(airframe: str, log: str, sitl: bool, rate_hz: float | None) -> dict:
            "mean_abs_vertical_mps": float(np.mean(np.abs(wind[used, 2]))),
            "mean_vertical_up_mps": float(-mean[2])}
     if sitl:
-        from dobwind.calibrate.sitlwind import read_sitl_log, sitl_wind_ned
+        from dobwind.calibrate.sitlwind import read_sitl_log
+        from dobwind.io.sitlwind import sitl_wind_ned
 
         truth = sitl_wind_ned(read_sitl_log(log), LogTime(flight.log, flight.t0_s).clock_s)
         tmean = truth[used].mean(axis=0)
@@ -95,9 +103,24 @@ def main() -> None:
     parser.add_argument("--sitl", action="store_true")
     parser.add_argument("--rate", type=float)
     parser.add_argument("--end-to-end", metavar="LOG", help="an ArduPilot SITL log: init, fit --truth sitl, replay")
-    parser.add_argument("--mass", type=float, help="with --end-to-end: the vehicle's mass (kg) for init")
+    parser.add_argument("--mass", type=float, help="with --end-to-end or --split-time: the vehicle's mass (kg) for init")
     parser.add_argument("--check", nargs="*", default=[], help="with --end-to-end: other SITL logs to replay")
+    parser.add_argument("--split-time", metavar="LOG", help="an ArduPilot SITL log: init, fit on one half of its "
+                        "airborne time, replay, figures for the held-out half; both ways round")
     args = parser.parse_args()
+    if args.split_time:
+        from benchmarks.splittime import run_split_time
+
+        if args.mass is None:
+            parser.error("--split-time needs --mass")
+        try:
+            print(json.dumps(run_split_time(args.split_time, args.mass), indent=1))
+        except InputError as exc:  # not a SITL log, no SIM_WIND_*, an empty half: one line, exit 2
+            import sys
+
+            sys.stderr.write(f"fieldcal --split-time: {exc}\n")
+            raise SystemExit(2) from None
+        return
     if args.end_to_end:
         import tempfile
         import sys

@@ -588,5 +588,19 @@ def load_airframe(path: str | Path) -> Airframe:
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError:
-        raise InputError(str(path), None, "not UTF-8 text") from None
+        raise InputError(str(path), None, "not UTF-8 text" + _log_given_as_airframe(data)) from None
     return parse_airframe(text, str(path))
+
+
+# The first bytes of the binary logs a user may give where the airframe belongs (the arguments swapped:
+# `dobwind replay LOG AIRFRAME`): PX4 ULog's file magic, ArduPilot DataFlash's message header, MCAP's magic.
+LOG_MAGIC = ((b"ULog\x01\x12\x35", "a PX4 ULog flight log"), (b"\xa3\x95", "an ArduPilot DataFlash flight log"),
+             (b"\x89MCAP", "a ROS 2 bag (MCAP)"), (b"SQLite format 3\x00", "a ROS 2 bag (SQLite)"))
+
+
+def _log_given_as_airframe(data: bytes) -> str:
+    """What to add to "not UTF-8 text" when the bytes are a flight log: the airframe comes first."""
+    for magic, what in LOG_MAGIC:
+        if data.startswith(magic):
+            return f": this is {what}, not an airframe TOML (replay, fit and report take AIRFRAME then LOG)"
+    return ""

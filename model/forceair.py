@@ -490,6 +490,13 @@ def wind_from_deg(north, east):
     return np.where(from_deg >= 360.0, 0.0, from_deg)
 
 
+def wind_from_ne(speed_mps, from_deg) -> np.ndarray:
+    """North and east components (N, 2) of a horizontal wind of ``speed_mps`` blowing FROM ``from_deg``
+    (clockwise from north): the air moves towards from + 180 deg. The inverse of ``wind_from_deg``. NumPy."""
+    speed, rad = np.broadcast_arrays(np.asarray(speed_mps, dtype=float), np.radians(from_deg))
+    return np.column_stack([-speed * np.cos(rad), -speed * np.sin(rad)])
+
+
 def wind_from_deg_sx(north: ca.SX, east: ca.SX) -> ca.SX:
     """``wind_from_deg`` for the step."""
     towards = ca.atan2(-east, -north) * (180 / math.pi)  # (-180, 180]

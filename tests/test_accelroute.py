@@ -184,6 +184,9 @@ def test_the_text_report_shows_both_noise_figures(noisy, tmp_path, capsys, share
     text = capsys.readouterr()
     assert ('acceleration blended: noise at low airflow ' in text.out
             and f'with acceleration_bias_time {BLEND_TIME_S:g} s, the low frequencies from the velocity' in text.out)
+    # CSV logs with wind columns: each log's airflow is said to come from those columns, not an estimate
+    for log in (noisy["sweep"], noisy["vertical"]):
+        assert f"  {log}: its own wind_n/wind_e/wind_d columns" in text.out
 
 
 def test_hover_noise_0_keeps_the_observer(noisy, tmp_path, capsys):

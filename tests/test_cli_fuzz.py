@@ -212,7 +212,7 @@ def special_file_cases() -> list[Case]:
                         ("analyze", special), ("simulate", "tunnel", "--airframe", special, "-o", "{out}"),
                         ("simulate", "tunnel", "--vehicle", special, "-o", "{out}"),
                         ("replay", "{af}", special, "-o", "{out}"), ("fit", "{af}", special, "-o", "{out}"),
-                        ("report", "{af}", special, "-o", "{out}")):
+                        ("report", "{af}", special, "-o", "{out}.html")):
             cases.append(Case(f"special {command[0]} {special.strip('{}')} {command.index(special)}", command))
     return cases
 

@@ -21,7 +21,8 @@ from dobwind.model.airframe_toml import dumps
 from dobwind.model.status import accepted
 from dobwind.replay.replay import replay_ulog
 from dobwind.simulate.simulate import simulate
-from dobwind.calibrate.sitlwind import PROFILE_LINEAR, PROFILE_NONE, PROFILE_SQRT, profile_speed, read_sitl_log, sitl_wind_ned
+from dobwind.calibrate.sitlwind import read_sitl_log
+from dobwind.io.sitlwind import PROFILE_LINEAR, PROFILE_NONE, PROFILE_SQRT, profile_speed, sitl_wind_ned
 from dobwind.calibrate import windsolve
 from dobwind.calibrate.windsolve import GroupWinds, estimate_winds
 from tests.dataflash_writer import write_dataflash
@@ -65,7 +66,8 @@ def _from_deg(ne) -> float:
     return math.degrees(math.atan2(-ne[1], -ne[0])) % 360
 
 
-def _dataflash(path, af, cols, params: dict[str, float] | None) -> str:
+def _dataflash(path, af, cols, params: dict[str, float] | None, later: tuple = ()) -> str:
+    """``later``: more (message, fields) rows, put in time order (a parameter changed in flight)."""
     rows = [("PARM", {"TimeUS": 500_000, "Name": k, "Value": v}) for k, v in (params or {}).items()]
     rows.append(("EV", {"TimeUS": 1_000_000, "Id": 28}))  # NOT_LANDED: airborne from the start
     mg = af.mass_kg * af.gravity_mps2
@@ -76,6 +78,8 @@ def _dataflash(path, af, cols, params: dict[str, float] | None) -> str:
         rows.append(("CTUN", {"TimeUS": us, "ThO": cols["thrust"][k] / mg * HOVER, "ThH": HOVER}))
         rows.append(("ATT", {"TimeUS": us, "DesYaw": np.degrees(cols["yaw_ref"][k])}))
         rows.append(("BARO", {"TimeUS": us, "I": 0, "Alt": 20.0}))
+    if later:
+        rows = sorted([*rows, *later], key=lambda row: row[1]["TimeUS"])
     return str(write_dataflash(path, MESSAGES, rows))
 
 
@@ -87,11 +91,30 @@ def test_a_steady_wind_blows_away_from_where_it_comes_from(text, ned):
     np.testing.assert_allclose(parse_wind(text).vector(), ned, atol=1e-12)
 
 
-@pytest.mark.parametrize("text", ["5", "5@", "@90", "fast@90", "-1@90", "500@0", "5@90,200"])
+@pytest.mark.parametrize("text", ["5", "5@", "@90", "fast@90", "-1@90", "500@0", "5@90,200", "5@400", "5@-10",
+                                  "5@360.5", "1e400@90", "5@1e400", "5@90,1e400", "5@90,-1e400", "nan@90", "5@inf"])
 def test_a_bad_wind_is_an_input_error_naming_the_option(text):
     with pytest.raises(InputError) as caught:
         parse_wind(text)
-    assert caught.value.source == "--wind"
+    assert caught.value.source == "--wind" and text in str(caught.value)
+
+
+@pytest.mark.parametrize("text, part", [("5@400", "direction 400 deg"), ("-2@90", "speed -2 m/s"),
+                                        ("5@90,-150", "updraft -150 m/s")])
+def test_fit_refuses_a_wind_out_of_range_in_one_line_naming_the_field(box, tmp_path, capsys, text, part):
+    """A mast bearing is 0-360: 400 is a typo, not 40 (it was silently wrapped before); the line says which
+    field is wrong, and nothing is read or written."""
+    _, path, _, _ = box
+    out = tmp_path / "never.toml"
+    assert main(["fit", str(path), "x.csv", f"--wind={text}", "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--wind" in err and part in err and "Traceback" not in err
+    assert not out.exists()
+
+
+def test_a_bearing_of_360_is_north():
+    np.testing.assert_allclose(parse_wind("4@360").vector(), parse_wind("4@0").vector(), atol=1e-12)
+    assert parse_wind("4@360").from_deg == 0.0
 
 
 def test_sitl_profiles_in_closed_form():
@@ -144,8 +167,15 @@ def test_fit_from_a_dataflash_log_reads_the_simulator_wind_back(box, capsys, way
     assert code == 0, printed.err
     if way == "sitl":  # the simulator's turbulence is not in the log: the truth is its mean, and fit says so
         assert "SIM_WIND_TURB 0.3 > 0" in printed.err and "approximate" in printed.err
+        # the text report says, for the log, that its airflow came from the simulator's parameters
+        assert "wind truth per log" in printed.out
+        assert f"  {log}: the wind the simulator was told to blow" in printed.out and "--truth sitl" in printed.out
+        assert "estimated" not in printed.out.split("wind truth per log")[1].split("self-check")[0]
     else:
-        assert "(--wind)" in json.loads(printed.out)["wind_truth"]["truth"]
+        record = json.loads(printed.out)["wind_truth"]
+        assert "(--wind)" in record["truth"]
+        assert record["per_log"][log].startswith("a known steady wind on every airborne row (--wind)")
+        assert f"{float(f'{speed:.4f}'):g} m/s from {float(f'{from_deg:.4f}'):g} deg" in record["per_log"][log]
     text = out.read_text()
     assert text.startswith("# calibrated by `dobwind fit` from " + log)
     assert ("SIM_WIND_SPD" in text) if way == "sitl" else ("(--wind)" in text)
@@ -295,7 +325,12 @@ def test_fit_with_the_wind_unknown_calibrates_a_box_flight_end_to_end(box, capsy
                  "--hover-noise", "0", "--json"])
     printed = capsys.readouterr()
     assert code == 0, printed.err
-    assert "--wind unknown" in json.loads(printed.out)["wind_truth"]["truth"]
+    record = json.loads(printed.out)["wind_truth"]
+    assert "--wind unknown" in record["truth"]
+    # what the log's airflow was computed against: an estimated wind, not a known one, and where it held
+    said = record["per_log"][str(csv)]
+    assert said.startswith("not a known wind: estimated from this flight") and "identified" in said
+    assert "identified (1-sigma within 0.5 m/s): t " in said and "segments" not in said
     assert "# wind truth: estimated jointly with the force-air law" in out.read_text()
     from dobwind.replay.replay import replay
 
@@ -315,3 +350,57 @@ def test_truth_sitl_needs_a_dataflash_log_and_a_truth_file_must_overlap_the_log(
     with pytest.raises(InputError) as caught:
         with_truth("f.csv", LogTime(log, 0.0), series)
     assert "where the truth is known" in caught.value.message
+
+
+def test_each_truth_says_what_it_gave_a_log(box_solution):
+    """The per-log wording of fit's report for each source: a known steady wind, a time series with its
+    span, a wind estimated per segment (identified, with its 1-sigma), the log's own columns and still air."""
+    from dobwind.calibrate.fieldfit import FieldTruth, truth_lines
+    from dobwind.calibrate.fieldtruth import PerLogWind
+
+    steady = SteadyWind(6.5, 270.0, 0.2)
+    assert steady.describe_log("a.ulg") == ("a known steady wind on every airborne row (--wind): 6.5 m/s from "
+                                            "270 deg, updraft 0.2 m/s")
+    per_log = PerLogWind((("a.ulg", steady), ("b.ulg", SteadyWind(3.0, 90.0))))
+    assert "3 m/s from 90 deg" in per_log.describe_log("b.ulg") and "6.5" not in per_log.describe_log("b.ulg")
+    series = WindSeries("mast.csv", np.array([100.0, 190.0]), np.zeros((2, 3)))
+    assert series.describe_log("a.ulg") == ("a known wind time series (--truth mast.csv), interpolated on the "
+                                            "log's clock; rows outside t 100..190 s not used")
+    _, _, solution = box_solution
+    (group,) = solution.groups
+    two = type(solution)((group, type(group)(group.path, 500.0, 560.0, (0.0, -4.0), 0.31, 90)), solution.law,
+                         solution.condition, solution.residual_rms_n)
+    said = GroupWinds(two).describe_log(group.path)
+    assert said.startswith("not a known wind: estimated from this flight") and "identified (1-sigma within 0.5 m/s) in all 2 segments: t " in said
+    assert "t 500.0-560.0 s 4.00 m/s from 90 deg, 1-sigma 0.31 m/s" in said
+    assert GroupWinds(two).describe_log("other.ulg").startswith("no wind estimated")
+    from dobwind.calibrate.fieldfit import ESTIMATED_SELF_CHECK
+
+    estimated = truth_lines(FieldTruth(GroupWinds(two), lambda p, af: None), [group.path], False)
+    assert estimated[-1] == ESTIMATED_SELF_CHECK and "not with an independent truth" in estimated[-1]
+    assert ESTIMATED_SELF_CHECK not in truth_lines(FieldTruth(steady, lambda p, af: None), ["a.ulg"], False)
+    lines = truth_lines(FieldTruth(per_log, lambda p, af: None), ["a.ulg", "b.ulg"], False)
+    assert lines[1].startswith("  a.ulg: a known steady wind") and lines[2].startswith("  b.ulg: a known steady wind")
+    assert "wind_n/wind_e/wind_d columns" in truth_lines(None, ["t.csv"], False)[1]
+    assert "zero wind (--still-air)" in truth_lines(None, ["t.csv"], True)[1]
+
+
+def test_a_refusal_with_several_winds_says_which_were_identified(box, monkeypatch):
+    """Two segments, the limit set between their 1-sigmas: the refusal names the one identified and the
+    one not, each with its span (one wind alone needs no list)."""
+    tmp, _, af, cols = box
+    csv = tmp / "two_segments.csv"
+    write_csv(csv, list(cols), np.column_stack([cols[k] for k in cols]), ["%.9g"] * len(cols))
+    flights = [(str(csv), flight_of(str(csv), af, None))]
+    half = float(cols["t"][-1] / 2) + 0.05
+    solution = estimate_winds(af, flights, segment_s=half)
+    sigmas = sorted(g.sigma_mps for g in solution.groups)
+    assert len(sigmas) == 2 and sigmas[1] > sigmas[0] * 1.01, sigmas
+    monkeypatch.setattr(windsolve, "MAX_WIND_SIGMA_MPS", (sigmas[0] + sigmas[1]) / 2)
+    with pytest.raises(CheckFailed) as refused:
+        estimate_winds(af, flights, segment_s=half)
+    text = str(refused.value)
+    good, bad = sorted(solution.groups, key=lambda g: g.sigma_mps)
+    assert f"{csv} t {good.t_start_s:.1f}-{good.t_end_s:.1f} s {good.sigma_mps:.2g} m/s identified" in text
+    assert f"{csv} t {bad.t_start_s:.1f}-{bad.t_end_s:.1f} s {bad.sigma_mps:.2g} m/s NOT identified" in text
+    assert text.count("identified") == 2   # the two verdicts ("does not identify" is not one)

@@ -30,3 +30,17 @@ def test_hold_line_gives_the_longer_hold_figure_from_bias_and_noise():
     # sqrt(bias^2 + noise^2 / 15 s) at each band
     expected = [math.sqrt(0.03 ** 2 + 0.06 ** 2 / 15), math.sqrt(0.02 ** 2 + 0.06 ** 2 / 15)]
     assert f"expected on holds scored 15 s: 1.0 m/s: {expected[0]:.3f}, 5.0 m/s: {expected[1]:.3f}" in text
+
+
+def test_the_drag_law_line_is_followed_by_its_units():
+    """Every coefficient a drag law can print has its unit on the next line (issue #36: no number
+    without a unit), in the units docs/formats.md gives them."""
+    from dobwind.calibrate.fitreport import DRAG_UNITS
+
+    lines = text_report(_drag_report("drag")).splitlines()
+    at = next(i for i, line in enumerate(lines) if line.startswith("drag law: "))
+    assert lines[at + 1] == f"  units: {DRAG_UNITS}"
+    for key in ("l0", "l2c", "l2s", "lr", "lz", "i1", "q0", "q2c", "q2s", "q1c", "q4c", "q4s", "qz", "i2", "ox", "oy",
+                "kappa"):
+        assert f" {key}" in " " + DRAG_UNITS.replace(",", " ").replace(";", " "), key
+    assert "l0, l2c, l2s, lr, lz, i1 in N/(m/s)" in DRAG_UNITS and "qz, i2 in N/(m/s)^2" in DRAG_UNITS

@@ -348,8 +348,95 @@ def test_the_starter_airframe_passes_verify(px4, capsys):
     assert "0 status mismatches" in capsys.readouterr().out
 
 
+def test_replay_says_how_many_rows_of_its_mean_wind_are_trusted(px4, capsys):
+    """The starter's estimates all carry UNCALIBRATED: the mean wind line says it is over accepted rows
+    of which none is trusted, so it does not read as a confident number."""
+    assert main(["replay", px4[1], str(px4[0]), "--json"]) == 0
+    counts = json.loads(capsys.readouterr().out)["status_counts"]
+    accepted = sum(n for name, n in counts.items() if "LANDED" not in name and "NO_DATA" not in name)
+    assert main(["replay", px4[1], str(px4[0])]) == 0
+    line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("mean horizontal wind"))
+    assert line.endswith(f"m/s (over the {accepted} accepted rows, 0 of them trusted; the others carry the "
+                         "quality flags in the status counts above)"), line
+
+
 def test_replay_of_the_log_with_its_starter_airframe_names_the_bit(px4, capsys):
     assert main(["replay", px4[1], str(px4[0]), "--json"]) == 0
     counts = json.loads(capsys.readouterr().out)["status_counts"]
     accepted = {name: n for name, n in counts.items() if "LANDED" not in name and "NO_DATA" not in name}
     assert accepted and all("UNCALIBRATED" in name for name in accepted)
+
+
+def test_init_says_the_mass_is_unchecked_and_a_wrong_one_only_scales_the_law(px4, tmp_path, capsys):
+    """What init tells the user about --mass (text, --json and the file) is what the code does: at three
+    times the mass the starter's thrust and observer gains are exactly three times as large, and with its
+    force-air law three times the small one's too, replay reads the same wind on every row: a wrong mass
+    scales the law the forces are calibrated into, nothing else."""
+    from dobwind.model.airframe import parse_airframe
+    from dobwind.model.airframe_toml import airframe_document, dumps
+    from dobwind.replay.replay import replay_ulog
+
+    log, small_path = px4
+    big_path = tmp_path / "big.toml"
+    assert main(["init", str(log), "--mass", str(3 * REFERENCE_MASS_KG), "-o", str(big_path)]) == 0
+    out = capsys.readouterr().out
+    assert f"mass         {3 * REFERENCE_MASS_KG:g} kg from --mass, not checked against the log" in out
+    assert "a wrong mass scales the force-air law by the same factor" in out
+    assert "# mass: 6 kg from --mass, not checked against the log" in big_path.read_text()
+    assert main(["init", str(log), "--mass", "6", "-o", str(tmp_path / "j.toml"), "--json"]) == 0
+    mass = json.loads(capsys.readouterr().out)["mass"]
+    assert mass["kg"] == 6.0 and mass["source"] == "--mass" and mass["checked_against_log"] is False
+    assert "no absolute force" in mass["why"] and "same factor" in mass["if_wrong"]
+
+    small, big = load_airframe(small_path), load_airframe(big_path)
+    np.testing.assert_allclose(big.thrust.coefficients, 3 * np.asarray(small.thrust.coefficients), rtol=1e-12)
+    np.testing.assert_allclose(big.observer.gains, 3 * np.asarray(small.observer.gains), rtol=1e-9)
+    doc, law = airframe_document(big), airframe_document(small)["force_air"]
+    doc["force_air"] = {**law, "drag": {k: 3 * v for k, v in law["drag"].items()}}
+    scaled = parse_airframe(dumps(doc), "scaled.toml")
+    winds = []
+    for af in (small, scaled):
+        model, _, traj = replay_ulog(af, str(log))
+        winds.append(traj.outputs[:, model.outputs.slice("wind_ned")])
+    assert np.isfinite(winds[0]).any()
+    np.testing.assert_allclose(winds[1], winds[0], atol=1e-6, equal_nan=True)
+
+
+def test_a_mean_over_trusted_rows_only_says_so():
+    from dobwind.cli.replay import _over_rows
+
+    assert _over_rows({"valid_rows": 12, "status_counts": {"OK": 12, "LANDED": 3}}) == "(over the 12 accepted rows, all trusted)"
+    assert "5 of them trusted" in _over_rows({"valid_rows": 12, "status_counts": {"OK": 5, "SETTLING": 7}})
+
+
+def test_init_explains_its_acceleration_input(px4, tmp_path, capsys):
+    """The bare keyword `ned` is followed by what it is; every keyword init can choose has a meaning."""
+    from dobwind.inspect.initframe import ACCELERATION_MEANING
+
+    assert main(["init", str(px4[0]), "--mass", "2", "-o", str(tmp_path / "v.toml")]) == 0
+    assert "  acceleration ned (the log's own NED acceleration)" in capsys.readouterr().out.splitlines()
+    assert set(ACCELERATION_MEANING) == {"ned", "specific_force", "velocity"}
+
+
+def test_arguments_swapped_say_which_file_is_which(px4, tmp_path, capsys):
+    """A ULog where the airframe belongs used to be "not UTF-8 text", an airframe where the log belongs
+    "column t: missing": each now says what the file is and the order the commands take."""
+    log, airframe = px4
+    for argv, said in ((["replay", str(log), airframe], "this is a PX4 ULog flight log, not an airframe TOML"),
+                       (["report", str(log), airframe, "-o", str(tmp_path / "r.html")], "PX4 ULog flight log"),
+                       (["replay", airframe, airframe], "a .toml file is an airframe, not a flight log"),
+                       (["inspect", airframe], "inspect and init take the log alone"),
+                       (["init", airframe, "--mass", "2", "-o", str(tmp_path / "v.toml")], "not a flight log")):
+        assert main(argv) == 2, argv
+        errors = [line for line in capsys.readouterr().err.splitlines() if ": warning: " not in line]
+        assert len(errors) == 1 and said in errors[0] and "AIRFRAME then LOG" in errors[0], (argv, errors)
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("mass", ["0", "-3", "nan", "inf", "-inf", "1e400", "0.001", "20000"])
+def test_init_refuses_a_mass_that_is_no_multirotors_in_one_line(px4, tmp_path, capsys, mass):
+    out = tmp_path / "v.toml"
+    assert main(["init", str(px4[0]), f"--mass={mass}", "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--mass" in err and "kg" in err and "Traceback" not in err
+    assert not out.exists()

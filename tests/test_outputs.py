@@ -240,7 +240,7 @@ def test_a_replaced_folder_must_hold_only_what_the_command_writes(command, tmp_p
 
 
 def test_two_options_naming_one_file_are_refused(logs, tmp_path, capsys):
-    same = str(tmp_path / "x.out")
+    same = str(tmp_path / "x.png")   # a name --plot takes: refused only for being given twice
     assert main(["replay", str(M300), logs["tunnel"], "-o", same, "--plot", same]) == 2
     assert "--plot" in _one_line(capsys.readouterr().err)
     assert not Path(same).exists()
@@ -255,3 +255,17 @@ def test_generate_replaces_the_folder_as_a_whole(tmp_path):
     assert sorted(p.name for p in out.iterdir()) == ["CMakeLists.txt", "m300_wind.c", "m300_wind.h",
                                                       "m300_wind_selftest.c"]
     assert (out / "m300_wind.h").read_text() == (ROOT / "generated_c" / "m300" / "m300_wind.h").read_text()
+
+
+@pytest.mark.parametrize("command", ["replay", "fit", "profile"])
+def test_a_plot_not_named_png_is_refused_before_any_work(command, logs, tmp_path, capsys):
+    """--plot p.pdf used to receive PNG bytes: the figure is PNG only, so the name must say .png; the
+    refusal names the option and the extension and comes before the log is read (it does not exist)."""
+    missing = str(tmp_path / "no_such_log.csv")
+    out = {"replay": [], "fit": ["-o", str(tmp_path / "f.toml")], "profile": ["-o", str(tmp_path / "p.csv")]}[command]
+    for name, said in (("p.pdf", "'.pdf'"), ("p", "no extension"), ("p.png.txt", "'.txt'")):
+        capsys.readouterr()
+        assert main([command, str(M300), missing, *out, "--plot", str(tmp_path / name)]) == 2
+        err = _one_line(capsys.readouterr().err)
+        assert "--plot " in err and said in err and "PNG only" in err, err
+    assert list(tmp_path.iterdir()) == [] or all(p.name == "unwritable" for p in tmp_path.iterdir())

@@ -211,6 +211,31 @@ def test_one_direction_gives_a_warning_and_a_direction_free_model(logs):
     assert np.all(np.diff(speed) > 0)  # more force, more airflow: sensible where the data is
 
 
+def test_the_polynomial_family_fitted_from_a_drag_starter_is_a_polynomial_airframe(logs):
+    """`dobwind init` writes a drag-family prior; when fit chooses the polynomial family, the airframe
+    it returns must carry the fitted tables, not keep the prior's drag law (which the step would run)."""
+    import dataclasses
+
+    from dobwind.model.airframe import parse_airframe
+    from dobwind.model.airframe_toml import dump_airframe
+    from dobwind.model.forceair import DragLaw
+
+    from dobwind.model.airframe import ForceAirModel
+
+    starter = dataclasses.replace(load_airframe(M300), drag=DragLaw(0.4, 0.02))
+    new, _, _ = fit_polynomial(starter, read_calibration_logs(starter, [logs["sweep"]]), "airframe")
+    assert new.drag is None and new.force_air_model == "polynomial"
+    written = parse_airframe(dump_airframe(new), "fitted.toml")
+    assert written.drag is None and written.horizontal.coefficients == pytest.approx(new.horizontal.coefficients)
+    # As init writes it: no polynomial tables at all. A level sweep does not move the air vertically,
+    # and there is no vertical table to keep: one is fitted (and said), so the airframe can be written.
+    bare = dataclasses.replace(starter, horizontal=ForceAirModel((), ()), vertical=ForceAirModel((), ()))
+    new, report, points = fit_polynomial(bare, read_calibration_logs(bare, [logs["sweep"]]), "auto")
+    assert new.vertical.terms and new.drag is None
+    assert float(np.ptp(points.air_z)) >= 1.0 or any("no polynomial vertical model to keep" in w for w in report.warnings)
+    assert parse_airframe(dump_airframe(new), "fitted.toml").vertical.term_texts == new.vertical.term_texts
+
+
 # --- replay -------------------------------------------------------------------------------------
 
 def test_replay_backends_agree_and_output_has_every_row(fitted, logs, tmp_path):

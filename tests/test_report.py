@@ -83,3 +83,25 @@ def test_report_on_a_bad_log_is_one_line_and_writes_nothing(tmp_path, capsys):
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and "bad.csv" in err and "column" in err
     assert not out.exists() and list(tmp_path.iterdir()) == [log]
+
+
+@pytest.mark.parametrize("name, said", [("r.pdf", "'.pdf'"), ("r.png", "'.png'"), ("r", "no extension")])
+def test_report_refuses_an_output_that_is_not_html(tmp_path, capsys, name, said):
+    """The page is HTML whatever -o says: r.pdf used to receive HTML. The refusal comes before the log is
+    read (a good log, so only the name can be the reason) and names -o and the extension."""
+    log = tmp_path / "tunnel.csv"
+    assert main(["simulate", "tunnel", "--hold", "2", "--rate", "10", "-o", str(log)]) == 0
+    capsys.readouterr()
+    assert main(["report", str(M300), str(log), "-o", str(tmp_path / name)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "-o" in err and said in err and "Traceback" not in err
+    assert list(tmp_path.iterdir()) == [log]
+
+
+def test_report_takes_html_and_htm_whatever_the_case(tmp_path):
+    from dobwind.cli.report import PAGE_SUFFIXES
+    from dobwind.io.outputs import Target, check_target
+
+    (tmp_path / "dir.d").mkdir()
+    for name in ("r.html", "R.HTML", "page.htm", "dir.d/r.Html"):
+        check_target(Target("-o", str(tmp_path / name), suffixes=PAGE_SUFFIXES))

@@ -7,7 +7,8 @@ import argparse
 from dataclasses import dataclass, field
 
 from dobwind.core.errors import InputError
-from dobwind.calibrate.fieldtruth import LogReader, PerLogWind, Truth, flight_of, parse_wind, provenance, read_truth_csv, truth_reader
+from dobwind.calibrate.fieldtruth import LogReader, PerLogWind, Truth, flight_of, parse_wind, read_truth_csv, truth_reader
+from dobwind.io.provenance import provenance
 from dobwind.model.airframe import Airframe
 from dobwind.core.options import Bound
 
@@ -46,9 +47,33 @@ class FieldTruth:
         """The written airframe's provenance comment (TOML comment lines)."""
         return "".join(f"# {line}\n" for line in provenance(log_paths, self.truth.describe()))
 
-    def record(self) -> dict:
-        """The truth for --json."""
-        return {"truth": self.truth.describe(), "summary": self.summary}
+    def record(self, log_paths: list[str]) -> dict:
+        """The truth for --json, with what it gave each log."""
+        return {"truth": self.truth.describe(), "summary": self.summary,
+                "per_log": {path: self.truth.describe_log(path) for path in log_paths}}
+
+
+COLUMNS_TRUTH = ("its own wind_n/wind_e/wind_d columns (a known wind: a tunnel run's set wind, a simulator's, "
+                 "or one measured beside the flight)")
+STILL_AIR_TRUTH = "zero wind (--still-air): the airflow is the vehicle's own motion"
+
+
+def truth_lines(field: FieldTruth | None, log_paths: list[str], still_air: bool) -> list[str]:
+    """fit's text lines naming, per log, the wind its airflow was computed against: the log's columns,
+    still air, or the --wind/--truth source (an estimated wind says so, and where it was identified)."""
+    lines = ["wind truth per log (the airflow above is this wind minus the ground velocity):"]
+    for path in log_paths:
+        said = field.truth.describe_log(path) if field else STILL_AIR_TRUTH if still_air else COLUMNS_TRUTH
+        lines.append(f"  {path}: {said}")
+    if field is not None and getattr(field.truth, "ESTIMATED", False):
+        lines.append(ESTIMATED_SELF_CHECK)
+    return lines
+
+
+# With --wind unknown the self-check's "true" wind is the estimate itself: say what a PASS then means.
+ESTIMATED_SELF_CHECK = ("  (the self-check below compares with these estimated winds, not with an independent truth: a "
+                        "PASS says the law and the winds agree; their 1-sigma is the statistical part of their error, a misfit "
+                        "of the law adds a bias it does not show)")
 
 
 def check_options(options: FieldOptions, logs: int) -> None:
@@ -110,8 +135,8 @@ def add_options(p: argparse.ArgumentParser) -> None:
 
     p.add_argument("--wind", metavar="SPEED@FROM[,UP]|unknown", action="append", default=[],
                    help="the true wind for logs without wind columns (autopilot logs .ulg/.bin/ROS 2 bags, or CSV): a "
-                   "steady wind of SPEED m/s blowing FROM degrees clockwise from north, optional updraft UP m/s "
-                   "(e.g. 6.5@270 or 6.5@270,0.2), for every log, or repeated once per log in the logs' order; or 'unknown': one steady wind per log (or per "
+                   "steady wind of SPEED m/s blowing FROM degrees clockwise from north (0 to 360), optional updraft UP "
+                   "m/s (e.g. 6.5@270, 6.5@270,0.2, or 6.5@270,-0.2 for a downdraft), for every log, or repeated once per log in the logs' order; or 'unknown': one steady wind per log (or per "
                    "--segment-s) estimated jointly with the force-air law from flight with varied headings and "
                    "speeds, mean vertical wind taken as zero; refused (exit 1) when the flight does not identify it")
     p.add_argument("--truth", metavar="FILE.csv|sitl",

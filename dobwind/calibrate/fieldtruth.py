@@ -10,7 +10,6 @@ on a guess.
 """
 from __future__ import annotations
 
-import math
 import re
 from dataclasses import dataclass
 from typing import Callable, Protocol
@@ -20,14 +19,9 @@ import numpy as np
 from dobwind.core.errors import InputError
 from dobwind.io.logs import TRUE_WIND_MAX_MPS, TRUTH_COLUMNS, FlightLog, read_log, required_columns
 from dobwind.model.airframe import Airframe
+from dobwind.model.forceair import wind_from_ne
 from dobwind.io.resample import blank
-
-
-def wind_from(speed_mps: np.ndarray | float, from_deg: np.ndarray | float) -> np.ndarray:
-    """North and east components (N, 2) of a horizontal wind of ``speed_mps`` blowing FROM ``from_deg``
-    (clockwise from north): the air moves towards from + 180 deg."""
-    speed, rad = np.broadcast_arrays(np.asarray(speed_mps, dtype=float), np.radians(from_deg))
-    return np.column_stack([-speed * np.cos(rad), -speed * np.sin(rad)])
+from dobwind.io.timewindow import TimeWindow
 
 
 @dataclass(frozen=True)
@@ -49,6 +43,10 @@ class Truth(Protocol):
 
     def describe(self) -> str: ...
 
+    def describe_log(self, path: str) -> str:
+        """What this truth gave one log, for fit's per-log lines (what the airflow was computed against)."""
+        ...
+
 
 @dataclass(frozen=True)
 class SteadyWind:
@@ -58,7 +56,7 @@ class SteadyWind:
     up_mps: float = 0.0
 
     def vector(self) -> np.ndarray:
-        n, e = wind_from(self.speed_mps, self.from_deg)[0]
+        n, e = wind_from_ne(self.speed_mps, self.from_deg)[0]
         return np.array([n, e, -self.up_mps])
 
     def wind(self, path: str, flight: LogTime) -> tuple[np.ndarray, np.ndarray]:
@@ -67,6 +65,10 @@ class SteadyWind:
 
     def describe(self) -> str:
         return f"steady wind {self.speed_mps:g} m/s from {self.from_deg:g} deg, updraft {self.up_mps:g} m/s (--wind)"
+
+    def describe_log(self, path: str) -> str:
+        return (f"a known steady wind on every airborne row (--wind): {self.speed_mps:g} m/s from {self.from_deg:g} deg, "
+                f"updraft {self.up_mps:g} m/s")
 
 
 @dataclass(frozen=True)
@@ -80,6 +82,9 @@ class PerLogWind:
     def describe(self) -> str:
         return "; ".join(f"{path}: {wind.describe()}" for path, wind in self.winds)
 
+    def describe_log(self, path: str) -> str:
+        return dict(self.winds)[path].describe_log(path)
+
 
 WIND_SYNTAX = "SPEED@FROM[,UP] (m/s, degrees the wind blows from clockwise from north, optional updraft m/s)"
 _NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
@@ -87,17 +92,23 @@ _WIND = re.compile(rf"^\s*({_NUMBER})\s*@\s*({_NUMBER})\s*(?:,\s*({_NUMBER})\s*)
 
 
 def parse_wind(text: str) -> SteadyWind:
-    """`--wind SPEED@FROM[,UP]`; a bad value is an InputError naming the option."""
+    """`--wind SPEED@FROM[,UP]`; a bad value is an InputError naming the option and the value. The
+    direction is a compass bearing as a vane or mast gives it, [0, 360] (360 is north, stored as 0):
+    anything else is more likely a typo or a swapped field than a bearing, so it is refused, not wrapped."""
     match = _WIND.match(text)
     if match is None:
         raise InputError("--wind", None, f"{text!r} is not {WIND_SYNTAX}, nor 'unknown'")
     speed, from_deg = float(match.group(1)), float(match.group(2))
     up = float(match.group(3)) if match.group(3) is not None else 0.0
-    if not 0 <= speed <= TRUE_WIND_MAX_MPS or abs(up) > TRUE_WIND_MAX_MPS:
-        raise InputError("--wind", None, f"{text!r}: speed must be in [0, {TRUE_WIND_MAX_MPS:g}] m/s and "
-                         f"|updraft| at most {TRUE_WIND_MAX_MPS:g} m/s")
-    if not math.isfinite(from_deg):
-        raise InputError("--wind", None, f"{text!r}: the direction must be a finite number of degrees")
+    # NaN cannot pass the regex, but an overflowing literal (1e400) reads as inf: the comparisons refuse it.
+    if not 0 <= speed <= TRUE_WIND_MAX_MPS:
+        raise InputError("--wind", None, f"{text!r}: the speed {speed:g} m/s must be in [0, {TRUE_WIND_MAX_MPS:g}] m/s")
+    if not 0 <= from_deg <= 360:
+        raise InputError("--wind", None, f"{text!r}: the direction {from_deg:g} deg must be in [0, 360] deg "
+                         "(the bearing the wind blows from, clockwise from north)")
+    if not abs(up) <= TRUE_WIND_MAX_MPS:
+        raise InputError("--wind", None, f"{text!r}: the updraft {up:g} m/s must be in "
+                         f"[-{TRUE_WIND_MAX_MPS:g}, {TRUE_WIND_MAX_MPS:g}] m/s")
     return SteadyWind(speed, from_deg % 360.0, up)
 
 
@@ -117,6 +128,10 @@ class WindSeries:
     def describe(self) -> str:
         return f"wind time series {self.path} (--truth, {len(self.t_s)} rows, t {self.t_s[0]:g}..{self.t_s[-1]:g} s)"
 
+    def describe_log(self, path: str) -> str:
+        return (f"a known wind time series (--truth {self.path}), interpolated on the log's clock; rows outside "
+                f"t {self.t_s[0]:g}..{self.t_s[-1]:g} s not used")
+
 
 TRUTH_FILE_FORMATS = ("t, wind_n, wind_e, wind_d", "t, speed, from_deg (and optionally up)")
 
@@ -131,7 +146,7 @@ def read_truth_csv(path: str) -> WindSeries:
         ned = log.stack(*TRUTH_COLUMNS)
     elif log.has("speed", "from_deg"):
         up = cols["up"] if log.has("up") else np.zeros(log.rows)
-        ned = np.column_stack([wind_from(cols["speed"], cols["from_deg"]), -up])
+        ned = np.column_stack([wind_from_ne(cols["speed"], cols["from_deg"]), -up])
     else:
         raise InputError(path, "header", "a wind truth file needs the columns " + " or ".join(TRUTH_FILE_FORMATS))
     bad = ~np.isfinite(ned).all(axis=1) | (np.abs(ned) > TRUE_WIND_MAX_MPS).any(axis=1)
@@ -143,14 +158,17 @@ def read_truth_csv(path: str) -> WindSeries:
     return WindSeries(path, log.time_s.copy(), ned)
 
 
-def flight_of(path: str, af: Airframe, rate_hz: float | None) -> LogTime:
+def flight_of(path: str, af: Airframe, rate_hz: float | None, window: TimeWindow | None = None) -> LogTime:
     """A calibration log, airborne accepted rows only: an autopilot log through replay's reader (rows
-    without data or on the ground are NaN), or a CSV log with the airframe's columns."""
+    without data or on the ground are NaN), or a CSV log with the airframe's columns. ``window``: an
+    autopilot log's rows in that span of its clock only (dobwind/io/timewindow.py)."""
     from dobwind.io.autopilot import is_autopilot_log, read_autopilot
 
     if is_autopilot_log(path):
-        flight = read_autopilot(path, af, rate_hz)
+        flight = read_autopilot(path, af, rate_hz, window=window)
         return LogTime(flight.log, flight.t0_s)
+    if window is not None:
+        raise InputError(path, None, "a time window is for autopilot logs (a CSV log keeps its own clock)")
     return LogTime(read_log(path, required_columns(af)), 0.0)
 
 
@@ -169,11 +187,7 @@ def with_truth(path: str, flight: LogTime, truth: Truth) -> FlightLog:
 LogReader = Callable[[str, Airframe], FlightLog]
 
 
-def truth_reader(truth: Truth, rate_hz: float | None = None) -> LogReader:
-    """What fitfamily.fit_airframe calls for each calibration log (``log_reader``)."""
-    return lambda path, af: with_truth(path, flight_of(path, af, rate_hz), truth)
-
-
-def provenance(log_paths: list[str], truth_text: str) -> list[str]:
-    """The airframe's comment lines recording how it was calibrated."""
-    return ["calibrated by `dobwind fit` from " + ", ".join(log_paths), "wind truth: " + truth_text]
+def truth_reader(truth: Truth, rate_hz: float | None = None, window: TimeWindow | None = None) -> LogReader:
+    """What fitfamily.fit_airframe calls for each calibration log (``log_reader``); ``window``: each log's
+    rows in that span of its clock only (a fit on part of a flight, the rest held out)."""
+    return lambda path, af: with_truth(path, flight_of(path, af, rate_hz, window), truth)

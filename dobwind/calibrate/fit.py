@@ -387,7 +387,9 @@ def fit_polynomial(af: Airframe, logs: list[FlightLog], terms: str = "auto", dyn
     horizontal = ForceAirModel(tuple(parse_term(t) for t in h_terms), tuple(report.horizontal_coefficients))
     if not all(math.isfinite(c) for c in report.horizontal_coefficients + report.vertical_coefficients):
         raise CheckFailed("the least-squares fit gave non-finite coefficients")
-    new = dataclasses.replace(af, horizontal=horizontal, vertical=vertical,
+    # drag=None: the tables are the law now. A drag-family starter (`dobwind init` writes one) kept its
+    # drag law otherwise, and the step, which runs the drag law whenever there is one, ignored the fit.
+    new = dataclasses.replace(af, horizontal=horizontal, vertical=vertical, drag=None,
                               observer=dataclasses.replace(af.observer, force_offset_n=tuple(report.force_offset_n)))
     # The calibrated range and the residuals' size, for the step's EXTRAPOLATED bit and sigma outputs.
     pred_h = np.maximum(_term_matrix(h_terms, points.m, points.n, points.fz) @ np.asarray(horizontal.coefficients), 0)
@@ -463,17 +465,22 @@ def _horizontal_terms(af: Airframe, points: Points, terms: str, report: FitRepor
 
 def _vertical_model(af: Airframe, points: Points, terms: str, report: FitReport) -> tuple[ForceAirModel, FitReport]:
     """The vertical model fitted, or kept from the airframe when the data hardly move vertically; the
-    report with it."""
+    report with it. A drag-family starter (`dobwind init`'s prior) has no vertical table to keep: it is
+    fitted then, with a warning (the family's vertical check may still fall back to zero)."""
     vertical = af.vertical
     vertical_span = float(np.ptp(points.air_z))
-    if vertical_span < 1.0:
+    if vertical_span < 1.0 and vertical.terms:
         warning = (f"vertical airflow spans only {vertical_span:.2f} m/s in the data: the vertical model "
                    "is kept from the airframe (fly climbs and descents to calibrate it)")
         return vertical, dataclasses.replace(report, warnings=[*report.warnings, warning],
                                              vertical_terms=list(vertical.term_texts),
                                              vertical_coefficients=list(vertical.coefficients))
-    v_terms = (select_terms(VERTICAL_CANDIDATES, points, points.air_z, max_terms=4)[0] if terms == "auto"
-               else list(vertical.term_texts))
+    if vertical_span < 1.0:
+        report = dataclasses.replace(report, warnings=[*report.warnings, (
+            f"vertical airflow spans only {vertical_span:.2f} m/s in the data: the airframe has no polynomial "
+            "vertical model to keep, so it is fitted on that span (fly climbs and descents to calibrate it)")])
+    v_terms = (select_terms(VERTICAL_CANDIDATES, points, points.air_z, max_terms=4)[0]
+               if terms == "auto" or not vertical.terms else list(vertical.term_texts))
     coefficients, rmse, cv, extrapolation = _least_squares(v_terms, points, points.air_z)
     vertical = ForceAirModel(tuple(parse_term(t) for t in v_terms), tuple(coefficients))
     return vertical, dataclasses.replace(report, vertical_terms=v_terms, vertical_coefficients=coefficients,

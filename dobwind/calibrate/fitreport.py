@@ -81,13 +81,19 @@ def _exponent_line(report: FitReport) -> list[str]:
     return [f"  exponent {exponent:g}, chosen by the hold-level score (CV and top holds, m/s) of each tried: {tried}"]
 
 
+# The drag law's coefficients (docs/formats.md, [force_air]): printed once under the law so that no
+# figure of the report stands without its unit.
+DRAG_UNITS = ("l0, l2c, l2s, lr, lz, i1 in N/(m/s); q0, q2c, q2s, q1c, q4c, q4s in N/(m/s)^exponent; qz, i2 in "
+              "N/(m/s)^2; ox, oy in N; kappa a share of the thrust (no unit)")
+
+
 def runs_lines(report: FitReport) -> list[str]:
     """Per calibration log: the mean airflow error the law leaves and whether it looks like an outlier."""
     if not report.runs:
         return []
     how = ("the law fitted on the logs' means, each weighted once (bisquare weights); the families ranked by "
            "the robust loss of these errors (run_loss)" if report.anchored else "the law fitted on every sample")
-    lines = [f"  per log ({how}): mean true airflow, error of the mean estimated airflow, weight"]
+    lines = [f"  per log ({how}): mean airflow against the wind truth (per log below), error of the mean estimated airflow, weight"]
     for run in report.runs:
         mark = "  OUTLIER: disagrees with the other logs" if run.outlier else ""
         lines.append(f"    {run.log}: {run.mean_speed_mps:.2f} m/s, error {run.error_mps:.2f} m/s, "
@@ -115,6 +121,7 @@ def text_report(report: FitReport) -> str:
             f"{report.samples} samples; thrust scale {report.thrust_scale:.4f}; force offset "
             f"[{', '.join(f'{v:.3f}' for v in report.force_offset_n)}] N",
             f"drag law: {law}",
+            f"  units: {DRAG_UNITS}",
             *(f"  not chosen: {where}" for where in report.not_increasing),
             *_exponent_line(report),
             *runs_lines(report),

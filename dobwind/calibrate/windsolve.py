@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
@@ -355,6 +356,24 @@ def _advice(spanned: Coverage, sigma_mps: float, span_s: float) -> str:
             "or a wind measured another way (--wind SPEED@FROM, --truth)")
 
 
+def _span_text(span: tuple[str, float, float], groups: int) -> str:
+    """A wind's log, and its time span when there is more than one wind (segments or several logs)."""
+    path, start, end = span
+    return path if groups == 1 else f"{path} t {start:.1f}-{end:.1f} s"
+
+
+def _each_wind(spans: list[tuple[str, float, float]], sigma: np.ndarray, joint: bool) -> str:
+    """With several winds (logs or segments), which of them the flight identified and which not: a wind
+    is identified when its 1-sigma is within the limit and the flight as a whole passes the coverage and
+    Jacobian tests (``joint``); one wind needs no list, the sentence before names it."""
+    if len(spans) < 2:
+        return ""
+    verdicts = [f"{_span_text(span, len(spans))} {value:.2g} m/s "
+                + ("identified" if joint and value <= MAX_WIND_SIGMA_MPS else "NOT identified")
+                for span, value in zip(spans, sigma)]
+    return "; each wind's 1-sigma: " + ", ".join(verdicts)
+
+
 def _problem(af: Airframe, logs: list[LogRows], groups: int, kappa: float = 0.0) -> Problem:
     # the data residuals' scale: a few percent of the weight (gusts, thrust-model error), not below 0.05 N
     scale = max(0.02 * af.mass_kg * af.gravity_mps2, 0.05)
@@ -395,14 +414,15 @@ def estimate_winds(af: Airframe, flights: list[tuple[str, LogTime]], segment_s: 
     what = spanned.text()
     data = problem.data(result.x)
     misfit = 1.4826 * float(np.median(np.abs(data - np.median(data))))
-    if spanned.lacking() or condition > MAX_CONDITION or not np.all(sigma <= MAX_WIND_SIGMA_MPS):
+    joint = not spanned.lacking() and condition <= MAX_CONDITION
+    if not joint or not np.all(sigma <= MAX_WIND_SIGMA_MPS):
         worst = int(np.argmax(np.nan_to_num(sigma, nan=math.inf)))
         raise CheckFailed(
             f"--wind unknown: the flight does not identify the wind and the force-air law together (wind 1-sigma "
-            f"{sigma[worst]:.2g} m/s for {spans[worst][0]}, limit {MAX_WIND_SIGMA_MPS:g}; Jacobian condition "
+            f"{sigma[worst]:.2g} m/s for {_span_text(spans[worst], groups)}, limit {MAX_WIND_SIGMA_MPS:g}; Jacobian condition "
             f"{condition:.3g}, limit {MAX_CONDITION:g}; force the law leaves unexplained {misfit:.2g} N, "
             f"{misfit / (af.mass_kg * af.gravity_mps2):.1%} of the weight): {what}; {_advice(spanned, float(sigma[worst]), spans[worst][2] - spans[worst][1])}; "
-            f"{scale.text()}; nothing written")
+            f"{scale.text()}{_each_wind(spans, sigma, joint)}; nothing written")
     found = tuple(WindGroup(path, start, end, (float(w[0]), float(w[1])), float(s), int(n))
                   for (path, start, end), w, s, n in zip(spans, winds, sigma, counts))
     law = dict(zip(LAW, (float(v) for v in result.x[2 * groups:]))) | {"kappa": scale.applied}
@@ -415,6 +435,8 @@ class GroupWinds:
     """The winds found, as a truth (fieldtruth.Truth): each log's groups, steady over their spans (rows
     before the first group's start and after the last's end take the nearest group's wind)."""
     solution: JointSolution
+    # fit's report says the self-check's "true" wind is this estimate (fieldfit.truth_lines)
+    ESTIMATED: ClassVar[bool] = True
 
     def wind(self, path: str, flight: LogTime) -> tuple[np.ndarray, np.ndarray]:
         mine = [g for g in self.solution.groups if g.path == path]
@@ -431,3 +453,14 @@ class GroupWinds:
                  f"(1-sigma {g.sigma_mps:.2f})" for g in self.solution.groups]
         return ("estimated jointly with the force-air law (--wind unknown; mean vertical wind assumed zero): "
                 + "; ".join(parts))
+
+    def describe_log(self, path: str) -> str:
+        # Every wind here passed the identification tests (estimate_winds refuses otherwise), so each is
+        # called identified; the 1-sigma says how well.
+        mine = [f"t {g.t_start_s:.1f}-{g.t_end_s:.1f} s {g.speed_mps:.2f} m/s from {g.from_deg:.0f} deg, 1-sigma "
+                f"{g.sigma_mps:.2f} m/s" for g in self.solution.groups if g.path == path]
+        if not mine:
+            return "no wind estimated for this log (--wind unknown): its rows were not used"
+        return (f"not a known wind: estimated from this flight jointly with the law (--wind unknown, mean vertical "
+                f"wind taken as zero), identified (1-sigma within {MAX_WIND_SIGMA_MPS:g} m/s)"
+                + (f" in all {len(mine)} segments: " if len(mine) > 1 else ": ") + "; ".join(mine))

@@ -8,7 +8,7 @@ import sys
 from dobwind.cli.common import AIRFRAME_HELP, JSON_HELP, Command, print_json
 from dobwind.core import options as opt
 from dobwind.core.errors import CheckFailed, InputError
-from dobwind.io.outputs import OutputFiles, Target, check_targets
+from dobwind.io.outputs import PNG, OutputFiles, Target, check_targets
 
 
 def add(command: Command) -> None:
@@ -80,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
     from dobwind.calibrate.fieldfit import field_options, field_truth
 
     plot = args.plot if args.plot is not None else str(args.output).removesuffix(".toml") + "_fit.png"
-    targets = [Target("-o", args.output), Target("--plot", plot)]
+    targets = [Target("-o", args.output), Target("--plot", plot, suffixes=PNG)]
     options = field_options(args)
     check_targets(targets, [args.airframe, *args.logs, *options.files()])
     af = load_airframe(args.airframe)
@@ -108,9 +108,12 @@ def run(args: argparse.Namespace) -> int:
             fit_plot(new, points, str(out.stage(plot)))
     if args.json:
         print_json({**report.as_dict(), "written": written, "airframe": str(args.output) if written else None,
-                     "plot": plot if written else None, **({"wind_truth": field.record()} if field else {})})
+                     "plot": plot if written else None, **({"wind_truth": field.record(list(args.logs))} if field else {})})
     else:
+        from dobwind.calibrate.fieldfit import truth_lines
+
         print(text_report(report))
+        print("\n".join(truth_lines(field, list(args.logs), args.still_air)))
         for line in field.summary if field else []:
             print(line)
         print(text_table(report.self_check))

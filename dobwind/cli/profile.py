@@ -13,7 +13,7 @@ from dobwind.io import cfnames
 from dobwind.cli.campaign import Done, expand_logs, format_table, run_all
 from dobwind.core.errors import InputError
 from dobwind.io.netcdf import is_netcdf
-from dobwind.io.outputs import OutputFiles, Target, check_targets
+from dobwind.io.outputs import PNG, OutputFiles, Target, check_targets
 from dobwind.atmos.profile import BIN, allowed_mask, combine, coverage, flight_sums, table
 from dobwind.core.progress import wanted
 from dobwind.model.kinds import Precision
@@ -56,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
     from dobwind.model.airframe import load_airframe
 
     logs = expand_logs(args.logs)
-    targets = [Target("-o", args.output)] + ([Target("--plot", args.plot)] if args.plot else [])
+    targets = [Target("-o", args.output)] + ([Target("--plot", args.plot, suffixes=PNG)] if args.plot else [])
     check_targets(targets, [args.airframe, *logs])
     if not str(args.output).lower().endswith(".csv") and not is_netcdf(args.output):
         raise InputError(f"-o {args.output}", None, "the profile is written as .csv or .nc (by its extension)")

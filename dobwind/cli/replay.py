@@ -11,7 +11,8 @@ from typing import Any, Callable
 
 from dobwind.cli.common import add_backend_options, AIRFRAME_HELP, JSON_HELP, Command, add_many_options, print_json
 from dobwind.core.errors import InputError
-from dobwind.io.outputs import OutputFiles, Target, check_targets
+from dobwind.io.outputs import PNG, OutputFiles, Target, check_targets
+from dobwind.io.provenance import calibration_record
 from dobwind.model.kinds import Precision
 
 
@@ -77,7 +78,8 @@ def run(args: argparse.Namespace, entry: Callable[[list[str]], int]) -> int:
     _warn_mostly_rejected(args.log, metrics, af)
     if args.json:
         print_json({"airframe": af.name, "log": str(args.log), "backend": args.backend, **metrics,
-                     "plausibility": [f.as_dict() for f in result.findings]})
+                     "plausibility": [f.as_dict() for f in result.findings],
+                     "calibration": calibration_record(af, args.airframe)})
     elif result.scored:
         print(text_report(metrics))
     else:
@@ -147,8 +149,8 @@ def _no_file():
 
 
 def _replay_targets(args: argparse.Namespace) -> list[Target]:
-    return [Target(option, path) for option, path in (("-o", args.output), ("--plot", args.plot),
-                                                      ("--px4-wind", args.px4_wind)) if path is not None]
+    return [Target(option, path, suffixes=suffixes) for option, path, suffixes in
+            (("-o", args.output, ()), ("--plot", args.plot, PNG), ("--px4-wind", args.px4_wind, ())) if path is not None]
 
 
 def _topic_overrides(args: argparse.Namespace) -> dict[str, str]:
@@ -173,6 +175,7 @@ def _replay_ulog(args: argparse.Namespace, af) -> int:
     wind = traj.outputs[:, model.outputs.slice("wind_ned")]
     valid = accepted(traj.status)  # quality-flagged samples are estimates too; status_counts shows the flags
     summary = autopilot_summary(af.name, str(args.log), args.backend, model, flight, traj)
+    summary["calibration"] = calibration_record(af, args.airframe)
     with OutputFiles(_replay_targets(args)) as out:
         if args.output is not None and _netcdf(args.output):
             from dobwind.atmos.ncreplay import write_replay_netcdf
@@ -198,9 +201,20 @@ def _replay_ulog(args: argparse.Namespace, af) -> int:
     for note in flight.notes:
         print(f"  note: {note}")
     if summary["mean_wind_speed_h_mps"] is not None:
-        print(f"mean horizontal wind {summary['mean_wind_speed_h_mps']:.2f} m/s")
+        print(f"mean horizontal wind {summary['mean_wind_speed_h_mps']:.2f} m/s {_over_rows(summary)}")
     from dobwind.replay.replay import autopilot_wind_lines
+    from dobwind.replay.sitlcompare import sitl_line
 
-    for line in autopilot_wind_lines(summary.get("px4")):
+    for line in sitl_line(summary.get("sitl_wind")) + autopilot_wind_lines(summary.get("px4")):
         print(line)
     return 0
+
+
+def _over_rows(summary: dict) -> str:
+    """Which rows the mean is over: every accepted row, flagged or not, so say how many of them are
+    trusted (status OK); an uncalibrated or settling estimate must not read as a confident number."""
+    accepted, trusted = summary["valid_rows"], summary["status_counts"].get("OK", 0)
+    if trusted == accepted:
+        return f"(over the {accepted} accepted rows, all trusted)"
+    return (f"(over the {accepted} accepted rows, {trusted} of them trusted; the others carry the quality flags "
+            "in the status counts above)")

@@ -55,6 +55,15 @@ FILTER_CUTOFF_SHARES = (0.4, 0.7, 1.0)   # of the observer bandwidth: heavier sm
 ACCELERATION_BIAS_TIME_S = 20.0          # as the shipped m300: an autopilot's acceleration bias
 
 
+# The one input init cannot check: a log holds no absolute force, only forces relative to the thrust,
+# and the thrust is calibrated to m g at hover (either source), so every force scales with --mass.
+MASS_UNCHECKED = ("not checked against the log: a log holds no absolute force (the thrust is set to m g at "
+                  "hover), so every force the estimator sees scales with this mass")
+MASS_IF_WRONG = ("a wrong mass scales the force-air law by the same factor: `dobwind fit` calibrates the law on "
+                 "these forces, so the wind comes out the same, but the law's newtons are off by the mass's "
+                 "error and do not carry over to the true mass or a changed payload")
+
+
 @dataclass(frozen=True)
 class InitChoices:
     """What init chose and why (printed, and in --json)."""
@@ -169,17 +178,19 @@ def build_airframe(log: str, mass: float, output: str, name: str | None = None) 
         raise
     gain = design_gain(draft, choices.bandwidth_hz)
     final = with_gains(draft, (gain, gain, gain))
-    header = _header(log, summary, choices)
+    header = _header(log, summary, choices, mass)
     text = header + dumps(airframe_document(final))
     parse_airframe(text, output)  # what is written must load
     return text, choices, summary
 
 
-def _header(log: str, s: LogSummary, c: InitChoices) -> str:
+def _header(log: str, s: LogSummary, c: InitChoices, mass: float) -> str:
     lines = [f"# Starter airframe written by `dobwind init` from {os.path.basename(log)} ({s.format}"
              + (f", {s.vehicle.airframe}" if s.vehicle.airframe else "") + ").",
              "# UNCALIBRATED: the force-air law is a prior scaled from typical multirotors (PX4's drag defaults);",
              "# every estimate carries the UNCALIBRATED status bit until `dobwind fit` calibrates this file.",
+             f"# mass: {mass:g} kg from --mass, {MASS_UNCHECKED};",
+             f"# {MASS_IF_WRONG}.",
              f"# thrust: {c.thrust_reason}",
              f"# rotors: {c.rotors or 'not used'} ({s.vehicle.rotor_source})",
              f"# sample_time: {c.rate_reason}; max_dt {c.max_dt_s:g} s covers the slowest needed stream",
@@ -201,17 +212,26 @@ def run_init(log: str, mass: float, output: str, name: str | None, as_json: bool
         from dobwind.io.jsonout import print_json
 
         print_json({"airframe": output, "calibration": PRIOR, "choices": asdict(choices),
-                    "log": summary.path, "format": summary.format, "missing": summary.missing()})
+                    "log": summary.path, "format": summary.format, "missing": summary.missing(),
+                    "mass": {"kg": mass, "source": "--mass", "checked_against_log": False,
+                             "why": MASS_UNCHECKED, "if_wrong": MASS_IF_WRONG}})
     else:
-        print(_summary_text(output, choices))
+        print(_summary_text(output, choices, mass))
     return 0
 
 
-def _summary_text(output: str, c: InitChoices) -> str:
+# What each observer.acceleration input is, for the summary: the bare keyword means little to a new user.
+ACCELERATION_MEANING = {"ned": "the log's own NED acceleration", "specific_force": "the accelerometer's specific "
+                        "force, turned by the attitude", "velocity": "the velocity's derivative: the log has no acceleration"}
+
+
+def _summary_text(output: str, c: InitChoices, mass: float) -> str:
     return "\n".join([f"wrote {output} (uncalibrated prior: estimates carry UNCALIBRATED until `dobwind fit`)",
+                      f"  mass         {mass:g} kg from --mass, {MASS_UNCHECKED}",
+                      f"               {MASS_IF_WRONG}",
                       f"  thrust       {c.thrust_reason}",
                       f"  rotors       {c.rotors or 'unknown (not used: collective thrust)'}",
                       f"  sample_time  {1 / c.rate_hz:g} s ({c.rate_reason})",
                       f"  max_dt       {c.max_dt_s:g} s",
                       f"  bandwidth    {c.bandwidth_hz:.3g} Hz (observer gains designed for it)",
-                      f"  acceleration {c.acceleration}"])
+                      f"  acceleration {c.acceleration} ({ACCELERATION_MEANING[c.acceleration]})"])

@@ -8,6 +8,7 @@ import numpy as np
 from dobwind.io.atomic import write_text_atomically
 from dobwind.model.airframe import Airframe
 from dobwind.io.resample import AutopilotFlight
+from dobwind.io.timewindow import TimeWindow, window_flight
 
 ULOG_SUFFIXES = (".ulg",)
 DATAFLASH_SUFFIXES = (".bin",)
@@ -31,9 +32,16 @@ def is_autopilot_log(path: str) -> bool:
 
 
 def read_autopilot(path: str, af: Airframe, rate_hz: float | None = None,
-                   topics: dict[str, str] | None = None, bridge_gaps: bool = False) -> AutopilotFlight:
+                   topics: dict[str, str] | None = None, bridge_gaps: bool = False,
+                   window: TimeWindow | None = None) -> AutopilotFlight:
     """``bridge_gaps``: feed short silences interpolated (dobwind/io/bridge.py), as replay does; off, every
-    NO_DATA row has NaN inputs (what fit's samples rely on)."""
+    NO_DATA row has NaN inputs (what fit's samples rely on). ``window``: only the rows in that span of the
+    log's clock, cut after the whole log is read (dobwind/io/timewindow.py)."""
+    return window_flight(path, _read_whole(path, af, rate_hz, topics, bridge_gaps), window)
+
+
+def _read_whole(path: str, af: Airframe, rate_hz: float | None, topics: dict[str, str] | None,
+                bridge_gaps: bool) -> AutopilotFlight:
     kind = log_kind(path)
     if kind == "ulog":
         from dobwind.io.ulog import read_ulog

@@ -17,7 +17,9 @@ Messages (EKF3 names; EKF2 logs use the older names in brackets):
   k + 1. Reports are interpolated and may be up to ROTOR_MAX_GAP_S apart (as for PX4);
 - collective thrust: CTUN.ThO / CTUN.ThH (the learned hover throttle) times m g;
 - heading frame: ATT.DesYaw (deg), else the vehicle's own yaw;
-- ArduPilot's wind, for comparison: XKF2.VWN/VWE, primary core [NKF2].
+- ArduPilot's wind, for comparison: XKF2.VWN/VWE, primary core [NKF2];
+- a SITL log's simulated wind, for comparison: PARM SIM_WIND_* and the barometer altitude (BARO, else
+  CTUN.BAlt, POS, XKF1), evaluated by dobwind/io/sitlwind.py.
 On the ground: EV events (LAND_COMPLETE 18, LAND_COMPLETE_MAYBE 17 and DISARMED 11 start it,
 NOT_LANDED 28 ends it; a log starts on the ground); without EV messages, rows where CTUN.ThO is 0
 (motors at idle or stopped). Rows are resampled onto a uniform clock at the observer's rate as the ULog
@@ -36,6 +38,7 @@ from dobwind.model.airframe import Airframe
 from dobwind.io.bridge import blanked, bridge, largest_silences
 from dobwind.io.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, hold,
                               interp, quaternions, source_gaps, topic_tolerances, uniform_clock)
+from dobwind.io.sitlwind import MESSAGES as SITL_MESSAGES, SitlLog, describe as describe_sitl, sitl_from_messages
 from dobwind.model.signals import log_signals
 
 # (role, candidates as (message, instance field or None, instance value)), first found wins.
@@ -175,9 +178,11 @@ def _ground(msgs, clock: np.ndarray, notes: list[str]) -> np.ndarray:
 
 
 def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None, bridge_gaps: bool = False) -> AutopilotFlight:
-    msgs = load_messages(path)
+    loaded = load_messages(path, WANTED + tuple(m for m in SITL_MESSAGES if m not in WANTED))
+    sitl, sitl_notes = _sitl(path, loaded)
+    msgs = {name: loaded[name] for name in WANTED}
     notes = ["messages " + ", ".join(f"{n} {len(r)}" for n, r in msgs.items() if r) + "; not in the log: "
-             + (", ".join(n for n, r in msgs.items() if not r) or "none")]
+             + (", ".join(n for n, r in msgs.items() if not r) or "none")] + sitl_notes
     msgs = follow_primary(msgs, notes)
     vel_name, vel = _require(path, pick_stream(msgs, VELOCITY, ["VN", "VE", "VD"]), "ground velocity", "XKF1 (or NKF1)")
     att_name, att = _require(path, pick_stream(msgs, ATTITUDE, ["Q1", "Q2", "Q3", "Q4"]), "attitude", "XKQ (or NKQ1, NKQ)")
@@ -227,7 +232,23 @@ def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None, bridge
         notes += note
     return AutopilotFlight(FlightLog(path, blank(cols, blanked(no_data, landed, bridged))), no_data, landed, ap_wind,
                            tuple(notes), float(clock[0]), bridged=bridged,
-                           silences=largest_silences(tolerances, clock))
+                           silences=largest_silences(tolerances, clock), sitl=sitl)
+
+
+def _sitl(path: str, msgs: dict[str, list[dict]]) -> tuple[SitlLog | None, list[str]]:
+    """An ArduPilot SITL log's simulated wind (dobwind/io/sitlwind.py), for replay to compare with; a SITL
+    log without an altitude to evaluate its profile at is replayed all the same, and a note says why
+    there is no comparison."""
+    try:
+        sitl = sitl_from_messages(path, msgs)
+    except InputError as exc:
+        return None, [f"SIM_WIND_* parameters but no simulator wind to compare with: {exc.message}"]
+    if sitl is None:
+        return None, []
+    note = f"ArduPilot SITL: the simulator's wind from its parameters ({describe_sitl(sitl)})"
+    if sitl.turbulent():
+        note += "; SIM_WIND_TURB > 0: its turbulence is not in the log, the comparison is with its mean wind"
+    return sitl, [note]
 
 
 def _columns(af: Airframe, vel, att, imu, psc, escs, ctun, msgs, clock: np.ndarray, notes: list[str]) -> dict:

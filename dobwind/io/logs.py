@@ -59,6 +59,15 @@ class FlightLog:
         return self.stack(*TRUTH_COLUMNS) if self.has(*TRUTH_COLUMNS) else None
 
 
+def airframe_given_as_log(path: str) -> str:
+    """What to add to a missing-column error when the "log" is a TOML file: most likely the airframe,
+    given where the log belongs (arguments swapped, or the airframe given twice)."""
+    if not str(path).lower().endswith(".toml"):
+        return ""
+    return ("; a .toml file is an airframe, not a flight log (replay, fit and report take AIRFRAME then LOG; "
+            "inspect and init take the log alone)")
+
+
 def required_columns(af: Airframe) -> list[tuple[str, str]]:
     """(column, what it is for) that the airframe needs (model/signals.py)."""
     return log_signals(af).columns()
@@ -88,7 +97,7 @@ def iter_log(path: str | Path, needed: list[tuple[str, str]] | None = None,
         header = read_header(handle, path)
         for name, purpose in needed or [("t", "sample time")]:
             if name not in header.names:
-                raise InputError(path, f"column {name}", f"missing ({purpose})")
+                raise InputError(path, f"column {name}", f"missing ({purpose}){airframe_given_as_log(path)}")
         done, rows, last_t = handle.tell(), 0, -math.inf
         for block in read_blocks(handle, header, path, block_bytes):
             columns = {name: block.data[:, i] for i, name in enumerate(header.names)}

@@ -27,6 +27,12 @@ class Target:
     option: str          # the command-line option that named it ("-o", "--plot")
     path: str
     kind: str = "file"   # "file" or "dir"
+    # A file written in one format only (a PNG, an HTML page): the extensions its name may end in (any
+    # case), the first naming the format. Empty: any name (CSV, TOML, NetCDF outputs choose by their own rules).
+    suffixes: tuple[str, ...] = ()
+
+
+PNG = (".png",)   # Target.suffixes of a figure (matplotlib is told format="png" whatever the name says)
 
 
 def shown(path: str | Path) -> str:
@@ -90,6 +96,19 @@ def check_target(target: Target, inputs: Sequence[str] = ()) -> None:
             new_temp_file(folder, "probe").unlink()
     except OSError as exc:
         raise _refuse(target, f"cannot write in {shown(folder)}: {exc.strerror}") from None
+    _check_suffix(target)
+
+
+def _check_suffix(target: Target) -> None:
+    """A PNG written as r.pdf opens as a broken PDF: a one-format output must be named for its format.
+    Checked last, so that a path that cannot be written at all says that first."""
+    if not target.suffixes:
+        return
+    suffix = Path(target.path).suffix
+    if suffix.lower() not in target.suffixes:
+        got = f"the extension {suffix!r}" if suffix else "no extension"
+        kind = target.suffixes[0].lstrip(".").upper()
+        raise _refuse(target, f"{got}; it is written as {kind} only: name it {' or '.join(target.suffixes)}")
 
 
 def check_targets(targets: Sequence[Target], inputs: Sequence[str] = ()) -> None:

@@ -36,6 +36,7 @@ class Series:
     colour: str
     style: str
     width: float
+    is_truth: bool = False  # the reference the others are judged by (the log's or the simulator's true wind)
 
 
 def save(fig, path: str | Path) -> None:
@@ -87,18 +88,19 @@ def _shade_status(ax, t: np.ndarray, status: np.ndarray, legend: bool) -> None:
 
 
 def _series(t: np.ndarray, wind: np.ndarray, truth: np.ndarray | None,
-            others: list[tuple[str, np.ndarray, np.ndarray]]) -> list[Series]:
-    named = ([("true wind", t, truth)] if truth is not None else []) + [("dobwind", t, wind)] + list(others)
+            others: list[tuple[str, np.ndarray, np.ndarray]], truth_label: str = "true wind") -> list[Series]:
+    named = ([(truth_label, t, truth)] if truth is not None else []) + [("dobwind", t, wind)] + list(others)
     offset = 0 if truth is not None else 1
     out = []
     for i, (label, tt, w) in enumerate(named):
         colour, style = STYLES[min(i + offset, len(STYLES) - 1)]
-        out.append(Series(label, np.asarray(tt), np.asarray(w, dtype=float), colour, style, 1.4 if i + offset < 2 else 1.0))
+        out.append(Series(label, np.asarray(tt), np.asarray(w, dtype=float), colour, style,
+                          1.4 if i + offset < 2 else 1.0, is_truth=i + offset == 0))
     return out
 
 
 def _speed_panel(ax, series: list[Series]) -> None:
-    main = [s for s in series if s.label in ("true wind", "dobwind")]
+    main = [s for s in series if s.is_truth or s.label == "dobwind"]
     top = max((float(np.nanmax(np.hypot(s.wind[:, 0], s.wind[:, 1]), initial=0.0)) for s in main), default=1.0)
     top = max(top * SPEED_HEADROOM, 0.5)
     for s in series:
@@ -116,7 +118,7 @@ def _speed_panel(ax, series: list[Series]) -> None:
 def _directions(series: list[Series]) -> list[tuple[Series, np.ndarray]]:
     """Each series' unwrapped wind-from angle, aligned by whole turns on the first; series with none left out.
     With a truth, its speed decides where a direction exists: in still air no estimate's direction is shown."""
-    truth = next((s for s in series if s.label == "true wind"), None)
+    truth = next((s for s in series if s.is_truth), None)
     windy = None if truth is None else np.hypot(truth.wind[:, 0], truth.wind[:, 1]) >= MIN_DIRECTION_SPEED_MPS
     out: list[tuple[Series, np.ndarray]] = []
     for s in series:
@@ -157,12 +159,13 @@ def _vertical_panel(ax, series: list[Series]) -> None:
 
 def replay_plot(t: np.ndarray, wind: np.ndarray, truth: np.ndarray | None, title: str, path: str,
                 others: list[tuple[str, np.ndarray, np.ndarray]] = (), status: np.ndarray | None = None,
-                band: tuple[str, np.ndarray, np.ndarray, np.ndarray] | None = None) -> None:
+                band: tuple[str, np.ndarray, np.ndarray, np.ndarray] | None = None, truth_label: str = "true wind") -> None:
     """Speed, direction (from) and vertical wind (up) over time; truth and other estimates if given.
     ``others``: (label, time, wind NED) for other estimators; a NaN vertical column means "no vertical".
     ``status``: per row of t, shades the rows without an estimate (grey) and the untrusted ones (amber).
-    ``band``: (label, t, low, high) drawn behind the speed panel (an autopilot's own 1-sigma)."""
-    series = _series(t, wind, truth, list(others))
+    ``band``: (label, t, low, high) drawn behind the speed panel (an autopilot's own 1-sigma).
+    ``truth_label``: the truth's name in the legend (an ArduPilot SITL log's: the simulator's wind)."""
+    series = _series(t, wind, truth, list(others), truth_label)
     directions = _directions(series)
     if directions:
         fig, axes = plt.subplots(3, 1, sharex=True, figsize=(10, 8), height_ratios=(1.2, 1.0, 0.8))

@@ -7,11 +7,15 @@ comparison and notes for the user. The helpers here resample one message stream 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from dobwind.core.errors import InputError
 from dobwind.io.logs import FlightLog
+
+if TYPE_CHECKING:
+    from dobwind.io.sitlwind import SitlLog
 
 # Rotor speeds come from ESC telemetry, which autopilots often publish far slower than the attitude
 # (PX4's esc_status at 4 Hz in SITL, DShot telemetry round-robin on hardware). Rotor speed follows the
@@ -36,6 +40,7 @@ class AutopilotFlight:
     # None when the reader was not asked to bridge (then every NO_DATA row is blanked).
     bridged: np.ndarray | None = None
     silences: tuple[tuple[str, float, float], ...] = ()  # (stream, its gap tolerance, its longest silence), s
+    sitl: SitlLog | None = None  # an ArduPilot SITL log's simulated wind (dobwind/io/sitlwind.py)
 
     @property
     def px4_wind(self) -> tuple[str, np.ndarray, np.ndarray] | None:  # the name the ULog path had first

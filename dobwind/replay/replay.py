@@ -163,6 +163,10 @@ def autopilot_summary(name: str, log_path: str, backend: str, model: StepModel, 
     summary["plausibility"] = [f.as_dict() for f in flight.findings]
     if flight.px4_wind is not None:
         summary["px4"] = compare_with_px4(log.time_s, wind, valid, flight.px4_wind, flight.autopilot_wind_variance)
+    if flight.sitl is not None:  # an ArduPilot SITL log: the wind its simulator was told to blow
+        from dobwind.replay.sitlcompare import sitl_summary
+
+        summary["sitl_wind"] = sitl_summary(flight.sitl, log.time_s + flight.t0_s, wind, traj.status)[0]
     return summary
 
 
@@ -172,8 +176,21 @@ def autopilot_plot(path: str, title: str, flight, wind: np.ndarray, status: np.n
     from dobwind.io.plots import replay_plot
 
     ref, band = reference_lines(flight)
-    replay_plot(flight.log.time_s + flight.t0_s, np.where(accepted(status)[:, None], wind, np.nan), None, title, path,
-                [] if ref is None else [ref], status=status, band=band)
+    clock = flight.log.time_s + flight.t0_s
+    replay_plot(clock, np.where(accepted(status)[:, None], wind, np.nan), sitl_truth(flight), title, path,
+                [] if ref is None else [ref], status=status, band=band, truth_label=SITL_LABEL)
+
+
+SITL_LABEL = "simulator wind (SIM_WIND_*)"
+
+
+def sitl_truth(flight) -> np.ndarray | None:
+    """The simulator's wind on every row of an ArduPilot SITL log (NED), None for any other log."""
+    if flight.sitl is None:
+        return None
+    from dobwind.io.sitlwind import sitl_wind_ned
+
+    return sitl_wind_ned(flight.sitl, flight.log.time_s + flight.t0_s)
 
 
 def reference_lines(flight):

@@ -44,6 +44,8 @@ class Flight:
     reference: tuple[str, np.ndarray, np.ndarray] | None  # (label, time, NED wind): the autopilot's estimate
     notes: tuple[str, ...]
     band: tuple | None = None   # (label, time, low, high): the autopilot's own 1-sigma around its speed
+    truth_label: str = "true wind"  # the truth's name (an ArduPilot SITL log's: the simulator's wind)
+    sitl: dict | None = None    # dobwind against the simulator's wind (replay/sitlcompare.py), SITL logs only
 
 
 def _png(path: Path, caption: str) -> Figure:
@@ -115,6 +117,32 @@ COMPARISON_ROWS = {
 }
 
 
+# dobwind against an ArduPilot SITL log's simulated wind (replay/sitlcompare.py): key -> (what it is, unit).
+SITL_ROWS = {
+    "compared_rows": ("rows compared", "rows"),
+    "mean_speed_mps": ("dobwind's mean horizontal speed", "m/s"),
+    "true_mean_speed_mps": ("the simulator's mean horizontal speed", "m/s"),
+    "speed_difference_mps": ("mean speed difference (dobwind - simulator)", "m/s"),
+    "from_deg": ("dobwind's mean wind, from (clockwise from north)", "deg"),
+    "true_from_deg": ("the simulator's mean wind, from", "deg"),
+    "direction_difference_deg": ("direction difference (dobwind - simulator)", "deg"),
+    "mean_vector_error_mps": ("mean of |dobwind - simulator|, row by row (horizontal)", "m/s"),
+    "mean_up_mps": ("dobwind's mean vertical wind, up", "m/s"),
+    "true_mean_up_mps": ("the simulator's mean vertical wind, up", "m/s"),
+}
+
+
+def figure_rows(block: dict[str, Any], names: dict[str, tuple[str, str]]) -> list[tuple[str, str, str, str]]:
+    """(what, JSON key, value, unit) for each figure ``names`` lists that ``block`` holds, in its order;
+    counts as integers, other numbers to 3 decimals, differences with their sign."""
+    def fmt(key: str, value: Any) -> str:
+        if isinstance(value, int):
+            return str(value)
+        return f"{value:+.3f}" if "difference" in key else f"{value:.3f}"
+
+    return [(what, key, fmt(key, block[key]), unit) for key, (what, unit) in names.items() if block.get(key) is not None]
+
+
 def comparison_rows(comparison: dict[str, Any]) -> list[tuple[str, str, str, str]]:
     """(what, JSON key, value, unit) for each figure the comparison holds, in COMPARISON_ROWS' order;
     numbers to 3 decimals (a raw float's 16 digits claim a precision the estimate does not have)."""
@@ -145,6 +173,7 @@ def render(af: Airframe, airframe_path: str, flight: Flight, metrics: dict[str, 
         airframe=airframe_rows(af), flight=flight, accepted=int(valid.sum()), notes=flight.notes,
         errors=error_rows(metrics) if metrics else [], metrics=metrics, comparison=comparison,
         comparison_rows=comparison_rows(comparison) if comparison else [],
+        sitl=flight.sitl, sitl_rows=figure_rows(flight.sitl, SITL_ROWS) if flight.sitl else [],
         status=status_rows(flight.status), figures=figures, analysis=analysis)
 
 
@@ -162,9 +191,9 @@ def build_figures(af: Airframe, flight: Flight, work: Path) -> tuple[list[Figure
 
     others = [flight.reference] if flight.reference is not None else []
     replay_png = work / "replay.png"
-    what = "true wind" if flight.truth is not None else (flight.reference[0] if flight.reference else "no reference")
+    what = flight.truth_label if flight.truth is not None else (flight.reference[0] if flight.reference else "no reference")
     replay_plot(flight.time_s, flight.wind, flight.truth, f"{af.name}: estimated wind over {flight.log_name}",
-                str(replay_png), others, status=flight.status, band=flight.band)
+                str(replay_png), others, status=flight.status, band=flight.band, truth_label=flight.truth_label)
     figures = [_png(replay_png, f"Estimated wind against {what}: horizontal speed, direction (from), vertical (up), on "
                                 "the log's own clock; grey: no estimate, amber: estimated but not trusted")]
     report, systems = analyze(af, ANALYSIS_FREQUENCIES_HZ)
@@ -201,7 +230,7 @@ def load_flight(af: Airframe, log_path: str, backend: str, precision: Precision)
 def _autopilot_flight(af: Airframe, log_path: str, name: str, backend: str, precision: Precision) -> tuple[Flight, None, dict | None]:
     """Any autopilot log (ULog, DataFlash, ROS 2 bag) on its own clock (seconds since boot, TimeUS,
     the bag's clock), the autopilot's wind only where it is active, and the comparison with it."""
-    from dobwind.replay.replay import reference_lines, replay_ulog
+    from dobwind.replay.replay import SITL_LABEL, reference_lines, replay_ulog
     from dobwind.io.ulog import compare_with_px4
 
     model, ap, traj = replay_ulog(af, log_path, backend, precision)
@@ -213,8 +242,13 @@ def _autopilot_flight(af: Airframe, log_path: str, name: str, backend: str, prec
     if ap.autopilot_wind is not None:
         comparison = compare_with_px4(log.time_s, wind, valid, ap.autopilot_wind, ap.autopilot_wind_variance)
     t = log.time_s + ap.t0_s
+    sitl, truth = None, None
+    if ap.sitl is not None:  # an ArduPilot SITL log: the wind its simulator was told to blow
+        from dobwind.replay.sitlcompare import sitl_summary
+
+        sitl, truth = sitl_summary(ap.sitl, t, wind, traj.status)
     flight = Flight(name, log.rows, float(log.time_s[-1] - log.time_s[0]), t, np.where(valid[:, None], wind, np.nan),
-                    traj.status, None, reference, tuple(ap.notes), band)
+                    traj.status, truth, reference, tuple(ap.notes), band, SITL_LABEL, sitl)
     return flight, None, comparison
 
 
@@ -227,6 +261,10 @@ def flight_report(af: Airframe, airframe_path: str, log_path: str, backend: str 
     page = render(af, airframe_path, flight, metrics, comparison, figures, analysis)
     if metrics and "per_sample" in metrics:
         summary = f"speed error mean {metrics['per_sample']['speed_mean']:.3f} m/s over {metrics['scored_rows']} samples"
+    elif flight.sitl and flight.sitl.get("compared_rows"):
+        summary = (f"mean vector error to the simulator's wind {flight.sitl['mean_vector_error_mps']:.3f} m/s, mean speed "
+                   f"{flight.sitl['speed_difference_mps']:+.3f} m/s, direction {flight.sitl['direction_difference_deg']:+.3f} "
+                   f"deg over {flight.sitl['compared_rows']} {flight.sitl['rows_used']} rows")
     elif comparison and comparison.get("overlap_rows"):
         summary = f"mean vector difference to {comparison['topic']} {comparison['mean_vector_difference_mps']:.3f} m/s"
     elif comparison and comparison.get("active") is False:

@@ -1,0 +1,72 @@
+"""dobwind against the wind an ArduPilot SITL simulator was told to blow (dobwind/io/sitlwind.py): the
+figures `replay` prints and puts under `sitl_wind` in `--json`, and `report` tabulates (docs/field-logs.md).
+
+The comparison is over the trusted airborne rows (status 0: accepted, settled, inside the calibration, not
+on the ground). An uncalibrated prior has no trusted row (UNCALIBRATED on every estimate): then it is over
+the accepted airborne rows, and `rows_used` says so, rather than comparing nothing."""
+from __future__ import annotations
+
+import numpy as np
+
+from dobwind.io.sitlwind import SitlLog, sitl_wind_ned
+from dobwind.model.forceair import wind_from_deg
+from dobwind.model.status import accepted
+
+SOURCE = "ArduPilot SITL SIM_WIND_* parameters"
+
+
+def _wrap_deg(a: float) -> float:
+    return (a + 180.0) % 360.0 - 180.0
+
+
+def compared_rows(status: np.ndarray) -> tuple[np.ndarray, str]:
+    """The rows to compare over and their name: the trusted ones, else the accepted airborne ones."""
+    trusted = status == 0
+    if trusted.any():
+        return trusted, "trusted"
+    return accepted(status), "accepted (no trusted row)"  # accepted rows are never LANDED
+
+
+def compare_with_sitl(wind: np.ndarray, truth: np.ndarray, status: np.ndarray) -> dict:
+    """Mean speed (mean of each row's horizontal speed), direction (where the mean vector blows from) and
+    the mean of |ours - truth| row by row (horizontal), for dobwind and the simulator over the same rows."""
+    rows, name = compared_rows(status)
+    ours, true = wind[rows], truth[rows]
+    out: dict = {"rows_used": name, "compared_rows": int(rows.sum())}
+    if not rows.any():
+        return out
+    mean_ours, mean_true = ours.mean(axis=0), true.mean(axis=0)
+    speed = float(np.mean(np.hypot(ours[:, 0], ours[:, 1])))
+    true_speed = float(np.mean(np.hypot(true[:, 0], true[:, 1])))
+    from_ours = float(wind_from_deg(mean_ours[0], mean_ours[1]))
+    from_true = float(wind_from_deg(mean_true[0], mean_true[1]))
+    out.update(mean_speed_mps=speed, true_mean_speed_mps=true_speed, speed_difference_mps=speed - true_speed,
+               from_deg=from_ours, true_from_deg=from_true, direction_difference_deg=_wrap_deg(from_ours - from_true),
+               mean_vector_error_mps=float(np.mean(np.hypot(*(ours[:, :2] - true[:, :2]).T))),
+               mean_up_mps=float(-mean_ours[2]) + 0.0, true_mean_up_mps=float(-mean_true[2]) + 0.0)  # no "-0.0"
+    return out
+
+
+def sitl_summary(sitl: SitlLog, clock_s: np.ndarray, wind: np.ndarray, status: np.ndarray) -> tuple[dict, np.ndarray]:
+    """(`sitl_wind` of replay's JSON, the simulator's wind on every row, NED): the parameters at the end
+    of the log, where the altitude came from, and the comparison."""
+    truth = sitl_wind_ned(sitl, clock_s)
+    # The log holds the parameters as float32: their shortest float32 text (0.01, not 0.009999999776).
+    parameters = {name: float(str(np.float32(value))) for name, value in sitl.final_parameters().items()}
+    block = {"source": SOURCE, "parameters": parameters, "altitude_source": sitl.altitude_source,
+             "approximate": sitl.turbulent(), **compare_with_sitl(wind, truth, status)}
+    return block, truth
+
+
+def sitl_line(block: dict | None) -> list[str]:
+    """The text line replay prints (none without a SITL comparison)."""
+    if not block:
+        return []
+    if not block["compared_rows"]:
+        return ["simulator wind (SIM_WIND_*): no accepted airborne row to compare with"]
+    note = " (approximate: SIM_WIND_TURB > 0, compared with its mean wind)" if block["approximate"] else ""
+    return [f"simulator wind (SIM_WIND_*) over {block['compared_rows']} {block['rows_used']} airborne rows: dobwind "
+            f"{block['mean_speed_mps']:.2f} m/s from {block['from_deg']:.1f} deg, simulator "
+            f"{block['true_mean_speed_mps']:.2f} m/s from {block['true_from_deg']:.1f} deg; speed "
+            f"{block['speed_difference_mps']:+.2f} m/s, direction {block['direction_difference_deg']:+.1f} deg, "
+            f"mean vector error {block['mean_vector_error_mps']:.2f} m/s{note}"]
