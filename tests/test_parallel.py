@@ -6,6 +6,7 @@ names only modules that exist, and the order it produces keeps each module whole
 first."""
 from __future__ import annotations
 
+import os
 import re
 import shutil
 import subprocess
@@ -24,7 +25,10 @@ def _pytest_lines(*args: str) -> list[str]:
     """The pytest command lines `make -n` would run for ``args`` (nothing is run)."""
     if shutil.which("make") is None:
         pytest.skip("make is not installed")
-    done = subprocess.run(["make", "-n", "-s", *args], cwd=ROOT, capture_output=True, text=True, timeout=60)
+    # Without the variables of a make that runs this suite (`make test PYTEST_WORKERS=0` passes its command
+    # line to sub-makes through MAKEFLAGS) or of the caller's environment: the Makefile's own defaults.
+    env = {k: v for k, v in os.environ.items() if k not in ("MAKEFLAGS", "MFLAGS", "MAKELEVEL", "PYTEST_WORKERS")}
+    done = subprocess.run(["make", "-n", "-s", *args], cwd=ROOT, env=env, capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr
     return [line for line in done.stdout.splitlines() if "-m pytest" in line]
 
