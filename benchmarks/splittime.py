@@ -162,8 +162,8 @@ def run_split_time(log: str, mass_kg: float) -> dict:
         start = os.path.join(tmp, "start.toml")
         with contextlib.redirect_stdout(sys.stderr):  # init's summary: stdout stays the JSON
             code = dobwind(["init", log, "--mass", f"{mass_kg:g}", "-o", start])
-        if code != 0:
-            raise SystemExit(f"init failed on {log}")
+        if code != 0:  # init has said why in one stderr line; its exit code (2: e.g. a bad --mass) stands
+            raise SystemExit(code)
         starter = load_airframe(start)
     fits = split_check(starter, log)
     prior = replay_halves(starter, log, halves(fits[0]["split_s"]))
