@@ -32,6 +32,7 @@ from dobwind.model.airframe import Airframe, load_airframe
 from dobwind.model.forceair import wind_from_deg
 from dobwind.model.status import accepted, describe, trusted
 from dobwind.replay.replay import replay_ulog
+from dobwind.replay.scoring import wrap_deg
 
 HALVES = ("first", "second")
 
@@ -102,7 +103,7 @@ def _errors(wind: np.ndarray, truth: np.ndarray) -> dict | None:
     return {"rows": len(wind), "truth_mean_speed_mps": float(np.mean(np.hypot(truth[:, 0], truth[:, 1]))),
             "speed_error_mps": float(np.mean(np.hypot(wind[:, 0], wind[:, 1])) - np.mean(np.hypot(truth[:, 0], truth[:, 1]))),
             "estimate_from_deg": est_from, "truth_from_deg": true_from,
-            "direction_error_deg": abs((est_from - true_from + 180.0) % 360.0 - 180.0)}
+            "direction_error_deg": abs(float(wrap_deg(est_from - true_from)))}
 
 
 def flight_figures(log: FlightLog, truth: np.ndarray, rows: np.ndarray) -> dict:
