@@ -31,7 +31,7 @@ from dobwind.io.timewindow import TimeWindow
 from dobwind.model.airframe import Airframe, load_airframe
 from dobwind.model.forceair import wind_from_deg
 from dobwind.model.status import accepted, describe, trusted
-from dobwind.replay.replay import replay_ulog
+from dobwind.replay.replay import replay_ulog, sitl_truth
 from dobwind.replay.scoring import wrap_deg
 
 HALVES = ("first", "second")
@@ -126,7 +126,9 @@ def replay_halves(af: Airframe, log: str, windows: dict[str, TimeWindow]) -> dic
     """The whole log replayed through ``af``; each window's airborne rows scored against SITL's wind."""
     model, flight, traj = replay_ulog(af, log)
     clock = LogTime(flight.log, flight.t0_s).clock_s
-    truth = sitl_wind_ned(read_sitl_log(log), clock)
+    truth = sitl_truth(flight)  # the DataFlash reader loaded the SITL parameters with the log
+    if truth is None:  # it found no usable SITL wind: the truth's own reader says what is missing (exit 2)
+        truth = sitl_wind_ned(read_sitl_log(log), clock)
     wind = traj.outputs[:, model.outputs.slice("wind_ned")]
     airborne = ~flight.landed
     halves_rows = {name: airborne & w.mask(clock) for name, w in windows.items()}
