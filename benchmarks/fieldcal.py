@@ -22,7 +22,7 @@ import json
 import numpy as np
 
 from dobwind.calibrate.fieldtruth import LogTime
-from dobwind.core.errors import InputError
+from dobwind.core.errors import EXIT_BAD_INPUT, EXIT_CHECK_FAILED, CheckFailed, InputError
 from dobwind.model.airframe import load_airframe
 from dobwind.model.forceair import wind_from_deg
 from dobwind.model.status import accepted
@@ -115,11 +115,13 @@ def main() -> None:
             parser.error("--split-time needs --mass")
         try:
             print(json.dumps(run_split_time(args.split_time, args.mass), indent=1))
-        except InputError as exc:  # not a SITL log, no SIM_WIND_*, an empty half: one line, exit 2
+        except (InputError, CheckFailed) as exc:  # exit codes of ../shared/spec/INTERFACES.md
             import sys
 
+            # an input (not a SITL log, no SIM_WIND_*, an empty half): 2; a refusal (no airborne time to
+            # split): 1. One line either way, never a traceback.
             sys.stderr.write(f"fieldcal --split-time: {exc}\n")
-            raise SystemExit(2) from None
+            raise SystemExit(EXIT_BAD_INPUT if isinstance(exc, InputError) else EXIT_CHECK_FAILED) from None
         return
     if args.end_to_end:
         import tempfile

@@ -31,7 +31,8 @@ from dobwind.io.timewindow import TimeWindow
 from dobwind.model.airframe import Airframe, load_airframe
 from dobwind.model.forceair import wind_from_deg
 from dobwind.model.status import accepted, describe, trusted
-from dobwind.replay.replay import replay_ulog
+from dobwind.replay.replay import replay_ulog, sitl_truth
+from dobwind.replay.scoring import wrap_deg
 
 HALVES = ("first", "second")
 
@@ -102,7 +103,7 @@ def _errors(wind: np.ndarray, truth: np.ndarray) -> dict | None:
     return {"rows": len(wind), "truth_mean_speed_mps": float(np.mean(np.hypot(truth[:, 0], truth[:, 1]))),
             "speed_error_mps": float(np.mean(np.hypot(wind[:, 0], wind[:, 1])) - np.mean(np.hypot(truth[:, 0], truth[:, 1]))),
             "estimate_from_deg": est_from, "truth_from_deg": true_from,
-            "direction_error_deg": abs((est_from - true_from + 180.0) % 360.0 - 180.0)}
+            "direction_error_deg": abs(float(wrap_deg(est_from - true_from)))}
 
 
 def flight_figures(log: FlightLog, truth: np.ndarray, rows: np.ndarray) -> dict:
@@ -125,7 +126,9 @@ def replay_halves(af: Airframe, log: str, windows: dict[str, TimeWindow]) -> dic
     """The whole log replayed through ``af``; each window's airborne rows scored against SITL's wind."""
     model, flight, traj = replay_ulog(af, log)
     clock = LogTime(flight.log, flight.t0_s).clock_s
-    truth = sitl_wind_ned(read_sitl_log(log), clock)
+    truth = sitl_truth(flight)  # the DataFlash reader loaded the SITL parameters with the log
+    if truth is None:  # it found no usable SITL wind: the truth's own reader says what is missing (exit 2)
+        truth = sitl_wind_ned(read_sitl_log(log), clock)
     wind = traj.outputs[:, model.outputs.slice("wind_ned")]
     airborne = ~flight.landed
     halves_rows = {name: airborne & w.mask(clock) for name, w in windows.items()}
@@ -162,8 +165,8 @@ def run_split_time(log: str, mass_kg: float) -> dict:
         start = os.path.join(tmp, "start.toml")
         with contextlib.redirect_stdout(sys.stderr):  # init's summary: stdout stays the JSON
             code = dobwind(["init", log, "--mass", f"{mass_kg:g}", "-o", start])
-        if code != 0:
-            raise SystemExit(f"init failed on {log}")
+        if code != 0:  # init has said why in one stderr line; its exit code (2: e.g. a bad --mass) stands
+            raise SystemExit(code)
         starter = load_airframe(start)
     fits = split_check(starter, log)
     prior = replay_halves(starter, log, halves(fits[0]["split_s"]))

@@ -38,6 +38,7 @@ MESSAGES = {
     "BARO": ("QBf", ["TimeUS", "I", "Alt"]),
     "PARM": ("QNf", ["TimeUS", "Name", "Value"]),
 }
+XKF2 = {"XKF2": ("QBff", ["TimeUS", "C", "VWN", "VWE"])}  # ArduPilot's own wind estimate
 
 
 def _airframe(tmp_path):
@@ -66,8 +67,10 @@ def _from_deg(ne) -> float:
     return math.degrees(math.atan2(-ne[1], -ne[0])) % 360
 
 
-def _dataflash(path, af, cols, params: dict[str, float] | None, later: tuple = ()) -> str:
-    """``later``: more (message, fields) rows, put in time order (a parameter changed in flight)."""
+def _dataflash(path, af, cols, params: dict[str, float] | None, later: tuple = (),
+               altitude_m=lambda t_s: 20.0, inactive_xkf2: bool = False) -> str:
+    """``later``: more (message, fields) rows, put in time order (a parameter changed in flight);
+    ``altitude_m``: BARO.Alt at a log time (s); ``inactive_xkf2``: an autopilot wind of zero on every row."""
     rows = [("PARM", {"TimeUS": 500_000, "Name": k, "Value": v}) for k, v in (params or {}).items()]
     rows.append(("EV", {"TimeUS": 1_000_000, "Id": 28}))  # NOT_LANDED: airborne from the start
     mg = af.mass_kg * af.gravity_mps2
@@ -75,12 +78,14 @@ def _dataflash(path, af, cols, params: dict[str, float] | None, later: tuple = (
         us = 1_000_000 + int(round(t * 1e6))
         rows.append(("XKF1", {"TimeUS": us, "C": 0, "VN": cols["vel_n"][k], "VE": cols["vel_e"][k], "VD": cols["vel_d"][k]}))
         rows.append(("XKQ", {"TimeUS": us, "C": 0, **{f"Q{i + 1}": cols[f"q_{c}"][k] for i, c in enumerate("wxyz")}}))
+        if inactive_xkf2:
+            rows.append(("XKF2", {"TimeUS": us, "C": 0, "VWN": 0.0, "VWE": 0.0}))
         rows.append(("CTUN", {"TimeUS": us, "ThO": cols["thrust"][k] / mg * HOVER, "ThH": HOVER}))
         rows.append(("ATT", {"TimeUS": us, "DesYaw": np.degrees(cols["yaw_ref"][k])}))
-        rows.append(("BARO", {"TimeUS": us, "I": 0, "Alt": 20.0}))
+        rows.append(("BARO", {"TimeUS": us, "I": 0, "Alt": float(altitude_m(us * 1e-6))}))
     if later:
         rows = sorted([*rows, *later], key=lambda row: row[1]["TimeUS"])
-    return str(write_dataflash(path, MESSAGES, rows))
+    return str(write_dataflash(path, {**MESSAGES, **(XKF2 if inactive_xkf2 else {})}, rows))
 
 
 # --- closed forms -------------------------------------------------------------------------------------

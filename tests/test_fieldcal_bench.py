@@ -161,3 +161,34 @@ def test_split_time_on_a_log_without_the_simulator_wind_is_one_line_and_exit_2(t
     err = capsys.readouterr().err.strip().splitlines()
     assert caught.value.code == 2 and err[-1].startswith("fieldcal --split-time: " + log)
     assert "SIM_WIND_SPD" in err[-1] and "Traceback" not in "\n".join(err)
+
+
+def _split_time_cli(monkeypatch, capsys, *argv: str) -> tuple[int, list[str]]:
+    """benchmarks.fieldcal's main on ``argv``: (exit code, stderr lines)."""
+    import sys
+
+    from benchmarks.fieldcal import main as fieldcal
+
+    monkeypatch.setattr(sys, "argv", ["fieldcal", "--split-time", *argv])
+    with pytest.raises(SystemExit) as caught:
+        fieldcal()
+    return caught.value.code, capsys.readouterr().err.strip().splitlines()
+
+
+def test_split_time_on_a_log_never_airborne_is_one_line_and_exit_1(tmp_path, monkeypatch, capsys):
+    """A SITL log disarmed straight after take-off has no airborne time to split: a refusal, not a traceback."""
+    _, af = _airframe(tmp_path)
+    disarmed = ("EV", {"TimeUS": 1_000_001, "Id": 11})  # DISARMED right after the NOT_LANDED at 1 s
+    log = _dataflash(tmp_path / "landed.bin", af, simulate(af, "box", seed=5, hold_s=6.0, rate_hz=10.0),
+                     {"SIM_WIND_SPD": 5.0, "SIM_WIND_DIR": 90.0}, later=(disarmed,))
+    code, err = _split_time_cli(monkeypatch, capsys, log, "--mass", "3.0")
+    assert code == 1 and err[-1].startswith("fieldcal --split-time: " + log), err
+    assert "airborne" in err[-1] and "Traceback" not in "\n".join(err)
+
+
+def test_split_time_with_a_bad_mass_is_inits_one_line_and_exit_2(tmp_path, monkeypatch, capsys):
+    _, af = _airframe(tmp_path)
+    log = _dataflash(tmp_path / "sitl.bin", af, simulate(af, "box", seed=5, hold_s=6.0, rate_hz=10.0),
+                     {"SIM_WIND_SPD": 5.0, "SIM_WIND_DIR": 90.0})
+    code, err = _split_time_cli(monkeypatch, capsys, log, "--mass", "0")
+    assert code == 2 and len(err) == 1 and "--mass" in err[0], err

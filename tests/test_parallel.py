@@ -59,6 +59,22 @@ def test_the_dev_extra_installs_xdist():
     assert any(re.match(r"pytest-xdist\b", req) for req in extras["dev"]), extras["dev"]
 
 
+# The first pytest-xdist with --no-loadscope-reorder (its CHANGELOG, 3.8.0: "Add --no-loadscope-reorder");
+# an older one refuses the Makefile's command line as an unknown option.
+XDIST_WITH_NO_REORDER = (3, 8)
+
+
+def test_the_dev_extra_asks_for_an_xdist_that_knows_the_makefiles_options():
+    from packaging.requirements import Requirement
+    from packaging.version import Version
+
+    extras = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["project"]["optional-dependencies"]
+    (xdist,) = [Requirement(req) for req in extras["dev"] if re.match(r"pytest-xdist\b", req)]
+    older = Version(f"{XDIST_WITH_NO_REORDER[0]}.{XDIST_WITH_NO_REORDER[1] - 1}.99")
+    assert not xdist.specifier.contains(older), f"{xdist} allows {older}, which lacks --no-loadscope-reorder"
+    assert xdist.specifier.contains(Version("{}.{}.0".format(*XDIST_WITH_NO_REORDER)))
+
+
 def test_the_order_table_names_only_existing_modules():
     missing = [name for name in MODULE_SECONDS if not (ROOT / "tests" / name).is_file()]
     assert not missing, f"tests/conftest.py MODULE_SECONDS names modules that do not exist: {missing}"

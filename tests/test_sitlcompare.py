@@ -24,13 +24,11 @@ from dobwind.model.status import STATUS_LANDED, STATUS_NO_DATA
 from dobwind.replay.replay import replay_ulog, sitl_truth
 from dobwind.replay.sitlcompare import compare_with_sitl
 from dobwind.simulate.simulate import simulate
-from tests.dataflash_writer import write_dataflash
-from tests.test_fieldcal import HOVER, MESSAGES, _airframe
+from tests.test_fieldcal import _airframe, _dataflash
 
 pytest.importorskip("pymavlink")
 
 SETTLING = 1 << 4  # any quality bit: accepted, not trusted
-SITL_MESSAGES = {**MESSAGES, "XKF2": ("QBff", ["TimeUS", "C", "VWN", "VWE"])}
 SPEED, FROM_DEG, T_ALT = 10.0, 90.0, 60.0
 CLIMB_MPS = 1.0  # BARO.Alt = CLIMB_MPS * (t - 1 s): 0 -> T_ALT over the first minute, then above it
 # ../shared/data beside the checkout, or where DOBWIND_SHARED_DATA names it (as tests/test_bridge.py).
@@ -44,18 +42,7 @@ def altitude_at(clock_s: np.ndarray) -> np.ndarray:
 
 def _write(path: Path, af, cols, params: dict[str, float] | None) -> str:
     """The box flight as a DataFlash log: EKF, attitude, thrust, a climbing barometer, an inactive XKF2."""
-    rows = [("PARM", {"TimeUS": 500_000, "Name": k, "Value": v}) for k, v in (params or {}).items()]
-    rows.append(("EV", {"TimeUS": 1_000_000, "Id": 28}))  # NOT_LANDED: airborne from the start
-    mg = af.mass_kg * af.gravity_mps2
-    for k, t in enumerate(cols["t"]):
-        us = 1_000_000 + int(round(t * 1e6))
-        rows.append(("XKF1", {"TimeUS": us, "C": 0, "VN": cols["vel_n"][k], "VE": cols["vel_e"][k], "VD": cols["vel_d"][k]}))
-        rows.append(("XKQ", {"TimeUS": us, "C": 0, **{f"Q{i + 1}": cols[f"q_{c}"][k] for i, c in enumerate("wxyz")}}))
-        rows.append(("XKF2", {"TimeUS": us, "C": 0, "VWN": 0.0, "VWE": 0.0}))
-        rows.append(("CTUN", {"TimeUS": us, "ThO": cols["thrust"][k] / mg * HOVER, "ThH": HOVER}))
-        rows.append(("ATT", {"TimeUS": us, "DesYaw": np.degrees(cols["yaw_ref"][k])}))
-        rows.append(("BARO", {"TimeUS": us, "I": 0, "Alt": float(altitude_at(np.array([us * 1e-6]))[0])}))
-    return str(write_dataflash(path, SITL_MESSAGES, rows))
+    return _dataflash(path, af, cols, params, altitude_m=altitude_at, inactive_xkf2=True)
 
 
 @pytest.fixture(scope="module")

@@ -11,12 +11,9 @@ import numpy as np
 from dobwind.io.sitlwind import SitlLog, sitl_wind_ned
 from dobwind.model.forceair import wind_from_deg
 from dobwind.model.status import accepted
+from dobwind.replay.scoring import wrap_deg
 
 SOURCE = "ArduPilot SITL SIM_WIND_* parameters"
-
-
-def _wrap_deg(a: float) -> float:
-    return (a + 180.0) % 360.0 - 180.0
 
 
 def compared_rows(status: np.ndarray) -> tuple[np.ndarray, str]:
@@ -41,7 +38,7 @@ def compare_with_sitl(wind: np.ndarray, truth: np.ndarray, status: np.ndarray) -
     from_ours = float(wind_from_deg(mean_ours[0], mean_ours[1]))
     from_true = float(wind_from_deg(mean_true[0], mean_true[1]))
     out.update(mean_speed_mps=speed, true_mean_speed_mps=true_speed, speed_difference_mps=speed - true_speed,
-               from_deg=from_ours, true_from_deg=from_true, direction_difference_deg=_wrap_deg(from_ours - from_true),
+               from_deg=from_ours, true_from_deg=from_true, direction_difference_deg=float(wrap_deg(from_ours - from_true)),
                mean_vector_error_mps=float(np.mean(np.hypot(*(ours[:, :2] - true[:, :2]).T))),
                mean_up_mps=float(-mean_ours[2]) + 0.0, true_mean_up_mps=float(-mean_true[2]) + 0.0)  # no "-0.0"
     return out
