@@ -114,12 +114,14 @@ def field_reports(tmp_path_factory) -> dict[str, dict]:
     odd = folder / "odd.vehicle.toml"
     odd.write_text(VEHICLE.read_text().replace("scale = 1.05", "scale = 1.25").replace("quadratic = 0.035", "quadratic = 0.07"))
     tunnels = []
+    # 8 s holds, not the tunnel's 20: the fit takes a quarter of the time and still anchors the law and
+    # flags the odd vehicle's run alone (the three others are not outliers)
     for seed, vehicle in ((1, VEHICLE), (2, VEHICLE), (3, VEHICLE), (4, odd)):
         tunnels.append(str(folder / f"tunnel{seed}.csv"))
         assert _run(["simulate", "tunnel", "--airframe", str(AIRFRAME), "--vehicle", str(vehicle), "--rate", "12.5",
-                     "--seed", str(seed), "-o", tunnels[-1]])[0] == 0
-    box = str(folder / "box.csv")
-    assert _run(["simulate", "box", "--airframe", str(AIRFRAME), "--vehicle", str(VEHICLE), "--hold", "6",
+                     "--hold", "8", "--seed", str(seed), "-o", tunnels[-1]])[0] == 0
+    box = str(folder / "box.csv")  # 4 s holds: the wind is still identified, the solve takes half the time
+    assert _run(["simulate", "box", "--airframe", str(AIRFRAME), "--vehicle", str(VEHICLE), "--hold", "4",
                  "--seed", "5", "-o", box])[0] == 0
     found = {}
     for name, argv in (("tunnel", tunnels), ("wind unknown", [box, "--wind", "unknown", "--model", "drag-heading"])):

@@ -32,7 +32,9 @@ def logs(tmp_path_factory) -> dict[str, str]:
 
     folder = tmp_path_factory.mktemp("logs")
     paths = {}
-    for name, seed, hold in (("sweep", 1, "8"), ("vertical", 2, None), ("tunnel", 3, "20")):
+    # The fit case's logs with 4 s holds (were 8 and 15): the fit still succeeds and writes, in about a
+    # third of the time (3 s holds leave no scorable segment and fit refuses before writing)
+    for name, seed, hold in (("sweep", 1, "4"), ("vertical", 2, "4"), ("tunnel", 3, "20")):
         path = folder / f"{name}.csv"
         args = ["simulate", name, "--seed", str(seed), "--rate", "25", "-o", str(path)]
         assert main(args + (["--hold", hold] if hold else [])) == 0

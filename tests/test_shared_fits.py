@@ -1,10 +1,13 @@
 """The suite's shared fits (conftest.FitMemo): a distinct call is computed once, a changed log or option is
-a new call, every caller gets its own copy, and a call with a log reader is never shared."""
+a new call, every caller gets its own copy, and a call with a log reader is never shared. The same for the
+shared wind solves (conftest.SolveMemo), keyed by the arguments' content."""
 from __future__ import annotations
 
 import os
 
-from tests.conftest import FitMemo
+import numpy as np
+
+from tests.conftest import FitMemo, SolveMemo
 
 
 def _counting_fit():
@@ -64,3 +67,35 @@ def test_and_a_later_test_of_the_module_gets_the_real_fit():
     from dobwind.calibrate import fitfamily
 
     assert not isinstance(fitfamily.fit_airframe, FitMemo)
+
+
+def test_a_solve_is_shared_by_content_and_a_changed_row_is_a_new_solve():
+    seen = []
+
+    def solve(af, rows, groups, verticals):
+        seen.append(groups)
+        return {"x": rows.copy(), "n": [len(seen)]}
+
+    memo = SolveMemo(solve)
+    rows = np.arange(6.0)
+    first = memo("af", rows, 1, None)
+    first["n"].append(99)  # a caller changing its result changes nobody else's
+    assert memo("af", rows.copy(), 1, None)["n"] == [1] and len(seen) == 1  # equal content: shared
+    changed = rows.copy()
+    changed[3] += 1e-12
+    memo("af", changed, 1, None)
+    memo("af", rows, 2, None)
+    memo("other", rows, 1, None)
+    assert len(seen) == 4 and (memo.calls, memo.computed) == (5, 4)
+
+
+def test_the_solve_fixture_puts_the_memo_in_place_for_the_asking_test(shared_solves):
+    from dobwind.calibrate import windsolve
+
+    assert windsolve._solve_with_thrust_scale is shared_solves
+
+
+def test_and_a_later_test_gets_the_real_solve():
+    from dobwind.calibrate import windsolve
+
+    assert not isinstance(windsolve._solve_with_thrust_scale, SolveMemo)
