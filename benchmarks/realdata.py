@@ -100,18 +100,20 @@ def _converted(data_dir: Path) -> Iterator[tuple[Airframe, dict[str, dict[str, P
         yield af, logs, skipped
 
 
-def check(data_dir: Path = DEFAULT_DATA) -> dict:
+def check(data_dir: Path = DEFAULT_DATA, leave_one_out: bool = True) -> dict:
     """Leave-one-out and the split on the training controller's runs (the baseline's when present); every
-    other controller's runs are scored through the split fit, all held out (same vehicle, same tunnel)."""
+    other controller's runs are scored through the split fit, all held out (same vehicle, same tunnel).
+    ``leave_one_out=False`` skips its fits (five of the seven; ``leave_one_out`` is then empty)."""
     with _converted(data_dir) as (af, logs, skipped):
-        return _check_converted(af, logs, skipped, data_dir)
+        return _check_converted(af, logs, skipped, data_dir, leave_one_out)
 
 
-def _check_converted(af: Airframe, logs: dict[str, dict[str, Path]], skipped: list, data_dir: Path) -> dict:
+def _check_converted(af: Airframe, logs: dict[str, dict[str, Path]], skipped: list, data_dir: Path,
+                     leave_one_out: bool = True) -> dict:
     trainer = _training_set(logs, data_dir)
     own = logs[trainer]
     loo = {}
-    for name, log_path in own.items():
+    for name, log_path in (own.items() if leave_one_out else ()):
         training = [str(p) for other, p in own.items() if other != name]
         fitted, report, _ = fit_airframe(af, training, "auto", dynamic=True)
         loo[name] = _score(fitted, log_path, NOMINAL_MPS[name], report)
