@@ -324,24 +324,37 @@ def _fit_key(args: tuple, kwargs: dict) -> str:
     return repr((af, files, rest, sorted(kwargs.items())))
 
 
-class FitMemo:
-    """fit_airframe, computed once per distinct call; every caller gets its own deep copy (the caller may
-    change what it is given). ``calls`` and ``computed`` let a test see the sharing happen."""
+class Memo:
+    """A pure function computed once per distinct key; every caller gets its own deep copy (the caller may
+    change what it is given). ``calls`` and ``computed`` let a test see the sharing happen. A subclass says
+    what the key is (None: this call is never shared)."""
 
-    def __init__(self, fit):
-        self.fit, self.results, self.calls, self.computed = fit, {}, 0, 0
+    def __init__(self, function):
+        self.function, self.results, self.calls, self.computed = function, {}, 0, 0
+
+    def key(self, args: tuple, kwargs: dict) -> str | None:
+        raise NotImplementedError
 
     def __call__(self, *args, **kwargs):
         import copy
 
         self.calls += 1
-        if kwargs.get("log_reader") is not None:  # a reader object has no content key: never shared
-            return self.fit(*args, **kwargs)
-        key = _fit_key(args, kwargs)
+        key = self.key(args, kwargs)
+        if key is None:
+            return self.function(*args, **kwargs)
         if key not in self.results:
             self.computed += 1
-            self.results[key] = self.fit(*args, **kwargs)
+            self.results[key] = self.function(*args, **kwargs)
         return copy.deepcopy(self.results[key])
+
+
+class FitMemo(Memo):
+    """fit_airframe, keyed by the airframe, the log files' names, sizes and mtimes, and the options."""
+
+    def key(self, args: tuple, kwargs: dict) -> str | None:
+        if kwargs.get("log_reader") is not None:  # a reader object has no content key: never shared
+            return None
+        return _fit_key(args, kwargs)
 
 
 @pytest.fixture(scope="module")
@@ -369,23 +382,14 @@ def shared_fits(_fit_memo: FitMemo, monkeypatch: pytest.MonkeyPatch) -> FitMemo:
 # once per module: the key is the pickled arguments (airframe, rows, groups, vertical rows), so a change
 # in any input is a new solve; the identification, coverage and refusal after it always run.
 
-class SolveMemo:
-    """_solve_with_thrust_scale, computed once per distinct argument set; each caller gets a deep copy."""
+class SolveMemo(Memo):
+    """_solve_with_thrust_scale, keyed by the content of its arguments (pickled, hashed)."""
 
-    def __init__(self, solve):
-        self.solve, self.results, self.calls, self.computed = solve, {}, 0, 0
-
-    def __call__(self, *args):
-        import copy
+    def key(self, args: tuple, kwargs: dict) -> str | None:
         import hashlib
         import pickle
 
-        self.calls += 1
-        key = hashlib.sha256(pickle.dumps(args)).hexdigest()
-        if key not in self.results:
-            self.computed += 1
-            self.results[key] = self.solve(*args)
-        return copy.deepcopy(self.results[key])
+        return hashlib.sha256(pickle.dumps((args, sorted(kwargs.items())))).hexdigest()
 
 
 @pytest.fixture(scope="module")
