@@ -46,3 +46,48 @@ def test_written_log_does_not_depend_on_the_block_size(tmp_path):
     rows = write_log(tmp_path / "many.csv", af, "tunnel", 4, hold_s=2.0, rate_hz=100.0, block_rows=389)
     assert rows == 1600
     assert (tmp_path / "one.csv").read_bytes() == (tmp_path / "many.csv").read_bytes()
+
+
+def test_a_set_wind_changes_the_wind_alone():
+    """`simulate --wind`: the seed still draws the manoeuvres, timing and noise, so the flight at a set wind is
+    the seed's own flight with every wind sample moved by the difference of the means (closed form: the
+    turbulence is the same draw about either mean, a fraction of the mean speed apart)."""
+    from dobwind.simulate.simulate import scenario
+
+    af = load_airframe(M300)
+    drawn = scenario("box", 1.0, np.random.default_rng(7))
+    own = drawn.segments[0].wind_ned
+    set_ned = (0.0, -6.0, -0.5)   # 6 m/s from the east, 0.5 m/s updraft
+    base = simulate(af, "box", 7, hold_s=1.0, rate_hz=40.0)
+    moved = simulate(af, "box", 7, hold_s=1.0, rate_hz=40.0, wind_ned=set_ned)
+    for col in ("t", "yaw_ref", "segment"):
+        assert np.array_equal(base[col], moved[col])
+    wind = np.column_stack([moved[f"wind_{a}"] for a in "ned"])
+    assert np.allclose(wind.mean(axis=0), set_ned, atol=0.3)
+    assert not np.allclose(np.column_stack([base[f"wind_{a}"] for a in "ned"]).mean(axis=0), set_ned, atol=0.3)
+    assert all(s.wind_ned == set_ned for s in scenario("box", 1.0, np.random.default_rng(7), set_ned).segments)
+    assert own != set_ned
+
+
+@pytest.mark.parametrize("scenario", sorted(set(SCENARIOS) - {"box", "one-heading", "outdoor"}))
+def test_a_set_wind_is_refused_where_the_scenario_sweeps_its_own(tmp_path, scenario, capsys):
+    from dobwind.cli.app import main
+
+    out = tmp_path / "log.csv"
+    assert main(["simulate", scenario, "--wind", "3@90", "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--wind" in err[0] and scenario in err[0]
+    assert not out.exists()
+
+
+def test_the_cli_wind_is_the_bearing_it_blows_from(tmp_path, capsys):
+    """10@180 blows from the south, towards the north: +10 m/s north (NED), and the log says so."""
+    from dobwind.cli.app import main
+    from dobwind.io.logs import read_log
+
+    out = tmp_path / "log.csv"
+    assert main(["simulate", "outdoor", "--hold", "1", "--seed", "3", "--wind", "10@180,1", "-o", str(out)]) == 0
+    assert "--wind 10@180,1" in out.read_text().splitlines()[0]
+    mean = read_log(out).true_wind.mean(axis=0)
+    assert abs(mean[0] - 10.0) < 1.0 and abs(mean[1]) < 1.0   # north, east
+    assert abs(mean[2] + 1.0) < 0.3                            # down: 1 m/s up

@@ -24,6 +24,9 @@ def add(command: Command) -> None:
                    f"{opt.SIMULATE_MAX_ROWS:,} rows in all")
     p.add_argument("--vehicle", help="the true vehicle's physics and sensors (TOML; default: a vehicle of the "
                    "airframe's size with built-in drag)")
+    p.add_argument("--wind", metavar="SPEED@FROM[,UP]", help="the mean wind of a box, one-heading or outdoor flight "
+                   "(m/s, degrees it blows from, optional updraft m/s; default: drawn from the seed, which still "
+                   "sets the manoeuvres and noise, so one seed at two winds differs in the wind alone)")
     p.set_defaults(func=run)
 
 
@@ -33,6 +36,7 @@ def run(args: argparse.Namespace) -> int:
     from dobwind.simulate.vehicle import load_vehicle
 
     target = Target("-o", args.output)
+    wind_ned = _wind_ned(args.wind) if args.wind is not None else None
     check_targets([target], [args.airframe] if args.airframe else [])
     af = load_airframe(args.airframe or _default_airframe())
     vehicle = load_vehicle(args.vehicle) if args.vehicle else None
@@ -40,9 +44,17 @@ def run(args: argparse.Namespace) -> int:
     rate = args.rate or (vehicle.rate_hz if vehicle else 1.0 / af.observer.sample_time_s)
     with OutputFiles([target]) as out:
         rows = write_log(out.stage(args.output), af, args.scenario, args.seed, args.hold, rate, vehicle,
-                         args.vehicle)
+                         args.vehicle, wind_ned=wind_ned)
     print(f"{args.output}: {rows} rows, {rows / rate:.1f} s of '{args.scenario}' at {rate:g} Hz")
     return 0
+
+
+def _wind_ned(text: str) -> tuple[float, float, float]:
+    """`--wind` as `fit` reads it (the same syntax and ranges), as the NED vector the simulator blows."""
+    from dobwind.calibrate.fieldtruth import parse_wind
+
+    n, e, d = (float(x) for x in parse_wind(text).vector())
+    return n, e, d
 
 
 def _default_airframe() -> str:

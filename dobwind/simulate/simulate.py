@@ -18,6 +18,7 @@ whatever the block size, and the same as before the blocks (issue #13).
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Iterator
@@ -95,8 +96,27 @@ def _wind_from(speed: float, from_deg: float, up: float = 0.0) -> tuple[float, f
     return (speed * math.cos(towards), speed * math.sin(towards), -up)
 
 
-def scenario(name: str, hold_s: float | None = None, rng: np.random.Generator | None = None) -> Scenario:
-    rng = rng or np.random.default_rng(0)
+# The scenarios flown in one steady (mean) wind, which `simulate --wind` may set; the others sweep the wind
+# through a designed sequence of speeds and have no single wind to replace.
+STEADY_WIND_SCENARIOS = ("box", "one-heading", "outdoor")
+
+
+def scenario(name: str, hold_s: float | None = None, rng: np.random.Generator | None = None,
+             wind_ned: tuple[float, float, float] | None = None) -> Scenario:
+    """The scenario's segments; ``wind_ned`` (m/s, NED, steady-wind scenarios only) replaces the mean wind the
+    seed would draw. The draw is still made, so the same seed flies the same manoeuvres, timing and noise in
+    any wind: a flight and its copy at twice the wind differ in the wind alone."""
+    scen = _scenario(name, hold_s, rng or np.random.default_rng(0))
+    if wind_ned is None:
+        return scen
+    if name not in STEADY_WIND_SCENARIOS:
+        raise InputError("--wind", None, f"{name!r} sweeps its own winds; --wind applies to "
+                         f"{', '.join(STEADY_WIND_SCENARIOS)}")
+    w = tuple(float(x) for x in wind_ned)
+    return dataclasses.replace(scen, segments=tuple(dataclasses.replace(s, wind_ned=w) for s in scen.segments))
+
+
+def _scenario(name: str, hold_s: float | None, rng: np.random.Generator) -> Scenario:
     if name == "sweep":  # the paper's calibration: yaw 10 deg per hold through a full turn, 0..8 m/s
         hold = hold_s or 20.0
         segs = [Segment(hold, yaw_deg=yaw, wind_ned=_wind_from(speed, 0.0), ramp_s=1.5 if yaw else 3.0)
@@ -308,8 +328,8 @@ def _draw(rng: np.random.Generator, name: str, scale: float, rows: int, cols: in
 
 
 def _plan(af: Airframe, name: str, rng: np.random.Generator, hold_s: float | None, rate_hz: float | None,
-          vehicle: VehicleSpec | None) -> _Plan:
-    scen = scenario(name, hold_s, rng)
+          vehicle: VehicleSpec | None, wind_ned: tuple[float, float, float] | None = None) -> _Plan:
+    scen = scenario(name, hold_s, rng, wind_ned)
     builtin = true_vehicle(af) if vehicle is None else None
     sensors: TrueVehicle | Sensors = builtin if builtin is not None else vehicle.sensors  # type: ignore[union-attr]
     rate = rate_hz or (scen.rate_hz if vehicle is None else vehicle.rate_hz)
@@ -326,11 +346,12 @@ def _plan(af: Airframe, name: str, rng: np.random.Generator, hold_s: float | Non
 
 def simulate_blocks(af: Airframe, name: str, seed: int = 0, hold_s: float | None = None,
                     rate_hz: float | None = None, vehicle: VehicleSpec | None = None,
-                    block_rows: int = BLOCK_ROWS) -> Iterator[dict[str, np.ndarray]]:
+                    block_rows: int = BLOCK_ROWS,
+                    wind_ned: tuple[float, float, float] | None = None) -> Iterator[dict[str, np.ndarray]]:
     """simulate() a block of rows at a time, in bounded memory; the blocks joined are simulate()'s log
     whatever ``block_rows`` is (the turbulence filter's state is carried from block to block)."""
     rng = np.random.default_rng(seed)
-    plan = _plan(af, name, rng, hold_s, rate_hz, vehicle)
+    plan = _plan(af, name, rng, hold_s, rate_hz, vehicle, wind_ned)
     gens = _channel_generators(rng, plan, af)
     scales = _channel_scales(plan)
     a = math.exp(-plan.period / plan.scen.turbulence_time_s)
@@ -373,10 +394,11 @@ def _block(af: Airframe, plan: _Plan, gens: dict[str, np.random.Generator], scal
 
 
 def simulate(af: Airframe, name: str, seed: int = 0, hold_s: float | None = None,
-             rate_hz: float | None = None, vehicle: VehicleSpec | None = None) -> dict[str, np.ndarray]:
+             rate_hz: float | None = None, vehicle: VehicleSpec | None = None,
+             wind_ned: tuple[float, float, float] | None = None) -> dict[str, np.ndarray]:
     """Log columns (docs/formats.md, flight log) plus `segment`, for the scenario; the true vehicle is
     `vehicle` (a vehicle file), or by default one of the airframe's size (`true_vehicle`)."""
-    blocks = list(simulate_blocks(af, name, seed, hold_s, rate_hz, vehicle))
+    blocks = list(simulate_blocks(af, name, seed, hold_s, rate_hz, vehicle, wind_ned=wind_ned))
     return {k: np.concatenate([b[k] for b in blocks]) for k in blocks[0]}
 
 
@@ -412,16 +434,28 @@ def _sensor_columns(af: Airframe, sensors: TrueVehicle | Sensors, dyn: _Dynamics
     return cols
 
 
-def log_comments(af: Airframe, name: str, seed: int, vehicle_source: str | None = None) -> list[str]:
+def log_comments(af: Airframe, name: str, seed: int, vehicle_source: str | None = None,
+                 wind_ned: tuple[float, float, float] | None = None) -> list[str]:
     truth = ("true vehicle physics differ from the airframe's model" if vehicle_source is None
              else f"true vehicle from {vehicle_source}")
-    return [f"dobwind simulate {name} --seed {seed}: airframe {af.name} (sha256 {af.content_sha256[:12]})",
+    wind = "" if wind_ned is None else f" --wind {_wind_text(wind_ned)}"
+    return [f"dobwind simulate {name} --seed {seed}{wind}: airframe {af.name} (sha256 {af.content_sha256[:12]})",
             f"{truth}; wind_* is the true wind at the vehicle"]
+
+
+def _wind_text(wind_ned: tuple[float, float, float]) -> str:
+    """A NED wind as `--wind` spells it: SPEED@FROM[,UP]."""
+    from dobwind.model.forceair import wind_from_deg
+
+    n, e, d = wind_ned
+    text = f"{math.hypot(n, e):g}@{float(wind_from_deg(n, e)) % 360.0:g}"
+    return text + (f",{-d:g}" if d else "")
 
 
 def write_log(path, af: Airframe, name: str, seed: int = 0, hold_s: float | None = None,
               rate_hz: float | None = None, vehicle: VehicleSpec | None = None,
-              vehicle_source: str | None = None, block_rows: int = BLOCK_ROWS) -> int:
+              vehicle_source: str | None = None, block_rows: int = BLOCK_ROWS,
+              wind_ned: tuple[float, float, float] | None = None) -> int:
     """Simulate a scenario and write it as a flight-log CSV (atomically), a block of rows at a time so
     that memory does not grow with the log; returns the row count."""
     from dobwind.io.logs import CsvWriter, write_atomically
@@ -431,11 +465,11 @@ def write_log(path, af: Airframe, name: str, seed: int = 0, hold_s: float | None
     def write(handle) -> None:
         nonlocal rows
         writer = None
-        for cols in simulate_blocks(af, name, seed, hold_s, rate_hz, vehicle, block_rows):
+        for cols in simulate_blocks(af, name, seed, hold_s, rate_hz, vehicle, block_rows, wind_ned):
             names = column_order(cols)
             if writer is None:
                 writer = CsvWriter(handle, names, ["%.6f"] + ["%.7g"] * (len(names) - 2) + ["%d"],
-                                   log_comments(af, name, seed, vehicle_source))
+                                   log_comments(af, name, seed, vehicle_source, wind_ned))
             writer.write(np.column_stack([cols[n] for n in names]))
             rows += len(cols["t"])
 
