@@ -51,6 +51,7 @@ def test_every_argument_is_described_with_its_default(command, capsys):
         assert len(described.split()) >= 3, f"{command} {name}: no description"
         if action.option_strings:  # positionals have no default; options state one, or that they are required
             assert re.search(r"default|required", described), f"{command} {name}: no default in {described!r}"
+            assert "(default: )" not in described, f"{command} {name}: an empty default in {described!r}"
 
 
 def test_version(capsys):

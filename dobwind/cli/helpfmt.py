@@ -14,8 +14,8 @@ def _default_text(action: argparse.Action) -> str:
     default = action.default
     if isinstance(action, (argparse._StoreTrueAction, argparse._StoreFalseAction)):
         return "on" if default else "off"
-    if default is None:
-        return _NONE_TEXT
+    if default is None or (isinstance(default, (list, tuple)) and not default):
+        return _NONE_TEXT   # an empty list: a repeatable option given no times
     if isinstance(default, (list, tuple)):
         return " ".join(f"{v:g}" if isinstance(v, float) else str(v) for v in default)
     return f"{default:g}" if isinstance(default, float) else str(default)
