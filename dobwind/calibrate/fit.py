@@ -431,7 +431,8 @@ def _calibrated_points(af: Airframe, points_of: PointsOf) -> tuple[Airframe, Poi
                      raw.air_angle, raw.group)
     points, outliers_removed = remove_outliers(shifted)
     if len(points) < MIN_POINTS:
-        raise CheckFailed(f"only {len(points)} calibration points after cleaning (need {MIN_POINTS})")
+        raise CheckFailed(f"only {len(points)} calibration point{'' if len(points) == 1 else 's'} (steady holds) after "
+                          f"cleaning (need {MIN_POINTS})")
 
     moving = points.speed_h >= 1.0
     bins = np.floor((np.degrees(points.air_angle[moving]) % 360) / 30).astype(int)
