@@ -8,7 +8,7 @@ import sys
 from dobwind.cli.common import AIRFRAME_HELP, JSON_HELP, Command, print_json
 from dobwind.core import options as opt
 from dobwind.core.errors import CheckFailed, InputError
-from dobwind.io.outputs import PNG, OutputFiles, Target, check_targets
+from dobwind.io.outputs import AIRFRAME, PNG, OutputFiles, Target, check_targets
 
 
 def add(command: Command) -> None:
@@ -80,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
     from dobwind.calibrate.fieldfit import field_options, field_truth
 
     plot = args.plot if args.plot is not None else str(args.output).removesuffix(".toml") + "_fit.png"
-    targets = [Target("-o", args.output), Target("--plot", plot, suffixes=PNG)]
+    targets = [Target("-o", args.output, refused=AIRFRAME), Target("--plot", plot, suffixes=PNG)]
     options = field_options(args)
     check_targets(targets, [args.airframe, *args.logs, *options.files()])
     af = load_airframe(args.airframe)

@@ -201,9 +201,9 @@ def _header(log: str, s: LogSummary, c: InitChoices, mass: float) -> str:
 
 def run_init(log: str, mass: float, output: str, name: str | None, as_json: bool) -> int:
     from dobwind.io.atomic import write_text_atomically
-    from dobwind.io.outputs import OutputFiles, Target, check_targets
+    from dobwind.io.outputs import AIRFRAME, OutputFiles, Target, check_targets
 
-    target = Target("-o", output)
+    target = Target("-o", output, refused=AIRFRAME)
     check_targets([target], [log])
     text, choices, summary = build_airframe(log, mass, output, name)
     with OutputFiles([target]) as out:
