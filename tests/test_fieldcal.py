@@ -117,6 +117,18 @@ def test_fit_refuses_a_wind_out_of_range_in_one_line_naming_the_field(box, tmp_p
     assert not out.exists()
 
 
+
+@pytest.mark.parametrize("text", ["-2@90", "-2.5@90,1", "-1e-3@0"])
+def test_a_negative_wind_given_as_its_own_word_reaches_the_speed_check(box, tmp_path, capsys, text):
+    """`--wind -2@90` (not `--wind=-2@90`): argparse took the value for an option and said only "expected
+    one argument"; now the speed check's own line says what is wrong."""
+    _, path, _, _ = box
+    out = tmp_path / "never.toml"
+    assert main(["fit", str(path), "x.csv", "--wind", text, "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"'{text}'" in err and "speed -" in err and "must be in [0, 100]" in err, err
+    assert not out.exists()
+
 def test_a_bearing_of_360_is_north():
     np.testing.assert_allclose(parse_wind("4@360").vector(), parse_wind("4@0").vector(), atol=1e-12)
     assert parse_wind("4@360").from_deg == 0.0
