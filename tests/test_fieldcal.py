@@ -129,6 +129,20 @@ def test_a_negative_wind_given_as_its_own_word_reaches_the_speed_check(box, tmp_
     assert err.count("\n") == 1 and f"'{text}'" in err and "speed -" in err and "must be in [0, 100]" in err, err
     assert not out.exists()
 
+
+def test_the_same_log_twice_is_refused_naming_it(box, tmp_path, capsys):
+    """`fit A LOG LOG --wind 3@90 --wind 5@0`: the truth is keyed by the log, so the second wind was dropped
+    without a word (one wind_truth.per_log line); the same file under a second name is the same log."""
+    _, path, af, cols = box
+    log = _dataflash(tmp_path / "one.bin", af, cols, None)
+    (tmp_path / "link.bin").symlink_to(log)
+    out = tmp_path / "never.toml"
+    for again in (log, str(tmp_path / "link.bin")):
+        assert main(["fit", str(path), log, again, "--wind", "3@90", "--wind", "5@0", "-o", str(out)]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and err.startswith(f"dobwind fit: {again}: is given twice") and "Traceback" not in err
+    assert not out.exists()
+
 def test_a_bearing_of_360_is_north():
     np.testing.assert_allclose(parse_wind("4@360").vector(), parse_wind("4@0").vector(), atol=1e-12)
     assert parse_wind("4@360").from_deg == 0.0
