@@ -440,3 +440,22 @@ def test_init_refuses_a_mass_that_is_no_multirotors_in_one_line(px4, tmp_path, c
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--mass" in err and "kg" in err and "Traceback" not in err
     assert not out.exists()
+
+
+def test_an_estimate_given_where_a_log_belongs_is_named_as_such(px4, tmp_path, capsys):
+    """replay's own output fed back as the log: each command said "no thrust source" (init) or "column
+    vel_n: missing" (replay, report, fit); now one line says it is an estimate and what to give instead."""
+    log, airframe = px4
+    estimate = tmp_path / "e.csv"
+    assert main(["replay", airframe, str(log), "-o", str(estimate)]) == 0
+    capsys.readouterr()
+    commands = (["inspect", str(estimate)], ["inspect", str(estimate), "--json"],
+                ["init", str(estimate), "--mass", "2", "-o", str(tmp_path / "v.toml")],
+                ["replay", airframe, str(estimate), "-o", str(tmp_path / "e2.csv")],
+                ["report", airframe, str(estimate), "-o", str(tmp_path / "r.html")],
+                ["fit", airframe, str(estimate), "-o", str(tmp_path / "f.toml")])
+    for argv in commands:
+        assert main(argv) == 2, argv
+        err = [line for line in capsys.readouterr().err.splitlines() if "uncalibrated prior" not in line]
+        assert len(err) == 1 and f"{estimate}: is a dobwind estimate" in err[0] and "flight log" in err[0], (argv, err)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["e.csv"]
