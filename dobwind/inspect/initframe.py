@@ -166,6 +166,7 @@ def build_airframe(log: str, mass: float, output: str, name: str | None = None) 
     if not RANGES["mass"].contains(mass):
         raise InputError("--mass", None, f"{mass!r} kg is not a multirotor's mass ({RANGES['mass'].describe()})")
     summary = inspect_log(log)
+    refuse_unsuited(summary)
     chosen = _name(name, output)
     # First with the gain of the continuous observer (bandwidth = gain / (2 pi m)), then designed exactly
     # on the discrete step that will run.
@@ -182,6 +183,18 @@ def build_airframe(log: str, mass: float, output: str, name: str | None = None) 
     text = header + dumps(airframe_document(final))
     parse_airframe(text, output)  # what is written must load
     return text, choices, summary
+
+
+def refuse_unsuited(s: LogSummary) -> None:
+    """A log no starter can come from: not a multirotor's, or one that never flew (a pre-arm log). Both
+    gave a starter before (or only "no thrust source"), which then estimated nothing or nonsense."""
+    from dobwind.inspect.loginspect import MULTIROTORS_ONLY
+
+    if s.vehicle.not_multirotor:
+        raise InputError(s.path, "vehicle", f"{s.vehicle.not_multirotor}; {MULTIROTORS_ONLY}: no starter airframe")
+    if s.airborne_s is not None and s.airborne_s <= 0.0:
+        raise InputError(s.path, "airborne", f"never airborne in its {s.duration_s:.1f} s ({s.airborne_source}): the "
+                         "starter's thrust and rates are read from a flight; give the log of a flight")
 
 
 def _header(log: str, s: LogSummary, c: InitChoices, mass: float) -> str:
