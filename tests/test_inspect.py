@@ -46,7 +46,8 @@ def _airborne(s: float) -> bool:
 
 
 def _px4_log(path: Path, *, attitude_hz=50.0, thrust_hz=50.0, position_gap=(12.0, 12.5), esc=True, dead_motor=False,
-             wind_active=False, land=True, rotor_param=4, extra_params: dict[str, float] | None = None) -> Path:
+             wind_active=False, land=True, rotor_param=4, extra_params: dict[str, float] | None = None,
+             drop: tuple[str, ...] = ()) -> Path:
     """A PX4 log: position 10 Hz (with one gap), attitude and thrust setpoint at the given rates, ESC at
     4 Hz (0 rpm on the ground; with dead_motor, motor 2 reads 0 rpm throughout), wind zero or not."""
     def rpm(s: float) -> dict:
@@ -70,7 +71,7 @@ def _px4_log(path: Path, *, attitude_hz=50.0, thrust_hz=50.0, position_gap=(12.0
     params = {"MPC_THR_HOVER": 0.5, "EKF2_DRAG_CTRL": 1.0 if wind_active else 0.0, "SYS_AUTOSTART": 4001.0}
     if rotor_param:
         params["CA_ROTOR_COUNT"] = float(rotor_param)
-    return write_ulog(path, topics, params | (extra_params or {}), ESC_REPORT)
+    return write_ulog(path, [t for t in topics if t.name not in drop], params | (extra_params or {}), ESC_REPORT)
 
 
 @pytest.fixture(scope="module")
@@ -505,4 +506,15 @@ def test_init_refuses_a_log_that_never_flew(tmp_path, capsys):
     assert main(["init", str(log), "--mass", "2", "-o", str(tmp_path / "v.toml")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"{log}: airborne: never airborne in its" in err and "give the log of a flight" in err
+    assert not (tmp_path / "v.toml").exists()
+
+
+@pytest.mark.parametrize("topic, role", [("vehicle_local_position", "velocity"), ("vehicle_attitude", "attitude")])
+def test_init_refuses_a_log_without_the_velocity_or_the_attitude(tmp_path, capsys, topic, role):
+    """inspect listed "missing: velocity" and init still wrote a starter, which replay then refused."""
+    log = _px4_log(tmp_path / "a.ulg", drop=(topic,))
+    assert any(line.startswith(f"{role}:") for line in inspect_log(str(log)).missing())
+    assert main(["init", str(log), "--mass", "2", "-o", str(tmp_path / "v.toml")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{log}: {role}: " in err and topic in err and "replay needs it" in err, err
     assert not (tmp_path / "v.toml").exists()

@@ -186,12 +186,18 @@ def build_airframe(log: str, mass: float, output: str, name: str | None = None) 
 
 
 def refuse_unsuited(s: LogSummary) -> None:
-    """A log no starter can come from: not a multirotor's, or one that never flew (a pre-arm log). Both
-    gave a starter before (or only "no thrust source"), which then estimated nothing or nonsense."""
+    """A log no starter can come from: not a multirotor's, without the velocity or the attitude replay
+    needs, or one that never flew (a pre-arm log). Each gave a starter before (or only "no thrust
+    source"), which replay then refused or with which it estimated nothing or nonsense."""
     from dobwind.inspect.loginspect import MULTIROTORS_ONLY
 
     if s.vehicle.not_multirotor:
         raise InputError(s.path, "vehicle", f"{s.vehicle.not_multirotor}; {MULTIROTORS_ONLY}: no starter airframe")
+    from dobwind.inspect.loginspect import ESSENTIAL_ROLES
+
+    for role in (s.role(name) for name in ESSENTIAL_ROLES):
+        if role.source is None:  # replay refuses such a log: a starter for it would never run
+            raise InputError(s.path, role.role, f"{role.note}: replay needs it, so no starter airframe")
     if s.airborne_s is not None and s.airborne_s <= 0.0:
         raise InputError(s.path, "airborne", f"never airborne in its {s.duration_s:.1f} s ({s.airborne_source}): the "
                          "starter's thrust and rates are read from a flight; give the log of a flight")
