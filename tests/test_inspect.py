@@ -518,3 +518,17 @@ def test_init_refuses_a_log_without_the_velocity_or_the_attitude(tmp_path, capsy
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"{log}: {role}: " in err and topic in err and "replay needs it" in err, err
     assert not (tmp_path / "v.toml").exists()
+
+
+@pytest.mark.parametrize("name, kind", [("e.ulg", "ULog"), ("e.bin", "DataFlash")])
+def test_an_empty_log_says_it_is_empty(tmp_path, capsys, name, kind):
+    """An empty file said "Header too short" (ULog) or "does not start with 0xA3 0x95" (DataFlash)."""
+    if kind == "DataFlash":
+        pytest.importorskip("pymavlink")
+    log = tmp_path / name
+    log.write_bytes(b"")
+    for argv in (["inspect", str(log)], ["replay", str(ROOT / "airframes" / "m300.toml"), str(log), "-o",
+                                          str(tmp_path / "e.csv")]):
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and f"{log}: is empty (0 bytes): not a {kind}" in err, err

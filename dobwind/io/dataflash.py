@@ -91,6 +91,8 @@ def _require_magic(path: str) -> None:
             head = handle.read(len(DATAFLASH_MAGIC))
     except OSError as exc:
         raise InputError(path, None, f"cannot read: {exc.strerror}") from None
+    if not head:
+        raise InputError(path, None, "is empty (0 bytes): not a DataFlash log (an interrupted copy or download?)")
     if head != DATAFLASH_MAGIC:
         raise InputError(path, None, "not a DataFlash log: it does not start with the 0xA3 0x95 message header")
 

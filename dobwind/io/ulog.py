@@ -85,8 +85,12 @@ def open_ulog(path: str, topics: tuple[str, ...] | None = TOPICS_READ) -> tuple[
     printed = io.StringIO()
     try:
         with open(path, "rb") as handle, contextlib.redirect_stdout(printed):
+            if os.fstat(handle.fileno()).st_size == 0:  # pyulog says only "Header too short"
+                raise InputError(path, None, "is empty (0 bytes): not a ULog file (an interrupted copy or download?)")
             ulog = ULog(_BudgetedFile(handle, os.fstat(handle.fileno()).st_size),
                         None if topics is None else list(topics))
+    except InputError:
+        raise
     except _NoProgress:
         raise InputError(path, None, "not a readable ULog file (corrupt: the parser made no progress)") from None
     except OSError as exc:
