@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from dobwind.cli.app import main
+from dobwind.core.errors import InputError
 from dobwind.inspect.initframe import REFERENCE_MASS_KG, build_airframe, common_rate
 from dobwind.inspect.anylog import inspect_log
 from dobwind.model.airframe import PRIOR, load_airframe
@@ -488,6 +489,10 @@ def test_init_refuses_the_log_of_a_vehicle_that_is_no_multirotor(tmp_path, capsy
     assert main(["inspect", str(log)]) == 0
     out = capsys.readouterr().out
     assert f"NOT A MULTIROTOR: {refused}" in out and "missing: vehicle: not a multirotor" in out
+    # replay (and so report and fit) refuse it too, whatever the airframe: it failed on CTUN.ThO before
+    assert main(["replay", str(ROOT / "airframes" / "m300.toml"), str(log), "-o", str(tmp_path / "e.csv")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{log}: vehicle: {refused}" in err, err
 
 
 @pytest.mark.parametrize("mav_type, refused", [(1, "MAV_TYPE 1: a fixed-wing plane"), (12, "MAV_TYPE 12: a submarine"),
@@ -496,6 +501,11 @@ def test_a_px4_mav_type_of_a_plane_or_a_submarine_is_no_multirotor(tmp_path, mav
     assert inspect_log(str(_px4_log(tmp_path / "a.ulg"))).vehicle.not_multirotor == ""   # no MAV_TYPE logged
     log = _px4_log(tmp_path / "b.ulg", extra_params={"MAV_TYPE": float(mav_type)})
     assert inspect_log(str(log)).vehicle.not_multirotor == refused
+    if refused:  # the log has every topic replay reads: it was replayed as a copter's
+        from dobwind.io.ulog import read_ulog
+
+        with pytest.raises(InputError, match="vehicle: " + refused):
+            read_ulog(str(log), load_airframe(ROOT / "airframes" / "m300.toml"))
 
 
 def test_init_refuses_a_log_that_never_flew(tmp_path, capsys):

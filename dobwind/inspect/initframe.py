@@ -189,7 +189,7 @@ def refuse_unsuited(s: LogSummary) -> None:
     """A log no starter can come from: not a multirotor's, without the velocity or the attitude replay
     needs, or one that never flew (a pre-arm log). Each gave a starter before (or only "no thrust
     source"), which replay then refused or with which it estimated nothing or nonsense."""
-    from dobwind.inspect.loginspect import MULTIROTORS_ONLY
+    from dobwind.io.vehiclekind import MULTIROTORS_ONLY
 
     if s.vehicle.not_multirotor:
         raise InputError(s.path, "vehicle", f"{s.vehicle.not_multirotor}; {MULTIROTORS_ONLY}: no starter airframe")

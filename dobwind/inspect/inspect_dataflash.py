@@ -6,14 +6,13 @@ core from XKF4.PI): a role listed here is the message replay reads for it.
 """
 from __future__ import annotations
 
-import re
-
 import numpy as np
 
 from dobwind.io.dataflash import (AP_WIND, ATTITUDE, EV_GROUND, IMU, VELOCITY, WANTED, follow_primary, load_messages,
                                pick_stream)
 from dobwind.core.errors import InputError
 from dobwind.io.quietfd import quiet_fds
+from dobwind.io.vehiclekind import ardupilot_not_multirotor, firmware
 from dobwind.inspect.loginspect import (AutopilotWind, LogSummary, Role, Vehicle, inside, intervals,
                                 stream_stats, total, wind_activity)
 
@@ -24,12 +23,6 @@ FRAME_CLASS_ROTORS = {1: 4, 2: 6, 3: 8, 4: 8, 5: 6, 7: 3, 12: 12, 14: 10}
 FRAME_CLASS_NAMES = {1: "quad", 2: "hexa", 3: "octa", 4: "octaquad", 5: "Y6", 7: "tri", 12: "dodecahexa", 14: "deca"}
 # SERVOn_FUNCTION values of motors: Motor1..8 are 33..40, Motor9..12 are 82..85 (ArduPilot SRV_Channel).
 MOTOR_FUNCTIONS = set(range(33, 41)) | set(range(82, 86))
-# The firmware's banner (MSG "ArduPlane V4.5.1 (...)"), written at boot: a plane has no FRAME_CLASS, so
-# the banner is what says a log is not a multirotor's. A quadplane (Q_ENABLE 1) hovers on its lift rotors.
-BANNER = re.compile(r"^(Ardu\w+|Rover|Blimp|AntennaTracker) V\d")
-NOT_MULTIROTOR_FIRMWARE = {"ArduPlane": "a fixed-wing plane", "ArduRover": "a ground or surface vehicle",
-                           "Rover": "a ground or surface vehicle", "ArduSub": "a submarine",
-                           "AntennaTracker": "an antenna tracker", "Blimp": "a blimp"}
 RPM_AIRBORNE_SHARE = 0.95
 MOTOR_PWM_US = 1100.0  # a spinning motor's output; idle and disarmed outputs sit near 1000 us
 
@@ -43,27 +36,6 @@ def _parameters(rows: list[dict]) -> dict[str, float]:
         if isinstance(name, str) and name not in out and isinstance(value, (int, float)) and np.isfinite(value):
             out[name] = float(value)
     return out
-
-
-def firmware(rows: list[dict]) -> str:
-    """The firmware banner without its git hash ("ArduPlane V3.8.2-dev"), or "" when none is logged."""
-    for r in rows:
-        text = str(r.get("Message", ""))
-        if BANNER.match(text):
-            return text.split(" (")[0].strip()
-    return ""
-
-
-def not_multirotor(banner: str, params: dict[str, float]) -> str:
-    """Why the vehicle is not a multirotor, from its banner ("" when it is one, or unknown)."""
-    kind = NOT_MULTIROTOR_FIRMWARE.get(banner.split(" ")[0]) if banner else None
-    if kind is None:
-        return ""
-    if banner.startswith("ArduPlane"):
-        if params.get("Q_ENABLE", 0.0) >= 1:
-            return ""  # a quadplane: a multirotor while it hovers
-        return f"{banner} with Q_ENABLE {params.get('Q_ENABLE', 0):g}: {kind} without VTOL lift rotors"
-    return f"{banner}: {kind}"
 
 
 def _streams(msgs: dict) -> list:
@@ -231,7 +203,7 @@ def inspect_dataflash(path: str) -> LogSummary:
     airframe = (f"ArduPilot FRAME_CLASS {frame} ({FRAME_CLASS_NAMES.get(frame, 'not a multirotor class')})"
                 if "FRAME_CLASS" in params else "ArduPilot (no FRAME_CLASS)") + (f", firmware {banner}" if banner else "")
     vehicle = Vehicle(rotors, rotor_source, airframe, rpm_ok, rpm_note, hover, hover_source, rpm_median, rpm_max,
-                      not_multirotor(banner, params_all))
+                      ardupilot_not_multirotor(banner, params_all))
     if "SIM_WIND_SPD" in params:
         notes.append(f"SITL wind: {params['SIM_WIND_SPD']:g} m/s from {params.get('SIM_WIND_DIR', 0):g} deg"
                      + (f", below {params.get('SIM_WIND_T_ALT', 0):g} m scaled by sqrt(height / SIM_WIND_T_ALT)"

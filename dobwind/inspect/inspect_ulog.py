@@ -11,6 +11,7 @@ from dobwind.core.errors import InputError
 from dobwind.inspect.loginspect import (AutopilotWind, LogSummary, Role, Vehicle, inside, intervals,
                                 stream_stats, total, wind_activity)
 from dobwind.io.ulog import PX4_WIND_TOPICS, TOPICS_READ, open_ulog, truncation
+from dobwind.io.vehiclekind import px4_not_multirotor
 
 # Read for the vehicle only (rotor count when esc_status is absent): not estimator inputs.
 EXTRA_TOPICS = ("actuator_motors", "actuator_outputs")
@@ -18,8 +19,6 @@ PARAMETERS = ("MPC_THR_HOVER", "EKF2_AID_MASK", "EKF2_DRAG_CTRL", "EKF2_BCOEF_X"
               "SYS_AUTOSTART", "CA_ROTOR_COUNT", "MAV_TYPE")
 # MAV_TYPE (MAVLink) of multirotors -> rotor count: the last resort for the rotor count.
 MAV_TYPE_ROTORS = {2: 4, 13: 6, 14: 8, 15: 3}
-# MAV_TYPE of vehicles that are no multirotor at all (VTOL types 19-25 hover on lift rotors: not here).
-MAV_TYPE_NOT_MULTIROTOR = {1: "a fixed-wing plane", 10: "a ground rover", 11: "a surface boat", 12: "a submarine"}
 EKF2_AID_MASK_DRAG = 1 << 5   # "use drag": PX4 up to v1.13; later EKF2_DRAG_CTRL
 # Share of airborne ESC reports that must read rpm > 0 on every rotor for rpm to be a thrust source.
 RPM_AIRBORNE_SHARE = 0.95
@@ -164,9 +163,8 @@ def inspect_ulog(path: str) -> LogSummary:
     rpm_ok, rpm_note, rpm_median, rpm_max = _rpm(topics, rotors, spans)
     hover, hover_source = _hover(topics, params, spans)
     autostart = f"PX4 SYS_AUTOSTART {int(params['SYS_AUTOSTART'])}" if "SYS_AUTOSTART" in params else "PX4 (no SYS_AUTOSTART)"
-    mav_type = int(params.get("MAV_TYPE", -1))
-    kind = f"MAV_TYPE {mav_type}: {MAV_TYPE_NOT_MULTIROTOR[mav_type]}" if mav_type in MAV_TYPE_NOT_MULTIROTOR else ""
-    vehicle = Vehicle(rotors, rotor_source, autostart, rpm_ok, rpm_note, hover, hover_source, rpm_median, rpm_max, kind)
+    vehicle = Vehicle(rotors, rotor_source, autostart, rpm_ok, rpm_note, hover, hover_source, rpm_median, rpm_max,
+                      px4_not_multirotor(params))
     notes = [n for n in (complaint and f"pyulog: {complaint}", truncation(path)) if n]
     streams = tuple(stream_stats(name, d["t"]) for name, d in sorted(topics.items()))
     return LogSummary(path, "ulog", "PX4", start, end, total(spans) if spans or "unknown" not in airborne_source else None,

@@ -14,6 +14,8 @@ from typing import Any
 
 import numpy as np
 
+from dobwind.io.vehiclekind import MULTIROTORS_ONLY
+
 # The input roles, in the order a user reads them. "thrust" is the collective setpoint, "rpm" the ESC
 # telemetry: an airframe needs one of the two; "heading" falls back to the vehicle's own yaw.
 ROLES = ("velocity", "acceleration", "specific_force", "attitude", "rpm", "thrust", "hover_thrust",
@@ -48,11 +50,6 @@ class AutopilotWind:
     active: bool
     reason: str
     mean_speed_mps: float | None = None
-
-
-# Why a vehicle that is not a multirotor gets no estimate (inspect's line, init's refusal).
-MULTIROTORS_ONLY = ("dobwind's estimator models a multirotor (the rotors' thrust along the body axis carries the "
-                    "weight at hover)")
 
 
 @dataclass(frozen=True)

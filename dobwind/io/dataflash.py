@@ -38,6 +38,7 @@ from dobwind.model.airframe import Airframe
 from dobwind.io.bridge import blanked, bridge, largest_silences
 from dobwind.io.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, hold,
                               interp, quaternions, source_gaps, topic_tolerances, uniform_clock)
+from dobwind.io.vehiclekind import MULTIROTORS_ONLY, ardupilot_not_multirotor, firmware
 from dobwind.io.sitlwind import MESSAGES as SITL_MESSAGES, SitlLog, describe as describe_sitl, sitl_from_messages
 from dobwind.model.signals import log_signals
 
@@ -180,7 +181,8 @@ def _ground(msgs, clock: np.ndarray, notes: list[str]) -> np.ndarray:
 
 
 def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None, bridge_gaps: bool = False) -> AutopilotFlight:
-    loaded = load_messages(path, WANTED + tuple(m for m in SITL_MESSAGES if m not in WANTED))
+    loaded = load_messages(path, WANTED + tuple(m for m in SITL_MESSAGES + ("MSG",) if m not in WANTED))
+    _refuse_other_vehicles(path, loaded)
     sitl, sitl_notes = _sitl(path, loaded)
     msgs = {name: loaded[name] for name in WANTED}
     notes = ["messages " + ", ".join(f"{n} {len(r)}" for n, r in msgs.items() if r) + "; not in the log: "
@@ -235,6 +237,14 @@ def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None, bridge
     return AutopilotFlight(FlightLog(path, blank(cols, blanked(no_data, landed, bridged))), no_data, landed, ap_wind,
                            tuple(notes), float(clock[0]), bridged=bridged,
                            silences=largest_silences(tolerances, clock), sitl=sitl)
+
+
+def _refuse_other_vehicles(path: str, loaded: dict[str, list[dict]]) -> None:
+    """A plane's log failed on a missing CTUN.ThO, or (one that logs it) would be replayed as a copter."""
+    params = {str(r.get("Name")): float(r["Value"]) for r in loaded["PARM"] if isinstance(r.get("Value"), (int, float))}
+    why = ardupilot_not_multirotor(firmware(loaded["MSG"]), params)
+    if why:
+        raise InputError(path, "vehicle", f"{why}; {MULTIROTORS_ONLY}")
 
 
 def _sitl(path: str, msgs: dict[str, list[dict]]) -> tuple[SitlLog | None, list[str]]:

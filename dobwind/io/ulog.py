@@ -25,6 +25,7 @@ import numpy as np
 
 from dobwind.core.errors import InputError
 from dobwind.io.logs import FlightLog
+from dobwind.io.vehiclekind import MULTIROTORS_ONLY, px4_not_multirotor
 from dobwind.model.airframe import Airframe
 from dobwind.io.bridge import blanked, bridge, largest_silences
 from dobwind.io.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, hold,
@@ -196,8 +197,16 @@ def _needs(af: Airframe) -> dict[str, tuple[list[str], str]]:
     return need
 
 
+def _refuse_other_vehicles(path: str, ulog) -> None:  # type: ignore[no-untyped-def]
+    """A plane's log has every topic replay reads: it would be replayed as a copter's."""
+    why = px4_not_multirotor({k: float(v) for k, v in ulog.initial_parameters.items() if k == "MAV_TYPE"})
+    if why:
+        raise InputError(path, "vehicle", f"{why}; {MULTIROTORS_ONLY}")
+
+
 def read_ulog(path: str, af: Airframe, rate_hz: float | None = None, bridge_gaps: bool = False) -> UlogFlight:
     ulog, complaint = open_ulog(path)
+    _refuse_other_vehicles(path, ulog)
     need = _needs(af)
     topics = {name: _topic(ulog, name, fields, ("esc_count", "esc_online_flags") if name == "esc_status" else ())
               for name, (fields, _) in need.items()}
