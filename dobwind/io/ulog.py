@@ -197,16 +197,18 @@ def _needs(af: Airframe) -> dict[str, tuple[list[str], str]]:
     return need
 
 
-def _refuse_other_vehicles(path: str, ulog) -> None:  # type: ignore[no-untyped-def]
-    """A plane's log has every topic replay reads: it would be replayed as a copter's."""
-    why = px4_not_multirotor({k: float(v) for k, v in ulog.initial_parameters.items() if k == "MAV_TYPE"})
+def _multirotor_log(path: str) -> tuple[object, str | None]:
+    """open_ulog's parse, refused when the log is no multirotor's: a plane's log has every topic replay
+    reads, and would be replayed as a copter's."""
+    ulog, complaint = open_ulog(path)
+    why = px4_not_multirotor({k: float(v) for k, v in ulog.initial_parameters.items() if k == "MAV_TYPE"})  # type: ignore[attr-defined]
     if why:
         raise InputError(path, "vehicle", f"{why}; {MULTIROTORS_ONLY}")
+    return ulog, complaint
 
 
 def read_ulog(path: str, af: Airframe, rate_hz: float | None = None, bridge_gaps: bool = False) -> UlogFlight:
-    ulog, complaint = open_ulog(path)
-    _refuse_other_vehicles(path, ulog)
+    ulog, complaint = _multirotor_log(path)
     need = _needs(af)
     topics = {name: _topic(ulog, name, fields, ("esc_count", "esc_online_flags") if name == "esc_status" else ())
               for name, (fields, _) in need.items()}
