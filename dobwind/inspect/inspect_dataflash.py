@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from dobwind.io.dataflash import (AP_WIND, ATTITUDE, EV_GROUND, IMU, VELOCITY, WANTED, follow_primary, load_messages,
-                               pick_stream)
+                               pick_stream, truncation)
 from dobwind.core.errors import InputError
 from dobwind.io.quietfd import quiet_fds
 from dobwind.io.vehiclekind import ardupilot_not_multirotor, firmware
@@ -204,6 +204,7 @@ def inspect_dataflash(path: str) -> LogSummary:
                 if "FRAME_CLASS" in params else "ArduPilot (no FRAME_CLASS)") + (f", firmware {banner}" if banner else "")
     vehicle = Vehicle(rotors, rotor_source, airframe, rpm_ok, rpm_note, hover, hover_source, rpm_median, rpm_max,
                       ardupilot_not_multirotor(banner, params_all))
+    notes += [cut for cut in (truncation(path),) if cut]
     if "SIM_WIND_SPD" in params:
         notes.append(f"SITL wind: {params['SIM_WIND_SPD']:g} m/s from {params.get('SIM_WIND_DIR', 0):g} deg"
                      + (f", below {params.get('SIM_WIND_T_ALT', 0):g} m scaled by sqrt(height / SIM_WIND_T_ALT)"

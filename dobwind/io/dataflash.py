@@ -236,7 +236,41 @@ def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None, bridge
         notes += note
     return AutopilotFlight(FlightLog(path, blank(cols, blanked(no_data, landed, bridged))), no_data, landed, ap_wind,
                            tuple(notes), float(clock[0]), bridged=bridged,
-                           silences=largest_silences(tolerances, clock), sitl=sitl)
+                           silences=largest_silences(tolerances, clock), sitl=sitl, warnings=_cut(path, clock))
+
+
+_FMT = 128           # the FMT message's type; its body starts with the type it defines and that type's length
+_FMT_LENGTH = 89
+
+
+def truncation(path: str) -> str | None:
+    """How the file ends, when its last message is cut off (DFReader stops there silently, as pyulog does
+    for a ULog): walks the message headers (0xA3 0x95, type) with the lengths the FMT messages declare.
+    None for a file that ends on a message boundary, and for one whose messages cannot be walked (a
+    corrupt byte mid-file: that is not a cut end)."""
+    try:
+        with open(path, "rb") as handle:
+            blob = handle.read()
+    except OSError:
+        return None
+    lengths, pos, size = {_FMT: _FMT_LENGTH}, 0, len(blob)
+    while pos + 3 <= size and blob[pos:pos + 2] == DATAFLASH_MAGIC:
+        kind = blob[pos + 2]
+        if kind == _FMT and pos + 5 <= size:
+            lengths[blob[pos + 3]] = blob[pos + 4]
+        if kind not in lengths:
+            return None
+        if pos + lengths[kind] > size:
+            break
+        pos += lengths[kind]
+    if pos == size or (pos + 3 <= size and blob[pos:pos + 2] != DATAFLASH_MAGIC):
+        return None
+    return f"truncated: the file ends inside a message at byte {size:,}; replaying the readable part only"
+
+
+def _cut(path: str, clock: np.ndarray) -> tuple[str, ...]:
+    cut = truncation(path)
+    return (f"{path}: {cut} ({clock[-1] - clock[0]:.2f} s readable)",) if cut else ()
 
 
 def _refuse_other_vehicles(path: str, loaded: dict[str, list[dict]]) -> None:
