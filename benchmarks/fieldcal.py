@@ -18,7 +18,9 @@ per half beside them.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import sys
 import numpy as np
 
 from dobwind.calibrate.fieldtruth import LogTime
@@ -81,10 +83,11 @@ def end_to_end(log: str, mass_kg: float, checks: list[str], workdir: str) -> lis
     from dobwind.cli.app import main as dobwind
 
     start, fitted = os.path.join(workdir, "start.toml"), os.path.join(workdir, "fitted.toml")
-    status = dobwind(["init", log, "--mass", f"{mass_kg:g}", "-o", start])
-    if status != 0:  # init has said why on stderr; its exit code is the cause's (2 input, 1 refusal)
-        raise SystemExit(status)
-    code = dobwind(["fit", start, log, "--truth", "sitl", "-o", fitted, "--json"])
+    with contextlib.redirect_stdout(sys.stderr):  # stdout is the rows' JSON alone; the commands' own words go to stderr
+        status = dobwind(["init", log, "--mass", f"{mass_kg:g}", "-o", start])
+        if status != 0:  # init has said why on stderr; its exit code is the cause's (2 input, 1 refusal)
+            raise SystemExit(status)
+        code = dobwind(["fit", start, log, "--truth", "sitl", "-o", fitted, "--json"])
     rows = []
     calibration = None
     for which, airframe in (("init prior", start), ("fit --truth sitl", fitted)):
@@ -103,7 +106,6 @@ def _whole_path(args: argparse.Namespace) -> None:
 
         print(json.dumps(run_split_time(args.split_time, args.mass), indent=1))
         return
-    import sys
     import tempfile
 
     with tempfile.TemporaryDirectory() as tmp:

@@ -222,3 +222,21 @@ def test_end_to_end_on_a_log_without_the_simulator_wind_is_one_line_and_exit_2(t
     code, err = _end_to_end_cli(monkeypatch, capsys, log, "--mass", "3.0")
     assert code == 2 and err[-1].startswith("fieldcal --end-to-end: " + log) and "SIM_WIND_SPD" in err[-1], err
     assert "Traceback" not in "\n".join(err)
+
+
+def test_end_to_end_prints_one_json_document(tmp_path, monkeypatch, capsys):
+    """init's text and fit's --json went to stdout before the rows: stdout was not one JSON document."""
+    import json
+
+    _, af = _airframe(tmp_path)
+    log = _dataflash(tmp_path / "sitl.bin", af, simulate(af, "box", seed=5, hold_s=6.0, rate_hz=10.0),
+                     {"SIM_WIND_SPD": 5.0, "SIM_WIND_DIR": 90.0})
+    import sys
+
+    from benchmarks.fieldcal import main as fieldcal
+
+    monkeypatch.setattr(sys, "argv", ["fieldcal", "--end-to-end", log, "--mass", "3.0"])
+    fieldcal()
+    captured = capsys.readouterr()
+    rows = json.loads(captured.out)
+    assert [r["airframe"] for r in rows][0] == "init prior" and "wrote" in captured.err
