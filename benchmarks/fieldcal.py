@@ -118,8 +118,6 @@ def _faithful(run, mode: str) -> None:  # type: ignore[no-untyped-def]
     """The exit codes of ../shared/spec/INTERFACES.md: an input (not a SITL log, no SIM_WIND_*, an empty
     half, a bad mass) 2; a refusal (no airborne time to split) 1; what a dobwind command returned, as it
     returned it. One line either way, never a traceback."""
-    import sys
-
     try:
         run()
     except (InputError, CheckFailed) as exc:
