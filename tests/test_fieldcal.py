@@ -311,6 +311,10 @@ def test_no_usable_rows_is_a_check_failure(box):
     short = {k: v[:20] for k, v in cols.items()}
     with pytest.raises(CheckFailed):
         estimate_winds(af, [("short", LogTime(FlightLog("short", short), 0.0))])
+    # shorter than the settling time: replay calls these rows valid (SETTLING), fit says why it uses none
+    shorter = {k: v[:10] for k, v in cols.items()}
+    with pytest.raises(CheckFailed, match=r"no airborne row of the logs is accepted and settled \(10 accepted, none"):
+        estimate_winds(af, [("shorter", LogTime(FlightLog("shorter", shorter), 0.0))])
 
 
 def test_sitl_wind_follows_the_barometer_altitude_in_the_log(tmp_path):
