@@ -18,7 +18,9 @@ per half beside them.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import sys
 import numpy as np
 
 from dobwind.calibrate.fieldtruth import LogTime
@@ -81,9 +83,11 @@ def end_to_end(log: str, mass_kg: float, checks: list[str], workdir: str) -> lis
     from dobwind.cli.app import main as dobwind
 
     start, fitted = os.path.join(workdir, "start.toml"), os.path.join(workdir, "fitted.toml")
-    if dobwind(["init", log, "--mass", f"{mass_kg:g}", "-o", start]) != 0:
-        raise SystemExit(f"init failed on {log}")
-    code = dobwind(["fit", start, log, "--truth", "sitl", "-o", fitted, "--json"])
+    with contextlib.redirect_stdout(sys.stderr):  # stdout is the rows' JSON alone; the commands' own words go to stderr
+        status = dobwind(["init", log, "--mass", f"{mass_kg:g}", "-o", start])
+        if status != 0:  # init has said why on stderr; its exit code is the cause's (2 input, 1 refusal)
+            raise SystemExit(status)
+        code = dobwind(["fit", start, log, "--truth", "sitl", "-o", fitted, "--json"])
     rows = []
     calibration = None
     for which, airframe in (("init prior", start), ("fit --truth sitl", fitted)):
@@ -94,6 +98,31 @@ def end_to_end(log: str, mass_kg: float, checks: list[str], workdir: str) -> lis
             calibration = calibration or row["truth_mean_speed_mps"]
             rows.append(row | _goal(row, calibration))
     return rows
+
+
+def _whole_path(args: argparse.Namespace) -> None:
+    if args.split_time:
+        from benchmarks.splittime import run_split_time
+
+        print(json.dumps(run_split_time(args.split_time, args.mass), indent=1))
+        return
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        rows = end_to_end(args.end_to_end, args.mass, args.check, tmp)
+    sys.stdout.flush()
+    print(json.dumps(rows, indent=1))
+
+
+def _faithful(run, mode: str) -> None:  # type: ignore[no-untyped-def]
+    """The exit codes of ../shared/spec/INTERFACES.md: an input (not a SITL log, no SIM_WIND_*, an empty
+    half, a bad mass) 2; a refusal (no airborne time to split) 1; what a dobwind command returned, as it
+    returned it. One line either way, never a traceback."""
+    try:
+        run()
+    except (InputError, CheckFailed) as exc:
+        sys.stderr.write(f"fieldcal {mode}: {exc}\n")
+        raise SystemExit(EXIT_BAD_INPUT if isinstance(exc, InputError) else EXIT_CHECK_FAILED) from None
 
 
 def main() -> None:
@@ -108,31 +137,10 @@ def main() -> None:
     parser.add_argument("--split-time", metavar="LOG", help="an ArduPilot SITL log: init, fit on one half of its "
                         "airborne time, replay, figures for the held-out half; both ways round")
     args = parser.parse_args()
-    if args.split_time:
-        from benchmarks.splittime import run_split_time
-
+    if args.split_time or args.end_to_end:
         if args.mass is None:
-            parser.error("--split-time needs --mass")
-        try:
-            print(json.dumps(run_split_time(args.split_time, args.mass), indent=1))
-        except (InputError, CheckFailed) as exc:  # exit codes of ../shared/spec/INTERFACES.md
-            import sys
-
-            # an input (not a SITL log, no SIM_WIND_*, an empty half): 2; a refusal (no airborne time to
-            # split): 1. One line either way, never a traceback.
-            sys.stderr.write(f"fieldcal --split-time: {exc}\n")
-            raise SystemExit(EXIT_BAD_INPUT if isinstance(exc, InputError) else EXIT_CHECK_FAILED) from None
-        return
-    if args.end_to_end:
-        import tempfile
-        import sys
-
-        if args.mass is None:
-            parser.error("--end-to-end needs --mass")
-        with tempfile.TemporaryDirectory() as tmp:
-            rows = end_to_end(args.end_to_end, args.mass, args.check, tmp)
-        sys.stdout.flush()
-        print(json.dumps(rows, indent=1))
+            parser.error(f"{'--split-time' if args.split_time else '--end-to-end'} needs --mass")
+        _faithful(lambda: _whole_path(args), "--split-time" if args.split_time else "--end-to-end")
         return
     if not (args.airframe and args.log):
         parser.error("AIRFRAME and LOG (or --end-to-end LOG --mass KG)")

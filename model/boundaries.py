@@ -25,7 +25,7 @@ from dobwind.model.numeric import rpm_for_rotor_thrust
 from dobwind.model.plausibility import MAX_ACCELERATION_MPS2, MAX_GROUND_SPEED_MPS, MAX_RPM_FRACTION, \
     MAX_THRUST_TO_WEIGHT
 from dobwind.model.status import INPUT_MAGNITUDE_LIMIT, MIN_DT_S, DT_TOLERANCE, QUATERNION_NORM_TOLERANCE, \
-    RESULT_MAGNITUDE_LIMIT
+    REJECTED_MASK, RESULT_MAGNITUDE_LIMIT
 from dobwind.model.step import StepModel
 from dobwind.model.kinds import Precision
 
@@ -325,7 +325,39 @@ def boundary_cases(model: StepModel, precision: Precision) -> BoundaryCases:
                              REASSOCIATION_MARGIN_ULPS if label in reassociable else 0)
         labels += [label] * len(crossing)
         rows += crossing
+    if precision == Precision.SINGLE:
+        labels, rows = _representable_in_float(model, labels, rows)
     dtype = _dtype(precision)
     states = np.array([s for s, _ in rows], dtype=dtype).astype(float)
     inputs = np.array([u for _, u in rows], dtype=dtype).astype(float)
     return BoundaryCases(tuple(labels), states, inputs)
+
+
+FLOAT_MAX = float(np.finfo(np.float32).max)
+
+
+def _representable_in_float(model: StepModel, labels: list[str], rows: list[Row]) -> tuple[list[str], list[Row]]:
+    """All rows but those the reference accepts while one of the step's intermediate values (each
+    instruction, evaluated in double) is beyond a float's range. Near the result limit (1e30) a step that
+    squares the force, as a body-frame drag law does with its vertical airflow, overflows a float where
+    the double reference does not: the C then says NUMERIC (or, through a clamp, anything) where the
+    reference accepts, so no golden status can be expected of such a row; the float step rejects those
+    forces earlier, by the overflow itself. A row the reference rejects keeps its rejection in C (the
+    validation's bits come from the inputs, and NUMERIC from the overflow that rejects it)."""
+    import casadi as ca
+
+    every = ca.Function("every_instruction", model.step.sx_in(), [model.step.instructions_sx()])
+    statuses = _statuses(model, rows, Precision.SINGLE)
+    kept = [(label, row) for label, row, status in zip(labels, rows, statuses)
+            if int(status) & REJECTED_MASK or _largest(every, row) <= FLOAT_MAX]
+    return [label for label, _ in kept], [row for _, row in kept]
+
+
+def _largest(every, row: Row) -> float:  # type: ignore[no-untyped-def]
+    values = np.abs(np.asarray(every(*_as_float_row(row))).ravel())
+    return float(np.nanmax(values, initial=0.0))
+
+
+def _as_float_row(row: Row) -> tuple[np.ndarray, np.ndarray]:
+    """The row as the C holds it (its values rounded to float first)."""
+    return tuple(np.asarray(part, dtype=np.float32).astype(float) for part in row)  # type: ignore[return-value]

@@ -6,8 +6,8 @@ import struct
 from pathlib import Path
 
 # DataFlash format characters used here -> struct codes (Q uint64 TimeUS, B uint8, f float, d double,
-# i int32, H uint16, h int16, I uint32, b int8, N char[16]).
-_CODES = {"N": "16s", "Q": "Q", "B": "B", "f": "f", "d": "d", "i": "i", "I": "I", "H": "H", "h": "h", "b": "b"}
+# i int32, H uint16, h int16, I uint32, b int8, N char[16], Z char[64]).
+_CODES = {"Z": "64s", "N": "16s", "Q": "Q", "B": "B", "f": "f", "d": "d", "i": "i", "I": "I", "H": "H", "h": "h", "b": "b"}
 _FMT_TYPE = 128
 
 
@@ -18,8 +18,8 @@ def _fmt_message(msg_type: int, name: str, fmt: str, columns: list[str]) -> byte
 
 
 def _pack(code: str, value) -> bytes:
-    if code == "N":  # char[16] text (PARM.Name)
-        return struct.pack("<16s", str(value or "").encode())
+    if code in "NZ":  # char[16] text (PARM.Name), char[64] text (MSG.Message)
+        return struct.pack("<" + _CODES[code], str(value or "").encode())
     if code in "fd":
         return struct.pack("<" + code, float(value if value is not None else 0.0))
     return struct.pack("<" + _CODES[code], int(round(value if value is not None else 0)))

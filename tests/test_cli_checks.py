@@ -183,3 +183,15 @@ def test_a_segment_label_must_be_a_whole_number(tmp_path, capsys, cell):
     capsys.readouterr()
     assert main(["replay", M300_PATH, str(log)]) == 2
     assert f"line {header + 6}, column segment" in _one_line(capsys.readouterr().err)
+
+
+@pytest.mark.parametrize("argv, parsed", [
+    (["fit", "a", "--wind", "-2@90"], ["fit", "a", "--wind=-2@90"]),
+    (["--wind", "-.5@90", "-o", "x"], ["--wind=-.5@90", "-o", "x"]),
+    (["analyze", "--freq", "-1", "2"], ["analyze", "--freq", "-1", "2"]),   # argparse's own negative number
+    (["--wind=-2@90"], ["--wind=-2@90"]), (["--", "-2@90"], ["--", "-2@90"]),
+    (["-o", "-2@90"], ["-o", "-2@90"]), (["--wind", "-x"], ["--wind", "-x"])])
+def test_a_dash_value_is_attached_only_after_a_long_option(argv, parsed):
+    from dobwind.cli.app import attach_dash_values
+
+    assert attach_dash_values(argv) == parsed

@@ -117,6 +117,32 @@ def test_fit_refuses_a_wind_out_of_range_in_one_line_naming_the_field(box, tmp_p
     assert not out.exists()
 
 
+
+@pytest.mark.parametrize("text", ["-2@90", "-2.5@90,1", "-1e-3@0"])
+def test_a_negative_wind_given_as_its_own_word_reaches_the_speed_check(box, tmp_path, capsys, text):
+    """`--wind -2@90` (not `--wind=-2@90`): argparse took the value for an option and said only "expected
+    one argument"; now the speed check's own line says what is wrong."""
+    _, path, _, _ = box
+    out = tmp_path / "never.toml"
+    assert main(["fit", str(path), "x.csv", "--wind", text, "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"'{text}'" in err and "speed -" in err and "must be in [0, 100]" in err, err
+    assert not out.exists()
+
+
+def test_the_same_log_twice_is_refused_naming_it(box, tmp_path, capsys):
+    """`fit A LOG LOG --wind 3@90 --wind 5@0`: the truth is keyed by the log, so the second wind was dropped
+    without a word (one wind_truth.per_log line); the same file under a second name is the same log."""
+    _, path, af, cols = box
+    log = _dataflash(tmp_path / "one.bin", af, cols, None)
+    (tmp_path / "link.bin").symlink_to(log)
+    out = tmp_path / "never.toml"
+    for again in (log, str(tmp_path / "link.bin")):
+        assert main(["fit", str(path), log, again, "--wind", "3@90", "--wind", "5@0", "-o", str(out)]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and err.startswith(f"dobwind fit: {again}: is given twice") and "Traceback" not in err
+    assert not out.exists()
+
 def test_a_bearing_of_360_is_north():
     np.testing.assert_allclose(parse_wind("4@360").vector(), parse_wind("4@0").vector(), atol=1e-12)
     assert parse_wind("4@360").from_deg == 0.0
@@ -285,6 +311,10 @@ def test_no_usable_rows_is_a_check_failure(box):
     short = {k: v[:20] for k, v in cols.items()}
     with pytest.raises(CheckFailed):
         estimate_winds(af, [("short", LogTime(FlightLog("short", short), 0.0))])
+    # shorter than the settling time: replay calls these rows valid (SETTLING), fit says why it uses none
+    shorter = {k: v[:10] for k, v in cols.items()}
+    with pytest.raises(CheckFailed, match=r"no airborne row of the logs is accepted and settled \(10 accepted, none"):
+        estimate_winds(af, [("shorter", LogTime(FlightLog("shorter", shorter), 0.0))])
 
 
 def test_sitl_wind_follows_the_barometer_altitude_in_the_log(tmp_path):

@@ -192,3 +192,51 @@ def test_split_time_with_a_bad_mass_is_inits_one_line_and_exit_2(tmp_path, monke
                      {"SIM_WIND_SPD": 5.0, "SIM_WIND_DIR": 90.0})
     code, err = _split_time_cli(monkeypatch, capsys, log, "--mass", "0")
     assert code == 2 and len(err) == 1 and "--mass" in err[0], err
+
+
+def _end_to_end_cli(monkeypatch, capsys, *argv: str) -> tuple[int, list[str]]:
+    import sys
+
+    from benchmarks.fieldcal import main as fieldcal
+
+    monkeypatch.setattr(sys, "argv", ["fieldcal", "--end-to-end", *argv])
+    with pytest.raises(SystemExit) as caught:
+        fieldcal()
+    return caught.value.code, capsys.readouterr().err.strip().splitlines()
+
+
+def test_end_to_end_keeps_inits_exit_code_and_its_one_line(tmp_path, monkeypatch, capsys):
+    """init's exit 2 (a bad mass, a missing log) became exit 1 with a second message: the tool's exit
+    code is now init's own."""
+    _, af = _airframe(tmp_path)
+    log = _dataflash(tmp_path / "sitl.bin", af, simulate(af, "box", seed=5, hold_s=6.0, rate_hz=10.0),
+                     {"SIM_WIND_SPD": 5.0, "SIM_WIND_DIR": 90.0})
+    for argv, said in (((log, "--mass", "0"), "--mass"), ((str(tmp_path / "missing.bin"), "--mass", "3"), "missing.bin")):
+        code, err = _end_to_end_cli(monkeypatch, capsys, *argv)
+        assert code == 2 and len(err) == 1 and said in err[0], (argv, err)
+
+
+def test_end_to_end_on_a_log_without_the_simulator_wind_is_one_line_and_exit_2(tmp_path, monkeypatch, capsys):
+    _, af = _airframe(tmp_path)
+    log = _dataflash(tmp_path / "no_wind.bin", af, simulate(af, "box", seed=5, hold_s=6.0, rate_hz=10.0), None)
+    code, err = _end_to_end_cli(monkeypatch, capsys, log, "--mass", "3.0")
+    assert code == 2 and err[-1].startswith("fieldcal --end-to-end: " + log) and "SIM_WIND_SPD" in err[-1], err
+    assert "Traceback" not in "\n".join(err)
+
+
+def test_end_to_end_prints_one_json_document(tmp_path, monkeypatch, capsys):
+    """init's text and fit's --json went to stdout before the rows: stdout was not one JSON document."""
+    import json
+
+    _, af = _airframe(tmp_path)
+    log = _dataflash(tmp_path / "sitl.bin", af, simulate(af, "box", seed=5, hold_s=6.0, rate_hz=10.0),
+                     {"SIM_WIND_SPD": 5.0, "SIM_WIND_DIR": 90.0})
+    import sys
+
+    from benchmarks.fieldcal import main as fieldcal
+
+    monkeypatch.setattr(sys, "argv", ["fieldcal", "--end-to-end", log, "--mass", "3.0"])
+    fieldcal()
+    captured = capsys.readouterr()
+    rows = json.loads(captured.out)
+    assert [r["airframe"] for r in rows][0] == "init prior" and "wrote" in captured.err

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from dobwind.cli.app import main
+from dobwind.core.errors import InputError
 from dobwind.inspect.initframe import REFERENCE_MASS_KG, build_airframe, common_rate
 from dobwind.inspect.anylog import inspect_log
 from dobwind.model.airframe import PRIOR, load_airframe
@@ -46,7 +47,8 @@ def _airborne(s: float) -> bool:
 
 
 def _px4_log(path: Path, *, attitude_hz=50.0, thrust_hz=50.0, position_gap=(12.0, 12.5), esc=True, dead_motor=False,
-             wind_active=False, land=True, rotor_param=4) -> Path:
+             wind_active=False, land=True, rotor_param=4, extra_params: dict[str, float] | None = None,
+             drop: tuple[str, ...] = ()) -> Path:
     """A PX4 log: position 10 Hz (with one gap), attitude and thrust setpoint at the given rates, ESC at
     4 Hz (0 rpm on the ground; with dead_motor, motor 2 reads 0 rpm throughout), wind zero or not."""
     def rpm(s: float) -> dict:
@@ -70,7 +72,7 @@ def _px4_log(path: Path, *, attitude_hz=50.0, thrust_hz=50.0, position_gap=(12.0
     params = {"MPC_THR_HOVER": 0.5, "EKF2_DRAG_CTRL": 1.0 if wind_active else 0.0, "SYS_AUTOSTART": 4001.0}
     if rotor_param:
         params["CA_ROTOR_COUNT"] = float(rotor_param)
-    return write_ulog(path, topics, params, ESC_REPORT)
+    return write_ulog(path, [t for t in topics if t.name not in drop], params | (extra_params or {}), ESC_REPORT)
 
 
 @pytest.fixture(scope="module")
@@ -212,31 +214,33 @@ def _parameters(params: dict[str, float]) -> bytes:
     return blob
 
 
-def _ardupilot_log(path: Path, *, esc_rpm: bool, esc: bool = True, parameters: bool = True) -> Path:
+def _ardupilot_log(path: Path, *, esc_rpm: bool, esc: bool = True, parameters: bool = True, banner: str = "",
+                   more: dict[str, float] | None = None, flies: bool = True) -> Path:
     """10 Hz EKF and CTUN, 25 Hz IMU; EV NOT_LANDED at 5 s and LAND_COMPLETE at 25 s; SITL ESCs at 0 rpm
-    unless esc_rpm."""
-    rows: list = []
+    unless esc_rpm. ``banner``: the firmware's MSG at boot; ``more``: parameters besides the copter's;
+    ``flies`` False: no EV events and the throttle at 0 throughout (a pre-arm log)."""
+    rows: list = [("MSG", {"TimeUS": T0_US, "Message": banner})] if banner else []
     for k in range(int(LOG_S * 50)):  # a 50 Hz grid: IMU on every second instant, the rest on every fifth
         s, us = k / 50, T0_US + k * 20_000
-        if k == TAKEOFF_S * 50:
+        if k == TAKEOFF_S * 50 and flies:
             rows.append(("EV", {"TimeUS": us, "Id": 28}))
-        if k == LANDING_S * 50:
+        if k == LANDING_S * 50 and flies:
             rows.append(("EV", {"TimeUS": us, "Id": 18}))
         if k % 2 == 0:
             rows.append(("IMU", {"TimeUS": us, "I": 0, "AccZ": -9.8}))
         if k % 5 == 0:
             rows += [("XKF1", {"TimeUS": us, "C": 0, "VN": 1.0}), ("XKQ", {"TimeUS": us, "C": 0, "Q1": 1.0}),
-                     ("XKF2", {"TimeUS": us, "C": 0}), ("CTUN", {"TimeUS": us, "ThO": 0.4, "ThH": 0.37})]
+                     ("XKF2", {"TimeUS": us, "C": 0}), ("CTUN", {"TimeUS": us, "ThO": 0.4 * flies, "ThH": 0.37})]
             rows += [("ESC", {"TimeUS": us, "Instance": i, "RPM": 5000.0 if esc_rpm and _airborne(s) else 0.0})
                      for i in range(4) if esc]
             # Four motors, one servo at its 1000 us rest, one output unused.
             rows.append(("RCOU", {"TimeUS": us, **{f"C{c}": 1500 if _airborne(s) else 1000 for c in range(1, 5)},
                                   "C5": 1000, "C6": 0}))
-    write_dataflash(path, MESSAGES, rows)
+    write_dataflash(path, {**MESSAGES, "MSG": ("QZ", ["TimeUS", "Message"])}, rows)
     if not parameters:
         return path
     params = {"FRAME_CLASS": 1, "MOT_THST_HOVER": 0.37, "SIM_WIND_SPD": 10.0, "SIM_WIND_DIR": 180.0,
-              **{f"SERVO{i}_FUNCTION": 32.0 + i for i in range(1, 5)}}
+              **{f"SERVO{i}_FUNCTION": 32.0 + i for i in range(1, 5)}, **(more or {})}
     path.write_bytes(path.read_bytes() + _parameters(params))
     return path
 
@@ -440,3 +444,101 @@ def test_init_refuses_a_mass_that_is_no_multirotors_in_one_line(px4, tmp_path, c
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--mass" in err and "kg" in err and "Traceback" not in err
     assert not out.exists()
+
+
+def test_an_estimate_given_where_a_log_belongs_is_named_as_such(px4, tmp_path, capsys):
+    """replay's own output fed back as the log: each command said "no thrust source" (init) or "column
+    vel_n: missing" (replay, report, fit); now one line says it is an estimate and what to give instead."""
+    log, airframe = px4
+    estimate = tmp_path / "e.csv"
+    assert main(["replay", airframe, str(log), "-o", str(estimate)]) == 0
+    capsys.readouterr()
+    commands = (["inspect", str(estimate)], ["inspect", str(estimate), "--json"],
+                ["init", str(estimate), "--mass", "2", "-o", str(tmp_path / "v.toml")],
+                ["replay", airframe, str(estimate), "-o", str(tmp_path / "e2.csv")],
+                ["report", airframe, str(estimate), "-o", str(tmp_path / "r.html")],
+                ["fit", airframe, str(estimate), "-o", str(tmp_path / "f.toml")])
+    for argv in commands:
+        assert main(argv) == 2, argv
+        err = [line for line in capsys.readouterr().err.splitlines() if "uncalibrated prior" not in line]
+        assert len(err) == 1 and f"{estimate}: is a dobwind estimate" in err[0] and "flight log" in err[0], (argv, err)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["e.csv"]
+
+
+@pytest.mark.parametrize("banner, more, refused", [
+    ("ArduPlane V4.5.1 (abcdef12)", {"Q_ENABLE": 0.0}, "ArduPlane V4.5.1 with Q_ENABLE 0: a fixed-wing plane without VTOL lift rotors"),
+    ("ArduPlane V4.5.1 (abcdef12)", {}, "ArduPlane V4.5.1 with Q_ENABLE 0: a fixed-wing plane without VTOL lift rotors"),
+    ("ArduSub V4.1.0 (abcdef12)", {}, "ArduSub V4.1.0: a submarine"),
+    ("ArduPlane V4.5.1 (abcdef12)", {"Q_ENABLE": 1.0}, None),   # a quadplane hovers on its lift rotors
+    ("ArduCopter V4.6.2 (abcdef12)", {}, None)])
+def test_init_refuses_the_log_of_a_vehicle_that_is_no_multirotor(tmp_path, capsys, banner, more, refused):
+    """The plane log gave only "no thrust source" (or, with a throttle, a starter for a plane): the
+    firmware's banner says what flew, and inspect and init say it."""
+    pytest.importorskip("pymavlink")
+    log = _ardupilot_log(tmp_path / "a.bin", esc_rpm=False, banner=banner, more=more)
+    s = inspect_log(str(log))
+    assert s.vehicle.airframe.endswith(f"firmware {banner.split(' (')[0]}")
+    assert s.vehicle.not_multirotor == (refused or "")
+    code = main(["init", str(log), "--mass", "2", "-o", str(tmp_path / "v.toml")])
+    err = capsys.readouterr().err
+    if refused is None:
+        assert code == 0 and err == ""
+        return
+    assert code == 2 and err.count("\n") == 1 and f"{log}: vehicle: {refused}" in err and "multirotor" in err, err
+    assert not (tmp_path / "v.toml").exists()
+    assert main(["inspect", str(log)]) == 0
+    out = capsys.readouterr().out
+    assert f"NOT A MULTIROTOR: {refused}" in out and "missing: vehicle: not a multirotor" in out
+    # replay (and so report and fit) refuse it too, whatever the airframe: it failed on CTUN.ThO before
+    assert main(["replay", str(ROOT / "airframes" / "m300.toml"), str(log), "-o", str(tmp_path / "e.csv")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{log}: vehicle: {refused}" in err, err
+
+
+@pytest.mark.parametrize("mav_type, refused", [(1, "MAV_TYPE 1: a fixed-wing plane"), (12, "MAV_TYPE 12: a submarine"),
+                                               (2, ""), (22, "")])
+def test_a_px4_mav_type_of_a_plane_or_a_submarine_is_no_multirotor(tmp_path, mav_type, refused):
+    assert inspect_log(str(_px4_log(tmp_path / "a.ulg"))).vehicle.not_multirotor == ""   # no MAV_TYPE logged
+    log = _px4_log(tmp_path / "b.ulg", extra_params={"MAV_TYPE": float(mav_type)})
+    assert inspect_log(str(log)).vehicle.not_multirotor == refused
+    if refused:  # the log has every topic replay reads: it was replayed as a copter's
+        from dobwind.io.ulog import read_ulog
+
+        with pytest.raises(InputError, match="vehicle: " + refused):
+            read_ulog(str(log), load_airframe(ROOT / "airframes" / "m300.toml"))
+
+
+def test_init_refuses_a_log_that_never_flew(tmp_path, capsys):
+    """A pre-arm log (throttle at 0, no take-off): init wrote a starter from it, which then estimated nothing."""
+    pytest.importorskip("pymavlink")
+    log = _ardupilot_log(tmp_path / "a.bin", esc_rpm=False, flies=False)
+    assert inspect_log(str(log)).airborne_s == 0.0
+    assert main(["init", str(log), "--mass", "2", "-o", str(tmp_path / "v.toml")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{log}: airborne: never airborne in its" in err and "give the log of a flight" in err
+    assert not (tmp_path / "v.toml").exists()
+
+
+@pytest.mark.parametrize("topic, role", [("vehicle_local_position", "velocity"), ("vehicle_attitude", "attitude")])
+def test_init_refuses_a_log_without_the_velocity_or_the_attitude(tmp_path, capsys, topic, role):
+    """inspect listed "missing: velocity" and init still wrote a starter, which replay then refused."""
+    log = _px4_log(tmp_path / "a.ulg", drop=(topic,))
+    assert any(line.startswith(f"{role}:") for line in inspect_log(str(log)).missing())
+    assert main(["init", str(log), "--mass", "2", "-o", str(tmp_path / "v.toml")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{log}: {role}: " in err and topic in err and "replay needs it" in err, err
+    assert not (tmp_path / "v.toml").exists()
+
+
+@pytest.mark.parametrize("name, kind", [("e.ulg", "ULog"), ("e.bin", "DataFlash")])
+def test_an_empty_log_says_it_is_empty(tmp_path, capsys, name, kind):
+    """An empty file said "Header too short" (ULog) or "does not start with 0xA3 0x95" (DataFlash)."""
+    if kind == "DataFlash":
+        pytest.importorskip("pymavlink")
+    log = tmp_path / name
+    log.write_bytes(b"")
+    for argv in (["inspect", str(log)], ["replay", str(ROOT / "airframes" / "m300.toml"), str(log), "-o",
+                                          str(tmp_path / "e.csv")]):
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and f"{log}: is empty (0 bytes): not a {kind}" in err, err

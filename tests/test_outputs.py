@@ -271,3 +271,23 @@ def test_a_plot_not_named_png_is_refused_before_any_work(command, logs, tmp_path
         err = _one_line(capsys.readouterr().err)
         assert "--plot " in err and said in err and "PNG only" in err, err
     assert list(tmp_path.iterdir()) == [] or all(p.name == "unwritable" for p in tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("name", ["x.ulg", "x.BIN", "x.mcap", "x.db3", "x.csv"])
+@pytest.mark.parametrize("command", ["init", "fit"])
+def test_an_airframe_named_as_a_flight_log_is_refused_before_any_work(command, name, tmp_path, capsys):
+    """`init LOG -o x.ulg` wrote the TOML under a log's name, which the next command then read as a log:
+    the airframe's name may be anything but a flight log's (any case); refused before the log is read."""
+    missing = str(tmp_path / "no_such_log.ulg")
+    args = {"init": ["init", missing, "--mass", "2"], "fit": ["fit", str(M300), missing, "--wind", "3@90"]}[command]
+    assert main([*args, "-o", str(tmp_path / name)]) == 2
+    err = _one_line(capsys.readouterr().err)
+    assert f"-o {tmp_path / name}" in err and "names a flight log" in err and "name it .toml" in err, err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_an_airframe_may_still_be_named_as_the_user_likes(tmp_path):
+    from dobwind.io.outputs import AIRFRAME, Target, check_target
+
+    for name in ("x.toml", "x", "x.txt", "x.ulg.toml"):
+        check_target(Target("-o", str(tmp_path / name), refused=AIRFRAME))

@@ -106,12 +106,13 @@ def log_samples(af: Airframe, flights: list[tuple[str, LogTime]],
     from dobwind.calibrate.fit import calibration_run
 
     run = calibration_run(af, [flight.log for _, flight in flights])
-    logs, spans, verticals = [], [], []
+    logs, spans, verticals, seen = [], [], [], 0
     for (path, flight), force, status in zip(flights, run.force_ned, run.status):
         log = flight.log
         t = log.time_s
         ok = accepted(status) & np.isfinite(force[:, :2]).all(axis=1)
         ok &= np.isfinite(log.stack("vel_n", "vel_e")).all(axis=1)
+        seen += int(ok.sum())
         fitted = _usable(t, status, run.model.settling_time_s)[ok]
         fitted &= (np.arange(int(ok.sum())) % windrows.decimation(t)) == 0
         if not fitted.any():
@@ -130,7 +131,9 @@ def log_samples(af: Airframe, flights: list[tuple[str, LogTime]],
         logs.append(rows)
         verticals.append(vertical)
     if not logs:
-        raise CheckFailed("--wind unknown: no accepted airborne rows in the logs")
+        # replay counts the settling rows as accepted ("5 valid"): say why none of them is used
+        raise CheckFailed(f"--wind unknown: no airborne row of the logs is accepted and settled ({seen} accepted, none "
+                          f"{run.model.settling_time_s:.2g} s after the first row or a rejection): fly longer")
     return logs, spans, verticals
 
 

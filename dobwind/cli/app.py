@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import errno
 import os
+import re
 import sys
 from typing import NoReturn, Sequence
 
@@ -25,6 +26,30 @@ class Parser(argparse.ArgumentParser):
     def error(self, message: str) -> NoReturn:  # one line, not argparse's usage block
         sys.stderr.write(f"{self.prog}: error: {message} (see --help)\n")
         raise SystemExit(EXIT_BAD_INPUT)
+
+    def parse_known_args(self, args=None, namespace=None):  # type: ignore[no-untyped-def]
+        return super().parse_known_args(attach_dash_values(sys.argv[1:] if args is None else list(args)), namespace)
+
+
+def attach_dash_values(argv: list[str]) -> list[str]:
+    """`--wind -2@90`: argparse takes a value that starts with a dash for an option unless it is a plain
+    negative number, and says only "expected one argument". No dobwind option starts with a digit, so such
+    a token after a long option is its value: given as `--wind=-2@90`, the option's own check says what is
+    wrong with it ("the speed -2 m/s must be in [0, 100] m/s"). Plain negative numbers are left to argparse,
+    which takes them as values already, also for an option of several values (`--freq -1 2`)."""
+    out: list[str] = []
+    for token in argv:
+        previous = out[-1] if out else ""
+        if (_DASH_VALUE.match(token) and not _PLAIN_NEGATIVE.match(token) and previous.startswith("--")
+                and "=" not in previous and previous != "--"):
+            out[-1] = f"{previous}={token}"
+        else:
+            out.append(token)
+    return out
+
+
+_DASH_VALUE = re.compile(r"^-\.?[0-9]")
+_PLAIN_NEGATIVE = re.compile(r"^-\d+$|^-\d*\.\d+$")  # argparse's own test for a negative number
 
 
 class _VersionAction(argparse.Action):

@@ -17,9 +17,9 @@ from typing import Any, Callable, Sequence
 
 from dobwind.core.errors import InputError
 from dobwind.core.options import Bound
+from dobwind.io.logsuffix import LOG_SUFFIXES
 
 JOBS = Bound(1, 256, "processes", integer=True)
-LOG_SUFFIXES = (".ulg", ".bin", ".csv", ".mcap", ".db3")
 
 
 def default_jobs() -> int:

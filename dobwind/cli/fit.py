@@ -8,7 +8,7 @@ import sys
 from dobwind.cli.common import AIRFRAME_HELP, JSON_HELP, Command, print_json
 from dobwind.core import options as opt
 from dobwind.core.errors import CheckFailed, InputError
-from dobwind.io.outputs import PNG, OutputFiles, Target, check_targets
+from dobwind.io.outputs import AIRFRAME, PNG, OutputFiles, Target, check_targets
 
 
 def add(command: Command) -> None:
@@ -80,7 +80,8 @@ def run(args: argparse.Namespace) -> int:
     from dobwind.calibrate.fieldfit import field_options, field_truth
 
     plot = args.plot if args.plot is not None else str(args.output).removesuffix(".toml") + "_fit.png"
-    targets = [Target("-o", args.output), Target("--plot", plot, suffixes=PNG)]
+    refuse_repeated_logs(list(args.logs))
+    targets = [Target("-o", args.output, refused=AIRFRAME), Target("--plot", plot, suffixes=PNG)]
     options = field_options(args)
     check_targets(targets, [args.airframe, *args.logs, *options.files()])
     af = load_airframe(args.airframe)
@@ -121,6 +122,24 @@ def run(args: argparse.Namespace) -> int:
     for warning in report.warnings + (field.warnings() if field else []):
         sys.stderr.write(f"dobwind fit: warning: {warning}\n")
     return _fit_verdict(args, report)
+
+
+def refuse_repeated_logs(logs: list[str]) -> None:
+    """One log given twice: its wind truth is keyed by the log (`wind_truth.per_log`, the self-check's
+    per-log lines), so a second `--wind` for it was silently dropped, and its rows would count twice."""
+    import os
+
+    seen: dict[object, str] = {}
+    for log in logs:
+        try:
+            st = os.stat(log)
+            key: object = (st.st_dev, st.st_ino)  # the same file under two names (./a.ulg, a link)
+        except OSError:
+            key = os.path.abspath(log)  # missing: the reader names it later
+        if key in seen:
+            said = "" if seen[key] == log else f" (as {seen[key]})"
+            raise InputError(log, None, f"is given twice{said}: give each calibration log once")
+        seen[key] = log
 
 
 def refuse_out_of_range(text: str, output: str) -> None:

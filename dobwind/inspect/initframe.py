@@ -166,6 +166,7 @@ def build_airframe(log: str, mass: float, output: str, name: str | None = None) 
     if not RANGES["mass"].contains(mass):
         raise InputError("--mass", None, f"{mass!r} kg is not a multirotor's mass ({RANGES['mass'].describe()})")
     summary = inspect_log(log)
+    refuse_unsuited(summary)
     chosen = _name(name, output)
     # First with the gain of the continuous observer (bandwidth = gain / (2 pi m)), then designed exactly
     # on the discrete step that will run.
@@ -182,6 +183,24 @@ def build_airframe(log: str, mass: float, output: str, name: str | None = None) 
     text = header + dumps(airframe_document(final))
     parse_airframe(text, output)  # what is written must load
     return text, choices, summary
+
+
+def refuse_unsuited(s: LogSummary) -> None:
+    """A log no starter can come from: not a multirotor's, without the velocity or the attitude replay
+    needs, or one that never flew (a pre-arm log). Each gave a starter before (or only "no thrust
+    source"), which replay then refused or with which it estimated nothing or nonsense."""
+    from dobwind.io.vehiclekind import MULTIROTORS_ONLY
+
+    if s.vehicle.not_multirotor:
+        raise InputError(s.path, "vehicle", f"{s.vehicle.not_multirotor}; {MULTIROTORS_ONLY}: no starter airframe")
+    from dobwind.inspect.loginspect import ESSENTIAL_ROLES
+
+    for role in (s.role(name) for name in ESSENTIAL_ROLES):
+        if role.source is None:  # replay refuses such a log: a starter for it would never run
+            raise InputError(s.path, role.role, f"{role.note}: replay needs it, so no starter airframe")
+    if s.airborne_s is not None and s.airborne_s <= 0.0:
+        raise InputError(s.path, "airborne", f"never airborne in its {s.duration_s:.1f} s ({s.airborne_source}): the "
+                         "starter's thrust and rates are read from a flight; give the log of a flight")
 
 
 def _header(log: str, s: LogSummary, c: InitChoices, mass: float) -> str:
@@ -201,9 +220,9 @@ def _header(log: str, s: LogSummary, c: InitChoices, mass: float) -> str:
 
 def run_init(log: str, mass: float, output: str, name: str | None, as_json: bool) -> int:
     from dobwind.io.atomic import write_text_atomically
-    from dobwind.io.outputs import OutputFiles, Target, check_targets
+    from dobwind.io.outputs import AIRFRAME, OutputFiles, Target, check_targets
 
-    target = Target("-o", output)
+    target = Target("-o", output, refused=AIRFRAME)
     check_targets([target], [log])
     text, choices, summary = build_airframe(log, mass, output, name)
     with OutputFiles([target]) as out:

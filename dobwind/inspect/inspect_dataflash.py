@@ -9,9 +9,10 @@ from __future__ import annotations
 import numpy as np
 
 from dobwind.io.dataflash import (AP_WIND, ATTITUDE, EV_GROUND, IMU, VELOCITY, WANTED, follow_primary, load_messages,
-                               pick_stream)
+                               pick_stream, truncation)
 from dobwind.core.errors import InputError
 from dobwind.io.quietfd import quiet_fds
+from dobwind.io.vehiclekind import ardupilot_not_multirotor, firmware
 from dobwind.inspect.loginspect import (AutopilotWind, LogSummary, Role, Vehicle, inside, intervals,
                                 stream_stats, total, wind_activity)
 
@@ -184,9 +185,10 @@ def _ap_wind(msgs: dict, params: dict) -> AutopilotWind:
 def inspect_dataflash(path: str) -> LogSummary:
     notes: list[str] = []
     with quiet_fds():  # pymavlink's compiled indexer prints a line per bad byte, to fd 2 itself
-        loaded = load_messages(path, WANTED + ("PARM", "RCOU"))
+        loaded = load_messages(path, WANTED + ("PARM", "RCOU", "MSG"))
     msgs = follow_primary(loaded, notes)
     params_all = _parameters(msgs.pop("PARM"))
+    banner = firmware(msgs.pop("MSG"))
     params = {k: params_all[k] for k in PARAMETERS if k in params_all}
     streams = _streams(msgs)
     if not streams:
@@ -199,8 +201,10 @@ def inspect_dataflash(path: str) -> LogSummary:
     hover, hover_source = _hover(msgs, params, spans)
     frame = int(params.get("FRAME_CLASS", -1))
     airframe = (f"ArduPilot FRAME_CLASS {frame} ({FRAME_CLASS_NAMES.get(frame, 'not a multirotor class')})"
-                if "FRAME_CLASS" in params else "ArduPilot (no FRAME_CLASS)")
-    vehicle = Vehicle(rotors, rotor_source, airframe, rpm_ok, rpm_note, hover, hover_source, rpm_median, rpm_max)
+                if "FRAME_CLASS" in params else "ArduPilot (no FRAME_CLASS)") + (f", firmware {banner}" if banner else "")
+    vehicle = Vehicle(rotors, rotor_source, airframe, rpm_ok, rpm_note, hover, hover_source, rpm_median, rpm_max,
+                      ardupilot_not_multirotor(banner, params_all))
+    notes += [cut for cut in (truncation(path),) if cut]
     if "SIM_WIND_SPD" in params:
         notes.append(f"SITL wind: {params['SIM_WIND_SPD']:g} m/s from {params.get('SIM_WIND_DIR', 0):g} deg"
                      + (f", below {params.get('SIM_WIND_T_ALT', 0):g} m scaled by sqrt(height / SIM_WIND_T_ALT)"

@@ -8,7 +8,7 @@ import re
 import numpy as np
 
 from dobwind.core.errors import InputError
-from dobwind.io.logs import airframe_given_as_log
+from dobwind.io.logs import airframe_given_as_log, refuse_an_estimate
 from dobwind.inspect.loginspect import AutopilotWind, LogSummary, Role, Vehicle, inside, intervals, stream_stats, total, \
     wind_activity
 
@@ -142,6 +142,7 @@ def _csv_columns(path: str) -> tuple[list[str], dict[str, np.ndarray]]:
     if not rows:
         raise InputError(path, None, "empty: no header line")
     header = [h.strip() for h in rows[0]]
+    refuse_an_estimate(path, header)
     if "t" not in header:
         raise InputError(path, "column t", "missing from the header (a flight log's time, s)" + airframe_given_as_log(path))
     cols: dict[str, np.ndarray] = {}

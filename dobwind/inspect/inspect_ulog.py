@@ -11,6 +11,7 @@ from dobwind.core.errors import InputError
 from dobwind.inspect.loginspect import (AutopilotWind, LogSummary, Role, Vehicle, inside, intervals,
                                 stream_stats, total, wind_activity)
 from dobwind.io.ulog import PX4_WIND_TOPICS, TOPICS_READ, open_ulog, truncation
+from dobwind.io.vehiclekind import px4_not_multirotor
 
 # Read for the vehicle only (rotor count when esc_status is absent): not estimator inputs.
 EXTRA_TOPICS = ("actuator_motors", "actuator_outputs")
@@ -162,7 +163,8 @@ def inspect_ulog(path: str) -> LogSummary:
     rpm_ok, rpm_note, rpm_median, rpm_max = _rpm(topics, rotors, spans)
     hover, hover_source = _hover(topics, params, spans)
     autostart = f"PX4 SYS_AUTOSTART {int(params['SYS_AUTOSTART'])}" if "SYS_AUTOSTART" in params else "PX4 (no SYS_AUTOSTART)"
-    vehicle = Vehicle(rotors, rotor_source, autostart, rpm_ok, rpm_note, hover, hover_source, rpm_median, rpm_max)
+    vehicle = Vehicle(rotors, rotor_source, autostart, rpm_ok, rpm_note, hover, hover_source, rpm_median, rpm_max,
+                      px4_not_multirotor(params))
     notes = [n for n in (complaint and f"pyulog: {complaint}", truncation(path)) if n]
     streams = tuple(stream_stats(name, d["t"]) for name, d in sorted(topics.items()))
     return LogSummary(path, "ulog", "PX4", start, end, total(spans) if spans or "unknown" not in airborne_source else None,

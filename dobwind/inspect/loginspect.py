@@ -14,6 +14,8 @@ from typing import Any
 
 import numpy as np
 
+from dobwind.io.vehiclekind import MULTIROTORS_ONLY
+
 # The input roles, in the order a user reads them. "thrust" is the collective setpoint, "rpm" the ESC
 # telemetry: an airframe needs one of the two; "heading" falls back to the vehicle's own yaw.
 ROLES = ("velocity", "acceleration", "specific_force", "attitude", "rpm", "thrust", "hover_thrust",
@@ -61,6 +63,9 @@ class Vehicle:
     hover_source: str = ""
     airborne_rpm_median: float | None = None
     airborne_rpm_max: float | None = None
+    # Why the log is not a multirotor's (an ArduPlane banner, a PX4 MAV_TYPE of a plane or rover), as a
+    # phrase; empty when it is one or the log does not say. init refuses such a log.
+    not_multirotor: str = ""
 
 
 @dataclass(frozen=True)
@@ -103,6 +108,8 @@ class LogSummary:
     def missing(self) -> list[str]:
         """Roles replay cannot fill, as sentences (the thrust need: rpm or the collective setpoint)."""
         out = [f"{r.role}: {r.note}" for r in self.roles if r.role in ESSENTIAL_ROLES and r.source is None]
+        if self.vehicle.not_multirotor:
+            out.insert(0, f"vehicle: not a multirotor ({self.vehicle.not_multirotor})")
         if self.role("rpm").source is None and self.role("thrust").source is None:
             out.append("thrust: neither ESC rpm nor a collective thrust setpoint")
         elif self.role("rpm").source is None and self.role("hover_thrust").source is None:
@@ -197,6 +204,8 @@ def text_report(s: LogSummary) -> str:
                      + (f"; {r.note}" if r.note else ""))
     v = s.vehicle
     lines.append(f"  vehicle: {v.airframe}; rotors {v.rotors if v.rotors else 'unknown'} ({v.rotor_source})")
+    if v.not_multirotor:
+        lines.append(f"  NOT A MULTIROTOR: {v.not_multirotor}; {MULTIROTORS_ONLY}")
     lines.append("  rotor speeds: " + ("rpm > 0 on every rotor while airborne" if v.rpm_nonzero_airborne
                                        else "no usable rpm") + (f" ({v.rpm_note})" if v.rpm_note else ""))
     if v.hover_thrust is not None:

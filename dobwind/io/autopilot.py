@@ -6,13 +6,11 @@ from pathlib import Path
 import numpy as np
 
 from dobwind.io.atomic import write_text_atomically
+from dobwind.io.logsuffix import DATAFLASH_SUFFIXES, ROSBAG_SUFFIXES, ULOG_SUFFIXES
 from dobwind.model.airframe import Airframe
 from dobwind.io.resample import AutopilotFlight
 from dobwind.io.timewindow import TimeWindow, window_flight
 
-ULOG_SUFFIXES = (".ulg",)
-DATAFLASH_SUFFIXES = (".bin",)
-ROSBAG_SUFFIXES = (".mcap", ".db3")
 
 
 def log_kind(path: str) -> str:

@@ -38,6 +38,7 @@ from dobwind.model.airframe import Airframe
 from dobwind.io.bridge import blanked, bridge, largest_silences
 from dobwind.io.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, hold,
                               interp, quaternions, source_gaps, topic_tolerances, uniform_clock)
+from dobwind.io.vehiclekind import MULTIROTORS_ONLY, ardupilot_not_multirotor, firmware
 from dobwind.io.sitlwind import MESSAGES as SITL_MESSAGES, SitlLog, describe as describe_sitl, sitl_from_messages
 from dobwind.model.signals import log_signals
 
@@ -91,6 +92,8 @@ def _require_magic(path: str) -> None:
             head = handle.read(len(DATAFLASH_MAGIC))
     except OSError as exc:
         raise InputError(path, None, f"cannot read: {exc.strerror}") from None
+    if not head:
+        raise InputError(path, None, "is empty (0 bytes): not a DataFlash log (an interrupted copy or download?)")
     if head != DATAFLASH_MAGIC:
         raise InputError(path, None, "not a DataFlash log: it does not start with the 0xA3 0x95 message header")
 
@@ -178,7 +181,8 @@ def _ground(msgs, clock: np.ndarray, notes: list[str]) -> np.ndarray:
 
 
 def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None, bridge_gaps: bool = False) -> AutopilotFlight:
-    loaded = load_messages(path, WANTED + tuple(m for m in SITL_MESSAGES if m not in WANTED))
+    loaded = load_messages(path, WANTED + tuple(m for m in SITL_MESSAGES + ("MSG",) if m not in WANTED))
+    _refuse_other_vehicles(path, loaded)
     sitl, sitl_notes = _sitl(path, loaded)
     msgs = {name: loaded[name] for name in WANTED}
     notes = ["messages " + ", ".join(f"{n} {len(r)}" for n, r in msgs.items() if r) + "; not in the log: "
@@ -232,7 +236,49 @@ def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None, bridge
         notes += note
     return AutopilotFlight(FlightLog(path, blank(cols, blanked(no_data, landed, bridged))), no_data, landed, ap_wind,
                            tuple(notes), float(clock[0]), bridged=bridged,
-                           silences=largest_silences(tolerances, clock), sitl=sitl)
+                           silences=largest_silences(tolerances, clock), sitl=sitl, warnings=_cut(path, clock))
+
+
+_FMT = 128           # the FMT message's type; its body starts with the type it defines and that type's length
+_FMT_LENGTH = 89
+
+
+def truncation(path: str) -> str | None:
+    """How the file ends, when its last message is cut off (DFReader stops there silently, as pyulog does
+    for a ULog): walks the message headers (0xA3 0x95, type) with the lengths the FMT messages declare.
+    None for a file that ends on a message boundary, and for one whose messages cannot be walked (a
+    corrupt byte mid-file: that is not a cut end)."""
+    try:
+        with open(path, "rb") as handle:
+            blob = handle.read()
+    except OSError:
+        return None
+    lengths, pos, size = {_FMT: _FMT_LENGTH}, 0, len(blob)
+    while pos + 3 <= size and blob[pos:pos + 2] == DATAFLASH_MAGIC:
+        kind = blob[pos + 2]
+        if kind == _FMT and pos + 5 <= size:
+            lengths[blob[pos + 3]] = blob[pos + 4]
+        if kind not in lengths:
+            return None
+        if pos + lengths[kind] > size:
+            break
+        pos += lengths[kind]
+    if pos == size or (pos + 3 <= size and blob[pos:pos + 2] != DATAFLASH_MAGIC):
+        return None
+    return f"truncated: the file ends inside a message at byte {size:,}; replaying the readable part only"
+
+
+def _cut(path: str, clock: np.ndarray) -> tuple[str, ...]:
+    cut = truncation(path)
+    return (f"{path}: {cut} ({clock[-1] - clock[0]:.2f} s readable)",) if cut else ()
+
+
+def _refuse_other_vehicles(path: str, loaded: dict[str, list[dict]]) -> None:
+    """A plane's log failed on a missing CTUN.ThO, or (one that logs it) would be replayed as a copter."""
+    params = {str(r.get("Name")): float(r["Value"]) for r in loaded["PARM"] if isinstance(r.get("Value"), (int, float))}
+    why = ardupilot_not_multirotor(firmware(loaded["MSG"]), params)
+    if why:
+        raise InputError(path, "vehicle", f"{why}; {MULTIROTORS_ONLY}")
 
 
 def _sitl(path: str, msgs: dict[str, list[dict]]) -> tuple[SitlLog | None, list[str]]:

@@ -68,6 +68,18 @@ def airframe_given_as_log(path: str) -> str:
             "inspect and init take the log alone)")
 
 
+# What only dobwind's own estimate (replay -o) holds: a flight log has none of these.
+_ESTIMATE_SIGNATURE = ("force_n", "status", "wind_sigma_h")
+
+
+def refuse_an_estimate(path: str, header: list[str] | tuple[str, ...]) -> None:
+    """An estimate CSV given where a flight log belongs (`replay A e.csv`, `init e.csv`): said as such, not
+    as a missing ground velocity or thrust column."""
+    if all(name in header for name in _ESTIMATE_SIGNATURE) and "vel_n" not in header:
+        raise InputError(path, None, "is a dobwind estimate (replay's -o: force_n, wind_n, status, ... columns), "
+                         "not a flight log: give the flight log it was replayed from")
+
+
 def required_columns(af: Airframe) -> list[tuple[str, str]]:
     """(column, what it is for) that the airframe needs (model/signals.py)."""
     return log_signals(af).columns()
@@ -95,6 +107,7 @@ def iter_log(path: str | Path, needed: list[tuple[str, str]] | None = None,
         raise InputError(path, None, f"cannot read: {exc.strerror}") from None
     with handle:
         header = read_header(handle, path)
+        refuse_an_estimate(path, header.names)
         for name, purpose in needed or [("t", "sample time")]:
             if name not in header.names:
                 raise InputError(path, f"column {name}", f"missing ({purpose}){airframe_given_as_log(path)}")

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Iterator, Sequence
 
+from dobwind.io.logsuffix import LOG_SUFFIXES
 from dobwind.io.atomic import TEMP_PREFIX, new_temp_file, public_mode, remove_stale, temp_prefix
 from dobwind.core.errors import InputError
 from dobwind.core.interrupts import raise_if_caught, signals_deferred
@@ -30,9 +31,13 @@ class Target:
     # A file written in one format only (a PNG, an HTML page): the extensions its name may end in (any
     # case), the first naming the format. Empty: any name (CSV, TOML, NetCDF outputs choose by their own rules).
     suffixes: tuple[str, ...] = ()
+    # Extensions the name may not end in (any case): a TOML written as x.ulg would pass for a flight log,
+    # and the next command given it would read it as one (AIRFRAME below).
+    refused: tuple[str, ...] = ()
 
 
 PNG = (".png",)   # Target.suffixes of a figure (matplotlib is told format="png" whatever the name says)
+AIRFRAME = LOG_SUFFIXES  # Target.refused of an airframe file (init, fit): any name but a flight log's
 
 
 def shown(path: str | Path) -> str:
@@ -102,9 +107,12 @@ def check_target(target: Target, inputs: Sequence[str] = ()) -> None:
 def _check_suffix(target: Target) -> None:
     """A PNG written as r.pdf opens as a broken PDF: a one-format output must be named for its format.
     Checked last, so that a path that cannot be written at all says that first."""
+    suffix = Path(target.path).suffix
+    if suffix.lower() in target.refused:
+        raise _refuse(target, f"the extension {suffix!r} names a flight log, but this file is written as TOML: "
+                      "name it .toml")
     if not target.suffixes:
         return
-    suffix = Path(target.path).suffix
     if suffix.lower() not in target.suffixes:
         got = f"the extension {suffix!r}" if suffix else "no extension"
         kind = target.suffixes[0].lstrip(".").upper()

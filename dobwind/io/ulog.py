@@ -25,6 +25,7 @@ import numpy as np
 
 from dobwind.core.errors import InputError
 from dobwind.io.logs import FlightLog
+from dobwind.io.vehiclekind import MULTIROTORS_ONLY, px4_not_multirotor
 from dobwind.model.airframe import Airframe
 from dobwind.io.bridge import blanked, bridge, largest_silences
 from dobwind.io.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, hold,
@@ -85,8 +86,12 @@ def open_ulog(path: str, topics: tuple[str, ...] | None = TOPICS_READ) -> tuple[
     printed = io.StringIO()
     try:
         with open(path, "rb") as handle, contextlib.redirect_stdout(printed):
+            if os.fstat(handle.fileno()).st_size == 0:  # pyulog says only "Header too short"
+                raise InputError(path, None, "is empty (0 bytes): not a ULog file (an interrupted copy or download?)")
             ulog = ULog(_BudgetedFile(handle, os.fstat(handle.fileno()).st_size),
                         None if topics is None else list(topics))
+    except InputError:
+        raise
     except _NoProgress:
         raise InputError(path, None, "not a readable ULog file (corrupt: the parser made no progress)") from None
     except OSError as exc:
@@ -192,8 +197,18 @@ def _needs(af: Airframe) -> dict[str, tuple[list[str], str]]:
     return need
 
 
-def read_ulog(path: str, af: Airframe, rate_hz: float | None = None, bridge_gaps: bool = False) -> UlogFlight:
+def _multirotor_log(path: str) -> tuple[object, str | None]:
+    """open_ulog's parse, refused when the log is no multirotor's: a plane's log has every topic replay
+    reads, and would be replayed as a copter's."""
     ulog, complaint = open_ulog(path)
+    why = px4_not_multirotor({k: float(v) for k, v in ulog.initial_parameters.items() if k == "MAV_TYPE"})  # type: ignore[attr-defined]
+    if why:
+        raise InputError(path, "vehicle", f"{why}; {MULTIROTORS_ONLY}")
+    return ulog, complaint
+
+
+def read_ulog(path: str, af: Airframe, rate_hz: float | None = None, bridge_gaps: bool = False) -> UlogFlight:
+    ulog, complaint = _multirotor_log(path)
     need = _needs(af)
     topics = {name: _topic(ulog, name, fields, ("esc_count", "esc_online_flags") if name == "esc_status" else ())
               for name, (fields, _) in need.items()}
