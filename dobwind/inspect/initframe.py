@@ -18,7 +18,7 @@ from typing import Any
 from dobwind.core.errors import InputError
 from dobwind.inspect.anylog import inspect_log
 from dobwind.inspect.loginspect import LogSummary
-from dobwind.model.airframe import PRIOR, STANDARD_GRAVITY, parse_airframe
+from dobwind.model.airframe import PRIOR, STANDARD_GRAVITY, VERTICAL_FALLBACK, parse_airframe
 from dobwind.model.airframe_toml import airframe_document, dumps
 from dobwind.model.ranges import NAME_MAX_CHARS, RANGES
 from dobwind.model.kinds import DragFrame
@@ -116,7 +116,11 @@ def _drag(mass: float) -> dict[str, Any]:
     area = REFERENCE_MASS_KG / REFERENCE_BALLISTIC_KG_M2 * (mass / REFERENCE_MASS_KG) ** (2.0 / 3.0)
     q0 = 0.5 * AIR_DENSITY_KG_M3 * area
     l0 = REFERENCE_MOMENTUM_PER_S * mass
-    return {"model": "drag", "drag": {"frame": DragFrame.HEADING, "l0": l0, "q0": q0, "lz": l0, "qz": VERTICAL_AREA_RATIO * q0}}
+    # The vertical terms are a guess from the same scaling: the step does not publish what they read
+    # (vertical_law "zero-wind": zero vertical wind, sigma_up -1) until `fit` identifies a vertical law; replay's
+    # plausibility check still reads the vertical force through them (dobwind/replay/plausibility.py).
+    return {"model": "drag", "vertical_law": VERTICAL_FALLBACK,
+            "drag": {"frame": DragFrame.HEADING, "l0": l0, "q0": q0, "lz": l0, "qz": VERTICAL_AREA_RATIO * q0}}
 
 
 def _acceleration(s: LogSummary) -> str:

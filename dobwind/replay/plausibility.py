@@ -11,7 +11,8 @@ replayed flight as a whole and say so instead, on stderr and in the notes, and s
   ``hover_thrust_tolerance`` of 1 means the thrust model, the mass or the hover throttle is not this
   vehicle's. Whole flight.
 - sustained vertical wind: the mean settled (not SETTLING) vertical wind over ``vertical_window_s``
-  beyond ``vertical_wind_mps``. Thermals and slope lift reach 1-3 m/s at multirotor heights; more,
+  beyond ``vertical_wind_mps`` (for `init`'s starter, which publishes no vertical wind, the vertical
+  wind its drag law would read from the vertical force: vertical_reading). Thermals and slope lift reach 1-3 m/s at multirotor heights; more,
   sustained over many seconds, is a vertical force the airframe misreads. The limit sits above what a
   merely unidentified vertical law reads in strong horizontal wind (m300 on the simulator's tunnel at
   10 m/s: up to 3.0 m/s of "downdraft"; the vertical-law fallback's business, not a wrong vehicle).
@@ -29,10 +30,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from dobwind.model.airframe import Airframe
+from dobwind.model.forceair import HORIZONTAL_DRAG_KEYS, drag_airflow_numpy
+from dobwind.model.kinds import DragFrame
 from dobwind.model.status import STATUS_BITS, STATUS_LANDED, STATUS_SUSPECT, accepted
 
 EXTRAPOLATED = next(bit.value for bit in STATUS_BITS if bit.name == "EXTRAPOLATED")
 SETTLING = next(bit.value for bit in STATUS_BITS if bit.name == "SETTLING")
+# The drag law's terms that depend on the direction the air comes from (all horizontal ones but l0, q0).
+DIRECTION_KEYS = tuple(k for k in HORIZONTAL_DRAG_KEYS if k not in ("l0", "q0"))
 
 
 @dataclass(frozen=True)
@@ -81,8 +86,10 @@ def _hover_text(ratio: float, seconds: float, lim: PlausibilityLimits) -> str:
             "or hover throttle)")
 
 
-def _vertical_text(mean: float, rows: int, lim: PlausibilityLimits) -> str:
-    return (f"a sustained {'updraft' if mean > 0 else 'downdraft'} of up to {abs(mean):.1f} m/s (mean over "
+def _vertical_text(mean: float, rows: int, lim: PlausibilityLimits, af: Airframe) -> str:
+    read = (" (as the starter's vertical drag terms read the vertical force; it publishes no vertical wind)"
+            if _reads_vertical_force(af) else "")
+    return (f"a sustained {'updraft' if mean > 0 else 'downdraft'} of up to {abs(mean):.1f} m/s{read} (mean over "
             f"{lim.vertical_window_s:g} s; limit {lim.vertical_wind_mps:g} m/s) on {rows} rows: a vertical force the "
             "airframe misreads")
 
@@ -101,7 +108,7 @@ def check_flight(af: Airframe, s: FlightSeries, limits: PlausibilityLimits = DEF
     ok = accepted(s.status)
     if not ok.any():
         return []
-    found = [_hover_balance(af, s, ok, limits), _vertical_wind(s, ok, limits), _envelope(s, ok, limits),
+    found = [_hover_balance(af, s, ok, limits), _vertical_wind(af, s, ok, limits), _envelope(s, ok, limits),
              _wind_speed(s, ok, limits)]
     return [f for f in found if f is not None]
 
@@ -155,10 +162,31 @@ def _window_mean(t: np.ndarray, x: np.ndarray, valid: np.ndarray, window_s: floa
         return np.where(n > 0, (csum[hi] - csum[lo]) / np.maximum(n, 1), np.nan)
 
 
-def _vertical_wind(s: FlightSeries, ok: np.ndarray, limits: PlausibilityLimits) -> Finding | None:
+def _reads_vertical_force(af: Airframe) -> bool:
+    """`init`'s starter: uncalibrated, and a heading-frame drag law without direction terms or a horizontal
+    force offset, so the vertical airflow it would read depends on the force's magnitudes alone."""
+    law = af.drag
+    return (af.uncalibrated and af.vertical_law != "fitted" and law is not None and law.frame == DragFrame.HEADING
+            and not any(getattr(law, k) for k in DIRECTION_KEYS) and not any(af.observer.force_offset_n[:2]))
+
+
+def vertical_reading(af: Airframe, s: FlightSeries) -> np.ndarray:
+    """The upward wind (m/s) the check reads: the estimate's own, or, for a starter that publishes none
+    (vertical_law "zero-wind": its vertical law is a guess, not a calibration), the one its drag law would
+    read from the vertical force. A misread vertical force (a thrust model, mass or hover throttle that is
+    not this vehicle's) is what the check exists for, and it is there whether the wind is published or not."""
+    if not _reads_vertical_force(af):
+        return -s.wind[:, 2]
+    f = np.nan_to_num(s.force)
+    air = drag_airflow_numpy(af.drag, np.hypot(f[:, 0], f[:, 1]), np.zeros(len(f)),
+                             f[:, 2] - af.observer.force_offset_n[2])
+    return -(air[:, 2] + s.vel[:, 2])
+
+
+def _vertical_wind(af: Airframe, s: FlightSeries, ok: np.ndarray, limits: PlausibilityLimits) -> Finding | None:
     if s.t[-1] - s.t[0] < limits.vertical_window_s:
         return None
-    up = -s.wind[:, 2]
+    up = vertical_reading(af, s)
     # Settled estimates only: a take-off transient while the filters catch up is not a sustained wind.
     settled = ok & ((s.status.astype(np.int64) & SETTLING) == 0) & np.isfinite(up)
     mean = _window_mean(s.t, up, settled, limits.vertical_window_s)
@@ -168,7 +196,8 @@ def _vertical_wind(s: FlightSeries, ok: np.ndarray, limits: PlausibilityLimits) 
         return None
     worst = float(np.nanmax(np.abs(mean[rows])))
     signed = worst if np.nanmean(mean[rows]) > 0 else -worst
-    return Finding("vertical_wind", _vertical_text(signed, int(rows.sum()), limits), worst, limits.vertical_wind_mps, rows)
+    return Finding("vertical_wind", _vertical_text(signed, int(rows.sum()), limits, af), worst, limits.vertical_wind_mps,
+                   rows)
 
 
 def _envelope(s: FlightSeries, ok: np.ndarray, limits: PlausibilityLimits) -> Finding | None:
@@ -236,7 +265,7 @@ class StreamedChecks:
         self._vertical(s, ok)
 
     def _vertical(self, s: FlightSeries, ok: np.ndarray) -> None:
-        up = -s.wind[:, 2]
+        up = vertical_reading(self._af, s)
         settled = ok & ((s.status.astype(np.int64) & SETTLING) == 0) & np.isfinite(up)
         index = np.floor((s.t - self._t0) / self._limits.vertical_window_s).astype(np.int64)
         for k in np.unique(index):
@@ -270,7 +299,7 @@ class StreamedChecks:
                 out.append(Finding("hover_thrust", _hover_text(ratio, self._hover_s, lim), ratio,
                                    lim.hover_thrust_tolerance, none, self._ok))
         if self._vertical_rows:
-            out.append(Finding("vertical_wind", _vertical_text(self._vertical_worst, self._vertical_rows, lim),
+            out.append(Finding("vertical_wind", _vertical_text(self._vertical_worst, self._vertical_rows, lim, self._af),
                                abs(self._vertical_worst), lim.vertical_wind_mps, none, self._vertical_rows))
         if self._ok and self._extrapolated / self._ok > lim.extrapolated_share:
             share = self._extrapolated / self._ok
