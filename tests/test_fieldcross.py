@@ -39,3 +39,12 @@ def test_score_is_the_mean_speed_and_the_mean_vectors_bearing(tmp_path):
 def test_the_goals_are_the_issues():
     """#36: 0.5 m/s at the calibration's wind speed, 1.0 m/s at twice it."""
     assert {t.speed_factor: t.goal_mps() for t in TESTS} == {1.0: 0.5, 2.0: 1.0}
+
+
+def test_a_vehicles_flights_do_not_depend_on_which_others_run():
+    from benchmarks.fieldcross import calibration_from_deg
+
+    assert calibration_from_deg("m300", 1) == calibration_from_deg("m300", 1)
+    assert len({calibration_from_deg(v, 1) for v in ("m300", "px4quad", "racer5", "heavy")}) > 1
+    assert calibration_from_deg("m300", 1) != calibration_from_deg("m300", 2)
+    assert all(0 <= calibration_from_deg(v, s) <= 360 for v in ("a", "b") for s in range(5))
