@@ -91,3 +91,16 @@ def test_the_cli_wind_is_the_bearing_it_blows_from(tmp_path, capsys):
     mean = read_log(out).true_wind.mean(axis=0)
     assert abs(mean[0] - 10.0) < 1.0 and abs(mean[1]) < 1.0   # north, east
     assert abs(mean[2] + 1.0) < 0.3                            # down: 1 m/s up
+
+
+@pytest.mark.parametrize("text", ["unknown", "3@"])
+def test_a_bad_simulate_wind_does_not_offer_fits_unknown(tmp_path, capsys, text):
+    """`simulate --wind unknown` said "'unknown' is not SPEED@FROM[,UP] ..., nor 'unknown'": fit's wording,
+    which offers a choice simulate does not take (a simulator blows a known wind)."""
+    from dobwind.cli.app import main
+
+    out = tmp_path / "log.csv"
+    assert main(["simulate", "box", "--wind", text, "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"--wind: {text!r} is not SPEED@FROM[,UP]" in err[0] and "nor 'unknown'" not in err[0], err
+    assert not out.exists()

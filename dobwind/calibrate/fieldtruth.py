@@ -91,13 +91,15 @@ _NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
 _WIND = re.compile(rf"^\s*({_NUMBER})\s*@\s*({_NUMBER})\s*(?:,\s*({_NUMBER})\s*)?$")
 
 
-def parse_wind(text: str) -> SteadyWind:
+def parse_wind(text: str, unknown_allowed: bool = True) -> SteadyWind:
     """`--wind SPEED@FROM[,UP]`; a bad value is an InputError naming the option and the value. The
     direction is a compass bearing as a vane or mast gives it, [0, 360] (360 is north, stored as 0):
-    anything else is more likely a typo or a swapped field than a bearing, so it is refused, not wrapped."""
+    anything else is more likely a typo or a swapped field than a bearing, so it is refused, not wrapped.
+    ``unknown_allowed``: the option also takes 'unknown' (fit's; its caller handles that word), so the
+    refusal names it as the other choice; `simulate --wind` blows a wind and takes none but a value."""
     match = _WIND.match(text)
     if match is None:
-        raise InputError("--wind", None, f"{text!r} is not {WIND_SYNTAX}, nor 'unknown'")
+        raise InputError("--wind", None, f"{text!r} is not {WIND_SYNTAX}" + (", nor 'unknown'" if unknown_allowed else ""))
     speed, from_deg = float(match.group(1)), float(match.group(2))
     up = float(match.group(3)) if match.group(3) is not None else 0.0
     # NaN cannot pass the regex, but an overflowing literal (1e400) reads as inf: the comparisons refuse it.

@@ -50,10 +50,11 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _wind_ned(text: str) -> tuple[float, float, float]:
-    """`--wind` as `fit` reads it (the same syntax and ranges), as the NED vector the simulator blows."""
+    """`--wind` as `fit` reads a known wind (the same syntax and ranges; 'unknown' is fit's alone), as the
+    NED vector the simulator blows."""
     from dobwind.calibrate.fieldtruth import parse_wind
 
-    n, e, d = (float(x) for x in parse_wind(text).vector())
+    n, e, d = (float(x) for x in parse_wind(text, unknown_allowed=False).vector())
     return n, e, d
 
 
