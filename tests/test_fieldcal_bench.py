@@ -149,30 +149,27 @@ def test_a_fit_that_ignores_the_window_is_caught(split_log, monkeypatch):
 
 
 def test_split_time_on_a_log_without_the_simulator_wind_is_one_line_and_exit_2(tmp_path, monkeypatch, capsys):
-    import sys
-
-    from benchmarks.fieldcal import main as fieldcal
-
     _, af = _airframe(tmp_path)
     log = _dataflash(tmp_path / "no_wind.bin", af, simulate(af, "box", seed=5, hold_s=6.0, rate_hz=10.0), None)
-    monkeypatch.setattr(sys, "argv", ["fieldcal", "--split-time", log, "--mass", "3.0"])
-    with pytest.raises(SystemExit) as caught:
-        fieldcal()
-    err = capsys.readouterr().err.strip().splitlines()
-    assert caught.value.code == 2 and err[-1].startswith("fieldcal --split-time: " + log)
+    code, err = _split_time_cli(monkeypatch, capsys, log, "--mass", "3.0")
+    assert code == 2 and err[-1].startswith("fieldcal --split-time: " + log)
     assert "SIM_WIND_SPD" in err[-1] and "Traceback" not in "\n".join(err)
 
 
-def _split_time_cli(monkeypatch, capsys, *argv: str) -> tuple[int, list[str]]:
-    """benchmarks.fieldcal's main on ``argv``: (exit code, stderr lines)."""
+def _fieldcal_cli(monkeypatch, capsys, *argv: str) -> tuple[int, list[str]]:
+    """benchmarks.fieldcal's main on ``argv``, which ends in SystemExit: (exit code, stderr lines)."""
     import sys
 
     from benchmarks.fieldcal import main as fieldcal
 
-    monkeypatch.setattr(sys, "argv", ["fieldcal", "--split-time", *argv])
+    monkeypatch.setattr(sys, "argv", ["fieldcal", *argv])
     with pytest.raises(SystemExit) as caught:
         fieldcal()
     return caught.value.code, capsys.readouterr().err.strip().splitlines()
+
+
+def _split_time_cli(monkeypatch, capsys, *argv: str) -> tuple[int, list[str]]:
+    return _fieldcal_cli(monkeypatch, capsys, "--split-time", *argv)
 
 
 def test_split_time_on_a_log_never_airborne_is_one_line_and_exit_1(tmp_path, monkeypatch, capsys):
@@ -195,14 +192,7 @@ def test_split_time_with_a_bad_mass_is_inits_one_line_and_exit_2(tmp_path, monke
 
 
 def _end_to_end_cli(monkeypatch, capsys, *argv: str) -> tuple[int, list[str]]:
-    import sys
-
-    from benchmarks.fieldcal import main as fieldcal
-
-    monkeypatch.setattr(sys, "argv", ["fieldcal", "--end-to-end", *argv])
-    with pytest.raises(SystemExit) as caught:
-        fieldcal()
-    return caught.value.code, capsys.readouterr().err.strip().splitlines()
+    return _fieldcal_cli(monkeypatch, capsys, "--end-to-end", *argv)
 
 
 def test_end_to_end_keeps_inits_exit_code_and_its_one_line(tmp_path, monkeypatch, capsys):
