@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks.accuracy_run import run_child
+from dobwind.io.atomic import write_text_atomically
 
 VEHICLE_DIR = Path(__file__).resolve().parent / "vehicles"
 FITS = ("known", "unknown")
@@ -201,7 +202,8 @@ def main(argv: list[str] | None = None) -> int:
     with ProcessPoolExecutor(max_workers=max(1, args.workers)) as pool:
         results = list(pool.map(run_job, jobs))
     Path(args.output).mkdir(parents=True, exist_ok=True)
-    (Path(args.output) / "fieldcross.json").write_text(json.dumps(results, indent=1))
+    # atomically, as accuracy.json: an interrupted run leaves no half-written document beside the logs
+    write_text_atomically(Path(args.output) / "fieldcross.json", lambda h: h.write(json.dumps(results, indent=1)))
     print(table(results))
     return 0
 
