@@ -121,7 +121,7 @@ def score(log: str, estimates: str) -> dict[str, Any]:
             "speed_mps": float(np.mean(np.hypot(*e_ne.T))), "true_speed_mps": float(np.mean(np.hypot(*t_ne.T))),
             "speed_error_mps": float(np.mean(np.hypot(*e_ne.T)) - np.mean(np.hypot(*t_ne.T))),
             "direction_error_deg": float(direction),
-            "mean_vertical_mps": float(np.mean(est["wind_d"][used]))}
+            "mean_vertical_up_mps": float(-np.mean(est["wind_d"][used]))}   # signed up, as benchmarks/fieldcal.py
 
 
 def _replay(job: Job, fitted: str, flight: Flight, log: str, tag: str) -> dict[str, Any]:

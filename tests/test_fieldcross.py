@@ -32,7 +32,7 @@ def test_score_is_the_mean_speed_and_the_mean_vectors_bearing(tmp_path):
     assert out["accepted_rows"] == n - 1
     assert out["speed_error_mps"] == pytest.approx(0.4, abs=1e-6)
     assert out["direction_error_deg"] == pytest.approx(10.0, abs=1e-4)
-    assert out["mean_vertical_mps"] == pytest.approx(-0.2, abs=1e-6)
+    assert out["mean_vertical_up_mps"] == pytest.approx(0.2, abs=1e-6)   # wind_d -0.2: an updraft
     assert out["trusted_share"] == pytest.approx((n - 1) / n)
 
 
