@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks.accuracy_run import run_child
+from benchmarks.fieldcal import DIRECTION_GOAL_DEG, SPEED_GOAL_DOUBLE_MPS, SPEED_GOAL_MPS
 from dobwind.io.atomic import write_text_atomically
 
 VEHICLE_DIR = Path(__file__).resolve().parent / "vehicles"
@@ -57,12 +58,11 @@ class Flight:
     seed_offset: int
 
     def goal_mps(self) -> float:
-        return 0.5 if self.speed_factor == 1.0 else 1.0
+        return SPEED_GOAL_MPS if self.speed_factor == 1.0 else SPEED_GOAL_DOUBLE_MPS
 
 
 TESTS = (Flight("box-turned", "box", 1.0, 90.0, 2), Flight("box-double", "box", 2.0, 200.0, 3),
          Flight("outdoor", "outdoor", 1.0, 45.0, 4), Flight("outdoor-double", "outdoor", 2.0, 135.0, 5))
-GOAL_DEG = 5.0
 
 
 @dataclass(frozen=True)
@@ -133,7 +133,7 @@ def _replay(job: Job, fitted: str, flight: Flight, log: str, tag: str) -> dict[s
     row.update(score(log, out))
     if "speed_error_mps" in row:
         row["met"] = bool(abs(row["speed_error_mps"]) <= flight.goal_mps()
-                          and abs(row["direction_error_deg"]) <= GOAL_DEG)
+                          and abs(row["direction_error_deg"]) <= DIRECTION_GOAL_DEG)
     return row
 
 
