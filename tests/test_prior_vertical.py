@@ -70,3 +70,13 @@ def test_init_writes_a_starter_without_a_published_vertical_wind(tmp_path):
     est = {name: data[:, i] for i, name in enumerate(lines[0].split(","))}
     rows = np.isfinite(est["wind_n"])
     assert rows.any() and np.all(est["wind_d"][rows] == 0.0) and np.all(est["wind_sigma_up"][rows] == -1.0)
+
+
+def test_a_row_without_a_force_reads_no_vertical_wind():
+    """A NaN force (a row the step did not estimate) read as zero force gave the ground velocity's -vel_d
+    as if it were the wind; it reads NaN, which the check's isfinite leaves out."""
+    flight = _flight(LZ * AIR_DOWN + QZ * AIR_DOWN * AIR_DOWN)
+    flight.force[:5] = np.nan
+    flight.vel[:, 2] = -1.0   # climbing at 1 m/s: the still-air reading would be +1 m/s up
+    up = vertical_reading(_starter(), flight)
+    assert np.all(np.isnan(up[:5])) and up[5:] == pytest.approx(np.full(len(up) - 5, 1.0 - AIR_DOWN), abs=1e-9)

@@ -177,7 +177,7 @@ def vertical_reading(af: Airframe, s: FlightSeries) -> np.ndarray:
     not this vehicle's) is what the check exists for, and it is there whether the wind is published or not."""
     if not _reads_vertical_force(af):
         return -s.wind[:, 2]
-    f = np.nan_to_num(s.force)
+    f = s.force   # a row without a force reads NaN (the check's isfinite drops it), not the still-air -vel_d
     air = drag_airflow_numpy(af.drag, np.hypot(f[:, 0], f[:, 1]), np.zeros(len(f)),
                              f[:, 2] - af.observer.force_offset_n[2])
     return -(air[:, 2] + s.vel[:, 2])
