@@ -86,10 +86,10 @@ def open_ulog(path: str, topics: tuple[str, ...] | None = TOPICS_READ) -> tuple[
     printed = io.StringIO()
     try:
         with open(path, "rb") as handle, contextlib.redirect_stdout(printed):
-            if os.fstat(handle.fileno()).st_size == 0:  # pyulog says only "Header too short"
+            size = os.fstat(handle.fileno()).st_size
+            if size == 0:  # pyulog says only "Header too short"
                 raise InputError(path, None, "is empty (0 bytes): not a ULog file (an interrupted copy or download?)")
-            ulog = ULog(_BudgetedFile(handle, os.fstat(handle.fileno()).st_size),
-                        None if topics is None else list(topics))
+            ulog = ULog(_BudgetedFile(handle, size), None if topics is None else list(topics))
     except InputError:
         raise
     except _NoProgress:
@@ -201,7 +201,8 @@ def _multirotor_log(path: str) -> tuple[object, str | None]:
     """open_ulog's parse, refused when the log is no multirotor's: a plane's log has every topic replay
     reads, and would be replayed as a copter's."""
     ulog, complaint = open_ulog(path)
-    why = px4_not_multirotor({k: float(v) for k, v in ulog.initial_parameters.items() if k == "MAV_TYPE"})  # type: ignore[attr-defined]
+    params = ulog.initial_parameters  # type: ignore[attr-defined]
+    why = px4_not_multirotor({"MAV_TYPE": float(params["MAV_TYPE"])} if "MAV_TYPE" in params else {})
     if why:
         raise InputError(path, "vehicle", f"{why}; {MULTIROTORS_ONLY}")
     return ulog, complaint
