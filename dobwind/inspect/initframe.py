@@ -17,7 +17,8 @@ from typing import Any
 
 from dobwind.core.errors import InputError
 from dobwind.inspect.anylog import inspect_log
-from dobwind.inspect.loginspect import LogSummary
+from dobwind.inspect.loginspect import ESSENTIAL_ROLES, LogSummary
+from dobwind.io.vehiclekind import MULTIROTORS_ONLY
 from dobwind.model.airframe import PRIOR, STANDARD_GRAVITY, VERTICAL_FALLBACK, parse_airframe
 from dobwind.model.airframe_toml import airframe_document, dumps
 from dobwind.model.ranges import NAME_MAX_CHARS, RANGES
@@ -193,12 +194,8 @@ def refuse_unsuited(s: LogSummary) -> None:
     """A log no starter can come from: not a multirotor's, without the velocity or the attitude replay
     needs, or one that never flew (a pre-arm log). Each gave a starter before (or only "no thrust
     source"), which replay then refused or with which it estimated nothing or nonsense."""
-    from dobwind.io.vehiclekind import MULTIROTORS_ONLY
-
     if s.vehicle.not_multirotor:
         raise InputError(s.path, "vehicle", f"{s.vehicle.not_multirotor}; {MULTIROTORS_ONLY}: no starter airframe")
-    from dobwind.inspect.loginspect import ESSENTIAL_ROLES
-
     for role in (s.role(name) for name in ESSENTIAL_ROLES):
         if role.source is None:  # replay refuses such a log: a starter for it would never run
             raise InputError(s.path, role.role, f"{role.note}: replay needs it, so no starter airframe")
