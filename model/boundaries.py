@@ -85,10 +85,16 @@ def neutral_row(model: StepModel) -> Row:
     return state, row
 
 
-def _statuses(model: StepModel, rows: list[Row], precision: Precision) -> np.ndarray:
+def _rounded(rows: list[Row], precision: Precision) -> tuple[np.ndarray, np.ndarray]:
+    """The rows' states and inputs as the C holds them (rounded to its precision), in double."""
     dtype = _dtype(precision)
     states = np.array([s for s, _ in rows], dtype=dtype).astype(float)
     inputs = np.array([u for _, u in rows], dtype=dtype).astype(float)
+    return states, inputs
+
+
+def _statuses(model: StepModel, rows: list[Row], precision: Precision) -> np.ndarray:
+    states, inputs = _rounded(rows, precision)
     return np.array([int(model.step(x, u)[2]) for x, u in zip(states, inputs)], dtype=np.int64)
 
 
@@ -327,9 +333,7 @@ def boundary_cases(model: StepModel, precision: Precision) -> BoundaryCases:
         rows += crossing
     if precision == Precision.SINGLE:
         labels, rows = _representable_in_float(model, labels, rows)
-    dtype = _dtype(precision)
-    states = np.array([s for s, _ in rows], dtype=dtype).astype(float)
-    inputs = np.array([u for _, u in rows], dtype=dtype).astype(float)
+    states, inputs = _rounded(rows, precision)
     return BoundaryCases(tuple(labels), states, inputs)
 
 
@@ -347,17 +351,13 @@ def _representable_in_float(model: StepModel, labels: list[str], rows: list[Row]
     import casadi as ca
 
     every = ca.Function("every_instruction", model.step.sx_in(), [model.step.instructions_sx()])
+    states, inputs = _rounded(rows, Precision.SINGLE)
     statuses = _statuses(model, rows, Precision.SINGLE)
-    kept = [(label, row) for label, row, status in zip(labels, rows, statuses)
-            if int(status) & REJECTED_MASK or _largest(every, row) <= FLOAT_MAX]
-    return [label for label, _ in kept], [row for _, row in kept]
+    kept = [k for k, status in enumerate(statuses)
+            if int(status) & REJECTED_MASK or _largest(every, states[k], inputs[k]) <= FLOAT_MAX]
+    return [labels[k] for k in kept], [rows[k] for k in kept]
 
 
-def _largest(every, row: Row) -> float:  # type: ignore[no-untyped-def]
-    values = np.abs(np.asarray(every(*_as_float_row(row))).ravel())
+def _largest(every, state: np.ndarray, inputs: np.ndarray) -> float:  # type: ignore[no-untyped-def]
+    values = np.abs(np.asarray(every(state, inputs)).ravel())
     return float(np.nanmax(values, initial=0.0))
-
-
-def _as_float_row(row: Row) -> tuple[np.ndarray, np.ndarray]:
-    """The row as the C holds it (its values rounded to float first)."""
-    return tuple(np.asarray(part, dtype=np.float32).astype(float) for part in row)  # type: ignore[return-value]
