@@ -281,3 +281,20 @@ def test_a_truncated_dataflash_log_replays_the_readable_part_with_a_warning(tmp_
 def _write_bytes(path, data: bytes):
     path.write_bytes(data)
     return path
+
+
+def test_a_format_shorter_than_its_header_ends_the_walk(tmp_path):
+    """truncation() stepped by each message's declared length: a corrupt FMT declaring 0 bytes made it
+    step by nothing, for ever (in a child here, so that the old hang fails the test instead of the run).
+    Such a file cannot be walked: not a cut end."""
+    import struct
+    import subprocess
+    import sys
+
+    fmt_of_fmt = b"\xa3\x95\x80" + struct.pack("<BB4s16s64s", 128, 89, b"FMT", b"BBnNZ", b"Type,Length,Name,Format,Columns")
+    zero = b"\xa3\x95\x80" + struct.pack("<BB4s16s64s", 130, 0, b"BAD", b"", b"")
+    path = tmp_path / "zero.bin"
+    path.write_bytes(fmt_of_fmt + zero + b"\xa3\x95\x82" + bytes(10))
+    code = f"from dobwind.io.dataflash import truncation; print(truncation({str(path)!r}))"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=30)
+    assert done.returncode == 0 and done.stdout.strip() == "None", done.stderr

@@ -258,7 +258,7 @@ def truncation(path: str) -> str | None:
         kind = blob[pos + 2]
         if kind == _FMT and pos + 5 <= size:
             lengths[blob[pos + 3]] = blob[pos + 4]
-        if kind not in lengths:
+        if kind not in lengths or lengths[kind] < 3:  # a length short of its own header: corrupt (and no step)
             return None
         if pos + lengths[kind] > size:
             break
