@@ -37,7 +37,7 @@ from dobwind.io.logs import FlightLog
 from dobwind.model.airframe import Airframe
 from dobwind.io.bridge import blanked, bridge, largest_silences
 from dobwind.io.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, hold,
-                              interp, quaternions, source_gaps, topic_tolerances, uniform_clock)
+                              interp, quaternions, source_gaps, topic_tolerances, truncated_note, uniform_clock)
 from dobwind.io.vehiclekind import MULTIROTORS_ONLY, ardupilot_not_multirotor, firmware
 from dobwind.io.sitlwind import MESSAGES as SITL_MESSAGES, SitlLog, describe as describe_sitl, sitl_from_messages
 from dobwind.model.signals import log_signals
@@ -265,7 +265,7 @@ def truncation(path: str) -> str | None:
         pos += lengths[kind]
     if pos == size or (pos + 3 <= size and blob[pos:pos + 2] != DATAFLASH_MAGIC):
         return None
-    return f"truncated: the file ends inside a message at byte {size:,}; replaying the readable part only"
+    return truncated_note(size)
 
 
 def _cut(path: str, clock: np.ndarray) -> tuple[str, ...]:

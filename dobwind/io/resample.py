@@ -196,3 +196,8 @@ def blank(cols: dict[str, np.ndarray], skip: np.ndarray) -> dict[str, np.ndarray
 
 def count_note(mask: np.ndarray, what: str, status: str) -> str:
     return f"{int(mask.sum())} of {len(mask)} instants {what}: status {status}"
+
+
+def truncated_note(size: int) -> str:
+    """What a reader says of a log whose last message is cut off at ``size`` bytes (ULog, DataFlash)."""
+    return f"truncated: the file ends inside a message at byte {size:,}; replaying the readable part only"

@@ -29,7 +29,8 @@ from dobwind.io.vehiclekind import MULTIROTORS_ONLY, px4_not_multirotor
 from dobwind.model.airframe import Airframe
 from dobwind.io.bridge import blanked, bridge, largest_silences
 from dobwind.io.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, hold,
-                              interp, quaternions, source_gaps, topic_tolerances, uniform_clock, wind_active)
+                              interp, quaternions, source_gaps, topic_tolerances, truncated_note, uniform_clock,
+                              wind_active)
 from dobwind.model.signals import log_signals
 
 PX4_WIND_TOPICS = (("wind", "windspeed_north", "windspeed_east"),
@@ -140,7 +141,7 @@ def truncation(path: str) -> str | None:
         pos += 3 + length
     if pos == size:
         return None
-    return f"truncated: the file ends inside a message at byte {size:,}; replaying the readable part only"
+    return truncated_note(size)
 
 
 def esc_missing(esc: dict, rotors: int, clock: np.ndarray, airborne: np.ndarray) -> tuple[np.ndarray, str | None]:
