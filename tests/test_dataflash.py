@@ -298,3 +298,22 @@ def test_a_format_shorter_than_its_header_ends_the_walk(tmp_path):
     code = f"from dobwind.io.dataflash import truncation; print(truncation({str(path)!r}))"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=30)
     assert done.returncode == 0 and done.stdout.strip() == "None", done.stderr
+
+
+def test_a_format_shorter_than_its_header_is_refused_before_dfreader(tmp_path):
+    """pymavlink's DFReader stalls for ever on a message whose FMT declares fewer bytes than its 3-byte header
+    (it steps by that length). Such a log gets one line and exit 2 from every command that reads it (in a
+    child with a timeout, so that a stall fails the test instead of hanging the run)."""
+    import struct
+    import subprocess
+    import sys
+
+    fmt_of_fmt = b"\xa3\x95\x80" + struct.pack("<BB4s16s64s", 128, 89, b"FMT", b"BBnNZ", b"Type,Length,Name,Format,Columns")
+    zero = b"\xa3\x95\x80" + struct.pack("<BB4s16s64s", 130, 0, b"BAD", b"", b"")
+    path = tmp_path / "zero.bin"
+    path.write_bytes(fmt_of_fmt + bytes(7) + zero + b"\xa3\x95\x82" + bytes(10))   # garbage between: resynced
+    done = subprocess.run([sys.executable, "-m", "dobwind.cli", "inspect", str(path)], capture_output=True,
+                          text=True, timeout=60, cwd=ROOT)
+    err = done.stderr.strip().splitlines()
+    assert done.returncode == 2 and len(err) == 1, done.stderr
+    assert str(path) in err[0] and "type 130" in err[0] and "declared 0 bytes" in err[0]

@@ -60,6 +60,7 @@ def load_messages(path: str, wanted: tuple[str, ...] = WANTED) -> dict[str, list
     except ImportError:  # pragma: no cover - the ardupilot extra is part of `make setup`
         raise InputError(path, None, "reading DataFlash needs pymavlink (pip install 'dobwind[ardupilot]')") from None
     _require_magic(path)
+    _refuse_short_formats(path)
     out: dict[str, list[dict]] = {name: [] for name in wanted}
     try:
         # DFReader prints a line per skipped byte of a corrupt log ("bad header ...", partly from compiled
@@ -241,6 +242,35 @@ def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None, bridge
 
 _FMT = 128           # the FMT message's type; its body starts with the type it defines and that type's length
 _FMT_LENGTH = 89
+
+
+def _refuse_short_formats(path: str) -> None:
+    """Refuse a log DFReader would never finish: it walks the file as below (a byte at a time past a bad
+    header, stopping at an unknown type) and steps each message by the length its FMT declares, so a type
+    declared shorter than its own 3-byte header stalls it for ever (a corrupt FMT; pymavlink's DFReader.py
+    init_arrays). The same walk, refused at the first such message."""
+    try:
+        with open(path, "rb") as handle:
+            blob = handle.read()
+    except OSError as exc:
+        raise InputError(path, None, f"cannot read: {exc.strerror}") from None
+    lengths, pos, size = {_FMT: _FMT_LENGTH}, 0, len(blob)
+    while pos + 3 <= size:
+        if blob[pos:pos + 2] != DATAFLASH_MAGIC:
+            pos = blob.find(DATAFLASH_MAGIC, pos + 1)
+            if pos < 0:
+                return
+            continue
+        kind = blob[pos + 2]
+        if kind not in lengths:
+            return
+        if lengths[kind] < 3:
+            raise InputError(path, None, f"not a readable DataFlash log: message type {kind} at byte {pos} is "
+                             f"declared {lengths[kind]} bytes long by its FMT, shorter than its own 3-byte header "
+                             "(a corrupt FMT)")
+        if kind == _FMT and pos + 5 <= size:
+            lengths[blob[pos + 3]] = blob[pos + 4]
+        pos += lengths[kind]
 
 
 def truncation(path: str) -> str | None:
