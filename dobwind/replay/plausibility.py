@@ -87,11 +87,11 @@ def _hover_text(ratio: float, seconds: float, lim: PlausibilityLimits) -> str:
 
 
 def _vertical_text(mean: float, rows: int, lim: PlausibilityLimits, af: Airframe) -> str:
-    read = (" (as the starter's vertical drag terms read the vertical force; it publishes no vertical wind)"
+    read = (", as the starter's vertical drag terms read the vertical force (it publishes no vertical wind)"
             if _reads_vertical_force(af) else "")
-    return (f"a sustained {'updraft' if mean > 0 else 'downdraft'} of up to {abs(mean):.1f} m/s{read} (mean over "
-            f"{lim.vertical_window_s:g} s; limit {lim.vertical_wind_mps:g} m/s) on {rows} rows: a vertical force the "
-            "airframe misreads")
+    return (f"a sustained {'updraft' if mean > 0 else 'downdraft'} of up to {abs(mean):.1f} m/s (mean over "
+            f"{lim.vertical_window_s:g} s; limit {lim.vertical_wind_mps:g} m/s) on {rows} rows{read}: a vertical force "
+            "the airframe misreads")
 
 
 def _envelope_text(share: float, lim: PlausibilityLimits) -> str:
