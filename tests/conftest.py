@@ -406,3 +406,6 @@ def shared_solves(_solve_memo: SolveMemo, monkeypatch: pytest.MonkeyPatch) -> So
 
     monkeypatch.setattr(windsolve, "_solve_with_thrust_scale", _solve_memo)
     return _solve_memo
+
+
+from tests.shared_figures import shared_figures  # noqa: E402,F401  (a report's analysis figures, once per process)
