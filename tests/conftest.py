@@ -118,6 +118,7 @@ SLOW: dict[str, tuple[str, ...]] = {
         "test_the_next_run_removes_what_a_killed_run_left_and_nothing_else",
     ),
     "test_pipeline.py": (
+        "test_accuracy_on_the_projects_simulator",  # the module's fit's last reader in test-fast (4 s)
         "test_fit_recovers_the_thrust_scale_and_a_good_model",
         "test_fit_report_json",
         "test_replay_backends_agree_and_output_has_every_row",
@@ -128,7 +129,10 @@ SLOW: dict[str, tuple[str, ...]] = {
         "test_quality_bits_and_sigma_agree_in_c",
         "test_sigma_with_observer_noise_agrees_in_c",
     ),
-    "test_real_data.py": (
+    "test_real_data.py": (  # every reader of the two real-data fits (12 s), not only the leave-one-out
+        "test_neural_fly_constant_wind_fit_writes_a_model_and_names_its_outlier",
+        "test_neural_fly_held_out_speed",
+        "test_neural_fly_split_fit_warns_that_its_vertical_law_is_not_identified",
         "test_neural_fly_leave_one_out_scores_every_run_and_judges_the_interior_ones",
         "test_neural_fly_runs_against_a_convex_law",
         "test_neural_fly_wind_direction",
@@ -148,6 +152,12 @@ SLOW: dict[str, tuple[str, ...]] = {
         "test_fit_with_a_log_without_a_valid_row",
         "test_invalid_leading_rows_are_as_if_absent_whole_and_streamed",
         "test_the_streamed_fit_of_a_log_with_invalid_first_rows_is_the_whole_log_fit",
+    ),
+    "test_inspect.py": (  # init -> verify on its starter airframe; verify's own tests run in test-fast
+        "test_the_starter_airframe_passes_verify",
+    ),
+    "test_sitlcompare.py": (  # init -> fit -> replay on the real SITL log (a fit)
+        "test_the_field_sitl_log_through_init_fit_replay",
     ),
     "test_selfcheck.py": (
         "test_a_good_fit_passes_and_its_replay_matches_replay",
