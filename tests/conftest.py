@@ -156,7 +156,8 @@ SLOW: dict[str, tuple[str, ...]] = {
         "test_invalid_leading_rows_are_as_if_absent_whole_and_streamed",
         "test_the_streamed_fit_of_a_log_with_invalid_first_rows_is_the_whole_log_fit",
     ),
-    "test_inspect.py": (  # init -> verify on its starter airframe; verify's own tests run in test-fast
+    "test_inspect.py": (  # init -> verify on its starter airframe, init -> check on each real log
+        "test_real_logs_init_a_starter_that_passes_check",
         "test_the_starter_airframe_passes_verify",
     ),
     "test_sitlcompare.py": (  # init -> fit -> replay on the real SITL log (a fit)
