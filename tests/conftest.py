@@ -1,7 +1,8 @@
 """Markers for the suite, so that a change can be checked by the part it touches (`make test-fast`).
 
 - ``slow``: the tests that took over 2 s each in a full run on a loaded two-core machine (measured with
-  ``pytest --durations=0``; the table below is that measurement, refreshed by hand when it drifts);
+  ``pytest --durations=0``; the table below is that measurement, refreshed by hand when it drifts), and
+  whole-pipeline checks (init -> fit -> replay, a fit only they read) whose packages test-fast reaches anyway;
 - ``fuzz``: the seeded command-line fuzz cases (``test_cli_fuzz*.py``);
 - ``needs_cc``, ``needs_arm``, ``needs_browser``: what a test module runs besides Python, read from its source
   (a compiler, the arm-none-eabi toolchain, headless chromium), so ``-m "not needs_arm"`` works on a machine
@@ -243,11 +244,15 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
 # cheaper after that run: their figures are scaled by the measured before/after ratio, not re-run; so are
 # test_real_data (its fixture skips check()'s five leave-one-out fits, which one slow test runs instead:
 # 58 s serial on an idle machine, about the same as before) and
-# test_report_wording (one report fewer: 11 x 9.7/11.8).
+# test_report_wording (one report fewer: 11 x 9.7/11.8). The modules issue #34's third round changed (shared
+# analysis figures, a shared two-segment solve, tests moved to slow) were measured again alone, full (slow tests
+# included), with -n 2 under a load of 1-2: test_real_data, test_pipeline, test_inspect, test_fieldcal, test_ulog,
+# test_dataflash, test_sitlcompare, test_fieldreplay, test_docfigures and test_report_wording (test_report, 1.5 s,
+# left out).
 MODULE_SECONDS: dict[str, float] = {
     "test_cli_fuzz_generated.py": 65,
     "test_outputs.py": 31,
-    "test_fieldcal.py": 36,
+    "test_fieldcal.py": 17,
     "test_campaign_sample.py": 41,
     "test_airframe_ranges.py": 40,
     "test_accuracy.py": 36,
@@ -255,31 +260,31 @@ MODULE_SECONDS: dict[str, float] = {
     "test_drag_exponent.py": 29,
     "test_sampler_robust.py": 25,
     "test_fit_stream.py": 23,
-    "test_pipeline.py": 22,
-    "test_inspect.py": 22,
+    "test_pipeline.py": 21,
+    "test_inspect.py": 20,
     "test_fit_schema.py": 18,
     "test_harness.py": 17,
     "test_hovernoise.py": 17,
     "test_accelroute.py": 14,
     "test_thrustscale.py": 14,
-    "test_real_data.py": 47,
+    "test_real_data.py": 58,
     "test_ulog.py": 14,
     "test_fourfold.py": 13,
     "test_hardening.py": 13,
     "test_cformat.py": 12,
-    "test_dataflash.py": 11,
-    "test_report_wording.py": 9,
+    "test_dataflash.py": 10,
+    "test_report_wording.py": 4,
     "test_windunits.py": 11,
     "test_mutants.py": 10,
     "test_analysis.py": 10,
     "test_selfcheck.py": 9,
     "test_install.py": 7,
     "test_autopilot_flags.py": 7,
-    "test_fieldreplay.py": 7,
+    "test_fieldreplay.py": 5,
     "test_isolation.py": 7,
     "test_rosbag.py": 6,
     "test_autopilot_targets.py": 6,
-    "test_sitlcompare.py": 6,
+    "test_sitlcompare.py": 8,
     "test_json_output.py": 5,
     "test_body_drag.py": 5,
     "test_model.py": 5,
@@ -292,11 +297,10 @@ MODULE_SECONDS: dict[str, float] = {
     "test_analysis_defects.py": 4,
     "test_atmos_netcdf.py": 4,
     "test_cli_fuzz.py": 4,
-    "test_report.py": 4,
     "test_fieldcal_bench.py": 4,
     "test_cli_checks.py": 3,
     "test_quality.py": 3,
-    "test_docfigures.py": 3,
+    "test_docfigures.py": 4,
     "test_atmos_profile.py": 3,
     "test_codegen.py": 3,
     "test_bridge.py": 3,
