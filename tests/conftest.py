@@ -1,7 +1,8 @@
 """Markers for the suite, so that a change can be checked by the part it touches (`make test-fast`).
 
 - ``slow``: the tests that took over 2 s each in a full run on a loaded two-core machine (measured with
-  ``pytest --durations=0``; the table below is that measurement, refreshed by hand when it drifts);
+  ``pytest --durations=0``; the table below is that measurement, refreshed by hand when it drifts), and
+  whole-pipeline checks (init -> fit -> replay, a fit only they read) whose packages test-fast reaches anyway;
 - ``fuzz``: the seeded command-line fuzz cases (``test_cli_fuzz*.py``);
 - ``needs_cc``, ``needs_arm``, ``needs_browser``: what a test module runs besides Python, read from its source
   (a compiler, the arm-none-eabi toolchain, headless chromium), so ``-m "not needs_arm"`` works on a machine
@@ -49,6 +50,9 @@ SLOW: dict[str, tuple[str, ...]] = {
     "test_dataflash.py": (
         "test_fit_on_dataflash_equals_fit_on_the_equivalent_csv",
         "test_the_primary_core_is_followed_across_a_lane_switch",
+    ),
+    "test_docfigures.py": (  # the docs page's figures rebuilt (two airframes' analyses): make test keeps it current
+        "test_figures_page_is_current",
     ),
     "test_drag_exponent.py": (
         "test_an_unusable_law_keeps_the_quadratic_one",
@@ -118,6 +122,7 @@ SLOW: dict[str, tuple[str, ...]] = {
         "test_the_next_run_removes_what_a_killed_run_left_and_nothing_else",
     ),
     "test_pipeline.py": (
+        "test_accuracy_on_the_projects_simulator",  # the module's fit's last reader in test-fast (4 s)
         "test_fit_recovers_the_thrust_scale_and_a_good_model",
         "test_fit_report_json",
         "test_replay_backends_agree_and_output_has_every_row",
@@ -128,7 +133,10 @@ SLOW: dict[str, tuple[str, ...]] = {
         "test_quality_bits_and_sigma_agree_in_c",
         "test_sigma_with_observer_noise_agrees_in_c",
     ),
-    "test_real_data.py": (
+    "test_real_data.py": (  # every reader of the two real-data fits (12 s), not only the leave-one-out
+        "test_neural_fly_constant_wind_fit_writes_a_model_and_names_its_outlier",
+        "test_neural_fly_held_out_speed",
+        "test_neural_fly_split_fit_warns_that_its_vertical_law_is_not_identified",
         "test_neural_fly_leave_one_out_scores_every_run_and_judges_the_interior_ones",
         "test_neural_fly_runs_against_a_convex_law",
         "test_neural_fly_wind_direction",
@@ -148,6 +156,13 @@ SLOW: dict[str, tuple[str, ...]] = {
         "test_fit_with_a_log_without_a_valid_row",
         "test_invalid_leading_rows_are_as_if_absent_whole_and_streamed",
         "test_the_streamed_fit_of_a_log_with_invalid_first_rows_is_the_whole_log_fit",
+    ),
+    "test_inspect.py": (  # init -> verify on its starter airframe, init -> check on each real log
+        "test_real_logs_init_a_starter_that_passes_check",
+        "test_the_starter_airframe_passes_verify",
+    ),
+    "test_sitlcompare.py": (  # init -> fit -> replay on the real SITL log (a fit)
+        "test_the_field_sitl_log_through_init_fit_replay",
     ),
     "test_selfcheck.py": (
         "test_a_good_fit_passes_and_its_replay_matches_replay",
@@ -229,11 +244,15 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
 # cheaper after that run: their figures are scaled by the measured before/after ratio, not re-run; so are
 # test_real_data (its fixture skips check()'s five leave-one-out fits, which one slow test runs instead:
 # 58 s serial on an idle machine, about the same as before) and
-# test_report_wording (one report fewer: 11 x 9.7/11.8).
+# test_report_wording (one report fewer: 11 x 9.7/11.8). The modules issue #34's third round changed (shared
+# analysis figures, a shared two-segment solve, tests moved to slow) were measured again alone, full (slow tests
+# included), with -n 2 under a load of 1-2: test_real_data, test_pipeline, test_inspect, test_fieldcal, test_ulog,
+# test_dataflash, test_sitlcompare, test_fieldreplay, test_docfigures and test_report_wording (test_report, 1.5 s,
+# left out).
 MODULE_SECONDS: dict[str, float] = {
     "test_cli_fuzz_generated.py": 65,
     "test_outputs.py": 31,
-    "test_fieldcal.py": 36,
+    "test_fieldcal.py": 17,
     "test_campaign_sample.py": 41,
     "test_airframe_ranges.py": 40,
     "test_accuracy.py": 36,
@@ -241,31 +260,31 @@ MODULE_SECONDS: dict[str, float] = {
     "test_drag_exponent.py": 29,
     "test_sampler_robust.py": 25,
     "test_fit_stream.py": 23,
-    "test_pipeline.py": 22,
-    "test_inspect.py": 22,
+    "test_pipeline.py": 21,
+    "test_inspect.py": 20,
     "test_fit_schema.py": 18,
     "test_harness.py": 17,
     "test_hovernoise.py": 17,
     "test_accelroute.py": 14,
     "test_thrustscale.py": 14,
-    "test_real_data.py": 47,
+    "test_real_data.py": 58,
     "test_ulog.py": 14,
     "test_fourfold.py": 13,
     "test_hardening.py": 13,
     "test_cformat.py": 12,
-    "test_dataflash.py": 11,
-    "test_report_wording.py": 9,
+    "test_dataflash.py": 10,
+    "test_report_wording.py": 4,
     "test_windunits.py": 11,
     "test_mutants.py": 10,
     "test_analysis.py": 10,
     "test_selfcheck.py": 9,
     "test_install.py": 7,
     "test_autopilot_flags.py": 7,
-    "test_fieldreplay.py": 7,
+    "test_fieldreplay.py": 5,
     "test_isolation.py": 7,
     "test_rosbag.py": 6,
     "test_autopilot_targets.py": 6,
-    "test_sitlcompare.py": 6,
+    "test_sitlcompare.py": 8,
     "test_json_output.py": 5,
     "test_body_drag.py": 5,
     "test_model.py": 5,
@@ -278,11 +297,10 @@ MODULE_SECONDS: dict[str, float] = {
     "test_analysis_defects.py": 4,
     "test_atmos_netcdf.py": 4,
     "test_cli_fuzz.py": 4,
-    "test_report.py": 4,
     "test_fieldcal_bench.py": 4,
     "test_cli_checks.py": 3,
     "test_quality.py": 3,
-    "test_docfigures.py": 3,
+    "test_docfigures.py": 4,
     "test_atmos_profile.py": 3,
     "test_codegen.py": 3,
     "test_bridge.py": 3,
@@ -406,3 +424,6 @@ def shared_solves(_solve_memo: SolveMemo, monkeypatch: pytest.MonkeyPatch) -> So
 
     monkeypatch.setattr(windsolve, "_solve_with_thrust_scale", _solve_memo)
     return _solve_memo
+
+
+from tests.shared_figures import shared_figures  # noqa: E402,F401  (a report's analysis figures, once per process)

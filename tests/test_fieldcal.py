@@ -336,15 +336,25 @@ def test_sitl_wind_follows_the_barometer_altitude_in_the_log(tmp_path):
     np.testing.assert_allclose(wind[~before][:, 1], -speed[~before], atol=1e-5)  # from the east: blows west
 
 
-def test_wind_unknown_per_segment_finds_each_segments_wind(box):
-    """Two box flights in two different steady winds, one after the other in one log: --segment-s of the
-    first flight's length finds each one's wind (within 0.3 m/s), not their mean."""
-    tmp, path, af, first = box
+@pytest.fixture(scope="module")
+def two_winds(box):
+    """Two box flights in two different steady winds, one after the other in one CSV log: (its path, the
+    first flight's and the second's columns, the second's start). Its two-segment solve is the module
+    memo's (shared_solves): the refusal with several winds below asks it again under another limit."""
+    tmp, _, af, first = box
     second = simulate(af, "box", seed=8, hold_s=6.0, rate_hz=10.0)
     shift = first["t"][-1] + 0.1
     cols = {k: np.concatenate([first[k], second[k] + (shift if k == "t" else 0)]) for k in first if k != "segment"}
     csv = tmp / "two_winds.csv"
     write_csv(csv, list(cols), np.column_stack([cols[k] for k in cols]), ["%.9g"] * len(cols))
+    return csv, first, second, shift
+
+
+def test_wind_unknown_per_segment_finds_each_segments_wind(box, two_winds, shared_solves):
+    """Two box flights in two different steady winds, one after the other in one log: --segment-s of the
+    first flight's length finds each one's wind (within 0.3 m/s), not their mean."""
+    af = box[2]
+    csv, first, second, shift = two_winds
     solution = estimate_winds(af, [(str(csv), flight_of(str(csv), af, None))], segment_s=shift)
     assert len(solution.groups) == 2 and solution.groups[0].t_end_s < shift <= solution.groups[1].t_start_s
     truths = [_mean_wind(first), _mean_wind(second)]
@@ -425,14 +435,13 @@ def test_each_truth_says_what_it_gave_a_log(box_solution):
     assert "zero wind (--still-air)" in truth_lines(None, ["t.csv"], True)[1]
 
 
-def test_a_refusal_with_several_winds_says_which_were_identified(box, monkeypatch, shared_solves):
-    """Two segments, the limit set between their 1-sigmas: the refusal names the one identified and the
-    one not, each with its span (one wind alone needs no list)."""
-    tmp, _, af, cols = box
-    csv = tmp / "two_segments.csv"
-    write_csv(csv, list(cols), np.column_stack([cols[k] for k in cols]), ["%.9g"] * len(cols))
+def test_a_refusal_with_several_winds_says_which_were_identified(box, two_winds, monkeypatch, shared_solves):
+    """Two segments (the two-winds log's, its solve shared with the test above), the limit set between
+    their 1-sigmas: the refusal names the one identified and the one not, each with its span (one wind
+    alone needs no list)."""
+    af = box[2]
+    csv, _, _, half = two_winds
     flights = [(str(csv), flight_of(str(csv), af, None))]
-    half = float(cols["t"][-1] / 2) + 0.05
     solution = estimate_winds(af, flights, segment_s=half)
     sigmas = sorted(g.sigma_mps for g in solution.groups)
     assert len(sigmas) == 2 and sigmas[1] > sigmas[0] * 1.01, sigmas

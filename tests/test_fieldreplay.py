@@ -246,7 +246,7 @@ def test_autopilot_wind_is_compared_only_where_active_with_its_variances(tmp_pat
     assert got["sigma_h_mps"] == pytest.approx(np.sqrt(0.13), rel=1e-5)
 
 
-def test_report_on_a_dataflash_log(tmp_path, capsys):
+def test_report_on_a_dataflash_log(tmp_path, capsys, shared_figures):
     pytest.importorskip("pymavlink")
     from tests.test_dataflash import _bin, _flight as df_flight
 

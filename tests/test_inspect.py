@@ -298,14 +298,26 @@ def test_csv_inspect_and_init(tmp_path):
     assert choices.thrust_source == "rpm" and choices.rotors == 6 and choices.rate_hz == 100.0
 
 
-@pytest.mark.parametrize("log", REAL_LOGS, ids=lambda p: p.name)
-def test_real_logs_inspect_and_init(log, tmp_path, capsys):
+def _real_log(log: Path) -> None:
     if not log.exists():
         pytest.skip(f"{log} not present")
     pytest.importorskip("pymavlink")
+
+
+@pytest.mark.parametrize("log", REAL_LOGS, ids=lambda p: p.name)
+def test_real_logs_inspect(log, capsys):
+    """Each real log's roles, airborne span and rotors, read by inspect (0.1 s a log)."""
+    _real_log(log)
     assert main(["inspect", str(log), "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["missing"] == [] and summary["airborne_s"] > 5 and summary["vehicle"]["rotors"] in (4, 8)
+
+
+@pytest.mark.parametrize("log", REAL_LOGS, ids=lambda p: p.name)
+def test_real_logs_init_a_starter_that_passes_check(log, tmp_path):
+    """The whole chain on each real log (a gain design and check's generate and self-test, 1.5-2 s a log:
+    in make test only; test-fast runs init on the logs written here, and check's own tests)."""
+    _real_log(log)
     assert main(["init", str(log), "--mass", "2.0", "-o", str(tmp_path / "v.toml")]) == 0
     assert main(["check", str(tmp_path / "v.toml")]) == 0
     assert load_airframe(tmp_path / "v.toml").uncalibrated

@@ -11,6 +11,7 @@ import pytest
 
 from dobwind.cli.app import main
 from tests.helpers import M300
+from tests.shared_figures import use_shared_figures
 
 # Injected into a copy of the page for the browser run only: records script errors and console.error
 # calls, then, after load, whether each image decoded, into an element that --dump-dom prints.
@@ -37,7 +38,9 @@ def report_html(tmp_path_factory):
     folder = tmp_path_factory.mktemp("report")
     log = folder / "tunnel.csv"
     assert main(["simulate", "tunnel", "--hold", "6", "--rate", "25", "-o", str(log)]) == 0
-    assert main(["report", str(M300), str(log), "-o", str(folder / "report.html")]) == 0
+    with pytest.MonkeyPatch.context() as patch:
+        use_shared_figures(patch)
+        assert main(["report", str(M300), str(log), "-o", str(folder / "report.html")]) == 0
     return folder / "report.html"
 
 

@@ -12,6 +12,7 @@ import pytest
 from dobwind.cli.app import main
 from dobwind.report.report import comparison_rows
 from tests.helpers import M300
+from tests.shared_figures import use_shared_figures
 
 pytest.importorskip("pyulog")
 
@@ -40,7 +41,9 @@ def zero_wind(tmp_path_factory) -> tuple[Path, str]:
     folder = tmp_path_factory.mktemp("zero_wind")
     _, cols = _flight()
     log = _slow_ulog(folder / "z.ulg", cols, wind="zero")
-    assert main(["report", str(M300), str(log), "-o", str(folder / "r.html")]) == 0
+    with pytest.MonkeyPatch.context() as patch:
+        use_shared_figures(patch)
+        assert main(["report", str(M300), str(log), "-o", str(folder / "r.html")]) == 0
     return log, (folder / "r.html").read_text()
 
 
@@ -53,7 +56,7 @@ def test_an_inactive_autopilot_wind_is_not_introduced_as_a_comparison(zero_wind)
     assert "compared with" not in errors and "nothing to compare with" in errors and "False" not in errors
 
 
-def test_an_active_autopilot_wind_is_a_table_with_units(tmp_path):
+def test_an_active_autopilot_wind_is_a_table_with_units(tmp_path, shared_figures):
     from tests.test_fieldreplay import _flight, _slow_ulog
 
     _, cols = _flight()
@@ -66,7 +69,7 @@ def test_an_active_autopilot_wind_is_a_table_with_units(tmp_path):
     assert not re.search(r"\d\.\d{7,}", errors)  # no raw float
 
 
-def test_a_prior_airframe_says_so_in_the_airframe_table(tmp_path, zero_wind):
+def test_a_prior_airframe_says_so_in_the_airframe_table(tmp_path, zero_wind, shared_figures):
     log, calibrated_page = zero_wind
     prior = tmp_path / "prior.toml"
     prior.write_text(M300.read_text() + '\n[calibration]\nstatus = "prior"\n')

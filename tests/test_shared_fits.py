@@ -1,6 +1,7 @@
 """The suite's shared fits (conftest.FitMemo): a distinct call is computed once, a changed log or option is
 a new call, every caller gets its own copy, and a call with a log reader is never shared. The same for the
-shared wind solves (conftest.SolveMemo), keyed by the arguments' content."""
+shared wind solves (conftest.SolveMemo), keyed by the arguments' content, and for a report's analysis
+figures (tests/shared_figures.py), drawn once per airframe."""
 from __future__ import annotations
 
 import os
@@ -8,6 +9,7 @@ import os
 import numpy as np
 
 from tests.conftest import FitMemo, SolveMemo
+from tests.shared_figures import FigureMemo
 
 
 def _counting_fit():
@@ -99,3 +101,59 @@ def test_and_a_later_test_gets_the_real_solve():
     from dobwind.calibrate import windsolve
 
     assert not isinstance(windsolve._solve_with_thrust_scale, SolveMemo)
+
+
+# --- the shared analysis figures (tests/shared_figures.py) --------------------------------------------
+
+def _counting_figures():
+    """A fake analyze (its systems an object identified by identity) and write_plots (one file per call,
+    its bytes numbered by the call), recording their calls."""
+    seen: list[str] = []
+
+    def analyze(af, freqs, **kwargs):
+        seen.append("analyze")
+        return {"airframe": af, "freqs": list(freqs)}, object()
+
+    def write_plots(report, systems, out_dir, stage=None):
+        seen.append("plot")
+        out_dir.mkdir(parents=True, exist_ok=True)
+        (out_dir / "bode.png").write_bytes(f"{report['airframe']} {len(seen)}".encode())
+        return [out_dir / "bode.png"]
+    return analyze, write_plots, seen
+
+
+def test_the_figures_of_one_airframe_are_computed_and_drawn_once(tmp_path):
+    analyze, write_plots, seen = _counting_figures()
+    memo = FigureMemo(analyze, write_plots)
+    report, systems = memo.analyze("m300", [0.1])
+    report["freqs"].append(9.0)  # a caller changing its report changes nobody else's
+    first = memo.write_plots(*memo.analyze("m300", [0.1]), tmp_path / "a")
+    again = memo.write_plots(*memo.analyze("m300", [0.1]), tmp_path / "b")
+    assert [p.read_bytes() for p in first] == [p.read_bytes() for p in again] == [b"m300 2"]
+    assert again == [tmp_path / "b" / "bode.png"] and seen == ["analyze", "plot"]
+    assert (memo.calls, memo.computed, memo.drawn) == (3, 1, 1)
+
+
+def test_another_airframe_a_changed_report_or_a_staged_write_is_drawn_again(tmp_path):
+    analyze, write_plots, seen = _counting_figures()
+    memo = FigureMemo(analyze, write_plots)
+    memo.write_plots(*memo.analyze("m300", [0.1]), tmp_path / "a")
+    memo.write_plots(*memo.analyze("m300", [0.2]), tmp_path / "b")   # other frequencies: a new analysis
+    report, systems = memo.analyze("m300", [0.1])
+    report["airframe"] = "edited"
+    assert memo.write_plots(report, systems, tmp_path / "c")[0].read_bytes() == b"edited 5"
+    memo.write_plots(*memo.analyze("m300", [0.1]), tmp_path / "d", stage=lambda path: path)
+    memo.write_plots({"airframe": "m300", "freqs": [0.1]}, object(), tmp_path / "e")  # not the memo's systems
+    assert seen.count("analyze") == 2 and seen.count("plot") == 5
+
+
+def test_the_figures_fixture_puts_the_memo_in_place_for_the_asking_test(shared_figures):
+    from dobwind.analysis import report
+
+    assert report.analyze == shared_figures.analyze and report.write_plots == shared_figures.write_plots
+
+
+def test_and_a_later_test_gets_the_real_analysis():
+    from dobwind.analysis import report
+
+    assert not isinstance(getattr(report.analyze, "__self__", None), FigureMemo)

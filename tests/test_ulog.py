@@ -313,7 +313,7 @@ def test_the_read_budget_stops_pyulogs_endless_loop(tmp_path):
     assert time.monotonic() - start < 20
 
 
-def test_report_compares_with_px4_wind_when_the_log_has_no_truth(tmp_path, capsys):
+def test_report_compares_with_px4_wind_when_the_log_has_no_truth(tmp_path, capsys, shared_figures):
     _, cols = _flight(rate=50.0)
     path = _ulog(tmp_path / "wind.ulg", cols, wind=True)
     page = tmp_path / "report.html"
