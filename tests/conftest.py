@@ -31,6 +31,7 @@ SLOW: dict[str, tuple[str, ...]] = {
         "test_a_corner_of_the_ranges_checks_generates_compiling_c_and_analyses",
     ),
     "test_analysis.py": (
+        "test_analyze_json_and_plots",
         "test_gain_design_round_trip",
         "test_m300_design_near_the_papers_gain",
     ),
@@ -42,6 +43,7 @@ SLOW: dict[str, tuple[str, ...]] = {
         "test_generated_c_of_a_body_drag_airframe_matches_the_reference",
     ),
     "test_cformat.py": (
+        "test_the_magnitudes_a_log_holds",
         "test_every_decade_at_random",
     ),
     "test_cli_fuzz_generated.py": (
@@ -134,6 +136,7 @@ SLOW: dict[str, tuple[str, ...]] = {
         "test_sigma_with_observer_noise_agrees_in_c",
     ),
     "test_real_data.py": (  # every reader of the two real-data fits (12 s), not only the leave-one-out
+        "test_neural_fly_leave_one_out_bounds_put_35wind_beyond_every_convex_law",
         "test_neural_fly_constant_wind_fit_writes_a_model_and_names_its_outlier",
         "test_neural_fly_held_out_speed",
         "test_neural_fly_split_fit_warns_that_its_vertical_law_is_not_identified",
@@ -158,10 +161,13 @@ SLOW: dict[str, tuple[str, ...]] = {
         "test_the_streamed_fit_of_a_log_with_invalid_first_rows_is_the_whole_log_fit",
     ),
     "test_inspect.py": (  # init -> verify on its starter airframe, init -> check on each real log
+        "test_init_says_the_mass_is_unchecked_and_a_wrong_one_only_scales_the_law",
+        "test_rosbag_streams_airborne_esc_wind_and_init",
         "test_real_logs_init_a_starter_that_passes_check",
         "test_the_starter_airframe_passes_verify",
     ),
     "test_sitlcompare.py": (  # init -> fit -> replay on the real SITL log (a fit)
+        "test_report_has_the_simulator_table_and_keeps_the_inactive_autopilot_sentence",
         "test_the_field_sitl_log_through_init_fit_replay",
     ),
     "test_selfcheck.py": (
@@ -187,6 +193,34 @@ SLOW: dict[str, tuple[str, ...]] = {
     ),
     "test_structure.py": (
         "test_no_function_over_60_lines",
+    ),
+    "test_fieldcal.py": (
+        "test_wind_unknown_per_segment_finds_each_segments_wind",
+        "test_wind_unknown_refuses_a_flight_whose_nose_never_turns",
+    ),
+    "test_ulog.py": (
+        "test_corrupt_ulogs_end_quickly_with_one_line_or_one_json_object",
+        "test_report_compares_with_px4_wind_when_the_log_has_no_truth",
+    ),
+    "test_windunits.py": (
+        "test_analyze_designs_for_a_wind_target_and_reports_it",
+        "test_analyze_draws_the_wind_unit_figure_over_the_airspeeds_asked",
+    ),
+    "test_report_wording.py": (
+        "test_a_prior_airframe_says_so_in_the_airframe_table",
+    ),
+    "test_verify_fastmath.py": (
+        "test_verify_with_px4_flags_passes_and_leaves_this_process_with_subnormals",
+        "test_a_nonnegative_test_by_float_comparison_fails_the_reference_comparison_under_px4",
+    ),
+    "test_fieldcal_bench.py": (
+        "test_end_to_end_prints_one_json_document",
+    ),
+    "test_verify_report.py": (
+        "test_verify_checks_a_given_folder_and_catches_a_hand_edit",
+    ),
+    "test_analysis_goals.py": (
+        "test_analyze_ramp_lag_matches_a_replayed_ramp",
     ),
 }
 FUZZ_FILES = ("test_cli_fuzz.py", "test_cli_fuzz_generated.py", "test_campaign_sample.py")
