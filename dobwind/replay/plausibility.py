@@ -13,9 +13,10 @@ replayed flight as a whole and say so instead, on stderr and in the notes, and s
 - sustained vertical wind: the mean settled (not SETTLING) vertical wind over ``vertical_window_s``
   beyond ``vertical_wind_mps`` (for `init`'s starter, which publishes no vertical wind, the vertical
   wind its drag law would read from the vertical force: vertical_reading). Thermals and slope lift
-  reach 1-3 m/s at multirotor heights; more, sustained over many seconds, is a vertical force the airframe misreads. The limit sits above what a
-  merely unidentified vertical law reads in strong horizontal wind (m300 on the simulator's tunnel at
-  10 m/s: up to 3.0 m/s of "downdraft"; the vertical-law fallback's business, not a wrong vehicle).
+  reach 1-3 m/s at multirotor heights; more, sustained over many seconds, is a vertical force the
+  airframe misreads. The limit sits above what a merely unidentified vertical law reads in strong
+  horizontal wind (m300 on the simulator's tunnel at 10 m/s: up to 3.0 m/s of "downdraft"; the
+  vertical-law fallback's business, not a wrong vehicle).
   The rows of those windows.
 - horizontal force beyond the calibrated envelope: the step's EXTRAPOLATED bit on more than
   ``extrapolated_share`` of the airborne estimates means the fit never saw forces like this flight's.
