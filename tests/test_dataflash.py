@@ -316,3 +316,21 @@ def test_a_format_shorter_than_its_header_is_refused_before_dfreader(tmp_path):
     err = done.stderr.strip().splitlines()
     assert done.returncode == 2 and len(err) == 1, done.stderr
     assert str(path) in err[0] and "type 130" in err[0] and "declared 0 bytes" in err[0]
+
+
+def test_a_log_on_the_ground_throughout_says_it_was_never_airborne(tmp_path, capsys):
+    """A pre-arm or bench log: every row LANDED, nothing estimated. replay says so in one warning line (and in
+    --json's warnings); a log that flew says nothing of the kind."""
+    import json
+
+    af, cols = _flight()
+    rows = _rows(af, cols, landed_until=cols["t"][-1] + 1.0)   # no NOT_LANDED event ...
+    rows.insert(0, ("EV", {"TimeUS": 1_000_000, "Id": 18}))     # ... after a LAND_COMPLETE at the start
+    ground = write_dataflash(tmp_path / "ground.bin", dict(MESSAGES), rows)
+    assert main(["replay", str(M300), str(ground), "--json"]) == 0
+    captured = capsys.readouterr()
+    assert f"{ground}: never airborne in its" in captured.err and captured.err.count("never airborne") == 1
+    assert any("never airborne" in w for w in json.loads(captured.out)["warnings"])
+    flew = _bin(tmp_path / "flew.bin", af, cols, landed_until=1.0)
+    assert main(["replay", str(M300), str(flew)]) == 0
+    assert "never airborne" not in capsys.readouterr().err

@@ -1,6 +1,7 @@
 """Which reader a log needs (by its name), and the PX4-style wind file (`replay --px4-wind`)."""
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -35,7 +36,18 @@ def read_autopilot(path: str, af: Airframe, rate_hz: float | None = None,
     """``bridge_gaps``: feed short silences interpolated (dobwind/io/bridge.py), as replay does; off, every
     NO_DATA row has NaN inputs (what fit's samples rely on). ``window``: only the rows in that span of the
     log's clock, cut after the whole log is read (dobwind/io/timewindow.py)."""
-    return window_flight(path, _read_whole(path, af, rate_hz, topics, bridge_gaps), window)
+    return _never_airborne(path, window_flight(path, _read_whole(path, af, rate_hz, topics, bridge_gaps), window))
+
+
+def _never_airborne(path: str, flight: AutopilotFlight) -> AutopilotFlight:
+    """A log (or window) on the ground throughout (a pre-arm or bench log) says so: every row is LANDED and
+    nothing is estimated, which the status counts alone leave the user to work out."""
+    if not (flight.log.rows and np.all(flight.landed)):
+        return flight
+    span = float(flight.log.time_s[-1] - flight.log.time_s[0])
+    said = (f"{path}: never airborne in its {span:.1f} s (every instant on the ground, status LANDED): no wind is "
+            "estimated from it",)
+    return dataclasses.replace(flight, warnings=flight.warnings + said)
 
 
 def _read_whole(path: str, af: Airframe, rate_hz: float | None, topics: dict[str, str] | None,
