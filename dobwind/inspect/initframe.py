@@ -15,11 +15,14 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from dobwind.core.errors import InputError
+from dobwind.io.accelcheck import AccelCheck, check_acceleration
 from dobwind.inspect.anylog import inspect_log
 from dobwind.inspect.loginspect import ESSENTIAL_ROLES, LogSummary
 from dobwind.io.vehiclekind import MULTIROTORS_ONLY
-from dobwind.model.airframe import PRIOR, STANDARD_GRAVITY, VERTICAL_FALLBACK, parse_airframe
+from dobwind.model.airframe import Airframe, PRIOR, STANDARD_GRAVITY, VERTICAL_FALLBACK, parse_airframe
 from dobwind.model.airframe_toml import airframe_document, dumps
 from dobwind.model.ranges import NAME_MAX_CHARS, RANGES
 from dobwind.model.kinds import DragFrame
@@ -76,6 +79,9 @@ class InitChoices:
     max_dt_s: float
     bandwidth_hz: float
     acceleration: str
+    # why the acceleration input: what the log has, or (dobwind/inspect/accelcheck.py) why not its own
+    acceleration_reason: str = ""
+    acceleration_disagreement_mps2: float | None = None
 
 
 def common_rate(rate_hz: float) -> float:
@@ -130,6 +136,21 @@ def _acceleration(s: LogSummary) -> str:
     return "specific_force" if s.role("specific_force").source else "velocity"
 
 
+def _logged_acceleration_check(log: str, draft: Airframe, band_hz: float) -> AccelCheck | None:
+    """accelcheck on the log read as replay reads it through the draft (airborne rows with data; a CSV
+    log has no ground flag, so all its rows), or None when the draft takes no acceleration input."""
+    from dobwind.io.autopilot import is_autopilot_log, read_autopilot
+    from dobwind.io.logs import read_log, required_columns
+
+    if draft.observer.acceleration == "velocity":
+        return None
+    if is_autopilot_log(log):
+        flight = read_autopilot(log, draft)
+        return check_acceleration(flight.log, ~flight.landed & ~flight.no_data, draft.observer.acceleration, band_hz)
+    flight_log = read_log(log, required_columns(draft))
+    return check_acceleration(flight_log, np.ones(flight_log.rows, dtype=bool), draft.observer.acceleration, band_hz)
+
+
 def _name(name: str | None, output: str) -> str:
     if name is not None:
         return name  # parse_airframe checks it, naming --name below
@@ -138,7 +159,10 @@ def _name(name: str | None, output: str) -> str:
     return stem[:NAME_MAX_CHARS]
 
 
-def _document(s: LogSummary, mass: float, name: str, gain: float) -> tuple[dict[str, Any], InitChoices]:
+def _document(s: LogSummary, mass: float, name: str, gain: float,
+              check: AccelCheck | None = None) -> tuple[dict[str, Any], InitChoices]:
+    """The starter's document; ``check``: the logged acceleration's check (None before it is made): a
+    broken one sends the observer to the velocity's derivative."""
     thrust, thrust_reason = _thrust(s, mass)
     collective = thrust["source"] == "collective"
     rate, rate_reason, intervals = _rate(s, collective)
@@ -146,7 +170,7 @@ def _document(s: LogSummary, mass: float, name: str, gain: float) -> tuple[dict[
     # Up to the next 10 ms (rounded first: 3 x 0.1 is 0.30000000000000004 in binary).
     max_dt = math.ceil(round(max(MAX_DT_SAMPLES * sample_time, MAX_DT_INTERVALS * max(intervals)) * 100, 6)) / 100
     bandwidth = min(BANDWIDTH_HZ, BANDWIDTH_PER_RATE / max(intervals))
-    acceleration = _acceleration(s)
+    acceleration = "velocity" if check is not None and check.broken else _acceleration(s)
     rotors = s.vehicle.rotors or 0
     document: dict[str, Any] = {
         "name": name, "mass": mass, "gravity": STANDARD_GRAVITY, "thrust": thrust,
@@ -160,8 +184,17 @@ def _document(s: LogSummary, mass: float, name: str, gain: float) -> tuple[dict[
     }
     choices = InitChoices(thrust["source"], thrust_reason, int(thrust.get("rotors", rotors)), rate,
                           f"{rate:g} Hz, the common rate at or below {rate_reason}", document["limits"]["max_dt"],
-                          bandwidth, acceleration)
+                          bandwidth, acceleration, _acceleration_reason(acceleration, check),
+                          None if check is None else round(check.disagreement_mps2, 4))
     return document, choices
+
+
+def _acceleration_reason(acceleration: str, check: AccelCheck | None) -> str:
+    if check is not None and check.broken:
+        return (f"the velocity's derivative instead of the log's own: {check.text()}, so the logged one carries "
+                "errors the velocity does not (aliased vibration: a fast signal logged at a few hertz)")
+    meaning = ACCELERATION_MEANING[acceleration]
+    return meaning if check is None else f"{meaning}; {check.text()}"
 
 
 def build_airframe(log: str, mass: float, output: str, name: str | None = None) -> tuple[str, InitChoices, LogSummary]:
@@ -182,6 +215,10 @@ def build_airframe(log: str, mass: float, output: str, name: str | None = None) 
         if name is not None and exc.where == "name":
             raise InputError("--name", None, exc.message) from None
         raise
+    check = _logged_acceleration_check(log, draft, choices.bandwidth_hz)
+    if check is not None:
+        document, choices = _document(summary, mass, chosen, 2 * math.pi * BANDWIDTH_HZ * mass, check)
+        draft = parse_airframe(dumps(document), output)
     gain = design_gain(draft, choices.bandwidth_hz)
     final = with_gains(draft, (gain, gain, gain))
     header = _header(log, summary, choices, mass)
@@ -215,7 +252,7 @@ def _header(log: str, s: LogSummary, c: InitChoices, mass: float) -> str:
              f"# rotors: {c.rotors or 'not used'} ({s.vehicle.rotor_source})",
              f"# sample_time: {c.rate_reason}; max_dt {c.max_dt_s:g} s covers the slowest needed stream",
              f"# gains: designed for a {c.bandwidth_hz:.3g} Hz observer bandwidth (dobwind analyze --bandwidth)",
-             f"# acceleration: {c.acceleration}"]
+             f"# acceleration: {c.acceleration} ({c.acceleration_reason})"]
     return "\n".join(lines) + "\n"
 
 
@@ -254,4 +291,4 @@ def _summary_text(output: str, c: InitChoices, mass: float) -> str:
                       f"  sample_time  {1 / c.rate_hz:g} s ({c.rate_reason})",
                       f"  max_dt       {c.max_dt_s:g} s",
                       f"  bandwidth    {c.bandwidth_hz:.3g} Hz (observer gains designed for it)",
-                      f"  acceleration {c.acceleration} ({ACCELERATION_MEANING[c.acceleration]})"])
+                      f"  acceleration {c.acceleration} ({c.acceleration_reason})"])

@@ -23,6 +23,9 @@ replayed flight as a whole and say so instead, on stderr and in the notes, and s
   The extrapolated rows.
 - wind speed beyond any plausible figure: horizontal wind above ``wind_speed_max_mps`` (no multirotor
   holds position in such a wind; such a number is the airframe's, not the air's). Those rows.
+- an acceleration input that is not the vehicle's (autopilot logs, acceleration_input): the logged
+  acceleration against the velocity's derivative in the estimate's band (dobwind/io/accelcheck.py), for
+  an airframe that takes the logged one. Every accepted row.
 """
 from __future__ import annotations
 
@@ -30,6 +33,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from dobwind.io.accelcheck import LIMIT_MPS2, check_acceleration
+from dobwind.io.logs import FlightLog
 from dobwind.model.airframe import Airframe
 from dobwind.model.forceair import HORIZONTAL_DRAG_KEYS, drag_airflow_numpy
 from dobwind.model.kinds import DragFrame
@@ -59,7 +64,7 @@ DEFAULT_LIMITS = PlausibilityLimits()
 
 @dataclass(frozen=True)
 class Finding:
-    check: str           # hover_thrust, vertical_wind, envelope, wind_speed
+    check: str           # hover_thrust, vertical_wind, envelope, wind_speed, acceleration
     message: str         # what is wrong, in a sentence (stderr, notes)
     value: float         # the measured figure (ratio, m/s, share)
     limit: float         # the threshold it crossed
@@ -217,6 +222,24 @@ def _wind_speed(s: FlightSeries, ok: np.ndarray, limits: PlausibilityLimits) -> 
         return None
     worst = float(np.max(speed[rows]))
     return Finding("wind_speed", _speed_text(worst, int(rows.sum()), limits), worst, limits.wind_speed_max_mps, rows)
+
+
+def acceleration_input(af: Airframe, log: FlightLog, status: np.ndarray) -> Finding | None:
+    """An airframe that takes the log's acceleration (observer.acceleration "ned" or "specific_force") on a
+    log whose acceleration disagrees with the velocity's derivative in the estimate's band (the low-pass's
+    highest cutoff) beyond dobwind/io/accelcheck.py's limit: every accepted row is SUSPECT, the force is
+    wrong throughout. `dobwind init` routes such a log's starter through the velocity instead."""
+    if af.observer.acceleration == "velocity":
+        return None
+    ok = accepted(status)
+    check = check_acceleration(log, ok & ((status.astype(np.int64) & STATUS_LANDED) == 0),
+                               af.observer.acceleration, max(af.filter.cutoffs_hz))
+    if check is None or not check.broken:
+        return None
+    message = (f"{check.text()}: the acceleration input carries errors the velocity does not (aliased vibration: a "
+               'fast signal logged at a few hertz); observer.acceleration = "velocity" avoids it (dobwind init '
+               "chooses it for such a log)")
+    return Finding("acceleration", message, check.disagreement_mps2, LIMIT_MPS2, ok)
 
 
 def mark(status: np.ndarray, findings: list[Finding]) -> np.ndarray:

@@ -129,12 +129,13 @@ def _plausibility(af: Airframe, model: StepModel, path: str, flight, outputs: np
     (stderr) and a note per finding."""
     import dataclasses
 
-    from dobwind.replay.plausibility import FlightSeries, check_flight, mark
+    from dobwind.replay.plausibility import FlightSeries, acceleration_input, check_flight, mark
 
     log = flight.log
     series = FlightSeries(log.time_s, log.stack("vel_n", "vel_e", "vel_d"), outputs[:, model.outputs.slice("force_ned")],
                           outputs[:, model.outputs.slice("wind_ned")], status)
     findings = check_flight(af, series)
+    findings += [f for f in (acceleration_input(af, log, status),) if f is not None]
     if not findings:
         return flight, status
     return dataclasses.replace(
