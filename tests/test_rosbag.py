@@ -50,7 +50,9 @@ def _writer(path, storage):
 LOCAL_POSITION = "uint64 timestamp\nuint64 timestamp_sample\nbool v_xy_valid\nfloat32 vx\nfloat32 vy\nfloat32 vz\n"
 
 
-def _px4_bag(path, af, cols, storage, *, esc=True, landed_until=None, hover=None, v1=(), local_position=False):
+def _px4_bag(path, af, cols, storage, *, esc=True, landed_until=None, hover=None, v1=(), local_position=False,
+             converging_until: float = 0.0):
+    """``converging_until``: hover_thrust_estimate reads 0.30, not valid, before this time (s), then ``hover``."""
     store = _typestore(str(path), [])
     if local_position:
         from rosbags.typesys import get_types_from_msg
@@ -91,7 +93,9 @@ def _px4_bag(path, af, cols, storage, *, esc=True, landed_until=None, hover=None
                 xyz = np.array([0.0, 0.0, -cols["thrust"][k] / (af.mass_kg * af.gravity_mps2) * hover], dtype=f)
                 msgs["vehicle_thrust_setpoint"] = T["px4_msgs/msg/VehicleThrustSetpoint"](us, us, xyz)
                 if k % 10 == 0:
-                    msgs["hover_thrust_estimate"] = T["px4_msgs/msg/HoverThrustEstimate"](us, us, f(hover), 0, 0, 0, 0, 0, True)
+                    ready = bool(t >= converging_until)
+                    msgs["hover_thrust_estimate"] = T["px4_msgs/msg/HoverThrustEstimate"](
+                        us, us, f(hover if ready else 0.30), 0, 0, 0, 0, 0, ready)
             if landed_until is not None and k % 10 == 0:
                 on = t < landed_until
                 msgs["vehicle_land_detected"] = T["px4_msgs/msg/VehicleLandDetected"](us, on, on, on)
@@ -236,7 +240,8 @@ def test_px4_bag_collective_thrust_equals_the_equivalent_csv(tmp_path, capsys):
 
     af = parse_airframe(dumps(airframe_dict(thrust={"source": "collective"}, mass=8.0, name="coll")), "<c>")
     _, cols = _flight()
-    bag = _px4_bag(tmp_path / "coll", af, cols, "mcap", esc=False, hover=0.45)
+    # The hover estimator converging (not valid, 0.30) for the first 2 s: only valid estimates scale the thrust.
+    bag = _px4_bag(tmp_path / "coll", af, cols, "mcap", esc=False, hover=0.45, converging_until=2.0)
     model, flight, traj = replay_autopilot(af, str(bag), rate_hz=50.0)
     csv = _equivalent_csv(tmp_path / "coll.csv", af, cols, single=True, hover=0.45)
     _, log, ref = replay(af, str(csv))

@@ -46,7 +46,10 @@ def _rows(cols, keys, names, t0_us=1_000_000, keep=None):
 
 
 def _ulog(path, cols, *, esc=True, thrust=None, hover=None, param=None, gap=None, landed_until=None, wind=False,
-          attitude_setpoint=True, esc_count=4, esc_every=1, land_flags=None, esc_gap=None, extra=(), sensor=False):
+          attitude_setpoint=True, esc_count=4, esc_every=1, land_flags=None, esc_gap=None, extra=(), sensor=False,
+          converging: tuple[float, float] | None = None):
+    """``converging`` (value, until s): hover_thrust_estimate logs ``valid`` and reads ``value``, not valid,
+    before ``until`` (PX4's estimator converging from MPC_THR_HOVER), then ``hover``, valid."""
     keep = None if gap is None else ~((cols["t"] > gap[0]) & (cols["t"] < gap[1]))
     topics = [
         Topic("vehicle_local_position", [("uint64_t", "timestamp")] + [("float", f) for f in ("vx", "vy", "vz", "ax", "ay", "az")],
@@ -74,8 +77,15 @@ def _ulog(path, cols, *, esc=True, thrust=None, hover=None, param=None, gap=None
             row["xyz[2]"] = -row["xyz[2]"] / (8.0 * 9.80665) * hover
         topics.append(Topic("vehicle_thrust_setpoint", [("uint64_t", "timestamp"), ("float[3]", "xyz")], rows))
         t = np.arange(0, cols["t"][-1], 0.5)
-        topics.append(Topic("hover_thrust_estimate", [("uint64_t", "timestamp"), ("float", "hover_thrust")],
-                            [{"timestamp": int(1_000_000 + s * 1e6), "hover_thrust": hover} for s in t]))
+        if converging is None:
+            topics.append(Topic("hover_thrust_estimate", [("uint64_t", "timestamp"), ("float", "hover_thrust")],
+                                [{"timestamp": int(1_000_000 + s * 1e6), "hover_thrust": hover} for s in t]))
+        else:
+            start, until = converging
+            topics.append(Topic("hover_thrust_estimate", [("uint64_t", "timestamp"), ("float", "hover_thrust"),
+                                                          ("bool", "valid")],
+                                [{"timestamp": int(1_000_000 + s * 1e6), "hover_thrust": hover if s >= until else start,
+                                  "valid": bool(s >= until)} for s in t]))
     if landed_until is not None:  # land_flags: {flag: seconds it stays set}, e.g. {"ground_contact": 5.0}
         t = np.arange(0, cols["t"][-1], 0.2)
         until = {"landed": landed_until, "maybe_landed": landed_until, "ground_contact": landed_until, **(land_flags or {})}
@@ -121,6 +131,21 @@ def test_collective_mapping_recovers_newtons(tmp_path, source):
     np.testing.assert_allclose(flight.log.columns["thrust"][5:-5], cols["thrust"][5:-5], rtol=1e-5)
     assert any(("MPC_THR_HOVER" in n) == (source == "attitude_setpoint") for n in flight.notes)
     assert np.all(np.isfinite(traj.outputs))
+
+
+@pytest.mark.parametrize("until", [3.0, 1e9])
+def test_the_hover_estimate_counts_only_once_valid(tmp_path, until):
+    """PX4's hover thrust estimator starts at MPC_THR_HOVER and converges before it flags itself valid:
+    the unconverged 0.30 (not 0.42) before ``until`` would scale the thrust 40 % high. Valid from 3 s: its
+    first valid value holds before; never valid: the MPC_THR_HOVER parameter (0.42 too) throughout."""
+    af = _collective()
+    _, cols = _flight()
+    path = _ulog(tmp_path / "h.ulg", cols, esc=False, thrust="thrust_setpoint", hover=0.42, param=0.42,
+                 converging=(0.30, until))
+    _, flight, _ = replay_ulog(af, str(path), rate_hz=100.0)
+    np.testing.assert_allclose(flight.log.columns["thrust"][5:-5], cols["thrust"][5:-5], rtol=1e-5)
+    said = " ".join(flight.notes)
+    assert ("valid from 4.0 s" in said) if until < 1e9 else ("never valid" in said and "MPC_THR_HOVER" in said), said
 
 
 @pytest.mark.parametrize("rpm", [True, False])

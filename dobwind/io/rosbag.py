@@ -175,8 +175,21 @@ def _px4_streams(path: str, msgs: dict, rotors: int) -> dict:
                            + [m.esc[i].esc_rpm for i in range(rotors)])
     else:
         s["thrust"] = _series(msgs["thrust"], True, lambda m: [m.xyz[2]])
-        s["hover"] = _series(msgs["hover"], True, lambda m: [m.hover_thrust])
+        s["hover"] = _valid_hover(_series(msgs["hover"], True, lambda m: [m.hover_thrust, getattr(m, "valid", True)]))
     return s
+
+
+def _valid_hover(series: dict | None) -> dict | None:
+    """As the ULog path (ulog._converged_hover): only estimates PX4 calls valid count (column 1 of the
+    series), when there are any (a bag has no MPC_THR_HOVER to fall back on). The others read as the last
+    valid one before them (the first valid one before any), so the series keeps its stamps: its first one
+    bounds the clock's start. Returns the hover thrust alone (one column)."""
+    if series is None:
+        return None
+    ok = series["v"][:, 1] > 0
+    index = np.arange(len(ok)) if ok.all() or not ok.any() else np.maximum.accumulate(np.where(ok, np.arange(len(ok)), -1))
+    index = np.where(index < 0, int(np.argmax(ok)), index)
+    return {"t": series["t"], "v": series["v"][index, :1]}
 
 
 def _mavros_streams(path: str, msgs: dict, rotors: int) -> dict:

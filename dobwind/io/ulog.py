@@ -117,6 +117,38 @@ def _topic(ulog, name: str, fields: list[str], optional: tuple[str, ...] = ()) -
     return None
 
 
+def _hover_source(path: str, ulog, notes: list[str]) -> tuple[dict[str, np.ndarray] | None, float | None]:
+    """(hover_thrust_estimate where valid, MPC_THR_HOVER) for a collective airframe; one of them at least."""
+    hover_param = ulog.initial_parameters.get("MPC_THR_HOVER")
+    hover_topic = _converged_hover(_topic(ulog, "hover_thrust_estimate", ["hover_thrust"], ("valid",)), notes)
+    if hover_topic is None and hover_param is None:
+        raise InputError(path, "topic hover_thrust_estimate", "missing, and no MPC_THR_HOVER parameter: collective "
+                                                              "thrust cannot be scaled to newtons")
+    if hover_topic is None:
+        notes.append(f"hover thrust from the MPC_THR_HOVER parameter ({hover_param:.3f})")
+    return hover_topic, hover_param
+
+
+def _converged_hover(hover: dict[str, np.ndarray] | None, notes: list[str]) -> dict[str, np.ndarray] | None:
+    """hover_thrust_estimate where PX4 calls it valid. The estimator starts at MPC_THR_HOVER (0.5 by default)
+    and takes 10-20 s of flight to converge: an 8 kg octo's estimate rose from 0.50 to 0.62 before its
+    `valid` flag came on, and a thrust setpoint of 0.64 divided by the unconverged 0.50 put its thrust 28 %
+    above the weight, read as a 9 m/s downdraft. Before the first valid estimate, the first valid value
+    holds (resample.hold clamps to the first sample); None when no estimate is valid (MPC_THR_HOVER then)."""
+    if hover is None or "valid" not in hover:
+        return hover
+    keep = (hover["valid"] > 0) & np.isfinite(hover["hover_thrust"]) & (hover["hover_thrust"] > 0)
+    if keep.sum() < 2:
+        notes.append("hover_thrust_estimate never valid: the hover thrust from the MPC_THR_HOVER parameter")
+        return None
+    if not keep.all():
+        first = int(np.argmax(keep))
+        notes.append(f"hover_thrust_estimate valid from {hover['t'][first]:.1f} s; before it, its first valid value "
+                     f"{hover['hover_thrust'][first]:.3f} holds (the estimator was converging from "
+                     f"{hover['hover_thrust'][0]:.3f})")
+    return {k: v[keep] for k, v in hover.items()}
+
+
 def _own_yaw_note(ulog) -> str:
     """Why the heading frame follows the vehicle's own yaw: PX4 v1.15 and later log
     vehicle_attitude_setpoint without yaw_body, older logs may lack the topic."""
@@ -226,13 +258,7 @@ def read_ulog(path: str, af: Airframe, rate_hz: float | None = None, bridge_gaps
         raise InputError(path, "topic" + ("s " if len(missing) > 1 else " ") + ", ".join(missing), "missing from the log")
     notes = [] if complaint is None else [f"pyulog: {complaint} (the parse went on past it)"]
     cut = truncation(path)
-    hover_topic = _topic(ulog, "hover_thrust_estimate", ["hover_thrust"]) if thrust_src else None
-    hover_param = ulog.initial_parameters.get("MPC_THR_HOVER")
-    if thrust_src and hover_topic is None and hover_param is None:
-        raise InputError(path, "topic hover_thrust_estimate", "missing, and no MPC_THR_HOVER parameter: collective "
-                                                              "thrust cannot be scaled to newtons")
-    if thrust_src and hover_topic is None:
-        notes.append(f"hover thrust from the MPC_THR_HOVER parameter ({hover_param:.3f})")
+    hover_topic, hover_param = _hover_source(path, ulog, notes) if thrust_src else (None, None)
     yaw_src = _topic(ulog, "vehicle_attitude_setpoint", ["yaw_body"])
     if yaw_src is None:
         notes.append(_own_yaw_note(ulog))
