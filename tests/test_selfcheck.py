@@ -164,6 +164,16 @@ def test_limits_scale_with_the_speed_range_above_a_floor():
     assert small.cv_limit_mps == pytest.approx(0.2) and small.passed
 
 
+@pytest.mark.parametrize("cv, diverged", [(0.6, False), (49.9, False), (480.7, True)])
+def test_a_cv_only_diverged_predictions_can_give_says_so(cv, diverged):
+    """Held-out predictions that diverge count as dragfit.ERROR_CLIP_MPS (1000 m/s): a CV of tens of m/s
+    and more is theirs, never an airflow's, and the reason says it (a 31 s real flight read 480.693 m/s)."""
+    check = verdict(load_airframe(M300), [_log("a.csv")], cv, 10.0, Thresholds(cv_share=0.05, replay_share=0.1))
+    reason = next(r for r in check.reasons if r.startswith("hold-level CV"))
+    assert reason.startswith(f"hold-level CV {cv:.3f} m/s > 0.500 m/s")
+    assert ("held-out predictions diverged, each counted as 1000 m/s" in reason) == diverged, reason
+
+
 @pytest.mark.parametrize("case,expected", [
     ("cv", "hold-level CV 0.600 m/s > 0.500 m/s"),
     ("nothing", "b.csv: contributed no usable sample"),

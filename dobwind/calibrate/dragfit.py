@@ -655,6 +655,16 @@ def drag_fit_predict(active: tuple[str, ...]) -> FitPredict:
 ERROR_CLIP_MPS = 1e3
 
 
+def diverged(cv_mps: float) -> str:
+    """What a cross-validation figure of tens of m/s and more means, for a message: no airflow a multirotor
+    flies in gives it, only held-out predictions counted as the clip (a law fitted on the other folds that
+    the step cannot invert, or one collapsed to zero). Empty for an ordinary figure."""
+    if not cv_mps > 0.05 * ERROR_CLIP_MPS:
+        return ""
+    return (f" (held-out predictions diverged, each counted as {ERROR_CLIP_MPS:g} m/s: fitted on the rest of the "
+            "flight, the law is not pinned down)")
+
+
 def prediction_error(predicted: np.ndarray, truth: np.ndarray) -> np.ndarray:
     """predicted - truth, clipped to +-ERROR_CLIP_MPS, NaN counted as the clip."""
     with np.errstate(invalid="ignore", over="ignore"):

@@ -316,7 +316,7 @@ def vertical_warning(cv_v_mps: float | None, air_z_mps: np.ndarray) -> str | Non
     if cv_v_mps < zero_mps:
         return None
     return (f"the vertical law predicts held-out vertical airflow no better than zero does (grouped CV {cv_v_mps:.3f} "
-            f"m/s, RMS of the true vertical airflow {zero_mps:.3f} m/s): these logs do not identify it and the "
+            f"m/s{dragfit.diverged(cv_v_mps)}, RMS of the true vertical airflow {zero_mps:.3f} m/s): these logs do not identify it and the "
             "vertical wind is unreliable (fly climbs and descents; check the thrust model)")
 
 

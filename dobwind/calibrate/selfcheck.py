@@ -263,7 +263,7 @@ def verdict(af: Airframe, logs: list[LogCheck], cv_mps: float | None, speed_rang
     if cv_mps is None or not math.isfinite(cv_mps):
         reasons.append("no cross-validation figure (the data has too few blocks to test the model on unseen flight)")
     elif cv_mps > cv_limit:
-        reasons.append(f"hold-level CV {cv_mps:.3f} m/s > {cv_limit:.3f} m/s")
+        reasons.append(f"hold-level CV {cv_mps:.3f} m/s > {cv_limit:.3f} m/s{dragfit.diverged(cv_mps)}")
     for check in logs:
         if check.fit_samples == 0:
             reasons.append(f"{check.log}: contributed no usable sample to the fit")
