@@ -121,3 +121,19 @@ def test_replay_names_a_disagreeing_acceleration_input_and_marks_the_rows(wobbly
     assert all("SUSPECT" in name for name, n in out["status_counts"].items() if "LANDED" not in name and "NO_DATA" not in name)
     assert main(["replay", str(starter), str(log), "--json"]) == 0
     assert not [f for f in json.loads(capsys.readouterr().out)["plausibility"] if f["check"] == "acceleration"]
+
+
+def test_a_log_replay_cannot_read_keeps_the_logged_acceleration(tmp_path, monkeypatch):
+    """init's check reads the log as replay would; when that read fails, init still writes the starter it
+    wrote before the check existed (replay then says what is wrong), not exit 2 from the check."""
+    import dobwind.io.autopilot as autopilot
+    from dobwind.core.errors import InputError
+
+    def refuse(path, *args, **kwargs):
+        raise InputError(path, "topic", "unreadable for this test")
+
+    monkeypatch.setattr(autopilot, "read_autopilot", refuse)
+    log = _px4_log(tmp_path / "w.ulg", wobble_mps2=1.0)
+    text, choices, _ = build_airframe(str(log), 2.0, str(tmp_path / "w.toml"))
+    assert choices.acceleration == "ned" and choices.acceleration_disagreement_mps2 is None
+    assert 'acceleration = "ned"' in text
