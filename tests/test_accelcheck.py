@@ -137,3 +137,12 @@ def test_a_log_replay_cannot_read_keeps_the_logged_acceleration(tmp_path, monkey
     text, choices, _ = build_airframe(str(log), 2.0, str(tmp_path / "w.toml"))
     assert choices.acceleration == "ned" and choices.acceleration_disagreement_mps2 is None
     assert 'acceleration = "ned"' in text
+
+
+@pytest.mark.parametrize("wobble, verdict", [(1.0, "above"), (0.0, "within")])
+def test_inspect_shows_the_check_on_the_logs_own_samples(tmp_path, wobble, verdict):
+    from dobwind.inspect.anylog import inspect_log
+
+    summary = inspect_log(str(_px4_log(tmp_path / "w.ulg", wobble_mps2=wobble)))
+    note = next(n for n in summary.notes if n.startswith("acceleration: vehicle_local_position"))
+    assert f"({verdict} the 0.20 m/s² limit" in note, note

@@ -148,6 +148,26 @@ def _px4_wind(topics: dict, wind_role: Role, params: dict) -> AutopilotWind:
     return wind_activity(name, src["t"], src[north], src[east], why)
 
 
+def _acceleration_note(topics: dict, spans) -> str | None:
+    """vehicle_local_position's own acceleration against its velocity's derivative while airborne
+    (dobwind/io/accelcheck.py at init's 0.5 Hz band, on the topic's own samples), and what init does about it."""
+    from dobwind.io.accelcheck import check_acceleration
+    from dobwind.io.logs import FlightLog
+
+    lp = topics.get("vehicle_local_position")
+    if lp is None or not spans or not all(k in lp for k in ("vx", "vy", "ax", "ay")) or len(lp["t"]) < 3:
+        return None
+    order = np.argsort(lp["t"], kind="stable")
+    cols = {"t": lp["t"][order], "vel_n": lp["vx"][order], "vel_e": lp["vy"][order], "acc_n": lp["ax"][order],
+            "acc_e": lp["ay"][order]}
+    check = check_acceleration(FlightLog("vehicle_local_position", cols), inside(cols["t"], spans), "ned", 0.5)
+    if check is None:
+        return None
+    return (f"acceleration: vehicle_local_position: {check.text()}; init makes this check on the rows replay reads, at "
+            "the starter's band, and above the limit takes the velocity's derivative (aliased vibration: a fast "
+            "signal logged at a few hertz)")
+
+
 def inspect_ulog(path: str) -> LogSummary:
     ulog, complaint = open_ulog(path, TOPICS_READ + EXTRA_TOPICS)
     topics = _topics(ulog)
@@ -165,7 +185,7 @@ def inspect_ulog(path: str) -> LogSummary:
     autostart = f"PX4 SYS_AUTOSTART {int(params['SYS_AUTOSTART'])}" if "SYS_AUTOSTART" in params else "PX4 (no SYS_AUTOSTART)"
     vehicle = Vehicle(rotors, rotor_source, autostart, rpm_ok, rpm_note, hover, hover_source, rpm_median, rpm_max,
                       px4_not_multirotor(params))
-    notes = [n for n in (complaint and f"pyulog: {complaint}", truncation(path)) if n]
+    notes = [n for n in (complaint and f"pyulog: {complaint}", truncation(path), _acceleration_note(topics, spans)) if n]
     streams = tuple(stream_stats(name, d["t"]) for name, d in sorted(topics.items()))
     return LogSummary(path, "ulog", "PX4", start, end, total(spans) if spans or "unknown" not in airborne_source else None,
                       airborne_source, spans, streams, roles, params, vehicle,
