@@ -25,6 +25,7 @@ from dobwind.io.vehiclekind import MULTIROTORS_ONLY
 from dobwind.model.airframe import Airframe, PRIOR, STANDARD_GRAVITY, VERTICAL_FALLBACK, parse_airframe
 from dobwind.model.airframe_toml import airframe_document, dumps
 from dobwind.model.ranges import NAME_MAX_CHARS, RANGES
+from dobwind.model.signals import log_signals
 from dobwind.model.kinds import DragFrame
 
 # Observer rates a starter airframe picks from (Hz): the usual logging rates of PX4 and ArduPilot.
@@ -142,7 +143,7 @@ def _logged_acceleration_check(log: str, draft: Airframe, band_hz: float) -> Acc
     from dobwind.io.autopilot import is_autopilot_log, read_autopilot
     from dobwind.io.logs import read_log, required_columns
 
-    if draft.observer.acceleration == "velocity":
+    if not log_signals(draft).measured_acceleration:
         return None
     try:
         if is_autopilot_log(log):

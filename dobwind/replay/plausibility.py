@@ -38,6 +38,7 @@ from dobwind.io.logs import FlightLog
 from dobwind.model.airframe import Airframe
 from dobwind.model.forceair import HORIZONTAL_DRAG_KEYS, drag_airflow_numpy
 from dobwind.model.kinds import DragFrame
+from dobwind.model.signals import log_signals
 from dobwind.model.status import STATUS_BITS, STATUS_LANDED, STATUS_SUSPECT, accepted
 
 EXTRAPOLATED = next(bit.value for bit in STATUS_BITS if bit.name == "EXTRAPOLATED")
@@ -229,7 +230,7 @@ def acceleration_input(af: Airframe, log: FlightLog, status: np.ndarray) -> Find
     log whose acceleration disagrees with the velocity's derivative in the estimate's band (the low-pass's
     highest cutoff) beyond dobwind/io/accelcheck.py's limit: every accepted row is SUSPECT, the force is
     wrong throughout. `dobwind init` routes such a log's starter through the velocity instead."""
-    if af.observer.acceleration == "velocity":
+    if not log_signals(af).measured_acceleration:
         return None
     ok = accepted(status)
     check = check_acceleration(log, ok & ((status.astype(np.int64) & STATUS_LANDED) == 0),
