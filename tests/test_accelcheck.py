@@ -146,3 +146,17 @@ def test_inspect_shows_the_check_on_the_logs_own_samples(tmp_path, wobble, verdi
     summary = inspect_log(str(_px4_log(tmp_path / "w.ulg", wobble_mps2=wobble)))
     note = next(n for n in summary.notes if n.startswith("acceleration: vehicle_local_position"))
     assert f"({verdict} the 0.20 m/s² limit" in note, note
+
+
+def test_a_repeated_timestamp_splits_the_run_instead_of_dividing_by_zero():
+    import warnings
+
+    log = _flight(_sinusoid(0.5, 0.2))
+    t = log.time_s.copy()
+    t[3000] = t[2999]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check = check_acceleration(FlightLog(log.path, log.columns | {"t": t}), np.ones(log.rows, dtype=bool), "ned",
+                                   BAND_HZ)
+    assert math.isfinite(check.disagreement_mps2)
+    assert check.disagreement_mps2 == pytest.approx(0.5 / math.sqrt(2) * _gain(0.2), rel=0.03)

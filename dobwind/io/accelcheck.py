@@ -84,7 +84,9 @@ def check_acceleration(log: FlightLog, airborne: np.ndarray, source: str, band_h
     t = log.time_s
     vel = log.stack("vel_n", "vel_e")
     acc = horizontal_acceleration(log, source)
-    ok = airborne & np.all(np.isfinite(vel), axis=1) & np.all(np.isfinite(acc), axis=1)
+    # A repeated or backward timestamp (a topic's own samples, as inspect passes them) has no derivative.
+    ok = (airborne & np.all(np.isfinite(vel), axis=1) & np.all(np.isfinite(acc), axis=1)
+          & np.r_[True, np.diff(t) > 0])
     dt = float(np.median(np.diff(t))) if len(t) > 1 else math.inf
     if not math.isfinite(dt) or dt <= 0 or band_hz >= 0.5 / dt:
         return None
