@@ -20,9 +20,10 @@ the user sees), plus the error on the fastest blocks when fitted on the rest (ex
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass
-from typing import Callable
+from typing import Callable, TypeVar
 
 import numpy as np
 from scipy.signal import lfilter, lfilter_zi
@@ -129,6 +130,9 @@ def direction_coverage(airflow_heading: np.ndarray) -> DirectionCoverage:
     return DirectionCoverage(tuple(float(a) for a in axial), front, back, n)  # type: ignore[arg-type]
 
 
+Memo = TypeVar("Memo")
+
+
 def parameters_of(frame: DragFrame) -> tuple[str, ...]:
     return BODY_PARAMETERS if frame == DragFrame.BODY else PARAMETERS
 
@@ -176,6 +180,22 @@ class DragSamples:
 
     def __len__(self) -> int:
         return len(self.observed)
+
+    @functools.cached_property
+    def parameter_rows(self) -> np.ndarray:
+        """(P, 3N) ``columns`` with one contiguous row per parameter (sample and axis along it), made once
+        per sample set: the normal equations read a few parameters' columns on every IRLS round, and a
+        column of the (3N, P) layout is strided, so each read pulled the whole array through the cache."""
+        return np.ascontiguousarray(self.columns.reshape(-1, self.columns.shape[2]).T)
+
+    @functools.cached_property
+    def memo(self) -> dict[tuple, object]:
+        """What pure functions of these samples alone computed, by key (remembered): the law's choice, the
+        hold-level CV and the exponent's walk fit the same sets on the same folds again and again (the
+        CV splits, robust_fit's coefficients, held-out predictions; see their functions). Valid because
+        the samples never change: a changed copy (select, with_exponent, dataclasses.replace) is a new
+        object with an empty memo."""
+        return {}
 
 
 def observer_filter(af: Airframe, dt_s: float, cutoff_hz: float, axis: int) -> tuple[np.ndarray, np.ndarray]:
@@ -459,13 +479,17 @@ def _normal_equations(samples: DragSamples, weights: np.ndarray | None,
     """A^T A and A^T y of the weighted system (rows: sample and axis) on these parameter columns, from
     ONE product [A y]^T [A y]: a separate A^T y (a matrix-vector product) took twice as long as A^T A on
     two shared cores, where BLAS's threads wait for each other. [A y] is built transposed, a row per
-    column: only the active columns are read, without a fancy-indexed copy of them first."""
-    flat = samples.columns.reshape(-1, samples.columns.shape[2])
-    w = np.ones(samples.observed.size) if weights is None else weights.reshape(-1)
+    column, from the samples' contiguous parameter rows (DragSamples.parameter_rows): reading strided
+    columns of the (3N, P) array instead took twice as long as the product itself. Either way [A y]
+    holds the same numbers and the product is the same call, so the result is the same to the bit."""
+    source = samples.parameter_rows
     augmented = np.empty((len(columns) + 1, samples.observed.size))
-    for row, column in enumerate(columns):
-        np.multiply(flat[:, column], w, out=augmented[row])
-    np.multiply(samples.observed.reshape(-1), w, out=augmented[-1])
+    w = None if weights is None else weights.reshape(-1)
+    for row, values in enumerate([source[column] for column in columns] + [samples.observed.reshape(-1)]):
+        if w is None:   # unit weights: the product by one is the value itself
+            augmented[row] = values
+        else:
+            np.multiply(values, w, out=augmented[row])
     product = augmented @ augmented.T
     return product[:-1, :-1], product[:-1, -1]
 
@@ -503,10 +527,25 @@ def solve_normal(parameters: tuple[str, ...], active: tuple[str, ...], gram: np.
     return theta
 
 
+def remembered(samples: DragSamples, key: tuple, compute: Callable[[], Memo]) -> Memo:
+    """``compute()``, a pure function of ``samples`` and ``key``, computed once per samples object
+    (DragSamples.memo); an array comes back read-only, so that no caller changes what the next gets."""
+    if key not in samples.memo:
+        value = compute()
+        if isinstance(value, np.ndarray):
+            value.flags.writeable = False
+        samples.memo[key] = value
+    return samples.memo[key]  # type: ignore[return-value]
+
+
 def robust_fit(samples: DragSamples, active: tuple[str, ...], rounds: int = 4) -> np.ndarray:
     """IRLS with Huber weights, the residual scale estimated per axis (horizontal and vertical noise
     differ: thrust noise enters the vertical force only). Samples marked ``anchor`` are fitted on their
-    logs' means instead (runmeans.py)."""
+    logs' means instead (runmeans.py). Fitted once per samples, set and rounds (remembered: a copy)."""
+    return remembered(samples, ("robust_fit", active, rounds), lambda: _robust_fit(samples, active, rounds)).copy()
+
+
+def _robust_fit(samples: DragSamples, active: tuple[str, ...], rounds: int) -> np.ndarray:
     theta = _solve(samples, active)
     if samples.anchor and len(np.unique(samples.log_index)) >= runmeans.MIN_LOGS:
         return anchored_theta(samples, active, theta)[0]
@@ -646,7 +685,13 @@ FitPredict = Callable[[DragSamples, DragSamples], np.ndarray]
 
 
 def drag_fit_predict(active: tuple[str, ...]) -> FitPredict:
-    return lambda train, test: predicted_airflow(test, robust_fit(train, active, rounds=2))
+    """Fit ``active`` on the first samples, predict the second's airflow (read-only). The prediction is
+    remembered per coefficients: the hold-level CV predicts the folds the grouped CV already did."""
+    def fit_predict(train: DragSamples, test: DragSamples) -> np.ndarray:
+        theta = robust_fit(train, active, rounds=2)
+        return remembered(test, ("predicted_airflow", theta.tobytes()), lambda: predicted_airflow(test, theta))
+
+    return fit_predict
 
 
 # A held-out prediction further off than this (m/s) is as wrong as any: errors are clipped to it (NaN
@@ -666,8 +711,13 @@ Split = tuple[DragSamples, DragSamples]  # (fitted on, scored on)
 
 
 def fold_splits(samples: DragSamples) -> tuple[Split, ...]:
-    """grouped_cv's FOLDS folds over the blocks (none with fewer than two blocks). Selected once by
-    choose_drag_law, which scores a dozen candidate laws on the same folds."""
+    """grouped_cv's FOLDS folds over the blocks (none with fewer than two blocks). Selected once per
+    samples (remembered): choose_drag_law scores a dozen candidate laws on them, and the hold-level CV
+    (holdcv.py) the same laws again, whose fits on each fold are then remembered too."""
+    return remembered(samples, ("fold_splits",), lambda: _fold_splits(samples))
+
+
+def _fold_splits(samples: DragSamples) -> tuple[Split, ...]:
     unique = np.unique(samples.group)
     if len(unique) < 2:
         return ()
@@ -677,7 +727,12 @@ def fold_splits(samples: DragSamples) -> tuple[Split, ...]:
 
 
 def top_split(samples: DragSamples) -> Split | None:
-    """extrapolation_error's split: the fastest blocks scored, the rest fitted (None when undefined)."""
+    """extrapolation_error's split: the fastest blocks scored, the rest fitted (None when undefined).
+    Selected once per samples (remembered), as fold_splits."""
+    return remembered(samples, ("top_split",), lambda: _top_split(samples))
+
+
+def _top_split(samples: DragSamples) -> Split | None:
     unique, inverse = np.unique(samples.group, return_inverse=True)
     speed = np.hypot(samples.airflow[:, 0], samples.airflow[:, 1])
     level = np.bincount(inverse, speed) / np.bincount(inverse)
