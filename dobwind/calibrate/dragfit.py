@@ -904,14 +904,19 @@ def polynomial_fit_predict(horizontal: list[Term], vertical: list[Term],
     def heading(samples: DragSamples) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         return heading_force(samples.observed.T, samples.cos_yaw, samples.sin_yaw, offset)
 
+    def terms(samples: DragSamples, which: list[Term]) -> np.ndarray:
+        # Remembered: the grouped CV, the extrapolation error and the hold-level CV evaluate the same
+        # terms on the same split objects (fold_splits, top_split), and the evaluation is most of the cost.
+        key = ("term_matrix", tuple(t.text for t in which), offset)
+        return remembered(samples, key, lambda: term_matrix(which, *heading(samples)))
+
     def fit_predict(train: DragSamples, test: DragSamples) -> np.ndarray:
-        m, n, fz = heading(train)
         speed = np.hypot(train.airflow[:, 0], train.airflow[:, 1])
-        c_h, *_ = np.linalg.lstsq(term_matrix(horizontal, m, n, fz), speed, rcond=None)
-        c_v, *_ = np.linalg.lstsq(term_matrix(vertical, m, n, fz), train.airflow[:, 2], rcond=None)
-        m, n, fz = heading(test)
-        predicted = np.maximum(term_matrix(horizontal, m, n, fz) @ c_h, 0)
+        c_h, *_ = np.linalg.lstsq(terms(train, horizontal), speed, rcond=None)
+        c_v, *_ = np.linalg.lstsq(terms(train, vertical), train.airflow[:, 2], rcond=None)
+        m, n, _ = heading(test)
+        predicted = np.maximum(terms(test, horizontal) @ c_h, 0)
         scale = along_force_scale(predicted, m * m + n * n)
-        return np.column_stack([scale * m, scale * n, term_matrix(vertical, m, n, fz) @ c_v])
+        return np.column_stack([scale * m, scale * n, terms(test, vertical) @ c_v])
 
     return fit_predict
