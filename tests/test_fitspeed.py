@@ -96,12 +96,25 @@ def _old_folds(group: np.ndarray) -> np.ndarray:
 def test_the_remembered_splits_are_the_hold_cvs_folds(samples):
     fresh = _fresh(samples)
     splits = dragfit.fold_splits(fresh)
-    assert dragfit.fold_splits(fresh) is splits   # made once
     fold = _old_folds(fresh.group)
     assert len(splits) == fold.max() + 1
     for k, (train, test) in enumerate(splits):
         assert np.array_equal(train.observed, fresh.observed[fold != k])
         assert np.array_equal(test.observed, fresh.observed[fold == k])
+
+
+def test_a_splits_results_are_remembered_with_its_parent_and_found_from_the_split_made_again(samples):
+    fresh = _fresh(samples)
+    train, _ = dragfit.fold_splits(fresh)[1]
+    theta = dragfit.robust_fit(train, ACTIVE, rounds=2)
+    assert ("fold", 1, "fitted", "robust_fit", ACTIVE, 2) in fresh.memo and not train.memo
+    again, _ = dragfit.fold_splits(fresh)[1]
+    assert again is not train and np.array_equal(dragfit.robust_fit(again, ACTIVE, rounds=2), theta)
+    # a copy of a split is samples of its own: changed numbers are never read through the parent's memo
+    shifted = dragfit.with_exponent(again, 1.8)
+    assert shifted.split_of is None and dataclasses.replace(again).split_of is None and again.select(
+        np.ones(len(again), bool)).split_of is None
+    assert not np.array_equal(dragfit.robust_fit(shifted, ACTIVE, rounds=2), theta)
 
 
 def test_hold_cv_after_the_grouped_cv_is_the_hold_cv_of_fresh_samples(samples):

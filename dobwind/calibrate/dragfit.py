@@ -22,8 +22,8 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-from dataclasses import dataclass
-from typing import Callable, TypeVar
+from dataclasses import dataclass, field
+from typing import Callable, Iterator, TypeVar
 
 import numpy as np
 from scipy.signal import lfilter, lfilter_zi
@@ -160,6 +160,11 @@ class DragSamples:
     # Fit on the logs' means and normalized within-log variation (dobwind/calibrate/runmeans.py) instead of on
     # every sample alike: set by anchor_on_runs when the logs' means disagree with a per-sample fit.
     anchor: bool = False
+    # A CV split's samples (fold_splits, top_split): their parent's memo and the split's name. What is
+    # computed from them is remembered with the parent, so it outlives the split objects, which are made
+    # again for each CV rather than kept (keeping every split of every sample set tripled the fit's memory).
+    # Not an init field: select, with_exponent and dataclasses.replace make samples with a memo of their own.
+    split_of: tuple[dict, tuple] | None = field(default=None, init=False, compare=False, repr=False)
 
     @property
     def parameters(self) -> tuple[str, ...]:
@@ -190,11 +195,11 @@ class DragSamples:
 
     @functools.cached_property
     def memo(self) -> dict[tuple, object]:
-        """What pure functions of these samples alone computed, by key (remembered): the law's choice, the
-        hold-level CV and the exponent's walk fit the same sets on the same folds again and again (the
-        CV splits, robust_fit's coefficients, held-out predictions; see their functions). Valid because
-        the samples never change: a changed copy (select, with_exponent, dataclasses.replace) is a new
-        object with an empty memo."""
+        """What pure functions of these samples alone computed, by key (remembered): the law's choice and
+        the hold-level CV fit the same sets on the same folds again and again (robust_fit's coefficients,
+        held-out predictions, the polynomial family's terms; see their functions), those of the samples'
+        CV splits included (split_of). Valid because the samples never change: a changed copy (select,
+        with_exponent, dataclasses.replace) is a new object with an empty memo."""
         return {}
 
 
@@ -528,14 +533,16 @@ def solve_normal(parameters: tuple[str, ...], active: tuple[str, ...], gram: np.
 
 
 def remembered(samples: DragSamples, key: tuple, compute: Callable[[], Memo]) -> Memo:
-    """``compute()``, a pure function of ``samples`` and ``key``, computed once per samples object
-    (DragSamples.memo); an array comes back read-only, so that no caller changes what the next gets."""
-    if key not in samples.memo:
+    """``compute()``, a pure function of ``samples`` and ``key``, computed once per samples (in
+    DragSamples.memo; a split's, in its parent's under the split's name); an array comes back read-only,
+    so that no caller changes what the next one gets."""
+    memo, name = samples.split_of if samples.split_of is not None else (samples.memo, ())
+    if name + key not in memo:
         value = compute()
         if isinstance(value, np.ndarray):
             value.flags.writeable = False
-        samples.memo[key] = value
-    return samples.memo[key]  # type: ignore[return-value]
+        memo[name + key] = value
+    return memo[name + key]  # type: ignore[return-value]
 
 
 def robust_fit(samples: DragSamples, active: tuple[str, ...], rounds: int = 4) -> np.ndarray:
@@ -710,36 +717,41 @@ def prediction_error(predicted: np.ndarray, truth: np.ndarray) -> np.ndarray:
 Split = tuple[DragSamples, DragSamples]  # (fitted on, scored on)
 
 
+def _split_part(samples: DragSamples, keep: np.ndarray, name: tuple) -> DragSamples:
+    """``samples.select(keep)`` as the split part ``name`` of ``samples`` (DragSamples.split_of)."""
+    part = samples.select(keep)
+    object.__setattr__(part, "split_of", (samples.memo, name))
+    return part
+
+
 def fold_splits(samples: DragSamples) -> tuple[Split, ...]:
-    """grouped_cv's FOLDS folds over the blocks (none with fewer than two blocks). Selected once per
-    samples (remembered): choose_drag_law scores a dozen candidate laws on them, and the hold-level CV
-    (holdcv.py) the same laws again, whose fits on each fold are then remembered too."""
-    return remembered(samples, ("fold_splits",), lambda: _fold_splits(samples))
+    """grouped_cv's FOLDS folds over the blocks (none with fewer than two blocks). Selected once by
+    choose_drag_law, which scores a dozen candidate laws on the same folds."""
+    return tuple(each_fold(samples))
 
 
-def _fold_splits(samples: DragSamples) -> tuple[Split, ...]:
+def each_fold(samples: DragSamples) -> Iterator[Split]:
+    """fold_splits one at a time, so that one fold's copies are held at a time (the hold-level CV,
+    holdcv.py, which finds the fits of the laws the grouped CV scored remembered: split_of)."""
     unique = np.unique(samples.group)
     if len(unique) < 2:
-        return ()
+        return
     fold_of = dict(zip(np.random.default_rng(0).permutation(unique), np.arange(len(unique)) % FOLDS))
     fold = np.array([fold_of[g] for g in samples.group])
-    return tuple((samples.select(fold != k), samples.select(fold == k)) for k in range(min(FOLDS, len(unique))))
+    for k in range(min(FOLDS, len(unique))):
+        yield _split_part(samples, fold != k, ("fold", k, "fitted")), _split_part(samples, fold == k, ("fold", k, "scored"))
 
 
 def top_split(samples: DragSamples) -> Split | None:
     """extrapolation_error's split: the fastest blocks scored, the rest fitted (None when undefined).
-    Selected once per samples (remembered), as fold_splits."""
-    return remembered(samples, ("top_split",), lambda: _top_split(samples))
-
-
-def _top_split(samples: DragSamples) -> Split | None:
+    Its parts remember what is computed from them with ``samples``, as fold_splits' do."""
     unique, inverse = np.unique(samples.group, return_inverse=True)
     speed = np.hypot(samples.airflow[:, 0], samples.airflow[:, 1])
     level = np.bincount(inverse, speed) / np.bincount(inverse)
     top = level[inverse] >= TOP_SHARE * level.max()
     if top.all() or (~top).sum() < 50:
         return None
-    return samples.select(~top), samples.select(top)
+    return _split_part(samples, ~top, ("top", "fitted")), _split_part(samples, top, ("top", "scored"))
 
 
 def grouped_cv(samples: DragSamples, fit_predict: FitPredict,

@@ -214,11 +214,10 @@ def hold_cv(samples: dragfit.DragSamples, fit_predict: dragfit.FitPredict,
             window_s: float = HOLD_WINDOW_S) -> HoldCV | None:
     """Hold-level CV on dragfit.grouped_cv's folds, and the same error on the top blocks (those
     dragfit.extrapolation_error holds out) when fitted below them. None with fewer than two blocks.
-    The very splits of dragfit.fold_splits and top_split: a law they already scored is not fitted again."""
-    folds_made = dragfit.fold_splits(samples)
-    if not folds_made:
+    The splits of dragfit.fold_splits and top_split: a law the grouped CV scored is not fitted again."""
+    parts = [_held_out(split, fit_predict, window_s) for split in dragfit.each_fold(samples)]
+    if not parts:   # fewer than two blocks
         return None
-    parts = [_held_out(split, fit_predict, window_s) for split in folds_made]
     held = _Windows.joined(parts)
     folds = np.concatenate([np.full(len(p.error_mps), k) for k, p in enumerate(parts)])
     top = dragfit.top_split(samples)
