@@ -20,9 +20,10 @@ the user sees), plus the error on the fastest blocks when fitted on the rest (ex
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
-from dataclasses import dataclass
-from typing import Callable
+from dataclasses import dataclass, field
+from typing import Callable, Iterator, TypeVar
 
 import numpy as np
 from scipy.signal import lfilter, lfilter_zi
@@ -129,6 +130,9 @@ def direction_coverage(airflow_heading: np.ndarray) -> DirectionCoverage:
     return DirectionCoverage(tuple(float(a) for a in axial), front, back, n)  # type: ignore[arg-type]
 
 
+Memo = TypeVar("Memo")
+
+
 def parameters_of(frame: DragFrame) -> tuple[str, ...]:
     return BODY_PARAMETERS if frame == DragFrame.BODY else PARAMETERS
 
@@ -156,6 +160,11 @@ class DragSamples:
     # Fit on the logs' means and normalized within-log variation (dobwind/calibrate/runmeans.py) instead of on
     # every sample alike: set by anchor_on_runs when the logs' means disagree with a per-sample fit.
     anchor: bool = False
+    # A CV split's samples (fold_splits, top_split): their parent's memo and the split's name. What is
+    # computed from them is remembered with the parent, so it outlives the split objects, which are made
+    # again for each CV rather than kept (keeping every split of every sample set tripled the fit's memory).
+    # Not an init field: select, with_exponent and dataclasses.replace make samples with a memo of their own.
+    split_of: tuple[dict, tuple] | None = field(default=None, init=False, compare=False, repr=False)
 
     @property
     def parameters(self) -> tuple[str, ...]:
@@ -176,6 +185,22 @@ class DragSamples:
 
     def __len__(self) -> int:
         return len(self.observed)
+
+    @functools.cached_property
+    def parameter_rows(self) -> np.ndarray:
+        """(P, 3N) ``columns`` with one contiguous row per parameter (sample and axis along it), made once
+        per sample set: the normal equations read a few parameters' columns on every IRLS round, and a
+        column of the (3N, P) layout is strided, so each read pulled the whole array through the cache."""
+        return np.ascontiguousarray(self.columns.reshape(-1, self.columns.shape[2]).T)
+
+    @functools.cached_property
+    def memo(self) -> dict[tuple, object]:
+        """What pure functions of these samples alone computed, by key (remembered): the law's choice and
+        the hold-level CV fit the same sets on the same folds again and again (robust_fit's coefficients,
+        held-out predictions, the polynomial family's terms; see their functions), those of the samples'
+        CV splits included (split_of). Valid because the samples never change: a changed copy (select,
+        with_exponent, dataclasses.replace) is a new object with an empty memo."""
+        return {}
 
 
 def observer_filter(af: Airframe, dt_s: float, cutoff_hz: float, axis: int) -> tuple[np.ndarray, np.ndarray]:
@@ -459,13 +484,17 @@ def _normal_equations(samples: DragSamples, weights: np.ndarray | None,
     """A^T A and A^T y of the weighted system (rows: sample and axis) on these parameter columns, from
     ONE product [A y]^T [A y]: a separate A^T y (a matrix-vector product) took twice as long as A^T A on
     two shared cores, where BLAS's threads wait for each other. [A y] is built transposed, a row per
-    column: only the active columns are read, without a fancy-indexed copy of them first."""
-    flat = samples.columns.reshape(-1, samples.columns.shape[2])
-    w = np.ones(samples.observed.size) if weights is None else weights.reshape(-1)
+    column, from the samples' contiguous parameter rows (DragSamples.parameter_rows): reading strided
+    columns of the (3N, P) array instead took twice as long as the product itself. Either way [A y]
+    holds the same numbers and the product is the same call, so the result is the same to the bit."""
+    source = samples.parameter_rows
     augmented = np.empty((len(columns) + 1, samples.observed.size))
-    for row, column in enumerate(columns):
-        np.multiply(flat[:, column], w, out=augmented[row])
-    np.multiply(samples.observed.reshape(-1), w, out=augmented[-1])
+    w = None if weights is None else weights.reshape(-1)
+    for row, values in enumerate([source[column] for column in columns] + [samples.observed.reshape(-1)]):
+        if w is None:   # unit weights: the product by one is the value itself
+            augmented[row] = values
+        else:
+            np.multiply(values, w, out=augmented[row])
     product = augmented @ augmented.T
     return product[:-1, :-1], product[:-1, -1]
 
@@ -503,10 +532,27 @@ def solve_normal(parameters: tuple[str, ...], active: tuple[str, ...], gram: np.
     return theta
 
 
+def remembered(samples: DragSamples, key: tuple, compute: Callable[[], Memo]) -> Memo:
+    """``compute()``, a pure function of ``samples`` and ``key``, computed once per samples (in
+    DragSamples.memo; a split's, in its parent's under the split's name); an array comes back read-only,
+    so that no caller changes what the next one gets."""
+    memo, name = samples.split_of if samples.split_of is not None else (samples.memo, ())
+    if name + key not in memo:
+        value = compute()
+        if isinstance(value, np.ndarray):
+            value.flags.writeable = False
+        memo[name + key] = value
+    return memo[name + key]  # type: ignore[return-value]
+
+
 def robust_fit(samples: DragSamples, active: tuple[str, ...], rounds: int = 4) -> np.ndarray:
     """IRLS with Huber weights, the residual scale estimated per axis (horizontal and vertical noise
     differ: thrust noise enters the vertical force only). Samples marked ``anchor`` are fitted on their
-    logs' means instead (runmeans.py)."""
+    logs' means instead (runmeans.py). Fitted once per samples, set and rounds (remembered: a copy)."""
+    return remembered(samples, ("robust_fit", active, rounds), lambda: _robust_fit(samples, active, rounds)).copy()
+
+
+def _robust_fit(samples: DragSamples, active: tuple[str, ...], rounds: int) -> np.ndarray:
     theta = _solve(samples, active)
     if samples.anchor and len(np.unique(samples.log_index)) >= runmeans.MIN_LOGS:
         return anchored_theta(samples, active, theta)[0]
@@ -646,7 +692,13 @@ FitPredict = Callable[[DragSamples, DragSamples], np.ndarray]
 
 
 def drag_fit_predict(active: tuple[str, ...]) -> FitPredict:
-    return lambda train, test: predicted_airflow(test, robust_fit(train, active, rounds=2))
+    """Fit ``active`` on the first samples, predict the second's airflow (read-only). The prediction is
+    remembered per coefficients: the hold-level CV predicts the folds the grouped CV already did."""
+    def fit_predict(train: DragSamples, test: DragSamples) -> np.ndarray:
+        theta = robust_fit(train, active, rounds=2)
+        return remembered(test, ("predicted_airflow", theta.tobytes()), lambda: predicted_airflow(test, theta))
+
+    return fit_predict
 
 
 # A held-out prediction further off than this (m/s) is as wrong as any: errors are clipped to it (NaN
@@ -675,26 +727,41 @@ def prediction_error(predicted: np.ndarray, truth: np.ndarray) -> np.ndarray:
 Split = tuple[DragSamples, DragSamples]  # (fitted on, scored on)
 
 
+def _split_part(samples: DragSamples, keep: np.ndarray, name: tuple) -> DragSamples:
+    """``samples.select(keep)`` as the split part ``name`` of ``samples`` (DragSamples.split_of)."""
+    part = samples.select(keep)
+    object.__setattr__(part, "split_of", (samples.memo, name))
+    return part
+
+
 def fold_splits(samples: DragSamples) -> tuple[Split, ...]:
     """grouped_cv's FOLDS folds over the blocks (none with fewer than two blocks). Selected once by
     choose_drag_law, which scores a dozen candidate laws on the same folds."""
+    return tuple(each_fold(samples))
+
+
+def each_fold(samples: DragSamples) -> Iterator[Split]:
+    """fold_splits one at a time, so that one fold's copies are held at a time (the hold-level CV,
+    holdcv.py, which finds the fits of the laws the grouped CV scored remembered: split_of)."""
     unique = np.unique(samples.group)
     if len(unique) < 2:
-        return ()
+        return
     fold_of = dict(zip(np.random.default_rng(0).permutation(unique), np.arange(len(unique)) % FOLDS))
     fold = np.array([fold_of[g] for g in samples.group])
-    return tuple((samples.select(fold != k), samples.select(fold == k)) for k in range(min(FOLDS, len(unique))))
+    for k in range(min(FOLDS, len(unique))):
+        yield _split_part(samples, fold != k, ("fold", k, "fitted")), _split_part(samples, fold == k, ("fold", k, "scored"))
 
 
 def top_split(samples: DragSamples) -> Split | None:
-    """extrapolation_error's split: the fastest blocks scored, the rest fitted (None when undefined)."""
+    """extrapolation_error's split: the fastest blocks scored, the rest fitted (None when undefined).
+    Its parts remember what is computed from them with ``samples``, as fold_splits' do."""
     unique, inverse = np.unique(samples.group, return_inverse=True)
     speed = np.hypot(samples.airflow[:, 0], samples.airflow[:, 1])
     level = np.bincount(inverse, speed) / np.bincount(inverse)
     top = level[inverse] >= TOP_SHARE * level.max()
     if top.all() or (~top).sum() < 50:
         return None
-    return samples.select(~top), samples.select(top)
+    return _split_part(samples, ~top, ("top", "fitted")), _split_part(samples, top, ("top", "scored"))
 
 
 def grouped_cv(samples: DragSamples, fit_predict: FitPredict,
@@ -859,14 +926,19 @@ def polynomial_fit_predict(horizontal: list[Term], vertical: list[Term],
     def heading(samples: DragSamples) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         return heading_force(samples.observed.T, samples.cos_yaw, samples.sin_yaw, offset)
 
+    def terms(samples: DragSamples, which: list[Term]) -> np.ndarray:
+        # Remembered: the grouped CV, the extrapolation error and the hold-level CV evaluate the same
+        # terms on the same split objects (fold_splits, top_split), and the evaluation is most of the cost.
+        key = ("term_matrix", tuple(t.text for t in which), offset)
+        return remembered(samples, key, lambda: term_matrix(which, *heading(samples)))
+
     def fit_predict(train: DragSamples, test: DragSamples) -> np.ndarray:
-        m, n, fz = heading(train)
         speed = np.hypot(train.airflow[:, 0], train.airflow[:, 1])
-        c_h, *_ = np.linalg.lstsq(term_matrix(horizontal, m, n, fz), speed, rcond=None)
-        c_v, *_ = np.linalg.lstsq(term_matrix(vertical, m, n, fz), train.airflow[:, 2], rcond=None)
-        m, n, fz = heading(test)
-        predicted = np.maximum(term_matrix(horizontal, m, n, fz) @ c_h, 0)
+        c_h, *_ = np.linalg.lstsq(terms(train, horizontal), speed, rcond=None)
+        c_v, *_ = np.linalg.lstsq(terms(train, vertical), train.airflow[:, 2], rcond=None)
+        m, n, _ = heading(test)
+        predicted = np.maximum(terms(test, horizontal) @ c_h, 0)
         scale = along_force_scale(predicted, m * m + n * n)
-        return np.column_stack([scale * m, scale * n, term_matrix(vertical, m, n, fz) @ c_v])
+        return np.column_stack([scale * m, scale * n, terms(test, vertical) @ c_v])
 
     return fit_predict

@@ -135,13 +135,6 @@ class HoldCV:
         return float(np.sqrt(bias + noise / max(scored_s, 1e-3)))
 
 
-def _folds(group: np.ndarray) -> np.ndarray:
-    """dragfit.grouped_cv's fold of every sample (same blocks, same seed)."""
-    unique = np.unique(group)
-    fold_of = dict(zip(np.random.default_rng(0).permutation(unique), np.arange(len(unique)) % dragfit.FOLDS))
-    return np.array([fold_of[g] for g in group])
-
-
 def _half_differences(predicted: np.ndarray, truth: np.ndarray, inverse: np.ndarray,
                       count: np.ndarray) -> np.ndarray:
     """Per window: the speed error of its second half (in time) minus that of its first half; NaN for
@@ -171,14 +164,13 @@ class _Windows:
                           ("error_mps", "speed_mps", "half_difference_mps", "length_s")))
 
 
-def _held_out(samples: dragfit.DragSamples, fit_predict: dragfit.FitPredict, test: np.ndarray,
-              per_window: np.ndarray) -> _Windows:
-    """Hold-mean speed errors, true speeds, half differences and lengths of the ``test`` samples' windows
-    (``per_window``: samples_per_window of every sample)."""
-    held_out = samples.select(test)
+def _held_out(split: dragfit.Split, fit_predict: dragfit.FitPredict, window_s: float) -> _Windows:
+    """Hold-mean speed errors, true speeds, half differences and lengths of the held-out samples' windows
+    (``split``: fitted on, scored on; windows of ``window_s``)."""
+    held_out = split[1]
     # A diverged prediction counts as the clip (dragfit.prediction_error), never as inf or NaN.
-    predicted = held_out.airflow + dragfit.prediction_error(fit_predict(samples.select(~test), held_out), held_out.airflow)
-    windows, scored = _scored_windows(held_out, per_window[test])
+    predicted = held_out.airflow + dragfit.prediction_error(fit_predict(*split), held_out.airflow)
+    windows, scored = _scored_windows(held_out, samples_per_window(held_out, window_s))
     predicted, held_out, windows = predicted[scored], held_out.select(scored), windows[scored]
     _, first, inverse, count = np.unique(windows, return_index=True, return_inverse=True, return_counts=True)
     speed = np.bincount(inverse, weights=np.hypot(held_out.airflow[:, 0], held_out.airflow[:, 1])) / count
@@ -221,20 +213,17 @@ def _bands(windows: _Windows) -> tuple[tuple[float, ...], ...]:
 def hold_cv(samples: dragfit.DragSamples, fit_predict: dragfit.FitPredict,
             window_s: float = HOLD_WINDOW_S) -> HoldCV | None:
     """Hold-level CV on dragfit.grouped_cv's folds, and the same error on the top blocks (those
-    dragfit.extrapolation_error holds out) when fitted below them. None with fewer than two blocks."""
-    if len(np.unique(samples.group)) < 2:
+    dragfit.extrapolation_error holds out) when fitted below them. None with fewer than two blocks.
+    The splits of dragfit.fold_splits and top_split: a law the grouped CV scored is not fitted again."""
+    parts = [_held_out(split, fit_predict, window_s) for split in dragfit.each_fold(samples)]
+    if not parts:   # fewer than two blocks
         return None
-    fold = _folds(samples.group)
-    per_window = samples_per_window(samples, window_s)
-    parts = [_held_out(samples, fit_predict, fold == k, per_window) for k in range(min(dragfit.FOLDS, fold.max() + 1))]
     held = _Windows.joined(parts)
     folds = np.concatenate([np.full(len(p.error_mps), k) for k, p in enumerate(parts)])
-    unique, inverse = np.unique(samples.group, return_inverse=True)
-    level = np.bincount(inverse, np.hypot(samples.airflow[:, 0], samples.airflow[:, 1])) / np.bincount(inverse)
-    top = level[inverse] >= dragfit.TOP_SHARE * level.max()
+    top = dragfit.top_split(samples)
     extrapolation, top_error = math.nan, None
-    if not top.all() and (~top).sum() >= 50:
-        top_error = _held_out(samples, fit_predict, top, per_window).error_mps
+    if top is not None:
+        top_error = _held_out(top, fit_predict, window_s).error_mps
         extrapolation = float(np.sqrt(np.mean(top_error ** 2)))
     centres, rms, bias, noise = _bands(held)
     return HoldCV(float(np.sqrt(np.mean(held.error_mps ** 2))), centres, rms, extrapolation, bias, noise,

@@ -21,10 +21,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal import butter, lfilter, sosfiltfilt
 
-from dobwind.calibrate import dragfit
 from dobwind.model.airframe import Airframe
 from dobwind.model.discretization import first_order
-from dobwind.model.forceair import heading_force, heading_to_ned
+from dobwind.model.forceair import heading_force, heading_to_ned, horizontal_drag_basis
 
 SAMPLE_RATE_HZ = 5.0
 SMOOTH_HZ = 0.15   # the zero-phase low-pass on measured and predicted force alike (see smooth)
@@ -108,13 +107,22 @@ def through_observer(path: ObserverPath, force_ne: np.ndarray) -> np.ndarray:
     return _recursion(path.keep, (1 - path.keep) * observed, x[0])
 
 
+def _unit_forces(air_h: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Heading-frame (x, y) force per unit of each horizontal coefficient and force offset: the horizontal
+    part of dragfit.basis, the same numbers without its vertical terms and its (n, 3, P) stack, which
+    took most of law_force_ne's time (it runs once per residual of the solve)."""
+    vx, vy = air_h[:, 0], air_h[:, 1]
+    one, zero = np.ones_like(vx), np.zeros_like(vx)
+    return horizontal_drag_basis(vx, vy, np.maximum(np.hypot(vx, vy), 1e-9)) | {"ox": (one, zero), "oy": (zero, one)}
+
+
 def law_force_ne(rows: LogRows, winds: np.ndarray, law: dict[str, float]) -> np.ndarray:
     """(n, 2) the horizontal drag law's force at each row's airflow R(yaw) (w - v), north/east."""
     air = winds[rows.group] - rows.vel
     c, s = rows.cos_yaw, rows.sin_yaw
     air_h = np.column_stack(heading_force(np.column_stack([air, np.zeros(len(c))]).T, c, s, (0.0, 0.0, 0.0)))
-    full = dragfit.basis(air_h)
-    f_h = sum(full[:, :2, dragfit.PARAMETERS.index(p)] * value for p, value in law.items() if p != "kappa")
+    unit = _unit_forces(air_h)
+    f_h = sum(np.column_stack(unit[p]) * value for p, value in law.items() if p != "kappa")
     # kappa: a thrust-scale error shows as a force along the thrust's horizontal part, which in
     # manoeuvres is not along the airflow (in steady flight it only rescales the drag law)
     return np.column_stack(heading_to_ned(f_h[:, 0], f_h[:, 1], c, s)) + law.get("kappa", 0.0) * rows.thrust
