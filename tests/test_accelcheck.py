@@ -160,3 +160,27 @@ def test_a_repeated_timestamp_splits_the_run_instead_of_dividing_by_zero():
                                    BAND_HZ)
     assert math.isfinite(check.disagreement_mps2)
     assert check.disagreement_mps2 == pytest.approx(0.5 / math.sqrt(2) * _gain(0.2), rel=0.03)
+
+
+def test_fit_warns_when_a_calibration_logs_acceleration_is_not_the_vehicles(wobbly, tmp_path, capsys):
+    """fit on the wobbly log with an airframe that reads the logged acceleration: one warning naming the log and
+    the figure, whatever the fit's verdict; with the starter (velocity) none."""
+    log, starter, _ = wobbly
+    given = tmp_path / "ned.toml"
+    given.write_text(starter.read_text().replace('acceleration = "velocity"', 'acceleration = "ned"'))
+    main(["fit", str(given), str(log), "--wind", "3@90", "-o", str(tmp_path / "f.toml")])
+    err = capsys.readouterr().err
+    warned = [line for line in err.splitlines() if "the calibration reads that error as an external force" in line]
+    assert len(warned) == 1 and str(log) in warned[0] and "above the 0.20 m/s² limit" in warned[0], err
+    main(["fit", str(starter), str(log), "--wind", "3@90", "-o", str(tmp_path / "g.toml")])
+    assert "the calibration reads that error" not in capsys.readouterr().err
+
+
+def test_fit_on_a_flight_at_one_constant_velocity_is_refused_in_one_line(wobbly, tmp_path, capsys):
+    """The wobbly log's vehicle flies at 1 m/s north throughout: no candidate law's cross-validation is
+    defined (NaN). Ranked as NaN, no candidate was "within 2 % of the best" and the fit ended in an
+    IndexError traceback; ranked last, the fit ends in its ordinary refusal (exit 1, one line)."""
+    log, starter, _ = wobbly
+    assert main(["fit", str(starter), str(log), "--wind", "3@90", "-o", str(tmp_path / "f.toml")]) == 1
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and not (tmp_path / "f.toml").exists()

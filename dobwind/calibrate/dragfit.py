@@ -845,7 +845,7 @@ def choose_drag_law(samples: DragSamples, prefer: Prefer) -> DragChoice:
             horizontal, theta, dropped = found[0], found[1], dropped + found[4]
     scored_v = []
     for v in VERTICAL_SETS:
-        scored_v.append((grouped_cv(samples, drag_fit_predict(horizontal + v + ALWAYS), folds)[1], v))
+        scored_v.append((_ranked(grouped_cv(samples, drag_fit_predict(horizontal + v + ALWAYS), folds)[1]), v))
     best_v = min(s for s, _ in scored_v)
     vertical = next(v for s, v in scored_v if s <= best_v * 1.02)
     if vertical != vertical_full:
@@ -862,6 +862,13 @@ def choose_drag_law(samples: DragSamples, prefer: Prefer) -> DragChoice:
                       dropped, limited)
 
 
+def _ranked(score: float) -> float:
+    """A candidate's score for the ranking: an undefined one (NaN: calibration data that move no airflow the
+    folds can score) ranks last. NaN compared with anything is False, which left no candidate "within 2 % of
+    the best" and ended the fit in a traceback on such a log."""
+    return score if math.isfinite(score) else math.inf
+
+
 def _choose_horizontal(samples: DragSamples, candidates: tuple[tuple[str, ...], ...], folds: tuple[Split, ...],
                        top: Split | None, prefer: Prefer) -> tuple[tuple[str, ...], np.ndarray, str | None, float,
                                                                    tuple[str, ...]]:
@@ -874,7 +881,7 @@ def _choose_horizontal(samples: DragSamples, candidates: tuple[tuple[str, ...], 
     for h in candidates:
         fit_predict = drag_fit_predict(h + vertical_full + ALWAYS)
         cv_h, _ = grouped_cv(samples, fit_predict, folds)
-        scored.append((combined(cv_h, top_error(fit_predict, top)), h))
+        scored.append((_ranked(combined(cv_h, top_error(fit_predict, top))), h))
     dropped: list[str] = []
     while True:  # the law is checked with the fullest vertical set, before the vertical stage's CV
         best = min(s for s, _ in scored)

@@ -85,6 +85,10 @@ def run(args: argparse.Namespace) -> int:
     options = field_options(args)
     check_targets(targets, [args.airframe, *args.logs, *options.files()])
     af = load_airframe(args.airframe)
+    from dobwind.io.accelcheck import calibration_warnings
+
+    for warning in calibration_warnings(af, list(args.logs)):  # said first: a refusal below may follow from it
+        sys.stderr.write(f"dobwind fit: warning: {warning}\n")
     field = field_truth(options, af, list(args.logs))  # --wind unknown: the winds solved here (or exit 1)
     if field is not None:  # every fit of the logs below reads them with that truth
         fit_airframe = functools.partial(fit_airframe, log_reader=field.reader)

@@ -24,7 +24,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from dobwind.io.logs import FlightLog
+from dobwind.model.airframe import Airframe
 from dobwind.model.attitude import rotation_matrices
+from dobwind.model.signals import log_signals
 
 LIMIT_MPS2 = 0.02 * 9.80665
 # Runs of valid rows shorter than this many periods of the band are left out, and each run's first and
@@ -107,3 +109,27 @@ def check_acceleration(log: FlightLog, airborne: np.ndarray, source: str, band_h
     if count < 2 * MIN_SAMPLES:
         return None
     return AccelCheck(source, math.sqrt(squares / count), band_hz, count / 2 * dt)
+
+
+def calibration_warnings(af: Airframe, paths: list[str]) -> list[str]:
+    """For `fit`: each autopilot log whose acceleration the airframe reads (observer.acceleration "ned" or
+    "specific_force") and which fails the check at the estimate's band (the low-pass's highest cutoff),
+    one warning. The fit would read that error as an external force; a log the reader refuses is left to
+    the fit, which says why."""
+    from dobwind.core.errors import InputError
+    from dobwind.io.autopilot import is_autopilot_log, read_autopilot
+
+    if not log_signals(af).measured_acceleration:
+        return []
+    said = []
+    for path in (p for p in paths if is_autopilot_log(p)):
+        try:
+            flight = read_autopilot(path, af)
+        except InputError:
+            continue
+        check = check_acceleration(flight.log, ~flight.landed & ~flight.no_data, af.observer.acceleration,
+                                   max(af.filter.cutoffs_hz))
+        if check is not None and check.broken:
+            said.append(f"{path}: {check.text()}: the calibration reads that error as an external force; "
+                        'observer.acceleration = "velocity" avoids it (dobwind init chooses it for such a log)')
+    return said
