@@ -461,3 +461,4 @@ def shared_solves(_solve_memo: SolveMemo, monkeypatch: pytest.MonkeyPatch) -> So
 
 
 from tests.shared_figures import shared_figures  # noqa: E402,F401  (a report's analysis figures, once per process)
+from tests.compile_cache import shared_selftest_builds  # noqa: E402,F401  (self-test builds, once per source)
