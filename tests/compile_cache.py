@@ -1,11 +1,13 @@
 """The self-test programs `generate` and `check` build, compiled once per source in a test process (issue #34).
 
-`check` runs generate's self-test gate (dobwind/generate/selftest_gate.py) and `generate` runs it again, so a
-test that asks both about one airframe compiles the same two files with the same compiler and flags twice
-(0.15-0.3 s each): test_range_walk.py does so at each of its 49 edges, test_airframe_ranges.py at each
-corner. The program is a pure function of the compiler, its flags and the sources' bytes, so every test
-process keeps the programs it built, keyed by exactly those (with the headers beside the sources), and a repeated build copies the program in
-place of running the compiler. The program itself always runs, and its output is the test's to judge.
+`check` runs generate's self-test gate (dobwind/generate/selftest_gate.py) on both precisions and `generate`
+runs it again on one, so a test that asks both about one airframe compiles the same two files with the same
+compiler and flags twice (0.15-0.3 s each): test_range_walk.py does so at each of its 49 edges,
+test_airframe_ranges.py at each corner, and every `check` of the same shipped airframe in a process builds
+what the first one built. The program is a pure function of the compiler, its flags and the sources' bytes,
+so every test process keeps the programs it built, keyed by exactly those (with the headers beside the
+sources), and a repeated build copies the program in place of running the compiler. The program itself
+always runs, and its output is the test's to judge.
 
 Only builds that cannot be told apart from a real one are shared: the compiler must resolve to a program
 under /usr or /bin (a test's fake compiler lives in its tmp_path and always runs), the build must have
