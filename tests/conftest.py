@@ -197,6 +197,7 @@ SLOW: dict[str, tuple[str, ...]] = {
     "test_fieldcal.py": (
         "test_wind_unknown_per_segment_finds_each_segments_wind",
         "test_wind_unknown_refuses_a_flight_whose_nose_never_turns",
+        "test_a_refusal_with_several_winds_says_which_were_identified",  # the two-winds solve's last quick reader
     ),
     "test_ulog.py": (
         "test_corrupt_ulogs_end_quickly_with_one_line_or_one_json_object",
@@ -208,10 +209,14 @@ SLOW: dict[str, tuple[str, ...]] = {
     ),
     "test_report_wording.py": (
         "test_a_prior_airframe_says_so_in_the_airframe_table",
+        "test_an_inactive_autopilot_wind_is_not_introduced_as_a_comparison",  # zero_wind's report's last quick reader
     ),
     "test_verify_fastmath.py": (
         "test_verify_with_px4_flags_passes_and_leaves_this_process_with_subnormals",
         "test_a_nonnegative_test_by_float_comparison_fails_the_reference_comparison_under_px4",
+    ),
+    "test_fieldreplay.py": (
+        "test_report_on_a_dataflash_log",
     ),
     "test_fieldcal_bench.py": (
         "test_end_to_end_prints_one_json_document",
