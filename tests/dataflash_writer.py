@@ -17,28 +17,30 @@ def _fmt_message(msg_type: int, name: str, fmt: str, columns: list[str]) -> byte
     return bytes([0xA3, 0x95, _FMT_TYPE]) + body
 
 
-def _pack(code: str, value) -> bytes:
+def _value(code: str, value):
+    """A column's value as its struct code takes it (a missing one is 0 or empty text)."""
     if code in "NZ":  # char[16] text (PARM.Name), char[64] text (MSG.Message)
-        return struct.pack("<" + _CODES[code], str(value or "").encode())
+        return str(value or "").encode()
     if code in "fd":
-        return struct.pack("<" + code, float(value if value is not None else 0.0))
-    return struct.pack("<" + _CODES[code], int(round(value if value is not None else 0)))
+        return float(value if value is not None else 0.0)
+    return int(round(value if value is not None else 0))
 
 
 def write_dataflash(path: Path, messages: dict[str, tuple[str, list[str]]], rows: list[tuple[str, dict]]) -> Path:
     """messages: name -> (format characters, column names; the first is TimeUS with format Q);
     rows: (name, {column: value}) in log order."""
-    blob = b""
     # FMT describing FMT itself, as ArduPilot writes it first (DFReader knows it anyway).
-    blob += bytes([0xA3, 0x95, _FMT_TYPE]) + struct.pack("<BB4s16s64s", _FMT_TYPE, 89, b"FMT", b"BBnNZ",
-                                                         b"Type,Length,Name,Format,Columns")
-    types = {}
+    parts = [bytes([0xA3, 0x95, _FMT_TYPE]) + struct.pack("<BB4s16s64s", _FMT_TYPE, 89, b"FMT", b"BBnNZ",
+                                                          b"Type,Length,Name,Format,Columns")]
+    # Each message type's header and one Struct for its whole body; the parts are joined once at the end
+    # (adding to one bytes object copied the whole log at every row: 0.9 s for a 4 s flight).
+    layouts = {}
     for k, (name, (fmt, cols)) in enumerate(messages.items()):
-        types[name] = 130 + k
-        blob += _fmt_message(types[name], name, fmt, cols)
+        parts.append(_fmt_message(130 + k, name, fmt, cols))
+        layouts[name] = (bytes([0xA3, 0x95, 130 + k]), struct.Struct("<" + "".join(_CODES[c] for c in fmt)),
+                         list(zip(fmt, cols)))
     for name, values in rows:
-        fmt, cols = messages[name]
-        packed = b"".join(_pack(c, values.get(col)) for c, col in zip(fmt, cols))
-        blob += bytes([0xA3, 0x95, types[name]]) + packed
-    path.write_bytes(blob)
+        header, body, fields = layouts[name]
+        parts.append(header + body.pack(*[_value(c, values.get(col)) for c, col in fields]))
+    path.write_bytes(b"".join(parts))
     return path

@@ -5,7 +5,9 @@ quadratic law's step without any power, the airframe key, the fit's columns for 
 choice of the exponent on samples made from laws of known exponent."""
 from __future__ import annotations
 
+import copy
 import dataclasses
+import functools
 import math
 
 import numpy as np
@@ -147,11 +149,23 @@ def _always_usable(samples: dragfit.DragSamples, choice: dragfit.DragChoice) -> 
     return True
 
 
-@pytest.mark.parametrize("truth", [1.8, 2.0, 2.2])
-def test_the_exponent_chosen_is_the_laws(truth):
+@functools.lru_cache(maxsize=None)
+def _computed_choice(truth: float):
+    """The samples of a law of exponent ``truth``, the set chosen on them and the exponent chosen when every
+    law is usable: pure functions of ``truth`` (seeded), 3-5 s, which three tests below ask of 2.2. Computed
+    once per process; each caller gets copies (copied together: picked.choice stays the copy of choice)."""
     samples = _samples(_law(truth))
     choice = dragfit.choose_drag_law(samples, holdcv.prefer_on_holds)
-    picked = dragexponent.choose_exponent(samples, choice, _always_usable)
+    return samples, choice, dragexponent.choose_exponent(samples, choice, _always_usable)
+
+
+def _chosen(truth: float):
+    return copy.deepcopy(_computed_choice(truth))
+
+
+@pytest.mark.parametrize("truth", [1.8, 2.0, 2.2])
+def test_the_exponent_chosen_is_the_laws(truth):
+    samples, choice, picked = _chosen(truth)
     assert picked.exponent == pytest.approx(truth, abs=1e-9)  # on the 0.1 grid, two steps from 2
     assert picked.samples.exponent == picked.exponent and 2.0 in picked.scores
     if truth == 2.0:
@@ -161,8 +175,7 @@ def test_the_exponent_chosen_is_the_laws(truth):
 
 
 def test_an_unusable_law_keeps_the_quadratic_one():
-    samples = _samples(_law(2.2))
-    choice = dragfit.choose_drag_law(samples, holdcv.prefer_on_holds)
+    samples, choice, _ = _chosen(2.2)
     picked = dragexponent.choose_exponent(samples, choice, lambda s, c: False)
     assert picked.exponent == 2.0 and picked.choice is choice
 
@@ -274,9 +287,8 @@ def test_without_the_body_frame_law_a_tie_goes_to_the_better_hold_means():
 def test_the_set_chosen_again_must_still_beat_the_quadratic_law(monkeypatch):
     """At the new exponent the set is chosen again; should that law's holds not beat the quadratic
     law's significantly (here: a set without quadratic drag, forced), the quadratic law is kept."""
-    samples = _samples(_law(2.2))
-    choice = dragfit.choose_drag_law(samples, holdcv.prefer_on_holds)
-    assert dragexponent.choose_exponent(samples, choice, _always_usable).exponent == 2.2  # the premise
+    samples, choice, premise = _chosen(2.2)  # computed before choose_drag_law is replaced below
+    assert premise.exponent == 2.2  # the premise
     linear_only = ("l0", "lz", "qz") + dragfit.ALWAYS
     monkeypatch.setattr(dragfit, "choose_drag_law",
                         lambda s, prefer: dataclasses.replace(choice, active=linear_only,

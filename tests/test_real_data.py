@@ -11,11 +11,12 @@ from benchmarks import realdata, runconsistency
 
 @pytest.fixture(scope="module")
 def results():
-    """realdata.check() without its five leave-one-out fits (5 of its 7 fits, 38 s of the module's 39 s in a
-    serial run); the leave-one-out is checked by the slow test below."""
+    """realdata.check(), whole (its seven fits, about 40 s serial), once for the module: every test here is
+    marked slow (tests/conftest.py), so no quick run pays for it, and the leave-one-out test below reads the
+    same call instead of fitting the split and the constant-wind runs a second time (12 s)."""
     if len(realdata.runs(realdata.DEFAULT_DATA)) < 5:
         pytest.skip("the Neural-Fly runs are not beside this checkout")
-    return realdata.check(leave_one_out=False)
+    return realdata.check()
 
 
 def test_neural_fly_wind_direction(results):
@@ -86,12 +87,10 @@ def test_neural_fly_leave_one_out_bounds_put_35wind_beyond_every_convex_law():
     assert not bounds[("70p20sint", ("35wind",))].beyond_goal
 
 
-def test_neural_fly_leave_one_out_scores_every_run_and_judges_the_interior_ones():
+def test_neural_fly_leave_one_out_scores_every_run_and_judges_the_interior_ones(results):
     """The whole of `make realdata`'s check: every training run held out once with finite figures, and the
     issue #31 verdict given for the interior runs only (neither the still-air run nor the fastest)."""
-    if len(realdata.runs(realdata.DEFAULT_DATA)) < 5:
-        pytest.skip("the Neural-Fly runs are not beside this checkout")
-    full = realdata.check()
+    full = results
     loo = full["leave_one_out"]
     assert set(loo) == set(full["split"]) and len(loo) >= 4
     assert all(math.isfinite(r["mean_speed_mps"]) for r in loo.values())

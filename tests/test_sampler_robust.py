@@ -192,14 +192,16 @@ def test_fit_of_a_log_whose_first_rows_are_invalid(sweep, columns, capsys, share
     """End to end: the NaN rows used to reach the filters, every sample's regressors were NaN and the fit
     died in the least squares (a traceback). Now the fit is written and close to the clean log's: only
     the first second differs (the regressors' filters start at row 50; with NaN rpm the step also
-    rejects those rows and settles after them)."""
+    rejects those rows and settles after them). ``--hover-noise 0`` as in the test below: the low-pass
+    rounds after the fit are not what this is about, and the clean fit is then that test's two-log fit
+    (shared_fits computes it once)."""
     folder, path, vertical = sweep
     clean_out, broken_out = folder / f"clean_{columns[0]}.toml", folder / f"broken_{columns[0]}.toml"
     broken = folder / f"broken_{columns[0]}.csv"
     _blank_first_rows(path, broken, columns, 50)
     for log, out in ((path, clean_out), (broken, broken_out)):
-        assert main(["fit", str(M300), str(log), str(vertical), "--model", "drag-heading", "--force",
-                     "-o", str(out)]) in (0, 1)   # 1: the self-check failed, written anyway (--force)
+        assert main(["fit", str(M300), str(log), str(vertical), "--model", "drag-heading", "--force", "--hover-noise",
+                     "0", "-o", str(out)]) in (0, 1)   # 1: the self-check failed, written anyway (--force)
     assert "Traceback" not in capsys.readouterr().err
     clean, got = load_airframe(clean_out), load_airframe(broken_out)
     for key in ("l0", "q0", "lz", "qz"):
