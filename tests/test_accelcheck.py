@@ -178,3 +178,14 @@ def test_jittered_timestamps_of_an_exact_log_read_no_disagreement(rate_hz, jitte
     check = check_acceleration(_exact(t), np.ones(len(t), dtype=bool), "ned", BAND_HZ)
     assert check.disagreement_mps2 < 0.005, check
 
+
+def test_a_silence_of_seconds_ends_the_run():
+    """A 10 Hz log that lost 3 s of samples mid-flight: the two stretches are checked apart. Joined, the
+    silence was flight made up by interpolation (0.015 m/s^2 on these exact samples; 0.21 m/s^2 before the
+    runs were resampled, the velocity's change over the silence read as one sample's)."""
+    t = np.arange(0.0, SPAN_S, 0.1)
+    t = t[(t < 50.0) | (t > 53.05)]
+    check = check_acceleration(_exact(t), np.ones(len(t), dtype=bool), "ned", BAND_HZ)
+    assert check.disagreement_mps2 < 0.005, check
+    # each stretch loses its first and last period of the band (2 s), and the silence is no flight
+    assert check.seconds == pytest.approx(SPAN_S - 3.0 - 2 * 4.0, abs=0.3)

@@ -33,6 +33,9 @@ LIMIT_MPS2 = 0.02 * 9.80665
 MIN_RUN_PERIODS = 3.0
 EDGE_PERIODS = 1.0
 MIN_SAMPLES = 50
+# A silence longer than this many typical intervals ends a run (dobwind/io/resample.py GapPolicy's
+# figure): interpolating over a few lost messages is harmless, over seconds of flight it is not.
+MAX_GAP_INTERVALS = 4.0
 
 
 @dataclass(frozen=True)
@@ -97,9 +100,11 @@ def check_acceleration(log: FlightLog, airborne: np.ndarray, source: str, band_h
     dt = float(np.median(step[step > 0])) if np.any(step > 0) else math.inf
     if not math.isfinite(dt) or band_hz >= 0.5 / dt:
         return None
-    # A repeated or backward timestamp (a topic's own samples, as inspect passes them) has no derivative.
+    # A repeated or backward timestamp (a topic's own samples, as inspect passes them) has no derivative,
+    # and across a silence of several intervals the filter would join two stretches of flight as one:
+    # either ends a run.
     ok = (airborne & np.all(np.isfinite(vel), axis=1) & np.all(np.isfinite(acc), axis=1)
-          & np.r_[True, step > 0])
+          & np.r_[True, (step > 0) & (step <= MAX_GAP_INTERVALS * dt)])
     sos = butter(2, band_hz, fs=1.0 / dt, output="sos")
     shortest = max(int(math.ceil(MIN_RUN_PERIODS / (band_hz * dt))), 16)
     edge = int(math.ceil(EDGE_PERIODS / (band_hz * dt)))
