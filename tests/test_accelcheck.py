@@ -189,3 +189,15 @@ def test_a_silence_of_seconds_ends_the_run():
     assert check.disagreement_mps2 < 0.005, check
     # each stretch loses its first and last period of the band (2 s), and the silence is no flight
     assert check.seconds == pytest.approx(SPAN_S - 3.0 - 2 * 4.0, abs=0.3)
+
+
+def test_a_flight_too_short_to_check_says_its_acceleration_is_unchecked(tmp_path, monkeypatch):
+    """Runs shorter than the check needs (here: every run, by asking for 10^4 periods of the band): the
+    logged acceleration is kept, and the starter and its summary say it was not checked."""
+    import dobwind.io.accelcheck as accelcheck
+
+    monkeypatch.setattr(accelcheck, "MIN_RUN_PERIODS", 1e4)
+    text, choices, _ = build_airframe(str(_px4_log(tmp_path / "w.ulg", wobble_mps2=1.0)), 2.0, str(tmp_path / "w.toml"))
+    assert choices.acceleration == "ned" and choices.acceleration_disagreement_mps2 is None
+    said = "not checked against the velocity's derivative"
+    assert said in choices.acceleration_reason and f"# acceleration: ned (the log's own NED acceleration; {said}" in text
