@@ -84,7 +84,7 @@ def test_only_airborne_rows_in_long_enough_runs_count():
     log = _flight(_sinusoid(1.0, 0.2))
     airborne = np.zeros(log.rows, dtype=bool)
     assert check_acceleration(log, airborne, "ned", BAND_HZ) is None
-    airborne[:200] = True                      # 4 s: shorter than 3 periods of the band (6 s)
+    airborne[:250] = True                      # 5 s: shorter than 3 periods of the band (6 s)
     assert check_acceleration(log, airborne, "ned", BAND_HZ) is None
     airborne[1000:4000] = True                 # 60 s, of which the middle 56 s are scored
     assert check_acceleration(log, airborne, "ned", BAND_HZ).seconds == pytest.approx(56.0, abs=0.1)
