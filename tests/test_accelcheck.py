@@ -111,13 +111,15 @@ def test_init_takes_the_velocitys_derivative_when_the_logged_acceleration_disagr
 
 
 def test_replay_names_a_disagreeing_acceleration_input_and_marks_the_rows(wobbly, tmp_path, capsys):
-    log, starter, _ = wobbly
+    log, starter, choices = wobbly
     given = tmp_path / "ned.toml"
     given.write_text(starter.read_text().replace('acceleration = "velocity"', 'acceleration = "ned"'))
     assert main(["replay", str(given), str(log), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     found = [f for f in out["plausibility"] if f["check"] == "acceleration"]
     assert len(found) == 1 and found[0]["value"] > LIMIT_MPS2 and found[0]["rows"] > 0
+    # at init's band (the filter's highest cutoff is the starter's bandwidth): init's figure, to 0.5 %
+    assert found[0]["value"] == pytest.approx(choices.acceleration_disagreement_mps2, rel=0.005)
     assert all("SUSPECT" in name for name, n in out["status_counts"].items() if "LANDED" not in name and "NO_DATA" not in name)
     assert main(["replay", str(starter), str(log), "--json"]) == 0
     assert not [f for f in json.loads(capsys.readouterr().out)["plausibility"] if f["check"] == "acceleration"]
