@@ -203,3 +203,17 @@ def test_a_flight_too_short_to_check_says_its_acceleration_is_unchecked(tmp_path
     assert choices.acceleration == "ned" and choices.acceleration_disagreement_mps2 is None
     said = "not checked against the velocity's derivative"
     assert said in choices.acceleration_reason and f"# acceleration: ned (the log's own NED acceleration; {said}" in text
+
+
+def test_inspect_checks_only_the_airborne_spans():
+    """vehicle_local_position at 10 Hz whose acceleration wobbles (1 m/s^2 at 0.2 Hz) on the ground only:
+    the note reads the 60 s airborne span, where it agrees, not the 60 s on the ground before it."""
+    from dobwind.inspect.inspect_ulog import _acceleration_note
+
+    t = np.arange(0.0, SPAN_S, 0.1)
+    log = _exact(t)
+    wobble = np.where(t < 60.0, 1.0, 0.0) * np.sin(0.4 * math.pi * t)
+    lp = {"t": t, "vx": log.columns["vel_n"], "vy": log.columns["vel_e"], "ax": log.columns["acc_n"] + wobble,
+          "ay": log.columns["acc_e"] + wobble}
+    note = _acceleration_note({"vehicle_local_position": lp}, ((60.0, SPAN_S),))
+    assert "differ by 0.00 m/s² RMS below 0.5 Hz over 56 s airborne (within" in note, note
