@@ -84,7 +84,7 @@ def test_only_airborne_rows_in_long_enough_runs_count():
     log = _flight(_sinusoid(1.0, 0.2))
     airborne = np.zeros(log.rows, dtype=bool)
     assert check_acceleration(log, airborne, "ned", BAND_HZ) is None
-    airborne[:200] = True                      # 4 s: shorter than 3 periods of the band (6 s)
+    airborne[:250] = True                      # 5 s: shorter than 3 periods of the band (6 s)
     assert check_acceleration(log, airborne, "ned", BAND_HZ) is None
     airborne[1000:4000] = True                 # 60 s, of which the middle 56 s are scored
     assert check_acceleration(log, airborne, "ned", BAND_HZ).seconds == pytest.approx(56.0, abs=0.1)
@@ -111,13 +111,15 @@ def test_init_takes_the_velocitys_derivative_when_the_logged_acceleration_disagr
 
 
 def test_replay_names_a_disagreeing_acceleration_input_and_marks_the_rows(wobbly, tmp_path, capsys):
-    log, starter, _ = wobbly
+    log, starter, choices = wobbly
     given = tmp_path / "ned.toml"
     given.write_text(starter.read_text().replace('acceleration = "velocity"', 'acceleration = "ned"'))
     assert main(["replay", str(given), str(log), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     found = [f for f in out["plausibility"] if f["check"] == "acceleration"]
     assert len(found) == 1 and found[0]["value"] > LIMIT_MPS2 and found[0]["rows"] > 0
+    # at init's band (the filter's highest cutoff is the starter's bandwidth): init's figure, to 0.5 %
+    assert found[0]["value"] == pytest.approx(choices.acceleration_disagreement_mps2, rel=0.005)
     assert all("SUSPECT" in name for name, n in out["status_counts"].items() if "LANDED" not in name and "NO_DATA" not in name)
     assert main(["replay", str(starter), str(log), "--json"]) == 0
     assert not [f for f in json.loads(capsys.readouterr().out)["plausibility"] if f["check"] == "acceleration"]
@@ -184,3 +186,58 @@ def test_fit_on_a_flight_at_one_constant_velocity_is_refused_in_one_line(wobbly,
     assert main(["fit", str(starter), str(log), "--wind", "3@90", "-o", str(tmp_path / "f.toml")]) == 1
     err = capsys.readouterr().err
     assert "Traceback" not in err and not (tmp_path / "f.toml").exists()
+
+
+def _exact(t: np.ndarray) -> FlightLog:
+    """The velocity 4 sin(0.3 t) north, 3 cos(0.2 t) east and its exact derivative, sampled at ``t``."""
+    return FlightLog("exact.csv", {"t": t, "vel_n": 4 * np.sin(0.3 * t), "vel_e": 3 * np.cos(0.2 * t),
+                                   "acc_n": 1.2 * np.cos(0.3 * t), "acc_e": -0.6 * np.sin(0.2 * t)})
+
+
+@pytest.mark.parametrize("rate_hz, jitter", [(10.0, 0.1), (10.0, 0.2), (50.0, 0.2)])
+def test_jittered_timestamps_of_an_exact_log_read_no_disagreement(rate_hz, jitter):
+    """A logger's timestamps jitter by a tenth of an interval and more: exact samples at such times agree
+    (a derivative over the uneven times read 10 % of the 0.67 m/s^2 RMS acceleration per 10 % jitter)."""
+    period = 1.0 / rate_hz
+    t = np.arange(0.0, SPAN_S, period)
+    t = t + np.clip(np.random.default_rng(7).normal(0.0, jitter * period, len(t)), -0.3 * period, 0.3 * period)
+    check = check_acceleration(_exact(t), np.ones(len(t), dtype=bool), "ned", BAND_HZ)
+    assert check.disagreement_mps2 < 0.005, check
+
+
+def test_a_silence_of_seconds_ends_the_run():
+    """A 10 Hz log that lost 3 s of samples mid-flight: the two stretches are checked apart. Joined, the
+    silence was flight made up by interpolation (0.015 m/s^2 on these exact samples; 0.21 m/s^2 before the
+    runs were resampled, the velocity's change over the silence read as one sample's)."""
+    t = np.arange(0.0, SPAN_S, 0.1)
+    t = t[(t < 50.0) | (t > 53.05)]
+    check = check_acceleration(_exact(t), np.ones(len(t), dtype=bool), "ned", BAND_HZ)
+    assert check.disagreement_mps2 < 0.005, check
+    # each stretch loses its first and last period of the band (2 s), and the silence is no flight
+    assert check.seconds == pytest.approx(SPAN_S - 3.0 - 2 * 4.0, abs=0.3)
+
+
+def test_a_flight_too_short_to_check_says_its_acceleration_is_unchecked(tmp_path, monkeypatch):
+    """Runs shorter than the check needs (here: every run, by asking for 10^4 periods of the band): the
+    logged acceleration is kept, and the starter and its summary say it was not checked."""
+    import dobwind.io.accelcheck as accelcheck
+
+    monkeypatch.setattr(accelcheck, "MIN_RUN_PERIODS", 1e4)
+    text, choices, _ = build_airframe(str(_px4_log(tmp_path / "w.ulg", wobble_mps2=1.0)), 2.0, str(tmp_path / "w.toml"))
+    assert choices.acceleration == "ned" and choices.acceleration_disagreement_mps2 is None
+    said = "not checked against the velocity's derivative"
+    assert said in choices.acceleration_reason and f"# acceleration: ned (the log's own NED acceleration; {said}" in text
+
+
+def test_inspect_checks_only_the_airborne_spans():
+    """vehicle_local_position at 10 Hz whose acceleration wobbles (1 m/s^2 at 0.2 Hz) on the ground only:
+    the note reads the 60 s airborne span, where it agrees, not the 60 s on the ground before it."""
+    from dobwind.inspect.inspect_ulog import _acceleration_note
+
+    t = np.arange(0.0, SPAN_S, 0.1)
+    log = _exact(t)
+    wobble = np.where(t < 60.0, 1.0, 0.0) * np.sin(0.4 * math.pi * t)
+    lp = {"t": t, "vx": log.columns["vel_n"], "vy": log.columns["vel_e"], "ax": log.columns["acc_n"] + wobble,
+          "ay": log.columns["acc_e"] + wobble}
+    note = _acceleration_note({"vehicle_local_position": lp}, ((60.0, SPAN_S),))
+    assert "differ by 0.00 m/s² RMS below 0.5 Hz over 56 s airborne (within" in note, note

@@ -233,6 +233,21 @@ def test_topic_names_from_the_airframe_file(tmp_path, capsys):
     assert "ros2_topics.velocity" in err and err.count("\n") == 1
 
 
+
+def test_a_bag_whose_hover_estimate_is_never_valid_says_so(tmp_path):
+    """Never valid (a short flight): the bag has no MPC_THR_HOVER to fall back on, so the unconverged
+    estimates scale the thrust, and a note says so (the ULog path names its fallback too)."""
+    from dobwind.model.airframe import parse_airframe
+    from dobwind.model.airframe_toml import dumps
+    from tests.helpers import airframe_dict
+
+    af = parse_airframe(dumps(airframe_dict(thrust={"source": "collective"}, mass=8.0, name="coll")), "<c>")
+    _, cols = _flight()
+    for until, said in ((1e9, True), (2.0, False)):
+        bag = _px4_bag(tmp_path / f"never{until:g}", af, cols, "mcap", esc=False, hover=0.45, converging_until=until)
+        _, flight, _ = replay_autopilot(af, str(bag), rate_hz=50.0)
+        assert any("hover_thrust_estimate never valid" in n for n in flight.notes) == said, flight.notes
+
 def test_px4_bag_collective_thrust_equals_the_equivalent_csv(tmp_path, capsys):
     from dobwind.model.airframe import parse_airframe
     from dobwind.model.airframe_toml import dumps

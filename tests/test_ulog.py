@@ -148,6 +148,18 @@ def test_the_hover_estimate_counts_only_once_valid(tmp_path, until):
     assert ("valid from 4.0 s" in said) if until < 1e9 else ("never valid" in said and "MPC_THR_HOVER" in said), said
 
 
+
+def test_a_hover_estimate_never_valid_without_the_parameter_is_named_as_such(tmp_path):
+    """The topic is there but never valid, and the log has no MPC_THR_HOVER: the refusal says so, not
+    that the topic is missing (the user would look for a topic the log has)."""
+    from dobwind.core.errors import InputError
+
+    _, cols = _flight()
+    path = _ulog(tmp_path / "h.ulg", cols, esc=False, thrust="thrust_setpoint", hover=0.42, converging=(0.30, 1e9))
+    with pytest.raises(InputError, match="never valid, and no MPC_THR_HOVER parameter") as err:
+        replay_ulog(_collective(), str(path), rate_hz=100.0)
+    assert err.value.where == "topic hover_thrust_estimate"
+
 @pytest.mark.parametrize("rpm", [True, False])
 def test_the_gap_note_names_esc_status_tolerance_only_when_the_airframe_reads_it(tmp_path, rpm):
     af, cols = _flight()

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 import os
 import re
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -223,6 +223,9 @@ def build_airframe(log: str, mass: float, output: str, name: str | None = None) 
     if check is not None:
         document, choices = _document(summary, mass, chosen, 2 * math.pi * BANDWIDTH_HZ * mass, check)
         draft = parse_airframe(dumps(document), output)
+    elif log_signals(draft).measured_acceleration:
+        # a short flight: the logged acceleration is kept, but the user must not read it as checked
+        choices = replace(choices, acceleration_reason=f"{choices.acceleration_reason}; {UNCHECKED}")
     gain = design_gain(draft, choices.bandwidth_hz)
     final = with_gains(draft, (gain, gain, gain))
     header = _header(log, summary, choices, mass)
@@ -280,6 +283,9 @@ def run_init(log: str, mass: float, output: str, name: str | None, as_json: bool
         print(_summary_text(output, choices, mass))
     return 0
 
+
+UNCHECKED = ("not checked against the velocity's derivative: too little airborne flight in unbroken runs of "
+             "3 periods of the band (dobwind/io/accelcheck.py), or a log replay cannot read")
 
 # What each observer.acceleration input is, for the summary: the bare keyword means little to a new user.
 ACCELERATION_MEANING = {"ned": "the log's own NED acceleration", "specific_force": "the accelerometer's specific "

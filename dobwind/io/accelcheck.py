@@ -35,6 +35,9 @@ LIMIT_MPS2 = 0.02 * 9.80665
 MIN_RUN_PERIODS = 3.0
 EDGE_PERIODS = 1.0
 MIN_SAMPLES = 50
+# A silence longer than this many typical intervals ends a run (dobwind/io/resample.py GapPolicy's
+# figure): interpolating over a few lost messages is harmless, over seconds of flight it is not.
+MAX_GAP_INTERVALS = 4.0
 
 
 @dataclass(frozen=True)
@@ -78,6 +81,15 @@ def _runs(ok: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(edges[::2], edges[1::2]))
 
 
+def _uniform(t: np.ndarray, dt: float, *columns: np.ndarray) -> list[np.ndarray]:
+    """Each (n, k) column block on instants ``dt`` apart from t[0] (linear interpolation). The filter and
+    the derivative below assume evenly spaced samples; a log's own timestamps are not (a 10 Hz topic's
+    jitter by a tenth of an interval and more), and a derivative taken over the uneven times turns that
+    jitter into a broadband error the comparison keeps: 10 % jitter reads as 10 % of the acceleration."""
+    grid = t[0] + dt * np.arange(int(math.floor((t[-1] - t[0]) / dt + 1e-6)) + 1)
+    return [np.column_stack([np.interp(grid, t, c[:, i]) for i in range(c.shape[1])]) for c in columns]
+
+
 def check_acceleration(log: FlightLog, airborne: np.ndarray, source: str, band_hz: float) -> AccelCheck | None:
     """The check on the rows marked ``airborne`` (on a log read through an airframe whose
     observer.acceleration is ``source``); None when fewer than MIN_SAMPLES rows in long enough runs."""
@@ -86,12 +98,15 @@ def check_acceleration(log: FlightLog, airborne: np.ndarray, source: str, band_h
     t = log.time_s
     vel = log.stack("vel_n", "vel_e")
     acc = horizontal_acceleration(log, source)
-    # A repeated or backward timestamp (a topic's own samples, as inspect passes them) has no derivative.
-    ok = (airborne & np.all(np.isfinite(vel), axis=1) & np.all(np.isfinite(acc), axis=1)
-          & np.r_[True, np.diff(t) > 0])
-    dt = float(np.median(np.diff(t))) if len(t) > 1 else math.inf
-    if not math.isfinite(dt) or dt <= 0 or band_hz >= 0.5 / dt:
+    step = np.diff(t)
+    dt = float(np.median(step[step > 0])) if np.any(step > 0) else math.inf
+    if not math.isfinite(dt) or band_hz >= 0.5 / dt:
         return None
+    # A repeated or backward timestamp (a topic's own samples, as inspect passes them) has no derivative,
+    # and across a silence of several intervals the filter would join two stretches of flight as one:
+    # either ends a run.
+    ok = (airborne & np.all(np.isfinite(vel), axis=1) & np.all(np.isfinite(acc), axis=1)
+          & np.r_[True, (step > 0) & (step <= MAX_GAP_INTERVALS * dt)])
     sos = butter(2, band_hz, fs=1.0 / dt, output="sos")
     shortest = max(int(math.ceil(MIN_RUN_PERIODS / (band_hz * dt))), 16)
     edge = int(math.ceil(EDGE_PERIODS / (band_hz * dt)))
@@ -99,11 +114,11 @@ def check_acceleration(log: FlightLog, airborne: np.ndarray, source: str, band_h
     for start, end in _runs(ok):
         if end - start < shortest:
             continue
-        # The velocity is smoothed before it is differentiated, not after: with the sample times jittered
-        # (a log's timestamps, a few percent), the derivative of raw samples turns their noise into a
-        # broadband error the band would keep; smoothed first, the derivative is of a slow signal.
-        derivative = np.gradient(sosfiltfilt(sos, vel[start:end], axis=0), t[start:end], axis=0)
-        difference = (sosfiltfilt(sos, acc[start:end], axis=0) - derivative)[edge:-edge]
+        v, a = _uniform(t[start:end], dt, vel[start:end], acc[start:end])
+        # The velocity is smoothed before it is differentiated, not after: the derivative of its raw
+        # samples turns their noise into a broadband error that nothing filters afterwards.
+        derivative = np.gradient(sosfiltfilt(sos, v, axis=0), dt, axis=0)
+        difference = (sosfiltfilt(sos, a, axis=0) - derivative)[edge:-edge]
         squares += float(np.sum(difference ** 2))
         count += difference.size
     if count < 2 * MIN_SAMPLES:

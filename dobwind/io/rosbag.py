@@ -175,7 +175,9 @@ def _px4_streams(path: str, msgs: dict, rotors: int) -> dict:
                            + [m.esc[i].esc_rpm for i in range(rotors)])
     else:
         s["thrust"] = _series(msgs["thrust"], True, lambda m: [m.xyz[2]])
-        s["hover"] = _valid_hover(_series(msgs["hover"], True, lambda m: [m.hover_thrust, getattr(m, "valid", True)]))
+        hover = _series(msgs["hover"], True, lambda m: [m.hover_thrust, getattr(m, "valid", True)])
+        s["hover"] = _valid_hover(hover)
+        s["hover_never_valid"] = hover is not None and not np.any(hover["v"][:, 1] > 0)
     return s
 
 
@@ -262,6 +264,9 @@ def read_rosbag(path: str, af: Airframe, rate_hz: float | None = None,
             raise InputError(path, f"topic {wanted['imu' if role == 'attitude' and setup == 'mavros' else role]}",
                              f"missing from the bag or fewer than two messages ({what}){hint}")
     notes = [f"{setup} topics: " + ", ".join(f"{r} {wanted[r]} ({len(msgs[r])})" for r in wanted if msgs[r])]
+    if s.get("hover_never_valid"):  # said, as the ULog path says its fallback to MPC_THR_HOVER
+        notes.append("hover_thrust_estimate never valid: the thrust is scaled by its unconverged estimates (a bag "
+                     "carries no MPC_THR_HOVER parameter to fall back on)")
     return _assemble(path, af, s, rate_hz, notes, wanted["wind"], bridge_gaps)
 
 

@@ -120,9 +120,11 @@ def _topic(ulog, name: str, fields: list[str], optional: tuple[str, ...] = ()) -
 def _hover_source(path: str, ulog, notes: list[str]) -> tuple[dict[str, np.ndarray] | None, float | None]:
     """(hover_thrust_estimate where valid, MPC_THR_HOVER) for a collective airframe; one of them at least."""
     hover_param = ulog.initial_parameters.get("MPC_THR_HOVER")
-    hover_topic = _converged_hover(_topic(ulog, "hover_thrust_estimate", ["hover_thrust"], ("valid",)), notes)
+    logged = _topic(ulog, "hover_thrust_estimate", ["hover_thrust"], ("valid",))
+    hover_topic = _converged_hover(logged, notes)
     if hover_topic is None and hover_param is None:
-        raise InputError(path, "topic hover_thrust_estimate", "missing, and no MPC_THR_HOVER parameter: collective "
+        what = "missing" if logged is None else "never valid"
+        raise InputError(path, "topic hover_thrust_estimate", f"{what}, and no MPC_THR_HOVER parameter: collective "
                                                               "thrust cannot be scaled to newtons")
     if hover_topic is None:
         notes.append(f"hover thrust from the MPC_THR_HOVER parameter ({hover_param:.3f})")
