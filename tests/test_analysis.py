@@ -143,3 +143,39 @@ def test_analyze_json_and_plots(tmp_path, capsys):
     for name in ("bode.png", "discretizations.png", "ramp.png"):
         data = (out_dir / name).read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 20000
+
+
+def test_the_stacked_frequency_response_is_python_controls_to_the_bit():
+    """figures.response evaluates C (zI - A)^-1 B + D for every frequency in one stacked solve; the values are
+    python-control's own per-frequency evaluation, bit for bit, on the shipped airframe's systems (observer
+    alone and with the low-pass, in still air and in wind)."""
+    import control as ct
+
+    from dobwind.analysis.figures import response
+    from dobwind.analysis.linear import axis_system
+    from dobwind.model.airframe import load_airframe
+    from dobwind.model.step import build_step
+    from tests.helpers import M300
+
+    model = build_step(load_airframe(M300))
+    for with_filter, wind in ((False, 0.0), (True, 0.0), (True, 8.0)):
+        sys = axis_system(model, 0, with_filter=with_filter, wind_speed_mps=wind)
+        assert isinstance(sys, ct.StateSpace) and sys.nstates > 1
+        freq = np.geomspace(1e-6, 0.5 / sys.dt * (1 - 1e-9), 500)
+        own = np.atleast_1d(np.squeeze(np.asarray(sys(np.exp(2j * np.pi * freq * sys.dt)), dtype=complex)))
+        assert np.array_equal(response(sys, freq), own)
+
+
+def test_a_frequency_on_a_pole_is_left_to_python_control():
+    """The stacked solve cannot invert zI - A at a pole: python-control's evaluation (inf) is kept."""
+    import control as ct
+    import warnings
+
+    from dobwind.analysis.figures import response
+
+    sys = ct.ss([[0.5, 0.1], [0.0, 0.2]], [[1.0], [1.0]], [[1.0, 0.0]], [[0.0]], 1.0)
+    pole = ct.ss([[1.0, 0.0], [0.0, 0.2]], [[1.0], [1.0]], [[1.0, 0.0]], [[0.0]], 1.0)
+    assert np.all(np.isfinite(response(sys, np.array([0.0, 0.1]))))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert not np.isfinite(response(pole, np.array([0.0]))[0])
