@@ -15,10 +15,8 @@ from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from dobwind.core.errors import InputError
-from dobwind.io.accelcheck import AccelCheck, check_acceleration
+from dobwind.io.accelcheck import AccelCheck, check_log
 from dobwind.inspect.anylog import inspect_log
 from dobwind.inspect.loginspect import ESSENTIAL_ROLES, LogSummary
 from dobwind.io.vehiclekind import MULTIROTORS_ONLY
@@ -137,24 +135,6 @@ def _acceleration(s: LogSummary) -> str:
     return "specific_force" if s.role("specific_force").source else "velocity"
 
 
-def _logged_acceleration_check(log: str, draft: Airframe, band_hz: float) -> AccelCheck | None:
-    """accelcheck on the log read as replay reads it through the draft (airborne rows with data; a CSV
-    log has no ground flag, so all its rows), or None when the draft takes no acceleration input."""
-    from dobwind.io.autopilot import is_autopilot_log, read_autopilot
-    from dobwind.io.logs import read_log, required_columns
-
-    if not log_signals(draft).measured_acceleration:
-        return None
-    try:
-        if is_autopilot_log(log):
-            flight = read_autopilot(log, draft)
-            return check_acceleration(flight.log, ~flight.landed & ~flight.no_data, draft.observer.acceleration, band_hz)
-        flight_log = read_log(log, required_columns(draft))
-    except InputError:
-        return None  # a log replay cannot read: the starter is written as before, and replay will say why
-    return check_acceleration(flight_log, np.ones(flight_log.rows, dtype=bool), draft.observer.acceleration, band_hz)
-
-
 def _name(name: str | None, output: str) -> str:
     if name is not None:
         return name  # parse_airframe checks it, naming --name below
@@ -219,7 +199,7 @@ def build_airframe(log: str, mass: float, output: str, name: str | None = None) 
         if name is not None and exc.where == "name":
             raise InputError("--name", None, exc.message) from None
         raise
-    check = _logged_acceleration_check(log, draft, choices.bandwidth_hz)
+    check = check_log(log, draft, choices.bandwidth_hz)
     if check is not None:
         document, choices = _document(summary, mass, chosen, 2 * math.pi * BANDWIDTH_HZ * mass, check)
         draft = parse_airframe(dumps(document), output)

@@ -126,24 +126,36 @@ def check_acceleration(log: FlightLog, airborne: np.ndarray, source: str, band_h
     return AccelCheck(source, math.sqrt(squares / count), band_hz, count / 2 * dt)
 
 
+def check_log(path: str, af: Airframe, band_hz: float) -> AccelCheck | None:
+    """check_acceleration on a log read as replay reads it through ``af`` (an autopilot log: its airborne
+    rows with data; a CSV log has no ground flag, so all its rows). None when ``af`` takes no acceleration
+    input, when the check cannot judge the flight, or when the reader refuses the log (its caller or replay
+    says why)."""
+    from dobwind.core.errors import InputError
+    from dobwind.io.autopilot import is_autopilot_log, read_autopilot
+    from dobwind.io.logs import read_log, required_columns
+
+    if not log_signals(af).measured_acceleration:
+        return None
+    try:
+        if is_autopilot_log(path):
+            flight = read_autopilot(path, af)
+            return check_acceleration(flight.log, ~flight.landed & ~flight.no_data, af.observer.acceleration, band_hz)
+        log = read_log(path, required_columns(af))
+    except InputError:
+        return None
+    return check_acceleration(log, np.ones(log.rows, dtype=bool), af.observer.acceleration, band_hz)
+
+
 def calibration_warnings(af: Airframe, paths: list[str]) -> list[str]:
     """For `fit`: each autopilot log whose acceleration the airframe reads (observer.acceleration "ned" or
     "specific_force") and which fails the check at the estimate's band (the low-pass's highest cutoff),
-    one warning. The fit would read that error as an external force; a log the reader refuses is left to
-    the fit, which says why."""
-    from dobwind.core.errors import InputError
-    from dobwind.io.autopilot import is_autopilot_log, read_autopilot
+    one warning. The fit would read that error as an external force."""
+    from dobwind.io.autopilot import is_autopilot_log
 
-    if not log_signals(af).measured_acceleration:
-        return []
     said = []
     for path in (p for p in paths if is_autopilot_log(p)):
-        try:
-            flight = read_autopilot(path, af)
-        except InputError:
-            continue
-        check = check_acceleration(flight.log, ~flight.landed & ~flight.no_data, af.observer.acceleration,
-                                   max(af.filter.cutoffs_hz))
+        check = check_log(path, af, max(af.filter.cutoffs_hz))
         if check is not None and check.broken:
             said.append(f"{path}: {check.text()}: the calibration reads that error as an external force; "
                         'observer.acceleration = "velocity" avoids it (dobwind init chooses it for such a log)')
