@@ -12,12 +12,13 @@ import dataclasses
 import numpy as np
 import pytest
 
-from dobwind.calibrate import thrustscale, windrows
+from dobwind.calibrate import thrustscale, windrows, windsolve
 from dobwind.calibrate.fieldtruth import flight_of
 from dobwind.calibrate.windsolve import estimate_winds
 from dobwind.core.errors import CheckFailed
 from dobwind.io.logs import write_csv
 from dobwind.simulate.simulate import simulate
+from tests.conftest import SolveMemo
 from tests.test_fieldcal import _airframe, _mean_wind
 
 
@@ -83,6 +84,22 @@ def box_csv(tmp_path_factory):
     return af, str(csv), _mean_wind(cols)
 
 
+@pytest.fixture(scope="module")
+def _problem_memo() -> SolveMemo:
+    return SolveMemo(windsolve.solve)
+
+
+@pytest.fixture
+def shared_problems(_problem_memo: SolveMemo, monkeypatch: pytest.MonkeyPatch) -> SolveMemo:
+    """windsolve.solve (the nine bounded least-squares runs: most of a solve's 3-5 s) computed once per
+    distinct Problem in this module (issue #34). Each test below solves a flight with and without the thrust
+    scale, and both begin with the same kappa-0 problem: asked again, it is the same pure function of the
+    same pickled Problem (rows, prior, scale, kappa). A Problem that differs in any value (a kappa applied
+    where it should not be) is solved afresh, so the comparisons below still see any difference."""
+    monkeypatch.setattr(windsolve, "solve", _problem_memo)
+    return _problem_memo
+
+
 def _scaled(af, factor: float):
     return dataclasses.replace(af, thrust=dataclasses.replace(af.thrust, scale=af.thrust.scale * factor))
 
@@ -92,7 +109,7 @@ def _solve(af, csv: str, thrust_scale: bool):
 
 
 @pytest.mark.slow
-def test_a_starter_with_the_thrust_25_percent_high_still_finds_the_wind(box_csv):
+def test_a_starter_with_the_thrust_25_percent_high_still_finds_the_wind(box_csv, shared_problems):
     """The starter's thrust 1.25x the vehicle's: the vertical balance finds kappa = 1 - 1/1.25 within a few
     percent (the simulated vehicle's own thrust is a few percent off the nominal curve), the nested test
     keeps it, and the wind is within the solver's own 0.5 m/s limit. Mutation: with the estimate disabled
@@ -112,7 +129,7 @@ def test_a_starter_with_the_thrust_25_percent_high_still_finds_the_wind(box_csv)
 
 
 @pytest.mark.slow
-def test_a_starter_with_the_right_thrust_scale_gets_the_solution_it_got_without_it(box_csv):
+def test_a_starter_with_the_right_thrust_scale_gets_the_solution_it_got_without_it(box_csv, shared_problems):
     """The nominal vehicle: the vertical balance's small kappa (+0.02, the simulated vehicle's own thrust
     error) is not tried, and the winds are exactly those of the solve without a thrust scale."""
     af, csv, truth = box_csv
@@ -121,3 +138,4 @@ def test_a_starter_with_the_right_thrust_scale_gets_the_solution_it_got_without_
     assert not solution.thrust_scale.used and solution.law["kappa"] == 0.0
     assert [g.wind_ne for g in solution.groups] == [g.wind_ne for g in plain.groups]
     assert np.hypot(*(np.array(solution.groups[0].wind_ne) - truth)) < 0.25
+    assert shared_problems.calls > shared_problems.computed   # the plain problem was solved once, not twice
