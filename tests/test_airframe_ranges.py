@@ -21,6 +21,7 @@ from dobwind.model.errors import InputError
 from dobwind.model.ranges import FLT_MAX, FLT_MIN, RANGES, single_precision_ok
 from dobwind.model.terms import parse_term, range_problem, single_precision_problem
 from tests.helpers import airframe_dict
+from tests.render_cache import _render_memo, shared_renders  # noqa: F401  (each corner's C rendered once per precision)
 
 # (case, changes, the dotted key the message must name). The first group is the list.
 OUT_OF_RANGE = [
@@ -157,7 +158,7 @@ def test_a_long_name_is_reported_in_one_short_line(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("case,changes", CORNERS, ids=[c[0] for c in CORNERS])
-def test_a_corner_of_the_ranges_checks_generates_compiling_c_and_analyses(case, changes, tmp_path, capsys):
+def test_a_corner_of_the_ranges_checks_generates_compiling_c_and_analyses(case, changes, tmp_path, capsys, shared_renders):
     path = _write(tmp_path, airframe_dict(**changes))
     with warnings.catch_warnings(record=True) as raised:  # a numpy or scipy warning would reach stderr
         warnings.simplefilter("always")

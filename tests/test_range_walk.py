@@ -21,6 +21,7 @@ from dobwind.model.airframe_toml import dumps
 from dobwind.model.ranges import RANGES, Range
 from tests.families import family_doc
 from tests.helpers import airframe_dict
+from tests.render_cache import _render_memo, shared_renders  # noqa: F401  (each edge's C rendered once per precision)
 
 pytestmark = [pytest.mark.slow,
               pytest.mark.skipif(shutil.which(os.environ.get("CC", "cc")) is None, reason="no host C compiler")]
@@ -75,7 +76,7 @@ POINTS = [(key, value) for key, bounds in RANGES.items() for value in _edges(key
 
 
 @pytest.mark.parametrize("key, value", POINTS, ids=[f"{k}={v:g}" for k, v in POINTS])
-def test_check_and_generate_agree_at_every_edge_of_every_range(key, value, tmp_path, capsys):
+def test_check_and_generate_agree_at_every_edge_of_every_range(key, value, tmp_path, capsys, shared_renders):
     path = tmp_path / "edge.toml"
     path.write_text(dumps(_document(key, value)))
     checked = main(["check", str(path)])
