@@ -19,6 +19,15 @@ def results():
     return realdata.check()
 
 
+@pytest.fixture(scope="module")
+def consistency():
+    """realdata.consistency() (the runs converted and their drag samples read, no fit: 1.5-3 s), once for
+    the module: two tests read it, one beside the command line's own run of it."""
+    if len(realdata.runs(realdata.DEFAULT_DATA)) < 5:
+        pytest.skip("the Neural-Fly runs are not beside this checkout")
+    return realdata.consistency()
+
+
 def test_neural_fly_wind_direction(results):
     for name, r in results["split"].items():
         if r["nominal_mps"] > 0:
@@ -38,15 +47,13 @@ def test_neural_fly_held_out_speed(results):
     assert held_out["mean_speed_mps"] == pytest.approx(held_out["nominal_mps"], rel=0.25)
 
 
-def test_neural_fly_runs_against_a_convex_law(capsys):
+def test_neural_fly_runs_against_a_convex_law(consistency, capsys):
     """The no-fit consistency check (runconsistency.py) through the module's command line: the offset is
     the ~1 N x bias the data's README mentions, and the runs the fit reproduces (70wind, 100wind within
     0.3 m/s in the README) sit above their bounds."""
-    if len(realdata.runs(realdata.DEFAULT_DATA)) < 5:
-        pytest.skip("the Neural-Fly runs are not beside this checkout")
     assert realdata.main(["--consistency"]) == 0
     text = capsys.readouterr().out
-    found = realdata.consistency()
+    found = consistency
     assert 0.5 < found["offset_n"][0] < 1.5
     by_name = {r.name: r for r in found["runs"]}
     assert set(by_name) == {"35wind", "70wind", "70p20sint", "100wind"}
@@ -70,13 +77,11 @@ def test_neural_fly_constant_wind_fit_writes_a_model_and_names_its_outlier(resul
     assert all(run["error_mps"] < 0.5 for run in fit["per_run"] if not run["outlier"])
 
 
-def test_neural_fly_leave_one_out_bounds_put_35wind_beyond_every_convex_law():
+def test_neural_fly_leave_one_out_bounds_put_35wind_beyond_every_convex_law(consistency):
     """The no-fit leave-one-out bounds (loobound.py): held out, 35wind cannot be read within 0.5 m/s by any
     law with a convex force per m/s whose slope at zero airflow is the no-wind run's (it would need a
     steeper one), whether or not 70wind trains; without 35wind, 70wind and 70p20sint are within reach."""
-    if len(realdata.runs(realdata.DEFAULT_DATA)) < 5:
-        pytest.skip("the Neural-Fly runs are not beside this checkout")
-    found = realdata.consistency()
+    found = consistency
     slope = found["zero_slope_n_per_mps"]
     assert 0.3 < slope < 0.8
     bounds = {(b.name, b.left_out): b for b in found["held_out_bounds"]}
