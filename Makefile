@@ -31,7 +31,11 @@ PYTEST_PARALLEL := $(if $(filter 0,$(PYTEST_WORKERS)),,-n $(PYTEST_WORKERS) --di
 # --no-selftest` 0.66 s without the cache, 0.59 s with it). Whole-suite runs on idle fresh clones (issue #34,
 # docs/architecture.md) scatter by about 20 s either way, so the suite-level gain is not resolved by them.
 # __pycache__ is ignored by git and by tests/test_isolation.py.
-PYTEST := env -u PYTHONDONTWRITEBYTECODE $(BIN)/python -m pytest
+# OpenBLAS single-threaded (OPENBLAS_NUM_THREADS=1, inherited by every `dobwind` child): by default each process
+# starts a BLAS thread per core, and with two workers on two cores their threads wait on each other. Two
+# test_thrustscale runs side by side took 15-17 s each that way and 4.7 s each with one thread; alone, one
+# process takes the same time either way (test_thrustscale and test_fieldcal, 15-17 s both ways).
+PYTEST := env -u PYTHONDONTWRITEBYTECODE OPENBLAS_NUM_THREADS=1 $(BIN)/python -m pytest
 
 test: system-deps $(STAMP)
 	$(PYTEST) -q $(PYTEST_PARALLEL)

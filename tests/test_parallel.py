@@ -57,6 +57,14 @@ def test_the_make_targets_let_python_cache_bytecode(target):
     assert line.startswith("env -u PYTHONDONTWRITEBYTECODE "), line
 
 
+@pytest.mark.parametrize("target", ["test", "test-fast"])
+def test_the_make_targets_run_blas_on_one_thread(target):
+    """OpenBLAS starts a thread per core in each process: two workers on two cores then wait on each other's
+    threads (two test_thrustscale runs side by side: 15-17 s each, 4.7 s with one thread; the Makefile)."""
+    (line,) = _pytest_lines(target)
+    assert re.search(r"(^| )OPENBLAS_NUM_THREADS=1 ", line), line
+
+
 def test_the_fast_target_still_skips_slow_and_fuzz():
     (line,) = _pytest_lines("test-fast")
     assert '-m "not slow and not fuzz"' in line or "-m not slow and not fuzz" in line, line
