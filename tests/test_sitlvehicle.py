@@ -86,3 +86,28 @@ def test_the_airframe_is_the_one_init_makes_from_the_field_log():
     assert af.mass_kg == spec.mass_kg == 3.0 and af.thrust.source == "collective"
     assert af.observer.sample_time_s == pytest.approx(1 / spec.rate_hz) == pytest.approx(0.1)
     assert af.observer.acceleration == "ned"
+
+
+def test_the_density_compensated_variant_differs_in_the_thrust_scale_alone():
+    """benchmarks/vehicles/densitycomp: ArduCopter's density ratio at the field log's 25 m crossing, by hand
+    from its BARO (94233 Pa, ground 25.53 C) with AP_Baro's formula; every other value the stand-in's."""
+    import dataclasses
+
+    base = load_vehicle(VEHICLES / "arducopter.vehicle.toml")
+    variant = load_vehicle(VEHICLES / "densitycomp" / "arducopter.vehicle.toml")
+    ratio = 94233.0 / (287.26 * (25.53 + 273.15 - 0.0065 * 25.0)) / 1.225
+    assert variant.thrust_scale == pytest.approx(1.0 / ratio, abs=5e-4)
+    assert dataclasses.replace(variant, thrust_scale=base.thrust_scale) == base
+
+
+def test_arducopters_density_ratio_is_held_until_the_altitude_moves_25_m():
+    """AP_Baro's rule by hand: 1 until 25 m from zero, then recomputed only 25 m from the last computation."""
+    from benchmarks.densitycomp import density_ratio
+
+    alt = np.array([0.0, 10.0, 24.9, 25.0, 40.0, 49.9, 50.1, 10.0])
+    press = np.linspace(94500.0, 94000.0, len(alt))
+    ground = np.full(len(alt), 25.5)
+    hand = lambda k: press[k] / (287.26 * (25.5 + 273.15 - 0.0065 * alt[k])) / 1.225
+    expected = [1.0, 1.0, 1.0, hand(3), hand(3), hand(3), hand(6), hand(7)]
+    assert density_ratio(alt, press, ground) == pytest.approx(expected, rel=1e-12)
+    assert 0.85 < hand(3) < 0.92   # about 600 m up on a 25 C day: the field log's 0.897
