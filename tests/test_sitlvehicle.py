@@ -101,8 +101,9 @@ def test_the_density_compensated_variant_differs_in_the_thrust_scale_alone():
 
 
 def test_arducopters_density_ratio_is_held_until_the_altitude_moves_25_m():
-    """AP_Baro's rule by hand: 1 until 25 m from zero, then recomputed only 25 m from the last computation."""
-    from benchmarks.densitycomp import density_ratio
+    """AP_Baro's rule by hand: 1 until 25 m from zero, then recomputed only 25 m from the last computation
+    (the DataFlash reader's reconstruction, dobwind/io/densitystep.py)."""
+    from dobwind.io.densitystep import applied_ratio as density_ratio
 
     alt = np.array([0.0, 10.0, 24.9, 25.0, 40.0, 49.9, 50.1, 10.0])
     press = np.linspace(94500.0, 94000.0, len(alt))
