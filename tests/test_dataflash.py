@@ -357,9 +357,14 @@ def test_arducopters_density_step_in_the_throttle_is_undone(tmp_path):
             rows.append(("BARO", {"TimeUS": v["TimeUS"], "I": 0, **{f: baro[f][k] for f in baro}}))
         rows.append((name, v))
     messages = dict(MESSAGES, BARO=("QBfff", ["TimeUS", "I", "Alt", "Press", "GndTemp"]))
-    _, flight, _ = replay_autopilot(af, str(write_dataflash(tmp_path / "d.bin", messages, rows)), rate_hz=50.0)
+    path = str(write_dataflash(tmp_path / "d.bin", messages, rows))
+    _, flight, _ = replay_autopilot(af, path, rate_hz=50.0)
     after = alt >= 25.0
     assert 0.89 < ratio[after][0] < 0.91 and after.sum() > 100
     np.testing.assert_allclose(flight.log.columns["thrust"], cols["thrust"], rtol=1e-5)
     assert any("ArduCopter's air-density compensation" in n for n in flight.notes), flight.notes
+    from dobwind.inspect.anylog import inspect_log
+
+    said = [n for n in inspect_log(path).notes if "air-density compensation" in n]  # inspect says it too
+    assert len(said) == 1 and f"to {ratio[after][0]:.3f} at" in said[0], said
 
