@@ -24,7 +24,7 @@ horizontal wind speed against the true one, the direction of the mean estimated 
 mean's, and the trusted share. A failed step is a result, recorded with its message.
 
     .venv/bin/python -m benchmarks.fieldcross [--vehicles px4quad m300 ...] [--speed 5] [--seed 1]
-        [--workers 2] [-o OUT_DIR]
+        [--workers 2] [--test-vehicle-dir DIR] [-o OUT_DIR]
 """
 from __future__ import annotations
 
@@ -72,6 +72,7 @@ class Job:
     from_deg: float
     seed: int
     workdir: str
+    test_vehicle_dir: str = ""   # the test flights' vehicle files (default VEHICLE_DIR): another state of it
 
 
 def calibration_from_deg(vehicle: str, seed: int) -> float:
@@ -86,10 +87,11 @@ def _mass(vehicle: str) -> float:
         return float(tomllib.load(fh)["mass"])
 
 
-def _simulate(job: Job, scenario: str, speed: float, from_deg: float, seed: int, out: str) -> dict[str, Any]:
-    base = VEHICLE_DIR / job.vehicle
-    child = run_child(["simulate", scenario, "--airframe", f"{base}.airframe.toml", "--vehicle",
-                       f"{base}.vehicle.toml", "--seed", str(seed), "--wind", f"{speed:g}@{from_deg % 360:g}",
+def _simulate(job: Job, scenario: str, speed: float, from_deg: float, seed: int, out: str,
+              vehicle_dir: Path = VEHICLE_DIR) -> dict[str, Any]:
+    """One flight; the airframe (what the user believes) is always VEHICLE_DIR's, the true vehicle vehicle_dir's."""
+    child = run_child(["simulate", scenario, "--airframe", f"{VEHICLE_DIR / job.vehicle}.airframe.toml", "--vehicle",
+                       f"{vehicle_dir / job.vehicle}.vehicle.toml", "--seed", str(seed), "--wind", f"{speed:g}@{from_deg % 360:g}",
                        "-o", out], Path(job.workdir))
     return {"exit_code": child.exit_code, "message": child.last_stderr}
 
@@ -148,10 +150,11 @@ def run_job(job: Job) -> dict[str, Any]:
     child = run_child(["init", cal, "--mass", f"{_mass(job.vehicle):g}", "-o", start], work)
     result["init"] = {"exit_code": child.exit_code, "message": child.last_stderr}
     logs = {}
+    test_dir = Path(job.test_vehicle_dir) if job.test_vehicle_dir else VEHICLE_DIR
     for flight in TESTS:
         logs[flight.name] = str(work / f"{flight.name}.csv")
         _simulate(job, flight.scenario, job.speed_mps * flight.speed_factor, job.from_deg + flight.turn_deg,
-                  100 * job.seed + flight.seed_offset, logs[flight.name])
+                  100 * job.seed + flight.seed_offset, logs[flight.name], test_dir)
     result["fits"], result["replays"] = {}, []
     for tag in FITS:
         fitted = str(work / f"{tag}.toml")
@@ -195,9 +198,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--speed", type=float, default=5.0, help="the calibration flight's wind, m/s (default 5)")
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--test-vehicle-dir", default="", metavar="DIR",
+                   help="fly the test flights with DIR/NAME.vehicle.toml (the same vehicle in another state, e.g. "
+                        "benchmarks/vehicles/densitycomp); the calibration flight keeps benchmarks/vehicles'")
     p.add_argument("-o", "--output", default="fieldcross_out")
     args = p.parse_args(argv)
-    jobs = [Job(v, args.speed, calibration_from_deg(v, args.seed), args.seed, str(Path(args.output) / v))
+    jobs = [Job(v, args.speed, calibration_from_deg(v, args.seed), args.seed, str(Path(args.output) / v),
+                str(Path(args.test_vehicle_dir).resolve()) if args.test_vehicle_dir else "")
             for v in args.vehicles]
     with ProcessPoolExecutor(max_workers=max(1, args.workers)) as pool:
         results = list(pool.map(run_job, jobs))

@@ -334,3 +334,37 @@ def test_a_log_on_the_ground_throughout_says_it_was_never_airborne(tmp_path, cap
     flew = _bin(tmp_path / "flew.bin", af, cols, landed_until=1.0)
     assert main(["replay", str(M300), str(flew)]) == 0
     assert "never airborne" not in capsys.readouterr().err
+
+
+def test_arducopters_density_step_in_the_throttle_is_undone(tmp_path):
+    """ArduCopter 4.1 logs the throttle divided by a density ratio that is 1 until the baro altitude first
+    moves 25 m (dobwind/io/densitystep.py). A climb from 0 to 40 m through the flight, ThO logged under that
+    rule: the thrust read back is the flight's own (float32), where the logged ThO / ThH reads 10 % low
+    after the step; the note names the step."""
+    from dobwind.io.densitystep import applied_ratio
+
+    af = parse_airframe(dumps(airframe_dict(thrust={"source": "collective"}, mass=8.0, name="coll")), "<c>")
+    _, cols = _flight()
+    t = cols["t"]
+    alt = 40.0 * t / t[-1]
+    baro = {"Alt": alt, "Press": 94_500.0 - 11.0 * alt, "GndTemp": np.full(len(t), 25.0)}
+    ratio = applied_ratio(baro["Alt"], baro["Press"], baro["GndTemp"])
+    rows = []
+    for name, v in _rows(af, cols):
+        if name == "CTUN":
+            k = int(round((v["TimeUS"] - 1_000_000) * 1e-6 * 50.0))
+            v = dict(v, ThO=v["ThO"] * ratio[k])
+            rows.append(("BARO", {"TimeUS": v["TimeUS"], "I": 0, **{f: baro[f][k] for f in baro}}))
+        rows.append((name, v))
+    messages = dict(MESSAGES, BARO=("QBfff", ["TimeUS", "I", "Alt", "Press", "GndTemp"]))
+    path = str(write_dataflash(tmp_path / "d.bin", messages, rows))
+    _, flight, _ = replay_autopilot(af, path, rate_hz=50.0)
+    after = alt >= 25.0
+    assert 0.89 < ratio[after][0] < 0.91 and after.sum() > 100
+    np.testing.assert_allclose(flight.log.columns["thrust"], cols["thrust"], rtol=1e-5)
+    assert any("ArduCopter's air-density compensation" in n for n in flight.notes), flight.notes
+    from dobwind.inspect.anylog import inspect_log
+
+    said = [n for n in inspect_log(path).notes if "air-density compensation" in n]  # inspect says it too
+    assert len(said) == 1 and f"to {ratio[after][0]:.3f} at" in said[0], said
+

@@ -203,6 +203,32 @@ def test_each_reason_fails_the_check(case, expected):
     assert "FAIL: " + check.reasons[0] in text_table(check)
 
 
+def test_the_direction_chord_is_the_distance_an_angle_puts_between_two_winds_of_one_speed():
+    from dobwind.calibrate.selfcheck import direction_chord_mps
+
+    v, angle = 3.0, 37.0
+    a, b = np.array([v, 0.0]), v * np.array([math.cos(math.radians(angle)), math.sin(math.radians(angle))])
+    assert direction_chord_mps(v, angle) == pytest.approx(np.linalg.norm(a - b), rel=1e-12)
+    assert direction_chord_mps(v, 180.0) == pytest.approx(2 * v) and direction_chord_mps(v, 0.0) == 0.0
+    assert direction_chord_mps(v, 10.0) == pytest.approx(v * math.radians(10.0), rel=2e-3)  # small: v times the angle
+
+
+@pytest.mark.parametrize("degrees, distance, fails", [
+    (12.0, 1.05, True),    # 12 deg at 5 m/s: over both
+    (17.5, 0.53, True),    # a real 1.75 m/s flight's 17.5 deg: 0.53 m/s, over the 0.424 tolerance
+    (15.0, 0.31, False),   # 15 deg at 1.2 m/s: 0.31 m/s, within what the speed check allows along the wind
+    (9.0, 2.0, False),     # within the degrees: the distance does not matter
+    (12.0, None, True),    # no distance recorded (a report from before): the degrees alone, as before
+])
+def test_a_direction_error_fails_only_when_it_is_large_in_degrees_and_as_a_distance(degrees, distance, fails):
+    from dobwind.calibrate.selfcheck import direction_fails
+
+    log = dataclasses.replace(_log("b.csv", direction=degrees), direction_mean_mps=distance)
+    assert direction_fails(log, 10.0, 0.424) == fails
+    check = verdict(load_airframe(M300), [log], 0.1, 7.06, Thresholds())  # 6 % of 7.06 m/s: 0.424
+    assert check.replay_limit_mps == pytest.approx(0.4236) and check.passed == (not fails), check.reasons
+
+
 # --- the whole command ---------------------------------------------------------------------------
 
 @pytest.fixture(scope="module")

@@ -1,6 +1,7 @@
 """PX4 ULog replay, on small ULog files written here (tests/ulog_writer.py) from simulated flights."""
 from __future__ import annotations
 
+import math
 import os
 import numpy as np
 import pytest
@@ -45,11 +46,26 @@ def _rows(cols, keys, names, t0_us=1_000_000, keep=None):
     return rows
 
 
+def _hover_topic(end_s: float, hover: float, converging: tuple[float, float] | None,
+                 lapse: tuple[float, float] | None) -> Topic:
+    """hover_thrust_estimate at 2 Hz (``converging``, ``lapse``: as _ulog's)."""
+    t = np.arange(0, end_s, 0.5)
+    if converging is None:
+        return Topic("hover_thrust_estimate", [("uint64_t", "timestamp"), ("float", "hover_thrust")],
+                     [{"timestamp": int(1_000_000 + s * 1e6), "hover_thrust": hover} for s in t])
+    start, until = converging
+    lo, hi = lapse or (math.inf, math.inf)
+    valid = [until <= s and not lo <= s < hi for s in t]
+    return Topic("hover_thrust_estimate", [("uint64_t", "timestamp"), ("float", "hover_thrust"), ("bool", "valid")],
+                 [{"timestamp": int(1_000_000 + s * 1e6), "hover_thrust": hover if ok else start, "valid": ok}
+                  for s, ok in zip(t, valid)])
+
 def _ulog(path, cols, *, esc=True, thrust=None, hover=None, param=None, gap=None, landed_until=None, wind=False,
           attitude_setpoint=True, esc_count=4, esc_every=1, land_flags=None, esc_gap=None, extra=(), sensor=False,
-          converging: tuple[float, float] | None = None):
+          converging: tuple[float, float] | None = None, lapse: tuple[float, float] | None = None):
     """``converging`` (value, until s): hover_thrust_estimate logs ``valid`` and reads ``value``, not valid,
-    before ``until`` (PX4's estimator converging from MPC_THR_HOVER), then ``hover``, valid."""
+    before ``until`` (PX4's estimator converging from MPC_THR_HOVER), then ``hover``, valid; ``lapse``
+    (from, to s): not valid, and ``value`` again, in that span too."""
     keep = None if gap is None else ~((cols["t"] > gap[0]) & (cols["t"] < gap[1]))
     topics = [
         Topic("vehicle_local_position", [("uint64_t", "timestamp")] + [("float", f) for f in ("vx", "vy", "vz", "ax", "ay", "az")],
@@ -76,16 +92,7 @@ def _ulog(path, cols, *, esc=True, thrust=None, hover=None, param=None, gap=None
         for row in rows:
             row["xyz[2]"] = -row["xyz[2]"] / (8.0 * 9.80665) * hover
         topics.append(Topic("vehicle_thrust_setpoint", [("uint64_t", "timestamp"), ("float[3]", "xyz")], rows))
-        t = np.arange(0, cols["t"][-1], 0.5)
-        if converging is None:
-            topics.append(Topic("hover_thrust_estimate", [("uint64_t", "timestamp"), ("float", "hover_thrust")],
-                                [{"timestamp": int(1_000_000 + s * 1e6), "hover_thrust": hover} for s in t]))
-        else:
-            start, until = converging
-            topics.append(Topic("hover_thrust_estimate", [("uint64_t", "timestamp"), ("float", "hover_thrust"),
-                                                          ("bool", "valid")],
-                                [{"timestamp": int(1_000_000 + s * 1e6), "hover_thrust": hover if s >= until else start,
-                                  "valid": bool(s >= until)} for s in t]))
+        topics.append(_hover_topic(cols["t"][-1], hover, converging, lapse))
     if landed_until is not None:  # land_flags: {flag: seconds it stays set}, e.g. {"ground_contact": 5.0}
         t = np.arange(0, cols["t"][-1], 0.2)
         until = {"landed": landed_until, "maybe_landed": landed_until, "ground_contact": landed_until, **(land_flags or {})}
@@ -146,6 +153,19 @@ def test_the_hover_estimate_counts_only_once_valid(tmp_path, until):
     np.testing.assert_allclose(flight.log.columns["thrust"][5:-5], cols["thrust"][5:-5], rtol=1e-5)
     said = " ".join(flight.notes)
     assert ("valid from 4.0 s" in said) if until < 1e9 else ("never valid" in said and "MPC_THR_HOVER" in said), said
+
+
+def test_a_hover_estimate_that_lapses_later_is_used_where_valid_and_the_lapse_is_named(tmp_path):
+    """Valid from 3 s, then not valid (reading the unconverged 0.30 again) from 6 to 7 s: those messages are
+    left out, the valid ones around them scale the thrust, and the note names the lapse in log time."""
+    af = _collective()
+    _, cols = _flight()
+    path = _ulog(tmp_path / "h.ulg", cols, esc=False, thrust="thrust_setpoint", hover=0.42, param=0.42,
+                 converging=(0.30, 3.0), lapse=(6.0, 7.0))
+    _, flight, _ = replay_ulog(af, str(path), rate_hz=100.0)
+    np.testing.assert_allclose(flight.log.columns["thrust"][5:-5], cols["thrust"][5:-5], rtol=1e-5)
+    said = " ".join(flight.notes)
+    assert "valid from 4.0 s" in said and "not valid in 2 later message(s), 7.0-7.5 s" in said, said
 
 
 

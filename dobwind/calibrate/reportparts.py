@@ -47,6 +47,9 @@ class LogCheck:
     # The same scatter per horizontal axis (north and east pooled) on low-airflow segments only.
     still_noise_mps: float = 0.0
     still_dof: int = 0
+    # The direction errors above as distances: the chord 2 v sin(angle / 2) the angle alone makes at the
+    # segment's true speed v (at 10 deg and 2.4 m/s, 0.42 m/s), averaged like direction_mean_deg.
+    direction_mean_mps: float | None = None
 
     def as_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)

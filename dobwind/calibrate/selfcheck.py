@@ -208,6 +208,11 @@ def check_source(af: Airframe, source: LogSource, shape: LogShape, fit_samples: 
     return _log_check(source.path, shape.rows, fit_samples, segments.finish())
 
 
+def direction_chord_mps(true_speed_mps: float, direction_error_deg: float) -> float:
+    """The distance a direction error alone puts between two winds of the true speed: 2 v sin(angle / 2)."""
+    return 2.0 * true_speed_mps * math.sin(math.radians(direction_error_deg) / 2.0)
+
+
 def _log_check(path: str, rows: int, fit_samples: int,
                scored: list[_Scored]) -> LogCheck:
     segment_rows = [row for row, _, _, _ in scored]
@@ -217,10 +222,13 @@ def _log_check(path: str, rows: int, fit_samples: int,
     figures: dict[str, float | None] = {}
     if segment_rows:
         speed = np.array([r.speed_error_mps for r in segment_rows])
-        dirs = [r.direction_error_deg for r in segment_rows if r.direction_error_deg is not None]
+        judged = [r for r in segment_rows if r.direction_error_deg is not None]
+        dirs = [r.direction_error_deg for r in judged]
+        chords = [direction_chord_mps(r.true_speed_mps, r.direction_error_deg) for r in judged]
         figures = {"speed_rms_mps": float(np.sqrt(np.mean(speed ** 2))), "speed_max_mps": float(np.max(np.abs(speed))),
                    "direction_mean_deg": float(np.mean(dirs)) if dirs else None,
-                   "direction_max_deg": float(np.max(dirs)) if dirs else None}
+                   "direction_max_deg": float(np.max(dirs)) if dirs else None,
+                   "direction_mean_mps": float(np.mean(chords)) if chords else None}
     return LogCheck(path, rows, fit_samples, int(sum(r.points for r in segment_rows)), segment_rows, **figures,
                     noise_h_mps=noise_h, noise_up_mps=noise_up, noise_dof=noise_dof, still_noise_mps=still,
                     still_dof=still_dof)
@@ -255,6 +263,17 @@ def blown_up(af: Airframe, limit: float) -> list[str]:
     return bad
 
 
+def direction_fails(check: LogCheck, limit_deg: float, replay_limit_mps: float) -> bool:
+    """A log's direction fails when its mean error is over the limit in degrees AND, as a distance at the
+    true speeds, over the speed tolerance. In a light wind an angle is a small distance: 17 deg at 1.75 m/s
+    is 0.52 m/s, about what the speed tolerance already allows along the wind, so the degrees alone would
+    refuse a model for estimator noise that the speed check accepts. From about replay_limit / tan(limit)
+    (2.4 m/s at the defaults) upward the degrees decide, as before."""
+    if check.direction_mean_deg is None or check.direction_mean_deg <= limit_deg:
+        return False
+    return check.direction_mean_mps is None or check.direction_mean_mps > replay_limit_mps
+
+
 def verdict(af: Airframe, logs: list[LogCheck], cv_mps: float | None, speed_range_mps: float,
             limits: Thresholds) -> SelfCheck:
     cv_limit = limits.speed_limit_mps(limits.cv_share, speed_range_mps)
@@ -274,9 +293,11 @@ def verdict(af: Airframe, logs: list[LogCheck], cv_mps: float | None, speed_rang
         elif check.speed_rms_mps > replay_limit:
             reasons.append(f"{check.log}: training replay speed error RMS {check.speed_rms_mps:.3f} m/s "
                            f"> {replay_limit:.3f} m/s")
-        if check.direction_mean_deg is not None and check.direction_mean_deg > limits.direction_deg:
+        if direction_fails(check, limits.direction_deg, replay_limit):
+            distance = ("" if check.direction_mean_mps is None else
+                        f" ({check.direction_mean_mps:.3f} m/s at the true speeds > {replay_limit:.3f} m/s)")
             reasons.append(f"{check.log}: training replay direction error mean {check.direction_mean_deg:.2f} deg "
-                           f"> {limits.direction_deg:g} deg")
+                           f"> {limits.direction_deg:g} deg{distance}")
     noise_h = pooled_noise([(c.noise_h_mps, c.noise_dof) for c in logs])
     noise_up = pooled_noise([(c.noise_up_mps, c.noise_dof) for c in logs])
     still = pooled_noise([(c.still_noise_mps, c.still_dof) for c in logs]) if any(c.still_dof for c in logs) else None
@@ -321,11 +342,13 @@ def text_table(check: SelfCheck) -> str:
     lines = [f"self-check: every calibration log replayed through the new airframe's step; calibrated speed "
              f"range {check.speed_range_mps:.2f} m/s; hold-level CV {cv} m/s (limit {check.cv_limit_mps:.3f})",
              f"  limits per log: segment speed error RMS <= {check.replay_limit_mps:.3f} m/s, mean direction "
-             f"error <= {check.direction_limit_deg:g} deg"]
+             f"error <= {check.direction_limit_deg:g} deg (or <= {check.replay_limit_mps:.3f} m/s as a distance at the "
+             "true speeds)"]
     for c in check.logs:
         speed = "n/a" if c.speed_rms_mps is None else f"{c.speed_rms_mps:.3f} / {c.speed_max_mps:.3f} m/s"
-        direction = ("n/a" if c.direction_mean_deg is None else
-                     f"{c.direction_mean_deg:.2f} / {c.direction_max_deg:.2f} deg")
+        direction = "n/a" if c.direction_mean_deg is None else f"{c.direction_mean_deg:.2f} / {c.direction_max_deg:.2f} deg"
+        if c.direction_mean_mps is not None:
+            direction += f" (mean {c.direction_mean_mps:.3f} m/s)"
         outlier = " (the fit's outlier: not judged)" if c.log in check.outlier_logs else ""
         lines.append(f"  {c.log}: {c.fit_samples} fit samples, {c.points_kept} of {c.rows} points kept "
                      f"in {len(c.segments)} segments; speed error RMS / max {speed}; direction mean / max "

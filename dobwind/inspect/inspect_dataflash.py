@@ -11,6 +11,7 @@ import numpy as np
 from dobwind.io.dataflash import (AP_WIND, ATTITUDE, EV_GROUND, IMU, VELOCITY, WANTED, follow_primary, load_messages,
                                pick_stream, truncation)
 from dobwind.core.errors import InputError
+from dobwind.io.densitystep import find_step
 from dobwind.io.quietfd import quiet_fds
 from dobwind.io.vehiclekind import ardupilot_not_multirotor, firmware
 from dobwind.inspect.loginspect import (AutopilotWind, LogSummary, Role, Vehicle, inside, intervals,
@@ -182,11 +183,21 @@ def _ap_wind(msgs: dict, params: dict) -> AutopilotWind:
     return wind_activity(found[0], found[1]["t"], found[1]["VWN"], found[1]["VWE"], why)
 
 
+def _density_step(msgs: dict, baro: list[dict]) -> list[str]:
+    """What replay's reader says of ArduCopter's density step in CTUN.ThO (dobwind/io/densitystep.py)."""
+    ctun = pick_stream(msgs, (("CTUN", None, 0),), ["ThO", "ThH"])
+    found = pick_stream({"BARO": baro}, (("BARO", "I", 0),), ["Alt", "Press", "GndTemp"])
+    if ctun is None or found is None:
+        return []
+    return [f"for a collective airframe: {line}" for line in find_step(found[1], ctun[1])[1]]
+
+
 def inspect_dataflash(path: str) -> LogSummary:
     notes: list[str] = []
     with quiet_fds():  # pymavlink's compiled indexer prints a line per bad byte, to fd 2 itself
-        loaded = load_messages(path, WANTED + ("PARM", "RCOU", "MSG"))
+        loaded = load_messages(path, WANTED + ("PARM", "RCOU", "MSG", "BARO"))
     msgs = follow_primary(loaded, notes)
+    baro = msgs.pop("BARO")
     params_all = _parameters(msgs.pop("PARM"))
     banner = firmware(msgs.pop("MSG"))
     params = {k: params_all[k] for k in PARAMETERS if k in params_all}
@@ -204,7 +215,7 @@ def inspect_dataflash(path: str) -> LogSummary:
                 if "FRAME_CLASS" in params else "ArduPilot (no FRAME_CLASS)") + (f", firmware {banner}" if banner else "")
     vehicle = Vehicle(rotors, rotor_source, airframe, rpm_ok, rpm_note, hover, hover_source, rpm_median, rpm_max,
                       ardupilot_not_multirotor(banner, params_all))
-    notes += [cut for cut in (truncation(path),) if cut]
+    notes += [cut for cut in (truncation(path),) if cut] + _density_step(msgs, baro)
     if "SIM_WIND_SPD" in params:
         notes.append(f"SITL wind: {params['SIM_WIND_SPD']:g} m/s from {params.get('SIM_WIND_DIR', 0):g} deg"
                      + (f", below {params.get('SIM_WIND_T_ALT', 0):g} m scaled by sqrt(height / SIM_WIND_T_ALT)"

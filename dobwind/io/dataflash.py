@@ -39,6 +39,7 @@ from dobwind.io.bridge import blanked, bridge, largest_silences
 from dobwind.io.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, hold,
                               interp, quaternions, source_gaps, topic_tolerances, truncated_note, uniform_clock)
 from dobwind.io.vehiclekind import MULTIROTORS_ONLY, ardupilot_not_multirotor, firmware
+from dobwind.io.densitystep import find_step
 from dobwind.io.sitlwind import MESSAGES as SITL_MESSAGES, SitlLog, describe as describe_sitl, sitl_from_messages
 from dobwind.model.signals import log_signals
 
@@ -182,13 +183,14 @@ def _ground(msgs, clock: np.ndarray, notes: list[str]) -> np.ndarray:
 
 
 def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None, bridge_gaps: bool = False) -> AutopilotFlight:
-    loaded = load_messages(path, WANTED + tuple(m for m in SITL_MESSAGES + ("MSG",) if m not in WANTED))
+    loaded = load_messages(path, WANTED + tuple(m for m in SITL_MESSAGES + ("MSG", "BARO") if m not in WANTED))
     _refuse_other_vehicles(path, loaded)
     sitl, sitl_notes = _sitl(path, loaded)
     msgs = {name: loaded[name] for name in WANTED}
     notes = ["messages " + ", ".join(f"{n} {len(r)}" for n, r in msgs.items() if r) + "; not in the log: "
              + (", ".join(n for n, r in msgs.items() if not r) or "none")] + sitl_notes
     msgs = follow_primary(msgs, notes)
+    msgs["BARO"] = loaded["BARO"]  # for the collective thrust's density step only (densitystep.py)
     vel_name, vel = _require(path, pick_stream(msgs, VELOCITY, ["VN", "VE", "VD"]), "ground velocity", "XKF1 (or NKF1)")
     att_name, att = _require(path, pick_stream(msgs, ATTITUDE, ["Q1", "Q2", "Q3", "Q4"]), "attitude", "XKQ (or NKQ1, NKQ)")
     used = {vel_name: vel, att_name: att}
@@ -346,14 +348,25 @@ def _columns(af: Airframe, vel, att, imu, psc, escs, ctun, msgs, clock: np.ndarr
     for k, s in enumerate(escs):
         cols[f"rpm_{k + 1}"] = np.interp(clock, s["t"], s["RPM"])
     if ctun is not None:
-        cols["thrust"] = af.mass_kg * af.gravity_mps2 * hold(ctun, ["ThO"], clock)[:, 0] / hold(ctun, ["ThH"], clock)[:, 0]
-        notes.append("collective thrust from CTUN.ThO / CTUN.ThH times m g")
+        cols["thrust"] = af.mass_kg * af.gravity_mps2 * _collective(ctun, msgs, clock, notes)
     des = pick_stream(msgs, (("ATT", None, 0),), ["DesYaw"])
     if des is not None:
         cols["yaw_ref"] = np.radians(hold(des[1], ["DesYaw"], clock)[:, 0])
     else:
         notes.append("no ATT.DesYaw: the heading frame follows the vehicle's own yaw")
     return cols
+
+
+def _collective(ctun: dict, msgs, clock: np.ndarray, notes: list[str]) -> np.ndarray:
+    """CTUN.ThO / CTUN.ThH on the clock, with ArduCopter's density step undone where the log shows it."""
+    tho, thh = hold(ctun, ["ThO"], clock)[:, 0], hold(ctun, ["ThH"], clock)[:, 0]
+    notes.append("collective thrust from CTUN.ThO / CTUN.ThH times m g")
+    baro = pick_stream(msgs, (("BARO", "I", 0),), ["Alt", "Press", "GndTemp"]) if msgs.get("BARO") else None
+    step, said = find_step(None if baro is None else baro[1], ctun)
+    notes += said
+    if step is not None:
+        tho, thh = step.thrust_terms(clock, tho, thh)
+    return tho / thh
 
 
 def _rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:

@@ -143,11 +143,17 @@ def _converged_hover(hover: dict[str, np.ndarray] | None, notes: list[str]) -> d
     if keep.sum() < 2:
         notes.append("hover_thrust_estimate never valid: the hover thrust from the MPC_THR_HOVER parameter")
         return None
-    if not keep.all():
-        first = int(np.argmax(keep))
+    first = int(np.argmax(keep))
+    if first > 0:
         notes.append(f"hover_thrust_estimate valid from {hover['t'][first]:.1f} s; before it, its first valid value "
                      f"{hover['hover_thrust'][first]:.3f} holds (the estimator was converging from "
                      f"{hover['hover_thrust'][0]:.3f})")
+    later = ~keep[first:]
+    if later.any():  # e.g. after landing: the valid values on either side are interpolated, the last one holds
+        stretch = hover["t"][first:][later]
+        when = f"at {stretch[0]:.1f} s" if len(stretch) == 1 else f"{stretch[0]:.1f}-{stretch[-1]:.1f} s"
+        notes.append(f"hover_thrust_estimate not valid in {len(stretch)} later message(s), {when}: "
+                     "the valid estimates around them are used")
     return {k: v[keep] for k, v in hover.items()}
 
 

@@ -1,0 +1,86 @@
+"""ArduCopter's air-density step in CTUN.ThO (dobwind/io/densitystep.py): the ratio ArduCopter used, by its
+25 m rule and the ideal-gas density, and the step undone only where the log shows it."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from dobwind.io.densitystep import applied_ratio, find_step
+
+R, RHO0, LAPSE = 287.26, 1.225, 0.0065
+
+
+def _baro(alt: np.ndarray, p0: float = 94_500.0, ground_c: float = 25.0) -> dict[str, np.ndarray]:
+    """A barometer climbing through ``alt`` (m) at 10 Hz, its pressure falling 11 Pa per metre."""
+    return {"t": 100.0 + 0.1 * np.arange(len(alt)), "Alt": alt, "Press": p0 - 11.0 * alt,
+            "GndTemp": np.full(len(alt), ground_c)}
+
+
+def _density_ratio(p: float, ground_c: float, alt: float) -> float:
+    return p / (R * (ground_c + 273.15 - LAPSE * alt)) / RHO0
+
+
+def test_the_ratio_is_one_until_25_m_then_recomputed_every_25_m():
+    baro = _baro(np.linspace(0.0, 60.0, 601))
+    ratio = applied_ratio(baro["Alt"], baro["Press"], baro["GndTemp"])
+    first, second = np.argmax(baro["Alt"] >= 25.0), np.argmax(baro["Alt"] >= 50.0)
+    assert np.all(ratio[:first] == 1.0)
+    expected = _density_ratio(94_500.0 - 11.0 * baro["Alt"][first], 25.0, baro["Alt"][first])
+    assert ratio[first] == pytest.approx(expected, rel=1e-12) and 0.89 < expected < 0.91
+    assert np.all(ratio[first:second] == ratio[first])  # held between recomputations
+    assert ratio[second] == pytest.approx(_density_ratio(94_500.0 - 11.0 * baro["Alt"][second], 25.0,
+                                                         baro["Alt"][second]), rel=1e-12)
+    # a descent by 25 m from the last computation recomputes too
+    down = applied_ratio(np.r_[0.0, 30.0, 10.0, 4.0], np.full(4, 90_000.0), np.full(4, 15.0))
+    assert down[1] == down[2] != down[3]
+
+
+def _ctun(baro: dict, step: bool, hover: float = 0.38, relearn: bool = False) -> dict[str, np.ndarray]:
+    """CTUN at 10 Hz for a constant physical thrust at hover: ThO divided by the applied ratio's change
+    when ``step`` (ArduCopter 4.1), ThH learned at ratio 1 (drifting into the new units if ``relearn``)."""
+    ratio = applied_ratio(baro["Alt"], baro["Press"], baro["GndTemp"]) if step else np.ones(len(baro["t"]))
+    tho = hover * ratio
+    thh = np.full(len(tho), hover)
+    if relearn:
+        thh = np.where(ratio < 1.0, hover * (1.0 + (ratio - 1.0) * 0.8), hover)
+    return {"t": baro["t"].copy(), "ThO": tho, "ThH": thh}
+
+
+@pytest.mark.parametrize("relearn", [False, True])
+def test_a_step_the_log_shows_is_undone_and_the_thrust_stays_what_the_motors_give(relearn):
+    baro = _baro(np.linspace(0.0, 40.0, 401))
+    ctun = _ctun(baro, step=True, relearn=relearn)
+    step, said = find_step(baro, ctun)
+    assert step is not None and step.measured == pytest.approx(step.predicted) and f"stepped by {step.predicted:.3f}" in said[0]
+    assert step.t_s == pytest.approx(baro["t"][np.argmax(baro["Alt"] >= 25.0)])
+    tho, thh = step.thrust_terms(baro["t"], ctun["ThO"], ctun["ThH"])
+    np.testing.assert_allclose(tho / thh, 1.0, rtol=1e-12)  # hover throughout: thrust = m g
+    logged = ctun["ThO"] / ctun["ThH"]
+    assert logged[-1] < 0.91 or relearn  # what the log alone says after the step: 10 % low
+
+
+def test_a_log_without_the_step_is_read_as_logged_and_says_why():
+    """A version that computes the ratio at boot: the same climb, no step in ThO."""
+    baro = _baro(np.linspace(0.0, 40.0, 401))
+    step, said = find_step(baro, _ctun(baro, step=False))
+    assert step is None and "changed by 1.000 there: the thrust is read as logged" in said[0]
+
+
+@pytest.mark.parametrize("alt_top, p0, said", [
+    (20.0, 94_500.0, False),    # never 25 m from the ground: no recomputation
+    (40.0, 98_900.0, False),    # a ratio within 2 % of 1 (cool air near sea level): too small to tell from throttle changes
+])
+def test_no_step_to_judge_leaves_the_thrust_alone_silently(alt_top, p0, said):
+    baro = _baro(np.linspace(0.0, alt_top, 401), p0=p0, ground_c=10.0 if p0 > 95_000 else 25.0)
+    if p0 > 95_000:
+        assert abs(applied_ratio(baro["Alt"], baro["Press"], baro["GndTemp"])[-1] - 1.0) < 0.02
+    step, notes = find_step(baro, _ctun(baro, step=True))
+    assert step is None and bool(notes) == said
+
+
+def test_no_barometer_or_no_throttle_around_the_step():
+    baro = _baro(np.linspace(0.0, 40.0, 401))
+    assert find_step(None, _ctun(baro, step=True)) == (None, [])
+    ctun = _ctun(baro, step=True)
+    ctun["ThO"][:] = 0.0  # on the ground (ThO 0) on both sides: nothing to measure
+    assert find_step(baro, ctun) == (None, [])
