@@ -91,7 +91,7 @@ def _problem_memo() -> SolveMemo:
 
 @pytest.fixture
 def shared_problems(_problem_memo: SolveMemo, monkeypatch: pytest.MonkeyPatch) -> SolveMemo:
-    """windsolve.solve (the nine bounded least-squares runs: most of a solve's 3-5 s) computed once per
+    """windsolve.solve (the nine bounded least-squares runs: 1-5 s a solve here, idle to loaded) computed once per
     distinct Problem in this module (issue #34). Each test below solves a flight with and without the thrust
     scale, and both begin with the same kappa-0 problem: asked again, it is the same pure function of the
     same pickled Problem (rows, prior, scale, kappa). A Problem that differs in any value (a kappa applied
