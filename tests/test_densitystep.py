@@ -78,6 +78,15 @@ def test_no_step_to_judge_leaves_the_thrust_alone_silently(alt_top, p0, said):
     assert step is None and bool(notes) == said
 
 
+def test_a_barometer_no_flight_reads_is_not_believed():
+    """Pressure in hPa (a damaged or mis-scaled log): a ratio of 0.001, and a ThO that drops with it by
+    chance, is still no density step."""
+    baro = _baro(np.linspace(0.0, 40.0, 401))
+    ctun = _ctun(baro, step=True)
+    baro["Press"] = baro["Press"] / 100.0
+    assert find_step(baro, ctun) == (None, [])
+
+
 def test_no_barometer_or_no_throttle_around_the_step():
     baro = _baro(np.linspace(0.0, 40.0, 401))
     assert find_step(None, _ctun(baro, step=True)) == (None, [])

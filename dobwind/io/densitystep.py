@@ -32,6 +32,7 @@ KELVIN = 273.15
 WINDOW_S = 1.0                # each side of the step, for ThO's medians
 MIN_STEP = 0.02               # a smaller step is within a second's throttle changes: not judged, not undone
 MIN_SAMPLES = 3               # ThO samples each side
+RATIO_RANGE = (0.5, 1.3)      # ISA density ratios from about 5.5 km up to a cold day below sea level
 
 
 def applied_ratio(alt_m: np.ndarray, pressure_pa: np.ndarray, ground_temp_c: np.ndarray) -> np.ndarray:
@@ -88,8 +89,8 @@ def find_step(baro: dict[str, np.ndarray] | None, ctun: dict[str, np.ndarray]) -
     if len(changed) == 0 or not np.isfinite(ratio[changed[0]]):
         return None, []
     t1, predicted = float(baro["t"][changed[0]]), float(ratio[changed[0]])
-    if abs(1.0 - predicted) < MIN_STEP:
-        return None, []
+    if abs(1.0 - predicted) < MIN_STEP or not RATIO_RANGE[0] <= predicted <= RATIO_RANGE[1]:
+        return None, []  # nothing to see, or a barometer no flight reads (a damaged log's values)
     before = _median(ctun["t"], ctun["ThO"], t1 - WINDOW_S, t1)
     after = _median(ctun["t"], ctun["ThO"], t1, t1 + WINDOW_S)
     if before is None or after is None:
