@@ -66,6 +66,17 @@ def test_a_log_without_the_step_is_read_as_logged_and_says_why():
     assert step is None and "changed by 1.000 there: the thrust is read as logged" in said[0]
 
 
+def test_a_vehicle_levelling_off_at_25_m_is_not_taken_for_the_step():
+    """A version without the step whose vehicle levels off as it reaches 25 m: the throttle falls 10 % over
+    one second centred on the crossing, a ramp of 1 % a sample, not the compensation's jump."""
+    baro = _baro(np.linspace(0.0, 40.0, 401))
+    ctun = _ctun(baro, step=False)
+    t1 = baro["t"][np.argmax(baro["Alt"] >= 25.0)]
+    ctun["ThO"] = ctun["ThO"] * np.interp(ctun["t"], [t1 - 0.5, t1 + 0.5], [1.0, 0.9])
+    step, said = find_step(baro, ctun)
+    assert step is None and "the thrust is read as logged" in said[0], said
+
+
 @pytest.mark.parametrize("alt_top, p0, said", [
     (20.0, 94_500.0, False),    # never 25 m from the ground: no recomputation
     (40.0, 98_900.0, False),    # a ratio within 2 % of 1 (cool air near sea level): too small to tell from throttle changes

@@ -12,8 +12,8 @@ slow flight), so the thrust ThO / ThH × m g read 10 % low for the last 55 of th
 seconds, and a calibration took an average of the two parts as a thrust scale (1.063).
 
 The reader therefore rebuilds the ratio ArduCopter used (BARO Alt, Press and GndTemp; 1 before the first
-computation) and, where the log itself shows that first step in ThO (its median over a second after the
-instant against the second before, closer to the predicted ratio than to no step at all), reads the thrust
+computation) and, where the log itself shows that first step in ThO (its median over a third of a second
+after the instant against the third before, closer to the predicted ratio than to no step at all), reads the thrust
 as ThO / ratio over the hover throttle learned before the step. A log whose ThO shows no such step (a
 version that computes the ratio at boot, a flight that never climbs 25 m, a step too small to see) is read
 as logged.
@@ -29,9 +29,13 @@ SEA_LEVEL_DENSITY = 1.225     # kg/m³, ISA
 GAS_CONSTANT = 287.26         # J/(kg K), ArduPilot's ISA_GAS_CONSTANT
 LAPSE_RATE = 0.0065           # K/m, ISA
 KELVIN = 273.15
-WINDOW_S = 1.0                # each side of the step, for ThO's medians
+# Each side of the step, for ThO's medians: three samples of the usual 10 Hz CTUN. The compensation steps
+# within two samples (the field log: 0.384, 0.358, 0.353 at 0.1 s spacing); a vehicle levelling off at the
+# same instant changes its throttle by 5-10 % over one or two seconds, a few percent in this window, so a
+# wider one would take such a change for the step on a version that has none.
+WINDOW_S = 0.35
 MIN_STEP = 0.02               # a smaller step is within a second's throttle changes: not judged, not undone
-MIN_SAMPLES = 3               # ThO samples each side
+MIN_SAMPLES = 2               # ThO samples each side
 RATIO_RANGE = (0.5, 1.3)      # ISA density ratios from about 5.5 km up to a cold day below sea level
 
 
