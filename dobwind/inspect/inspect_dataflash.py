@@ -8,10 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from dobwind.io.dataflash import (AP_WIND, ATTITUDE, EV_GROUND, IMU, VELOCITY, WANTED, follow_primary, load_messages,
-                               pick_stream, truncation)
+from dobwind.io.dataflash import (AP_WIND, ATTITUDE, EV_GROUND, IMU, VELOCITY, WANTED, density_step, follow_primary,
+                               load_messages, pick_stream, truncation)
 from dobwind.core.errors import InputError
-from dobwind.io.densitystep import find_step
 from dobwind.io.quietfd import quiet_fds
 from dobwind.io.vehiclekind import ardupilot_not_multirotor, firmware
 from dobwind.inspect.loginspect import (AutopilotWind, LogSummary, Role, Vehicle, inside, intervals,
@@ -186,10 +185,9 @@ def _ap_wind(msgs: dict, params: dict) -> AutopilotWind:
 def _density_step(msgs: dict, baro: list[dict]) -> list[str]:
     """What replay's reader says of ArduCopter's density step in CTUN.ThO (dobwind/io/densitystep.py)."""
     ctun = pick_stream(msgs, (("CTUN", None, 0),), ["ThO", "ThH"])
-    found = pick_stream({"BARO": baro}, (("BARO", "I", 0),), ["Alt", "Press", "GndTemp"])
-    if ctun is None or found is None:
+    if ctun is None:
         return []
-    return [f"for a collective airframe: {line}" for line in find_step(found[1], ctun[1])[1]]
+    return [f"for a collective airframe: {line}" for line in density_step({"BARO": baro}, ctun[1])[1]]
 
 
 def inspect_dataflash(path: str) -> LogSummary:

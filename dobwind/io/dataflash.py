@@ -39,7 +39,7 @@ from dobwind.io.bridge import blanked, bridge, largest_silences
 from dobwind.io.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, hold,
                               interp, quaternions, source_gaps, topic_tolerances, truncated_note, uniform_clock)
 from dobwind.io.vehiclekind import MULTIROTORS_ONLY, ardupilot_not_multirotor, firmware
-from dobwind.io.densitystep import find_step
+from dobwind.io.densitystep import DensityStep, find_step
 from dobwind.io.sitlwind import MESSAGES as SITL_MESSAGES, SitlLog, describe as describe_sitl, sitl_from_messages
 from dobwind.model.signals import log_signals
 
@@ -357,12 +357,18 @@ def _columns(af: Airframe, vel, att, imu, psc, escs, ctun, msgs, clock: np.ndarr
     return cols
 
 
+def density_step(msgs, ctun: dict) -> tuple[DensityStep | None, list[str]]:
+    """ArduCopter's density step in ``ctun`` (CTUN's t, ThO, ThH) by the primary barometer of ``msgs``
+    (its BARO rows), and what to say of it (dobwind/io/densitystep.py)."""
+    baro = pick_stream(msgs, (("BARO", "I", 0),), ["Alt", "Press", "GndTemp"]) if msgs.get("BARO") else None
+    return find_step(None if baro is None else baro[1], ctun)
+
+
 def _collective(ctun: dict, msgs, clock: np.ndarray, notes: list[str]) -> np.ndarray:
     """CTUN.ThO / CTUN.ThH on the clock, with ArduCopter's density step undone where the log shows it."""
     tho, thh = hold(ctun, ["ThO"], clock)[:, 0], hold(ctun, ["ThH"], clock)[:, 0]
     notes.append("collective thrust from CTUN.ThO / CTUN.ThH times m g")
-    baro = pick_stream(msgs, (("BARO", "I", 0),), ["Alt", "Press", "GndTemp"]) if msgs.get("BARO") else None
-    step, said = find_step(None if baro is None else baro[1], ctun)
+    step, said = density_step(msgs, ctun)
     notes += said
     if step is not None:
         tho, thh = step.thrust_terms(clock, tho, thh)
