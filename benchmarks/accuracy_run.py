@@ -36,8 +36,12 @@ def run_child(args: list[str], workdir: Path) -> Child:
     """Run `python -m dobwind.cli ARGS`; os.wait4 gives this child's own rusage (not all children's)."""
     out_path, err_path = workdir / ".child.out", workdir / ".child.err"
     start = time.perf_counter()
+    # One BLAS thread per child unless the caller chose otherwise: the benchmarks run children side by side
+    # (--workers), and OpenBLAS's default of a thread per core makes them wait on each other (the Makefile's
+    # test targets set it for the same reason, measured there).
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": os.environ.get("OPENBLAS_NUM_THREADS", "1")}
     with open(out_path, "w") as out, open(err_path, "w") as err:
-        proc = subprocess.Popen([sys.executable, "-m", "dobwind.cli", *args], stdout=out, stderr=err)
+        proc = subprocess.Popen([sys.executable, "-m", "dobwind.cli", *args], stdout=out, stderr=err, env=env)
         _, status, usage = os.wait4(proc.pid, 0)
         proc.returncode = os.waitstatus_to_exitcode(status)  # reaped here: Popen must not wait again
     wall = time.perf_counter() - start

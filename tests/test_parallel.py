@@ -139,3 +139,23 @@ def test_the_table_tool_sums_each_module(tmp_path):
     assert module_seconds(report) == {"test_b.py": 7.5, "test_a.py": 3.75, "test_c.py": 0.2}
     assert table_lines(module_seconds(report)) == ['    "test_b.py": 8,', '    "test_a.py": 4,']
     assert module_of("tests.test_codegen.TestX") == "test_codegen.py"
+
+
+@pytest.mark.parametrize("given, expected", [(None, "1"), ("3", "3")])
+def test_benchmark_children_run_blas_on_one_thread_unless_told(tmp_path, monkeypatch, given, expected):
+    """The benchmarks (accuracy, fieldcross, realdata) run their `dobwind` children side by side, as the
+    suite's workers do: each child gets OPENBLAS_NUM_THREADS=1 unless the caller set it. The child here is a
+    script standing in for the interpreter that prints what it was given."""
+    from benchmarks import accuracy_run
+
+    fake = tmp_path / "python"
+    fake.write_text('#!/bin/sh\necho "threads=$OPENBLAS_NUM_THREADS"\n')
+    fake.chmod(0o755)
+    monkeypatch.setattr(accuracy_run.sys, "executable", str(fake))
+    if given is None:
+        monkeypatch.delenv("OPENBLAS_NUM_THREADS", raising=False)
+    else:
+        monkeypatch.setenv("OPENBLAS_NUM_THREADS", given)
+    child = accuracy_run.run_child(["--version"], tmp_path)
+    assert child.exit_code == 0
+    assert child.stdout.strip() == f"threads={expected}"
