@@ -104,3 +104,51 @@ def test_no_barometer_or_no_throttle_around_the_step():
     ctun = _ctun(baro, step=True)
     ctun["ThO"][:] = 0.0  # on the ground (ThO 0) on both sides: nothing to measure
     assert find_step(baro, ctun) == (None, [])
+
+
+def _manoeuvre(baro: dict, change: float, step: bool) -> tuple[dict, dict]:
+    """CTUN at 10 Hz and a 25 Hz IMU for a vehicle whose real thrust changes by ``change`` (a fraction) within
+    0.2 s as it crosses 25 m (a climb steepened or cut there), with or without the density step in ThO. The
+    IMU feels the real thrust: AccZ = -g times it."""
+    t1 = baro["t"][np.argmax(baro["Alt"] >= 25.0)]
+    ctun = _ctun(baro, step=step)
+    thrust = lambda t: np.interp(t, [t1 - 0.1, t1 + 0.1], [1.0, 1.0 + change])  # noqa: E731
+    ctun["ThO"] = ctun["ThO"] * thrust(ctun["t"])
+    t_imu = np.arange(baro["t"][0], baro["t"][-1], 0.04)
+    return ctun, {"t": t_imu, "AccZ": -9.80665 * thrust(t_imu)}
+
+
+def test_a_step_hidden_by_a_manoeuvre_is_found_through_the_imu():
+    """At the crossing the real thrust rises 10 % as the compensation lowers ThO by its 0.90: ThO alone barely
+    moves (0.988), and only the thrust the IMU felt shows the step."""
+    baro = _baro(np.linspace(0.0, 40.0, 401))
+    ctun, imu = _manoeuvre(baro, +0.10, step=True)
+    alone, said_alone = find_step(baro, ctun)
+    assert alone is None and "but CTUN.ThO changed by 0.98" in said_alone[0]
+    step, said = find_step(baro, ctun, imu)
+    assert step is not None and step.measured == pytest.approx(step.predicted, abs=1e-9)
+    assert "CTUN.ThO per unit of the IMU's -AccZ stepped by" in said[0]
+    tho, thh = step.thrust_terms(ctun["t"], ctun["ThO"], ctun["ThH"])
+    t1 = baro["t"][np.argmax(baro["Alt"] >= 25.0)]
+    real = np.interp(ctun["t"], [t1 - 0.1, t1 + 0.1], [1.0, 1.1])
+    np.testing.assert_allclose(tho / thh, real, rtol=1e-9)  # the thrust read is the real thrust
+
+
+def test_a_sharp_throttle_cut_without_the_step_is_not_taken_for_it():
+    """A version without the step whose vehicle cuts its thrust by 10 % within 0.2 s at the crossing: ThO alone
+    looks exactly like the step; the IMU felt the cut, so ThO per felt thrust did not move."""
+    baro = _baro(np.linspace(0.0, 40.0, 401))
+    ctun, imu = _manoeuvre(baro, -0.10, step=False)
+    assert find_step(baro, ctun)[0] is not None  # misread without the IMU: why the IMU is used
+    step, said = find_step(baro, ctun, imu)
+    assert step is None and "per unit of the IMU's -AccZ changed by 1.000 there" in said[0]
+
+
+def test_imu_samples_without_thrust_are_left_out():
+    """An IMU reading free fall (AccZ near 0) around the crossing is no thrust to divide by: those samples are
+    left out, and with none left the judgement is ThO's alone, as for a log without an IMU."""
+    baro = _baro(np.linspace(0.0, 40.0, 401))
+    ctun, imu = _manoeuvre(baro, 0.0, step=True)
+    imu["AccZ"][:] = -0.1
+    step, said = find_step(baro, ctun, imu)
+    assert step is not None and "and CTUN.ThO stepped by" in said[0]

@@ -187,7 +187,7 @@ def _density_step(msgs: dict, baro: list[dict]) -> list[str]:
     ctun = pick_stream(msgs, (("CTUN", None, 0),), ["ThO", "ThH"])
     if ctun is None:
         return []
-    return [f"for a collective airframe: {line}" for line in density_step({"BARO": baro}, ctun[1])[1]]
+    return [f"for a collective airframe: {line}" for line in density_step({**msgs, "BARO": baro}, ctun[1])[1]]
 
 
 def inspect_dataflash(path: str) -> LogSummary:

@@ -359,9 +359,11 @@ def _columns(af: Airframe, vel, att, imu, psc, escs, ctun, msgs, clock: np.ndarr
 
 def density_step(msgs, ctun: dict) -> tuple[DensityStep | None, list[str]]:
     """ArduCopter's density step in ``ctun`` (CTUN's t, ThO, ThH) by the primary barometer of ``msgs``
-    (its BARO rows), and what to say of it (dobwind/io/densitystep.py)."""
+    (its BARO rows), judged against the thrust its IMU felt, and what to say of it
+    (dobwind/io/densitystep.py)."""
     baro = pick_stream(msgs, (("BARO", "I", 0),), ["Alt", "Press", "GndTemp"]) if msgs.get("BARO") else None
-    return find_step(None if baro is None else baro[1], ctun)
+    imu = pick_stream(msgs, IMU, ["AccZ"]) if msgs.get("IMU") else None
+    return find_step(None if baro is None else baro[1], ctun, None if imu is None else imu[1])
 
 
 def _collective(ctun: dict, msgs, clock: np.ndarray, notes: list[str]) -> np.ndarray:

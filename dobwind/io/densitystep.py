@@ -17,6 +17,12 @@ after the instant against the third before, closer to the predicted ratio than t
 as ThO / ratio over the hover throttle learned before the step. A log whose ThO shows no such step (a
 version that computes the ratio at boot, a flight that never climbs 25 m, a step too small to see) is read
 as logged.
+
+What is compared is ThO per unit of the thrust the IMU feels (-AccZ, the body-down specific force, which
+the thrust dominates), when the log has the IMU: the compensation changes ThO and not the thrust, while a
+manoeuvre at the same instant (levelling off at 25 m, a gust) changes both. On the field SITL log, away from
+the step, ThO's own medians over 0.35 s either side differ by up to 8 % (5 % in one window of a hundred),
+which a 10 % step must be told from; ThO per -AccZ by up to 2.6 %. Without an IMU, ThO alone is compared.
 """
 from __future__ import annotations
 
@@ -37,6 +43,10 @@ WINDOW_S = 0.35
 MIN_STEP = 0.02               # a smaller step is within a second's throttle changes: not judged, not undone
 MIN_SAMPLES = 2               # ThO samples each side
 RATIO_RANGE = (0.5, 1.3)      # ISA density ratios from about 5.5 km up to a cold day below sea level
+# -AccZ below this share of g is no thrust to normalize by (a free fall, a sensor fault): such samples are
+# left out of the normalized medians.
+MIN_THRUST_G = 0.3
+GRAVITY = 9.80665
 
 
 def applied_ratio(alt_m: np.ndarray, pressure_pa: np.ndarray, ground_temp_c: np.ndarray) -> np.ndarray:
@@ -62,6 +72,7 @@ class DensityStep:
     baro_t: np.ndarray
     ratio: np.ndarray
     hover_before: float
+    measure: str = "CTUN.ThO"   # what stepped: ThO, or ThO per unit of the IMU's -AccZ
 
     def thrust_terms(self, clock: np.ndarray, tho: np.ndarray, thh: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """ThO and ThH on ``clock`` in the units of a ratio of 1 (ThO / ratio; the hover throttle learned
@@ -73,7 +84,7 @@ class DensityStep:
     def note(self) -> str:
         return (f"ArduCopter's air-density compensation: its density ratio (BARO, recomputed every 25 m of "
                 f"altitude) went from 1 to {self.ratio[np.searchsorted(self.baro_t, self.t_s)]:.3f} at "
-                f"{self.t_s:.1f} s and CTUN.ThO stepped by {self.measured:.3f} with it (predicted "
+                f"{self.t_s:.1f} s and {self.measure} stepped by {self.measured:.3f} with it (predicted "
                 f"{self.predicted:.3f}): from then on the thrust is ThO / ratio over the hover throttle learned "
                 f"before ({self.hover_before:.3f}), as the motors' outputs say")
 
@@ -83,9 +94,29 @@ def _median(t: np.ndarray, v: np.ndarray, lo: float, hi: float) -> float | None:
     return float(np.median(v[inside])) if inside.sum() >= MIN_SAMPLES else None
 
 
-def find_step(baro: dict[str, np.ndarray] | None, ctun: dict[str, np.ndarray]) -> tuple[DensityStep | None, list[str]]:
+def _throttle_measure(ctun: dict[str, np.ndarray], imu: dict[str, np.ndarray] | None) -> tuple[np.ndarray, np.ndarray, str]:
+    """(times, values, name) of what the step is looked for in: ThO per unit of the IMU's -AccZ at CTUN's
+    instants where the IMU covers them and feels thrust, else ThO as logged."""
+    if imu is None or len(imu["t"]) < 2:
+        return ctun["t"], ctun["ThO"], "CTUN.ThO"
+    inside = (ctun["t"] >= imu["t"][0]) & (ctun["t"] <= imu["t"][-1])
+    felt = -np.interp(ctun["t"], imu["t"], imu["AccZ"])
+    keep = inside & (felt > MIN_THRUST_G * GRAVITY)
+    return ctun["t"][keep], ctun["ThO"][keep] / felt[keep], "CTUN.ThO per unit of the IMU's -AccZ"
+
+
+def _change(ctun: dict[str, np.ndarray], imu: dict[str, np.ndarray] | None, t1: float) -> tuple[float | None, str]:
+    """The measure's median over WINDOW_S after ``t1`` over its median before (None: too few samples)."""
+    t, value, measure = _throttle_measure(ctun, imu)
+    before = _median(t, value, t1 - WINDOW_S, t1)
+    after = _median(t, value, t1, t1 + WINDOW_S)
+    return (None if before is None or after is None else after / before), measure
+
+
+def find_step(baro: dict[str, np.ndarray] | None, ctun: dict[str, np.ndarray],
+              imu: dict[str, np.ndarray] | None = None) -> tuple[DensityStep | None, list[str]]:
     """The step (or None) and what to say. ``baro``: times ``t`` (s) and Alt, Press, GndTemp of the primary
-    barometer; ``ctun``: ``t``, ThO, ThH."""
+    barometer; ``ctun``: ``t``, ThO, ThH; ``imu``: ``t`` and AccZ (m/s², body down) of the IMU, or None."""
     if baro is None or len(baro["t"]) < 2:
         return None, []
     ratio = applied_ratio(baro["Alt"], baro["Press"], baro["GndTemp"])
@@ -95,15 +126,15 @@ def find_step(baro: dict[str, np.ndarray] | None, ctun: dict[str, np.ndarray]) -
     t1, predicted = float(baro["t"][changed[0]]), float(ratio[changed[0]])
     if abs(1.0 - predicted) < MIN_STEP or not RATIO_RANGE[0] <= predicted <= RATIO_RANGE[1]:
         return None, []  # nothing to see, or a barometer no flight reads (a damaged log's values)
-    before = _median(ctun["t"], ctun["ThO"], t1 - WINDOW_S, t1)
-    after = _median(ctun["t"], ctun["ThO"], t1, t1 + WINDOW_S)
-    if before is None or after is None:
+    measured, measure = _change(ctun, imu, t1)
+    if measured is None and imu is not None:  # the IMU felt no thrust around the instant: ThO alone
+        measured, measure = _change(ctun, None, t1)
+    if measured is None:
         return None, []
-    measured = after / before
     if abs(measured - predicted) >= abs(1.0 - measured):
         return None, [f"ArduCopter's density ratio from BARO would have stepped to {predicted:.3f} at {t1:.1f} s, "
-                      f"but CTUN.ThO changed by {measured:.3f} there: the thrust is read as logged"]
+                      f"but {measure} changed by {measured:.3f} there: the thrust is read as logged"]
     pre = ctun["t"] < t1
     hover = float(ctun["ThH"][pre][-1]) if pre.any() else float(ctun["ThH"][0])
-    step = DensityStep(t1, predicted, measured, np.asarray(baro["t"], dtype=float), ratio, hover)
+    step = DensityStep(t1, predicted, measured, np.asarray(baro["t"], dtype=float), ratio, hover, measure)
     return step, [step.note()]
