@@ -293,7 +293,7 @@ def main(argv: list[str] | None = None) -> int:
     write_text_atomically(Path(args.output) / "sitlbin.json", lambda h: h.write(json.dumps(result, indent=1)))
     for tag, fit in result["fits"].items():
         print(f"{tag} calibration ({fit['log']}): init exit {fit['init_exit']}, fit exit {fit['fit_exit']}; "
-              f"{fit.get('law', '')[:160]}; {fit.get('self_check', '')}")
+              f"{fit.get('law', '')}; {fit.get('self_check', '')}")
     if result["field_log"] is None:
         print(f"field calibration skipped: {FIELD_LOG} is absent")
     print(table(result["replays"]))

@@ -240,7 +240,18 @@ def main(argv: list[str] | None = None) -> int:
         print(f"sitlconvert: --wind: {args.wind!r} is not SPEED@FROM (e.g. 5@37)", file=sys.stderr)
         return 2
     setting = SitlSetting(speed, from_deg, args.turbulence, density_step=not args.no_density_step)
-    convert(read_flight_csv(args.flight), setting, Path(args.output))
+    try:
+        cols = read_flight_csv(args.flight)
+        missing = [c for c in ("t", "vel_n", "vel_e", "vel_d", "sf_x", "sf_y", "sf_z", "q_w", "q_x", "q_y", "q_z",
+                               "thrust", "yaw_ref") if c not in cols]
+    except (OSError, ValueError, IndexError) as exc:
+        print(f"sitlconvert: {args.flight}: not a readable `dobwind simulate` CSV ({exc})", file=sys.stderr)
+        return 2
+    if missing:
+        print(f"sitlconvert: {args.flight}: column(s) {', '.join(missing)} missing (a `dobwind simulate` CSV has them)",
+              file=sys.stderr)
+        return 2
+    convert(cols, setting, Path(args.output))
     return 0
 
 
