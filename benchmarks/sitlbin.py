@@ -18,7 +18,7 @@ Then the same test flights through the REAL field SITL log's calibration (`fit -
 ../shared/data/field/arducopter_sitl_wind10_from180.bin; skipped when the data are absent): what the graders
 do with unseen SITL flights, as far as the stand-in resembles ArduPilot's SITL quad.
 
-    .venv/bin/python -m benchmarks.sitlbin [-o OUT] [--workers 2] [--seed 1] [--speed 5]
+    .venv/bin/python -m benchmarks.sitlbin [-o OUT] [--workers 2] [--seed 1] [--speed 5] [--extra-fit AIRFRAME]
 """
 from __future__ import annotations
 
@@ -263,8 +263,9 @@ def _step_contrast(replays: list[dict[str, Any]]) -> list[str]:
     return out
 
 
-def run(speed: float, seed: int, workers: int, out: Path) -> dict[str, Any]:
-    """Every flight, both calibrations (the converted box, the real field SITL log), every replay."""
+def run(speed: float, seed: int, workers: int, out: Path, extra_fits: tuple[str, ...] = ()) -> dict[str, Any]:
+    """Every flight, both calibrations (the converted box, the real field SITL log) and any airframe given
+    (``extra_fits``, tagged by file name), every replay."""
     out.mkdir(parents=True, exist_ok=True)
     jobs = flight_jobs(speed, seed, out)
     with ProcessPoolExecutor(max_workers=max(1, workers)) as pool:
@@ -272,6 +273,8 @@ def run(speed: float, seed: int, workers: int, out: Path) -> dict[str, Any]:
         fits = {"stand-in": calibrate(out, out / "calibration.bin", "stand-in")}
         if FIELD_LOG.is_file():
             fits["field"] = calibrate(out, FIELD_LOG, "field")
+        fits.update({Path(f).stem: {"log": "(given)", "init_exit": None, "fit_exit": 0, "fit": str(Path(f).resolve())}
+                     for f in extra_fits})
         tests = [j for j in jobs if j.flight is not CALIBRATION]
         replay_jobs = [ReplayJob(tag, fit["fit"], j.flight, j) for tag, fit in fits.items()
                        if fit.get("fit_exit") == 0 for j in tests]
@@ -287,9 +290,11 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--speed", type=float, default=5.0, help="the calibration flight's wind, m/s (default 5)")
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--extra-fit", action="append", default=[], metavar="AIRFRAME",
+                   help="also replay the test flights through this airframe (repeatable), e.g. a variant of a fit")
     p.add_argument("-o", "--output", default="sitlbin_out")
     args = p.parse_args(argv)
-    result = run(args.speed, args.seed, args.workers, Path(args.output))
+    result = run(args.speed, args.seed, args.workers, Path(args.output), tuple(args.extra_fit))
     write_text_atomically(Path(args.output) / "sitlbin.json", lambda h: h.write(json.dumps(result, indent=1)))
     for tag, fit in result["fits"].items():
         print(f"{tag} calibration ({fit['log']}): init exit {fit['init_exit']}, fit exit {fit['fit_exit']}; "
