@@ -6,8 +6,12 @@ import struct
 from pathlib import Path
 
 # DataFlash format characters used here -> struct codes (Q uint64 TimeUS, B uint8, f float, d double,
-# i int32, H uint16, h int16, I uint32, b int8, N char[16], Z char[64]).
-_CODES = {"Z": "64s", "N": "16s", "Q": "Q", "B": "B", "f": "f", "d": "d", "i": "i", "I": "I", "H": "H", "h": "h", "b": "b"}
+# i int32, H uint16, h int16, I uint32, b int8, N char[16], Z char[64]); the scaled ones ArduPilot logs
+# angles and altitudes in (c int16 and C uint16 in hundredths, e int32 and E uint32 in hundredths, L int32
+# degrees in 1e-7) take the value in its own unit and store it scaled, as pymavlink's DFReader reads them.
+_CODES = {"Z": "64s", "N": "16s", "Q": "Q", "B": "B", "f": "f", "d": "d", "i": "i", "I": "I", "H": "H", "h": "h", "b": "b",
+          "c": "h", "C": "H", "e": "i", "E": "I", "L": "i"}
+_SCALES = {"c": 100.0, "C": 100.0, "e": 100.0, "E": 100.0, "L": 1e7}
 _FMT_TYPE = 128
 
 
@@ -23,6 +27,8 @@ def _value(code: str, value):
         return str(value or "").encode()
     if code in "fd":
         return float(value if value is not None else 0.0)
+    if code in _SCALES:
+        return int(round(_SCALES[code] * (value if value is not None else 0)))
     return int(round(value if value is not None else 0))
 
 

@@ -227,3 +227,24 @@ def test_the_field_sitl_log_through_init_fit_replay(tmp_path, capsys):
     assert block["rows_used"] == "trusted" and block["true_from_deg"] == pytest.approx(180.0)
     assert abs(block["speed_difference_mps"]) < 0.5 and abs(block["direction_difference_deg"]) < 5.0
     assert got["calibration"]["calibrated_from"] == log and "SIM_WIND_SPD 10" in got["calibration"]["wind_truth"]
+
+
+def test_the_accepted_rows_figures_include_what_the_trusted_ones_leave_out():
+    """A steady 5 m/s southerly; dobwind 4 m/s on the trusted rows and 6 m/s on as many accepted rows that
+    are not trusted (gusts beyond the calibration, say); two landed rows wildly off. Trusted rows: -1 m/s;
+    every accepted airborne row: 0 m/s over 8 rows; the landed ones never count."""
+    from dobwind.io.sitlwind import SitlLog
+    from dobwind.replay.sitlcompare import sitl_summary
+
+    clock = np.arange(10.0)
+    sitl = SitlLog({"SIM_WIND_SPD": (np.zeros(1), np.array([5.0])), "SIM_WIND_DIR": (np.zeros(1), np.array([180.0])),
+                    "SIM_WIND_T": (np.zeros(1), np.array([1.0]))}, clock, np.full(10, 30.0), "BARO.Alt")
+    wind = np.vstack([_steady(4, 4.0, 0.0), _steady(4, 6.0, 0.0), _steady(2, -30.0, 9.0)])
+    from dobwind.model.status import STATUS_BITS
+    extrapolated = next(bit.value for bit in STATUS_BITS if bit.name == "EXTRAPOLATED")  # accepted, not trusted
+    status = np.array([0] * 4 + [extrapolated] * 4 + [STATUS_LANDED] * 2)
+    block, _ = sitl_summary(sitl, clock, wind, status)
+    assert block["compared_rows"] == 4 and block["speed_difference_mps"] == pytest.approx(-1.0)
+    every = block["accepted_rows"]
+    assert every["compared_rows"] == 8 and every["speed_difference_mps"] == pytest.approx(0.0, abs=1e-12)
+    assert every["true_from_deg"] == pytest.approx(180.0) and every["direction_difference_deg"] == pytest.approx(0.0)
