@@ -20,7 +20,7 @@ from dobwind.cli.app import main
 from dobwind.io.provenance import calibration_record, provenance, read_provenance
 from dobwind.model.airframe import load_airframe, parse_airframe
 from dobwind.model.airframe_toml import dump_airframe
-from dobwind.model.status import STATUS_LANDED, STATUS_NO_DATA
+from dobwind.model.status import STATUS_BITS, STATUS_LANDED, STATUS_NO_DATA
 from dobwind.replay.replay import replay_ulog, sitl_truth
 from dobwind.replay.sitlcompare import compare_with_sitl
 from dobwind.simulate.simulate import simulate
@@ -28,7 +28,7 @@ from tests.test_fieldcal import _airframe, _dataflash
 
 pytest.importorskip("pymavlink")
 
-SETTLING = 1 << 4  # any quality bit: accepted, not trusted
+SETTLING = next(bit.value for bit in STATUS_BITS if bit.name == "SETTLING")  # a quality bit: accepted, not trusted
 SPEED, FROM_DEG, T_ALT = 10.0, 90.0, 60.0
 CLIMB_MPS = 1.0  # BARO.Alt = CLIMB_MPS * (t - 1 s): 0 -> T_ALT over the first minute, then above it
 # ../shared/data beside the checkout, or where DOBWIND_SHARED_DATA names it (as tests/test_bridge.py).
