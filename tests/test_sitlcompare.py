@@ -248,3 +248,24 @@ def test_the_accepted_rows_figures_include_what_the_trusted_ones_leave_out():
     every = block["accepted_rows"]
     assert every["compared_rows"] == 8 and every["speed_difference_mps"] == pytest.approx(0.0, abs=1e-12)
     assert every["true_from_deg"] == pytest.approx(180.0) and every["direction_difference_deg"] == pytest.approx(0.0)
+
+
+def test_replay_prints_every_accepted_row_when_few_are_trusted():
+    """The same rows as above (4 of 8 accepted rows trusted): a second line with the accepted rows' figures.
+    With 9 of 10 trusted, only the first."""
+    from dobwind.io.sitlwind import SitlLog
+    from dobwind.replay.sitlcompare import sitl_line, sitl_summary
+
+    clock = np.arange(10.0)
+    sitl = SitlLog({"SIM_WIND_SPD": (np.zeros(1), np.array([5.0])), "SIM_WIND_DIR": (np.zeros(1), np.array([180.0])),
+                    "SIM_WIND_T": (np.zeros(1), np.array([1.0]))}, clock, np.full(10, 30.0), "BARO.Alt")
+    extrapolated = next(bit.value for bit in STATUS_BITS if bit.name == "EXTRAPOLATED")
+    wind = np.vstack([_steady(4, 4.0, 0.0), _steady(4, 6.0, 0.0), _steady(2, 5.0, 0.0)])
+    status = np.array([0] * 4 + [extrapolated] * 4 + [STATUS_LANDED] * 2)
+    first, second = sitl_line(sitl_summary(sitl, clock, wind, status)[0])
+    assert "over 4 trusted airborne rows: dobwind 4.00 m/s" in first and "speed -1.00 m/s" in first
+    assert second.startswith("  over all 8 accepted airborne rows (only 50% trusted")
+    assert "dobwind 5.00 m/s from 180.0 deg, simulator 5.00 m/s" in second and "speed +0.00 m/s" in second
+    wind = np.vstack([_steady(9, 5.0, 0.0), _steady(1, 6.0, 0.0)])
+    status = np.array([0] * 9 + [extrapolated])
+    assert len(sitl_line(sitl_summary(sitl, clock, wind, status)[0])) == 1
