@@ -752,6 +752,18 @@ def each_fold(samples: DragSamples) -> Iterator[Split]:
         yield _split_part(samples, fold != k, ("fold", k, "fitted")), _split_part(samples, fold == k, ("fold", k, "scored"))
 
 
+def few_blocks(samples: DragSamples) -> str | None:
+    """What a refusal adds when the calibration holds fewer cross-validation blocks than FOLDS: each fold
+    then fits the law on a few of BLOCK_S seconds of flight and predicts the rest, so a short flight, not
+    the law, can be what fails the CV (a 37 s PX4 log gives two blocks). None with FOLDS blocks or more."""
+    blocks = len(np.unique(samples.group))
+    if blocks >= FOLDS:
+        return None
+    return (f"the calibration gives {blocks} cross-validation block{'s' if blocks != 1 else ''} of {BLOCK_S:g} s "
+            f"(each fold fits the law on the others and predicts one): fly at least {FOLDS * BLOCK_S:g} s of "
+            "airborne flight with varied headings and speeds, or add calibration logs")
+
+
 def top_split(samples: DragSamples) -> Split | None:
     """extrapolation_error's split: the fastest blocks scored, the rest fitted (None when undefined).
     Its parts remember what is computed from them with ``samples``, as fold_splits' do."""

@@ -280,7 +280,18 @@ def _fit_once(af: Airframe, log_paths: list[str],
     check = calibration.check(new, cv, speed_range, limits)
     new, check, low_pass, quiet_warnings = _quiet_hover(
         new, check, hover, lambda af_: calibration.check(af_, cv, speed_range, limits))
+    check = _short_flight(check, samples)
     return new, dataclasses.replace(report, low_pass=low_pass, warnings=[*report.warnings, *quiet_warnings]), points, check
+
+
+def _short_flight(check: SelfCheck, samples: dragfit.DragSamples) -> SelfCheck:
+    """A refusal whose cross-validation failed (or could not be made) on fewer blocks than the CV's folds
+    says so, with what would do: the flight is short, which the CV figure alone does not tell."""
+    clause = dragfit.few_blocks(samples)
+    cv_failed = check.cv_mps is None or not math.isfinite(check.cv_mps) or check.cv_mps > check.cv_limit_mps
+    if check.passed or clause is None or not cv_failed:
+        return check
+    return dataclasses.replace(check, reasons=[*check.reasons, clause])
 
 
 def _chosen_report(report: FitReport, chosen: str, scores: dict[str, FamilyScores | None], samples: dragfit.DragSamples,
