@@ -1,15 +1,16 @@
 """`dobwind inspect` for ArduPilot DataFlash (.bin): the messages dobwind/io/dataflash.py reads, their rates,
 the vehicle, ArduPilot's wind and the SITL wind parameters.
 
-The message choices are dataflash.py's (VELOCITY, ATTITUDE, IMU, AP_WIND, EV_GROUND, the EKF3 primary
-core from XKF4.PI): a role listed here is the message replay reads for it.
+The message choices are dataflash.py's (VELOCITY, ATTITUDE, IMU, AP_WIND, EV_GROUND, older layouts
+relabelled by aplayout.py, the primary EKF core from XKF4.PI or NKF4.PI): a role listed here is the
+message replay reads for it.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from dobwind.io.dataflash import (AP_WIND, ATTITUDE, EV_GROUND, IMU, VELOCITY, WANTED, density_step, follow_primary,
-                               load_messages, pick_stream, truncation)
+from dobwind.io.dataflash import (AP_WIND, ATTITUDE, EV_GROUND, IMU, LAYOUT_EXTRA, VELOCITY, WANTED, density_step,
+                                  in_one_layout, load_messages, pick_stream, truncation)
 from dobwind.core.errors import InputError
 from dobwind.io.quietfd import quiet_fds
 from dobwind.io.vehiclekind import ardupilot_not_multirotor, firmware
@@ -193,8 +194,8 @@ def _density_step(msgs: dict, baro: list[dict]) -> list[str]:
 def inspect_dataflash(path: str) -> LogSummary:
     notes: list[str] = []
     with quiet_fds():  # pymavlink's compiled indexer prints a line per bad byte, to fd 2 itself
-        loaded = load_messages(path, WANTED + ("PARM", "RCOU", "MSG", "BARO"))
-    msgs = follow_primary(loaded, notes)
+        loaded = load_messages(path, WANTED + LAYOUT_EXTRA + ("PARM", "RCOU", "MSG", "BARO"))
+    msgs = in_one_layout(loaded, notes)
     baro = msgs.pop("BARO")
     params_all = _parameters(msgs.pop("PARM"))
     banner = firmware(msgs.pop("MSG"))
