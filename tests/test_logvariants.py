@@ -1,0 +1,239 @@
+"""Logs of older PX4 and ArduPilot versions (issue #36; docs/autopilot-logs.md, *Versions the readers
+accept*): the same simulated flight written in each layout must replay to the same inputs and the same
+estimate as in the current layout, inspect and init must name the source they took, and a layout the
+readers do not know must end in one stderr line and exit 2. Every log here is written by the test."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from dobwind.cli.app import main
+from dobwind.inspect.anylog import inspect_log
+from dobwind.inspect.initframe import build_airframe
+from dobwind.io.autopilot import read_autopilot
+from dobwind.replay.replay import replay, replay_autopilot, replay_ulog
+from tests import test_dataflash as df
+from tests import test_inspect as ti
+from tests.dataflash_writer import write_dataflash
+from tests.helpers import M300
+from tests.test_ulog import _collective, _flight, _rows
+from tests.ulog_writer import Topic, write_ulog
+
+pytest.importorskip("pyulog")
+
+HOVER = 0.42
+MG = 8.0 * 9.80665  # the collective airframe's weight (test_ulog._collective)
+STAMP = [("uint64_t", "timestamp")]
+
+
+def _normalised(cols) -> np.ndarray:
+    """The collective thrust as PX4 logs it: m g at the hover thrust, upward positive."""
+    return cols["thrust"] / MG * HOVER
+
+
+def _px4_layout(path, cols, layout: str, extra: tuple[Topic, ...] = (), params: dict | None = None):
+    """The flight in one PX4 layout. v1.14: vehicle_thrust_setpoint.xyz[2] (negative up) scaled by
+    hover_thrust_estimate; v1.12: actuator_controls_0.control[3] (positive up), the attitude setpoint
+    without a thrust field; v1.8: vehicle_attitude_setpoint.thrust (a positive scalar), no
+    hover_thrust_estimate (PX4 before v1.11: MPC_THR_HOVER, set to the same value). Every layout logs
+    yaw_body, so the heading frame is the same."""
+    up = _normalised(cols)
+    stamps = [{"timestamp": r["timestamp"]} for r in _rows(cols, [], [])]
+    topics = [
+        Topic("vehicle_local_position", STAMP + [("float", f) for f in ("vx", "vy", "vz", "ax", "ay", "az")],
+              _rows(cols, ["vel_n", "vel_e", "vel_d", "acc_n", "acc_e", "acc_d"], ["vx", "vy", "vz", "ax", "ay", "az"])),
+        Topic("vehicle_attitude", STAMP + [("float[4]", "q")],
+              _rows(cols, ["q_w", "q_x", "q_y", "q_z"], [f"q[{i}]" for i in range(4)])),
+    ]
+    yaw = _rows(cols, ["yaw_ref"], ["yaw_body"])
+    if layout == "v1.8":
+        topics.append(Topic("vehicle_attitude_setpoint", STAMP + [("float", "roll_body"), ("float", "yaw_body"),
+                                                                  ("float", "thrust")],
+                            [dict(r, thrust=u) for r, u in zip(yaw, up)]))
+    else:
+        topics.append(Topic("vehicle_attitude_setpoint", STAMP + [("float", "yaw_body"), ("float[4]", "q_d")], yaw))
+        topics.append(Topic("hover_thrust_estimate", STAMP + [("float", "hover_thrust")],
+                            [dict(s, hover_thrust=HOVER) for s in stamps[::50]]))
+    if layout == "v1.14":
+        topics.append(Topic("vehicle_thrust_setpoint", STAMP + [("float[3]", "xyz")],
+                            [dict(s, **{"xyz[2]": -u}) for s, u in zip(stamps, up)]))
+    elif layout == "v1.12":
+        topics.append(Topic("actuator_controls_0", STAMP + [("float[8]", "control")],
+                            [dict(s, **{"control[3]": u}) for s, u in zip(stamps, up)]))
+    return write_ulog(path, topics + list(extra), {"MPC_THR_HOVER": HOVER, **(params or {})})
+
+
+@pytest.fixture(scope="module")
+def px4_flight(tmp_path_factory):
+    """The flight in the v1.14 layout, replayed once: the reference every older layout must equal."""
+    _, cols = _flight()
+    path = _px4_layout(tmp_path_factory.mktemp("v114") / "v114.ulg", cols, "v1.14")
+    return cols, replay_ulog(_collective(), str(path), rate_hz=100.0)
+
+
+@pytest.mark.parametrize("layout, source", [("v1.12", "actuator_controls_0.control[3]"),
+                                            ("v1.8", "vehicle_attitude_setpoint.thrust")])
+def test_an_older_px4_layout_replays_to_the_same_inputs_and_estimate(tmp_path, px4_flight, layout, source):
+    cols, (_, ref_flight, ref) = px4_flight
+    _, flight, traj = replay_ulog(_collective(), str(_px4_layout(tmp_path / "old.ulg", cols, layout)), rate_hz=100.0)
+    for key in ("vel_n", "vel_e", "vel_d", "acc_d", "q_w", "q_z", "thrust", "yaw_ref"):
+        np.testing.assert_array_equal(flight.log.columns[key], ref_flight.log.columns[key], err_msg=key)
+    np.testing.assert_array_equal(traj.status, ref.status)
+    np.testing.assert_array_equal(traj.outputs, ref.outputs)
+    # The thrust is the simulated one (not merely equal to the reference): m g x setpoint / hover.
+    np.testing.assert_allclose(flight.log.columns["thrust"][5:-5], cols["thrust"][5:-5], rtol=1e-5)
+    said = " ".join(flight.notes)
+    assert f"collective thrust from {source}:" in said, said
+    assert ("MPC_THR_HOVER parameter" in said) == (layout == "v1.8"), said
+
+
+def test_inspect_and_init_name_an_older_thrust_source(tmp_path, capsys):
+    """inspect's thrust role is the source replay takes, with what it is; init's reason names it."""
+    t = ti._stamps(50.0)
+    topics = [
+        ti._topic("vehicle_local_position", [("float", f) for f in ("vx", "vy", "vz", "ax", "ay", "az")],
+                  ti._stamps(10.0), lambda s: {"vx": 1.0}),
+        ti._topic("vehicle_attitude", [("float[4]", "q")], t, lambda s: {"q[0]": 1.0}),
+        ti._topic("actuator_controls_0", [("float[8]", "control")], t, lambda s: {"control[3]": 0.5}),
+        ti._topic("vehicle_land_detected", [("bool", "landed")], ti._stamps(1.0), lambda s: {"landed": not ti._airborne(s)}),
+    ]
+    log = write_ulog(tmp_path / "v112.ulg", topics, {"MPC_THR_HOVER": 0.5, "CA_ROTOR_COUNT": 4.0})
+    summary = inspect_log(str(log))
+    thrust = summary.role("thrust")
+    assert thrust.source == "actuator_controls_0.control[3]" and "before the mixer" in thrust.note, thrust
+    assert summary.missing() == []
+    text, choices, _ = build_airframe(str(log), 2.0, str(tmp_path / "v.toml"))
+    assert choices.thrust_source == "collective" and "actuator_controls_0.control[3]" in choices.thrust_reason
+    assert main(["inspect", str(log)]) == 0
+    assert "actuator_controls_0.control[3]" in capsys.readouterr().out
+
+
+def test_the_battery_scale_is_named_only_where_px4_applied_it(tmp_path, px4_flight):
+    """MC_BAT_SCALE_EN set: the rate controller's actuator_controls_0 carries the scale, the attitude
+    setpoint's thrust does not; the note names the first and not the second."""
+    cols, _ = px4_flight
+    for layout, named in (("v1.12", True), ("v1.8", False)):
+        path = _px4_layout(tmp_path / f"{layout}.ulg", cols, layout, params={"MC_BAT_SCALE_EN": 1.0})
+        _, flight, _ = replay_ulog(_collective(), str(path), rate_hz=100.0)
+        assert any("MC_BAT_SCALE_EN is set" in n for n in flight.notes) == named, flight.notes
+        role = inspect_log(str(path)).role("thrust")
+        assert ("battery scale" in role.note) == named, role
+
+
+def _one_line(capsys, *needles: str) -> str:
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err and all(n in err for n in needles), err
+    return err
+
+
+def test_a_px4_field_layout_the_reader_does_not_know_is_one_line_exit_2(tmp_path, capsys):
+    """vehicle_local_position logged with renamed velocity fields: the line names the topic and the
+    field it lacks, not a missing topic."""
+    _, cols = _flight()
+    renamed = Topic("vehicle_local_position", STAMP + [("float", f) for f in ("vel_n", "vel_e", "vel_d")],
+                    _rows(cols, ["vel_n", "vel_e", "vel_d"], ["vel_n", "vel_e", "vel_d"]))
+    topics = [renamed, Topic("vehicle_attitude", STAMP + [("float[4]", "q")],
+                             _rows(cols, ["q_w", "q_x", "q_y", "q_z"], [f"q[{i}]" for i in range(4)]))]
+    path = write_ulog(tmp_path / "renamed.ulg", topics)
+    assert main(["replay", str(M300), str(path)]) == 2
+    _one_line(capsys, str(path), "vehicle_local_position", "without field vx, vy, vz", "layout")
+
+
+def test_mixer_outputs_are_refused_as_a_collective_thrust_in_one_line(tmp_path, capsys):
+    """A collective airframe on a log whose only throttle is the mixer's per-motor output: refused, the
+    line naming that topic as not read."""
+    _, cols = _flight()
+    motors = Topic("actuator_outputs", STAMP + [("float[16]", "output")],
+                   [dict(r, **{f"output[{i}]": 1500.0 for i in range(4)}) for r in _rows(cols, [], [])])
+    path = _px4_layout(tmp_path / "mixer.ulg", cols, "none", extra=(motors,))
+    af = tmp_path / "coll.toml"
+    from dobwind.model.airframe_toml import dumps
+    from tests.helpers import airframe_dict
+    af.write_text(dumps(airframe_dict(thrust={"source": "collective"}, mass=8.0)))
+    assert main(["replay", str(af), str(path)]) == 2
+    _one_line(capsys, "actuator_controls_0.control[3]", "actuator_outputs is logged", "not read")
+
+
+# ---- ArduPilot: the per-core and per-ESC names of firmware before 4.1 ----
+
+OLD_EKF3 = {("XKF1", 0): "XKF1", ("XKF1", 1): "XKF6", ("XKQ", 0): "XKQ1", ("XKQ", 1): "XKQ2",
+            ("XKF2", 0): "XKF2", ("XKF2", 1): "XKF7", ("XKF4", 0): "XKF4", ("XKF4", 1): "XKF9"}
+
+
+def _pre41(messages: dict, rows: list) -> tuple[dict, list]:
+    """The same log as ArduPilot 4.0 writes it: one name per EKF core (no field C) and per ESC (no
+    field Instance), the IMU's second instance as IMU2."""
+    out_msgs = {}
+    for name, (fmt, columns) in messages.items():
+        if "C" in columns:
+            for (new, core), old in OLD_EKF3.items():
+                if new == name:
+                    out_msgs[old] = (fmt.replace("B", "", 1), [c for c in columns if c != "C"])
+        elif name == "ESC":
+            for k in range(4):
+                out_msgs[f"ESC{k + 1}"] = (fmt.replace("B", "", 1), [c for c in columns if c != "Instance"])
+        elif name == "IMU":
+            out_msgs["IMU"] = out_msgs["IMU2"] = (fmt.replace("B", "", 1), [c for c in columns if c != "I"])
+        else:
+            out_msgs[name] = (fmt, columns)
+    out_rows = []
+    for name, v in rows:
+        if "C" in v:
+            name, v = OLD_EKF3[(name, v["C"])], {k: x for k, x in v.items() if k != "C"}
+        elif name == "ESC":
+            name, v = f"ESC{v['Instance'] + 1}", {k: x for k, x in v.items() if k != "Instance"}
+        elif name == "IMU":
+            name, v = ("IMU" if v["I"] == 0 else "IMU2"), {k: x for k, x in v.items() if k != "I"}
+        out_rows.append((name, v))
+    return out_msgs, out_rows
+
+
+def test_an_ardupilot_40_layout_replays_as_its_41_twin(tmp_path):
+    """XKF1/XKF6, XKQ1/XKQ2, XKF2/XKF7 and ESC1..ESC4 (core 1 and IMU2 holding nonsense): the same
+    inputs and estimate as the 4.1 layout, and the note names what was relabelled."""
+    af, cols = df._flight()
+    rows = df._rows(af, cols)
+    new = replay_autopilot(af, str(write_dataflash(tmp_path / "new.bin", df.MESSAGES, rows)), rate_hz=50.0)
+    old = replay_autopilot(af, str(write_dataflash(tmp_path / "old.bin", *_pre41(df.MESSAGES, rows))), rate_hz=50.0)
+    for key in new[1].log.columns:
+        np.testing.assert_array_equal(old[1].log.columns[key], new[1].log.columns[key], err_msg=key)
+    np.testing.assert_array_equal(old[2].outputs, new[2].outputs)
+    assert old[1].autopilot_wind[0] == "ArduPilot XKF2"
+    np.testing.assert_allclose(old[1].autopilot_wind[2][:, 0], df.f32(cols["wind_n"]), atol=1e-6)
+    said = " ".join(old[1].notes)
+    assert "XKQ1 as XKQ C 0" in said and "XKF6 as XKF1 C 1" in said and "ESC1, ESC2, ESC3, ESC4 as ESC Instance 0, 1, 2, 3" in said
+
+
+def test_an_ardupilot_40_lane_switch_is_followed_by_xkf4_and_xkf9(tmp_path):
+    """From 9 s core 1 (XKF6, XKQ2, XKF7) holds the good data and XKF4/XKF9.PI say it is primary: the
+    replay equals the equivalent CSV, as for the 4.1 layout's lane switch."""
+    af, cols = df._flight()
+    messages = dict(df.MESSAGES, XKF4=("QBB", ["TimeUS", "C", "PI"]))
+    rows = df._switch_primary(df._rows(af, cols), 9_000_000, with_xkf4=True)
+    path = write_dataflash(tmp_path / "s.bin", *_pre41(messages, rows))
+    _, flight, traj = replay_autopilot(af, str(path), rate_hz=50.0)
+    _, log, ref = replay(af, str(df._equivalent_csv(tmp_path / "s.csv", af, cols)))
+    assert flight.log.rows == log.rows
+    assert np.max(np.abs(traj.outputs - ref.outputs)) <= 1e-5
+    assert any("1 switch(es) among cores 0, 1" in n for n in flight.notes)
+
+
+def test_inspect_names_the_relabelled_ardupilot_messages(tmp_path):
+    af, cols = df._flight(rate=20.0)
+    path = write_dataflash(tmp_path / "old.bin", *_pre41(df.MESSAGES, df._rows(af, cols)))
+    s = inspect_log(str(path))
+    assert s.role("attitude").source == "XKQ.Q1..Q4" and s.role("rpm").source == "ESC.RPM"
+    assert s.vehicle.rotors == 4 and s.missing() == []
+    assert any("XKQ1 as XKQ C 0" in n for n in s.notes), s.notes
+
+
+def test_an_ardupilot_field_layout_the_reader_does_not_know_is_one_line_exit_2(tmp_path, capsys):
+    af, cols = df._flight(rate=20.0)
+    messages = dict(df.MESSAGES, XKF1=("QBfff", ["TimeUS", "C", "VelN", "VelE", "VelD"]))
+    rows = [(n, {"TimeUS": v["TimeUS"], "C": v["C"], "VelN": v["VN"], "VelE": v["VE"], "VelD": v["VD"]})
+            if n == "XKF1" else (n, v) for n, v in df._rows(af, cols)]
+    path = write_dataflash(tmp_path / "renamed.bin", messages, rows)
+    assert main(["replay", str(M300), str(path)]) == 2
+    _one_line(capsys, str(path), "message XKF1", "without field VN, VE, VD", "layout")
+    with pytest.raises(Exception, match="XKF1"):
+        read_autopilot(str(path), af)
