@@ -158,15 +158,23 @@ def test_mixer_outputs_are_refused_as_a_collective_thrust_in_one_line(tmp_path, 
 
 OLD_EKF3 = {("XKF1", 0): "XKF1", ("XKF1", 1): "XKF6", ("XKQ", 0): "XKQ1", ("XKQ", 1): "XKQ2",
             ("XKF2", 0): "XKF2", ("XKF2", 1): "XKF7", ("XKF4", 0): "XKF4", ("XKF4", 1): "XKF9"}
+EKF2_NAMES = {"XKF1": "NKF1", "XKQ": "NKQ", "XKF2": "NKF2", "XKF4": "NKF4"}
+OLD_EKF2 = {(EKF2_NAMES[new], core): old.replace("X", "N") for (new, core), old in OLD_EKF3.items()}
 
 
-def _pre41(messages: dict, rows: list) -> tuple[dict, list]:
+def _ekf2(messages: dict, rows: list) -> tuple[dict, list]:
+    """The same log with EKF2's names in 4.1's layout (NKF1, NKQ, NKF2, NKF4 with field C)."""
+    return ({EKF2_NAMES.get(n, n): m for n, m in messages.items()}, [(EKF2_NAMES.get(n, n), v) for n, v in rows])
+
+
+def _pre41(messages: dict, rows: list, names: dict | None = None) -> tuple[dict, list]:
     """The same log as ArduPilot 4.0 writes it: one name per EKF core (no field C) and per ESC (no
-    field Instance), the IMU's second instance as IMU2."""
+    field Instance), the IMU's second instance as IMU2. ``names``: OLD_EKF3 (default) or OLD_EKF2."""
+    names = names or OLD_EKF3
     out_msgs = {}
     for name, (fmt, columns) in messages.items():
         if "C" in columns:
-            for (new, core), old in OLD_EKF3.items():
+            for (new, core), old in names.items():
                 if new == name:
                     out_msgs[old] = (fmt.replace("B", "", 1), [c for c in columns if c != "C"])
         elif name == "ESC":
@@ -179,7 +187,7 @@ def _pre41(messages: dict, rows: list) -> tuple[dict, list]:
     out_rows = []
     for name, v in rows:
         if "C" in v:
-            name, v = OLD_EKF3[(name, v["C"])], {k: x for k, x in v.items() if k != "C"}
+            name, v = names[(name, v["C"])], {k: x for k, x in v.items() if k != "C"}
         elif name == "ESC":
             name, v = f"ESC{v['Instance'] + 1}", {k: x for k, x in v.items() if k != "Instance"}
         elif name == "IMU":
@@ -204,18 +212,24 @@ def test_an_ardupilot_40_layout_replays_as_its_41_twin(tmp_path):
     assert "XKQ1 as XKQ C 0" in said and "XKF6 as XKF1 C 1" in said and "ESC1, ESC2, ESC3, ESC4 as ESC Instance 0, 1, 2, 3" in said
 
 
-def test_an_ardupilot_40_lane_switch_is_followed_by_xkf4_and_xkf9(tmp_path):
-    """From 9 s core 1 (XKF6, XKQ2, XKF7) holds the good data and XKF4/XKF9.PI say it is primary: the
-    replay equals the equivalent CSV, as for the 4.1 layout's lane switch."""
+@pytest.mark.parametrize("layout", ["EKF3 before 4.1", "EKF2", "EKF2 before 4.1"])
+def test_a_lane_switch_is_followed_in_every_ekf_layout(tmp_path, layout):
+    """From 9 s core 1 holds the good data and the PI of XKF4 (XKF4/XKF9 before 4.1; EKF2: NKF4, or
+    NKF4/NKF9) says it is primary: the replay equals the equivalent CSV, as for the EKF3 4.1 layout's
+    lane switch (test_dataflash). Core 0 holds fifty times the north velocity after the switch."""
     af, cols = df._flight()
     messages = dict(df.MESSAGES, XKF4=("QBB", ["TimeUS", "C", "PI"]))
-    rows = df._switch_primary(df._rows(af, cols), 9_000_000, with_xkf4=True)
-    path = write_dataflash(tmp_path / "s.bin", *_pre41(messages, rows))
-    _, flight, traj = replay_autopilot(af, str(path), rate_hz=50.0)
-    _, log, ref = replay(af, str(df._equivalent_csv(tmp_path / "s.csv", af, cols)))
-    assert flight.log.rows == log.rows
+    log = (messages, df._switch_primary(df._rows(af, cols), 9_000_000, with_xkf4=True))
+    if layout.startswith("EKF2"):
+        log = _ekf2(*log)
+    if layout.endswith("before 4.1"):
+        log = _pre41(*log, names=OLD_EKF2 if layout.startswith("EKF2") else OLD_EKF3)
+    _, flight, traj = replay_autopilot(af, str(write_dataflash(tmp_path / "s.bin", *log)), rate_hz=50.0)
+    _, ref_log, ref = replay(af, str(df._equivalent_csv(tmp_path / "s.csv", af, cols)))
+    assert flight.log.rows == ref_log.rows
     assert np.max(np.abs(traj.outputs - ref.outputs)) <= 1e-5
-    assert any("1 switch(es) among cores 0, 1" in n for n in flight.notes)
+    ekf, marker = ("EKF2", "NKF4") if layout.startswith("EKF2") else ("EKF3", "XKF4")
+    assert any(f"{ekf} primary core from {marker}.PI: 1 switch(es) among cores 0, 1" in n for n in flight.notes)
 
 
 def test_inspect_names_the_relabelled_ardupilot_messages(tmp_path):
