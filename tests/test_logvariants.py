@@ -104,6 +104,7 @@ def test_inspect_and_init_name_an_older_thrust_source(tmp_path, capsys):
     assert summary.missing() == []
     text, choices, _ = build_airframe(str(log), 2.0, str(tmp_path / "v.toml"))
     assert choices.thrust_source == "collective" and "actuator_controls_0.control[3]" in choices.thrust_reason
+    assert "before the mixer" in choices.thrust_reason and "before the mixer" in text
     assert main(["inspect", str(log)]) == 0
     assert "actuator_controls_0.control[3]" in capsys.readouterr().out
 
@@ -230,15 +231,26 @@ def test_a_lane_switch_is_followed_in_every_ekf_layout(tmp_path, layout):
     assert np.max(np.abs(traj.outputs - ref.outputs)) <= 1e-5
     ekf, marker = ("EKF2", "NKF4") if layout.startswith("EKF2") else ("EKF3", "XKF4")
     assert any(f"{ekf} primary core from {marker}.PI: 1 switch(es) among cores 0, 1" in n for n in flight.notes)
+    # Replay names the streams as the log does: both cores' quaternion messages were read.
+    quaternion = {"EKF3 before 4.1": "XKQ1/XKQ2", "EKF2": "NKQ", "EKF2 before 4.1": "NKQ1/NKQ2"}[layout]
+    assert quaternion in [name for name, _, _ in flight.silences], flight.silences
 
 
-def test_inspect_names_the_relabelled_ardupilot_messages(tmp_path):
+def test_inspect_and_init_name_the_relabelled_ardupilot_messages(tmp_path):
     af, cols = df._flight(rate=20.0)
     path = write_dataflash(tmp_path / "old.bin", *_pre41(df.MESSAGES, df._rows(af, cols)))
     s = inspect_log(str(path))
-    assert s.role("attitude").source == "XKQ.Q1..Q4" and s.role("rpm").source == "ESC.RPM"
+    # The roles name the messages as the log holds them, read under the 4.1 names.
+    assert s.role("attitude").source == "XKQ1.Q1..Q4" and s.role("velocity").source == "XKF1.VN..VD"
+    assert s.role("rpm").source == "ESC1/ESC2/ESC3/ESC4.RPM" and s.role("autopilot_wind").source == "XKF2.VWN..VWE"
     assert s.vehicle.rotors == 4 and s.missing() == []
     assert any("XKQ1 as XKQ C 0" in n for n in s.notes), s.notes
+    text, _, _ = build_airframe(str(path), 3.0, str(tmp_path / "v.toml"))
+    assert "# layout: an older ArduPilot layout" in text and "ESC1, ESC2, ESC3, ESC4 as ESC Instance" in text
+    # The 4.1 layout's starter says nothing of the sort.
+    current, _, _ = build_airframe(str(write_dataflash(tmp_path / "new.bin", df.MESSAGES, df._rows(af, cols))), 3.0,
+                                   str(tmp_path / "w.toml"))
+    assert "# layout:" not in current
 
 
 def test_an_ardupilot_field_layout_the_reader_does_not_know_is_one_line_exit_2(tmp_path, capsys):

@@ -12,6 +12,7 @@ import numpy as np
 from dobwind.io.dataflash import (AP_WIND, ATTITUDE, EV_GROUND, IMU, LAYOUT_EXTRA, VELOCITY, WANTED, density_step,
                                   in_one_layout, load_messages, pick_stream, truncation)
 from dobwind.core.errors import InputError
+from dobwind.io.aplayout import logged_name
 from dobwind.io.quietfd import quiet_fds
 from dobwind.io.vehiclekind import ardupilot_not_multirotor, firmware
 from dobwind.inspect.loginspect import (AutopilotWind, LogSummary, Role, Vehicle, inside, intervals,
@@ -70,7 +71,8 @@ def _role(msgs: dict, role: str, candidates, fields: list[str], missing: str) ->
     found = pick_stream(msgs, candidates, fields)
     if found is None:
         return Role(role, None, None, missing)
-    return Role(role, f"{found[0]}.{fields[0]}..{fields[-1]}" if len(fields) > 1 else f"{found[0]}.{fields[0]}",
+    logged = logged_name(msgs, found[0])  # an older layout's own name (XKQ1), not the 4.1 one it is read as
+    return Role(role, f"{logged}.{fields[0]}..{fields[-1]}" if len(fields) > 1 else f"{logged}.{fields[0]}",
                 _stream_name(msgs, found[0]))
 
 

@@ -18,6 +18,11 @@ PER_CORE = {
     "NKF4": ("NKF4", 0), "NKF9": ("NKF4", 1), "NKQ1": ("NKQ", 0), "NKQ2": ("NKQ", 1),
 }
 ESC_PER_MOTOR = {f"ESC{k}": k - 1 for k in range(1, 9)}
+# Key kept on every relabelled row: the message name it had in the log, so that inspect and replay can
+# name what the log holds (logged_name) while reading it under the 4.1 name.
+ORIGIN = "_logged_as"
+# How the note on a relabelled log starts (init repeats it in its starter's header).
+LAYOUT_NOTE = "an older ArduPilot layout (one message name per EKF core or per ESC, before 4.1)"
 # Names an older log may hold that the 4.1 layout has not: load_messages must ask for them.
 OLD_NAMES = tuple(sorted({n for n in PER_CORE if n not in ("XKF1", "XKF2", "XKF4", "NKF1", "NKF2", "NKF4")}
                          | set(ESC_PER_MOTOR)))
@@ -33,11 +38,11 @@ def relabel(msgs: dict[str, list[dict]]) -> tuple[dict[str, list[dict]], str | N
         if not rows:
             continue
         out[old] = [r for r in out.get(old, []) if "C" in r]
-        out[new] = out.get(new, []) + [dict(r, C=core) for r in rows]
+        out[new] = out.get(new, []) + [dict(r, C=core, **{ORIGIN: old}) for r in rows]
         moved.append(f"{old} as {new} C {core}" if old != new else f"{old} as C {core}")
     esc = [(k, r) for name, k in ESC_PER_MOTOR.items() for r in msgs.get(name, [])]
     if esc:
-        out["ESC"] = out.get("ESC", []) + [dict(r, Instance=k) for k, r in esc]
+        out["ESC"] = out.get("ESC", []) + [dict(r, Instance=k, **{ORIGIN: f"ESC{k + 1}"}) for k, r in esc]
         for name in ESC_PER_MOTOR:
             out[name] = []
         names = [n for n in ESC_PER_MOTOR if msgs.get(n)]
@@ -47,5 +52,12 @@ def relabel(msgs: dict[str, list[dict]]) -> tuple[dict[str, list[dict]], str | N
             out[name].sort(key=lambda r: r.get("TimeUS", 0))
     if not moved:
         return out, None
-    return out, ("an older ArduPilot layout (one message name per EKF core or per ESC, before 4.1): read "
-                 + "; ".join(moved))
+    return out, f"{LAYOUT_NOTE}: read " + "; ".join(moved)
+
+
+def logged_name(msgs: dict[str, list[dict]], name: str) -> str:
+    """What the log called the rows read under ``name`` (core 0's, which follow_primary made the primary
+    core's): the old names joined by "/" ("XKQ1", or "XKQ1/XKQ2" when the primary core moved between them),
+    or ``name`` itself for rows that were not relabelled."""
+    seen = sorted({r[ORIGIN] for r in msgs.get(name, []) if ORIGIN in r and r.get("C", 0) == 0})
+    return "/".join(seen) if seen else name

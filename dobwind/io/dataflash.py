@@ -41,7 +41,7 @@ from dobwind.io.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracke
 from dobwind.io.vehiclekind import MULTIROTORS_ONLY, ardupilot_not_multirotor, firmware
 from dobwind.io.densitystep import DensityStep, find_step
 from dobwind.io.sitlwind import MESSAGES as SITL_MESSAGES, SitlLog, describe as describe_sitl, sitl_from_messages
-from dobwind.io.aplayout import OLD_NAMES, relabel
+from dobwind.io.aplayout import OLD_NAMES, logged_name, relabel
 from dobwind.model.signals import log_signals
 
 # (role, candidates as (message, instance field or None, instance value)), first found wins.
@@ -229,7 +229,7 @@ def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None, bridge
     msgs["BARO"] = loaded["BARO"]  # for the collective thrust's density step only (densitystep.py)
     vel_name, vel = _pick(path, msgs, VELOCITY, ["VN", "VE", "VD"], "ground velocity", "XKF1 (or NKF1)")
     att_name, att = _pick(path, msgs, ATTITUDE, ["Q1", "Q2", "Q3", "Q4"], "attitude", "XKQ (or NKQ1, NKQ)")
-    used = {vel_name: vel, att_name: att}
+    used = {logged_name(msgs, vel_name): vel, logged_name(msgs, att_name): att}  # named as the log names them
     imu = None
     if log_signals(af).specific_force or (log_signals(af).ned_acceleration and not msgs["PSCN"]):
         imu = _require(path, pick_stream(msgs, IMU, ["AccX", "AccY", "AccZ"]), "specific force", "IMU")[1]
