@@ -263,3 +263,71 @@ def test_an_ardupilot_field_layout_the_reader_does_not_know_is_one_line_exit_2(t
     _one_line(capsys, str(path), "message XKF1", "without field VN, VE, VD", "layout")
     with pytest.raises(Exception, match="XKF1"):
         read_autopilot(str(path), af)
+
+
+# ---- ROS 2 bags of PX4 v1.13 and earlier: the microRTPS bridge's topic names and VehicleOdometry ----
+
+# px4_msgs' VehicleOdometry before v1.14, reduced to what the reader reads: vx vy vz and frames numbered
+# from LOCAL_FRAME_NED = 0 (v1.14: velocity[3], VELOCITY_FRAME_NED = 1).
+OLD_ODOMETRY = ("uint64 timestamp\nuint64 timestamp_sample\nuint8 LOCAL_FRAME_NED=0\nuint8 BODY_FRAME_FRD=3\n"
+                "uint8 local_frame\nfloat32 x\nfloat32 y\nfloat32 z\nfloat32[4] q\nuint8 velocity_frame\n"
+                "float32 vx\nfloat32 vy\nfloat32 vz\n")
+
+
+def _micrortps(src, dst, frame: int = 0):
+    """The bag ``src`` (test_rosbag._px4_bag) as the microRTPS bridge of PX4 v1.13 wrote it: every
+    /fmu/out/NAME as /fmu/NAME/out, vehicle_odometry in the old layout with velocity_frame ``frame``: 0
+    NED; 3 body FRD (the velocity rotated into the body); 1 an earth FRD frame of arbitrary heading (the
+    NED values, labelled so). The other messages are copied byte for byte."""
+    from rosbags.rosbag2 import Reader, StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    from dobwind.io.rosbag import _typestore, rotate
+
+    old = get_typestore(Stores.ROS2_HUMBLE)
+    old.register(get_types_from_msg(OLD_ODOMETRY, "px4_msgs/msg/VehicleOdometry"))
+    with Reader(src) as reader, Writer(dst, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        store = _typestore(str(src), reader.connections)
+        out = {}
+        for conn in reader.connections:
+            name = "/fmu/" + conn.topic[len("/fmu/out/"):] + "/out"
+            out[conn.id] = writer.add_connection(name, conn.msgtype, typestore=old if "odometry" in name else store)
+        for conn, stamp, raw in reader.messages():
+            if "odometry" in conn.topic:
+                m = store.deserialize_cdr(raw, conn.msgtype)
+                v = np.asarray(m.velocity, dtype=np.float32)
+                if frame == 3:  # the same velocity, expressed in the body frame (q: body to NED)
+                    q = np.asarray(m.q, dtype=float)
+                    v = rotate(q[None] * np.array([1.0, -1.0, -1.0, -1.0]), v[None].astype(float))[0].astype(np.float32)
+                msg = old.types["px4_msgs/msg/VehicleOdometry"](m.timestamp, m.timestamp_sample, 0, 0.0, 0.0, 0.0,
+                                                                 m.q, frame, *v)
+                raw = old.serialize_cdr(msg, msg.__msgtype__)
+            writer.write(out[conn.id], stamp, raw)
+    return dst
+
+
+@pytest.mark.parametrize("frame", [0, 3])
+def test_a_px4_113_micrortps_bag_replays_as_the_current_layout(tmp_path, frame):
+    pytest.importorskip("rosbags")
+    from tests import test_rosbag as rb
+
+    af, cols = rb._flight()
+    current = rb._px4_bag(tmp_path / "current", af, cols, "mcap")
+    _, ref_flight, ref = replay_autopilot(af, str(current), rate_hz=50.0)
+    _, flight, traj = replay_autopilot(af, str(_micrortps(current, tmp_path / "rtps", frame)), rate_hz=50.0)
+    assert np.all(traj.status == ref.status)
+    tolerance = 1e-5 if frame == 3 else 0.0  # NED: the same float32 values; body: rotated there and back
+    assert np.max(np.abs(traj.outputs - ref.outputs)) <= tolerance
+    assert any("velocity /fmu/vehicle_odometry/out" in n for n in flight.notes), flight.notes
+
+
+def test_an_old_odometry_frame_without_a_heading_is_one_line_exit_2(tmp_path, capsys):
+    """px4_msgs before v1.14, velocity_frame 1 (LOCAL_FRAME_FRD: an arbitrary heading): refused in one
+    line naming the field and the frames that can be read, never read as NED (1 is NED in v1.14)."""
+    pytest.importorskip("rosbags")
+    from tests import test_rosbag as rb
+
+    af, cols = rb._flight()
+    bag = _micrortps(rb._px4_bag(tmp_path / "current", af, cols, "mcap"), tmp_path / "rtps", frame=1)
+    assert main(["replay", str(M300), str(bag)]) == 2
+    _one_line(capsys, "vehicle_odometry.velocity_frame", "is 1: only NED (0)", "before v1.14")
