@@ -331,3 +331,15 @@ def test_an_old_odometry_frame_without_a_heading_is_one_line_exit_2(tmp_path, ca
     bag = _micrortps(rb._px4_bag(tmp_path / "current", af, cols, "mcap"), tmp_path / "rtps", frame=1)
     assert main(["replay", str(M300), str(bag)]) == 2
     _one_line(capsys, "vehicle_odometry.velocity_frame", "is 1: only NED (0)", "before v1.14")
+
+
+def test_esc_messages_stamped_in_milliseconds_replay_alike(tmp_path):
+    """Older firmware stamped ESC1..ESC8 in TimeMS: read as TimeUS = 1000 TimeMS (the 20 Hz rows fall on
+    whole milliseconds), the replay equals the one with microsecond stamps; never a KeyError."""
+    af, cols = df._flight(rate=20.0)
+    msgs, rows = _pre41(df.MESSAGES, df._rows(af, cols))
+    micro = replay_autopilot(af, str(write_dataflash(tmp_path / "us.bin", msgs, rows)), rate_hz=20.0)[2]
+    msgs = {**msgs, **{f"ESC{k}": ("If", ["TimeMS", "RPM"]) for k in range(1, 5)}}
+    rows = [(n, {"TimeMS": v["TimeUS"] // 1000, "RPM": v["RPM"]} if n.startswith("ESC") else v) for n, v in rows]
+    milli = replay_autopilot(af, str(write_dataflash(tmp_path / "ms.bin", msgs, rows)), rate_hz=20.0)[2]
+    np.testing.assert_array_equal(milli.outputs, micro.outputs)

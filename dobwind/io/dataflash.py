@@ -80,13 +80,20 @@ def load_messages(path: str, wanted: tuple[str, ...] = WANTED) -> dict[str, list
                 msg = reader.recv_match(type=list(wanted))
                 if msg is None:
                     break
-                out[msg.get_type()].append(msg.to_dict())
+                out[msg.get_type()].append(_with_time_us(msg.to_dict()))
             _close(reader)
     except OSError as exc:
         raise InputError(path, None, f"cannot read: {exc.strerror}") from None
     except Exception as exc:  # DFReader raises many kinds on corrupt files
         raise InputError(path, None, f"not a readable DataFlash log ({type(exc).__name__}: {str(exc)[:80]})") from None
     return out
+
+
+def _with_time_us(row: dict) -> dict:
+    """The row with TimeUS: older firmware stamped some messages (ESC1..ESC8 among them) in TimeMS."""
+    if "TimeUS" not in row and isinstance(row.get("TimeMS"), (int, float)):
+        row["TimeUS"] = row["TimeMS"] * 1000
+    return row
 
 
 # Every DataFlash message starts with these two bytes (the format is public: ArduPilot's LogStructure.h).
@@ -163,7 +170,8 @@ def _follow(msgs: dict[str, list[dict]], marker: str, names: tuple[str, ...], ek
 
 def pick_stream(msgs: dict[str, list[dict]], candidates, fields: list[str]) -> tuple[str, dict] | None:
     for name, inst_field, inst in candidates:
-        rows = [r for r in msgs.get(name, []) if inst_field is None or r.get(inst_field, inst) == inst]
+        rows = [r for r in msgs.get(name, []) if (inst_field is None or r.get(inst_field, inst) == inst)
+                and "TimeUS" in r]  # a row with no time cannot be placed on the clock
         if len(rows) >= 2 and all(f in rows[0] for f in fields):
             t = np.array([r["TimeUS"] for r in rows], dtype=float) * 1e-6
             order = np.argsort(t, kind="stable")
