@@ -24,7 +24,9 @@ class ThrustSource:
 
 
 # In order of preference. The first two are what dobwind read before the others were added: a log that
-# has them is read exactly as before (the shared field logs of ../shared/data/ among them).
+# has them is read exactly as before (the shared field logs of ../shared/data/ among them). The attitude
+# setpoint's thrust comes before actuator_controls_0: the same collective, but without the battery scale,
+# which the hover thrust it is divided by does not carry either.
 THRUST_SOURCES = (
     ThrustSource("vehicle_thrust_setpoint", "xyz[2]", -1.0, True,
                  "the rate controller's collective (PX4 v1.13 with SYS_CTRL_ALLOC, v1.14 and later)"),
