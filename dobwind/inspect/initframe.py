@@ -15,6 +15,7 @@ from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from dobwind.io.aplayout import LAYOUT_NOTE
 from dobwind.core.errors import InputError
 from dobwind.io.accelcheck import AccelCheck, check_log
 from dobwind.inspect.anylog import inspect_log
@@ -113,9 +114,10 @@ def _thrust(s: LogSummary, mass: float) -> tuple[dict[str, Any], str]:
     if s.role("thrust").source is None or s.role("hover_thrust").source is None:
         what = "no collective thrust setpoint" if s.role("thrust").source is None else "no hover thrust to scale it"
         raise InputError(s.path, "thrust", f"no thrust source: no usable ESC rpm ({v.rpm_note or 'none'}) and {what}")
+    said = s.role("thrust").note  # an older layout's source: what it is (dobwind/io/px4layout.py)
     return ({"source": "collective", "scale": 1.0},
-            f"collective from {s.role('thrust').source} / {s.role('hover_thrust').source}: "
-            + (v.rpm_note if v.rpm_note else "no ESC rpm"))
+            f"collective from {s.role('thrust').source} / {s.role('hover_thrust').source}"
+            + (f" ({said})" if said else "") + ": " + (v.rpm_note if v.rpm_note else "no ESC rpm"))
 
 
 def _drag(mass: float) -> dict[str, Any]:
@@ -240,6 +242,7 @@ def _header(log: str, s: LogSummary, c: InitChoices, mass: float) -> str:
              f"# sample_time: {c.rate_reason}; max_dt {c.max_dt_s:g} s covers the slowest needed stream",
              f"# gains: designed for a {c.bandwidth_hz:.3g} Hz observer bandwidth (dobwind analyze --bandwidth)",
              f"# acceleration: {c.acceleration} ({c.acceleration_reason})"]
+    lines += [f"# layout: {n}" for n in s.notes if n.startswith(LAYOUT_NOTE)]  # an older ArduPilot log's names
     return "\n".join(lines) + "\n"
 
 

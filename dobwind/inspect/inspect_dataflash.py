@@ -1,16 +1,18 @@
 """`dobwind inspect` for ArduPilot DataFlash (.bin): the messages dobwind/io/dataflash.py reads, their rates,
 the vehicle, ArduPilot's wind and the SITL wind parameters.
 
-The message choices are dataflash.py's (VELOCITY, ATTITUDE, IMU, AP_WIND, EV_GROUND, the EKF3 primary
-core from XKF4.PI): a role listed here is the message replay reads for it.
+The message choices are dataflash.py's (VELOCITY, ATTITUDE, IMU, AP_WIND, EV_GROUND, older layouts
+relabelled by aplayout.py, the primary EKF core from XKF4.PI or NKF4.PI): a role listed here is the
+message replay reads for it.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from dobwind.io.dataflash import (AP_WIND, ATTITUDE, EV_GROUND, IMU, VELOCITY, WANTED, density_step, follow_primary,
-                               load_messages, pick_stream, truncation)
+from dobwind.io.dataflash import (AP_WIND, ATTITUDE, EV_GROUND, IMU, LAYOUT_EXTRA, VELOCITY, WANTED, density_step,
+                                  in_one_layout, load_messages, pick_stream, truncation)
 from dobwind.core.errors import InputError
+from dobwind.io.aplayout import logged_name
 from dobwind.io.quietfd import quiet_fds
 from dobwind.io.vehiclekind import ardupilot_not_multirotor, firmware
 from dobwind.inspect.loginspect import (AutopilotWind, LogSummary, Role, Vehicle, inside, intervals,
@@ -69,7 +71,8 @@ def _role(msgs: dict, role: str, candidates, fields: list[str], missing: str) ->
     found = pick_stream(msgs, candidates, fields)
     if found is None:
         return Role(role, None, None, missing)
-    return Role(role, f"{found[0]}.{fields[0]}..{fields[-1]}" if len(fields) > 1 else f"{found[0]}.{fields[0]}",
+    logged = logged_name(msgs, found[0])  # an older layout's own name (XKQ1), not the 4.1 one it is read as
+    return Role(role, f"{logged}.{fields[0]}..{fields[-1]}" if len(fields) > 1 else f"{logged}.{fields[0]}",
                 _stream_name(msgs, found[0]))
 
 
@@ -193,8 +196,8 @@ def _density_step(msgs: dict, baro: list[dict]) -> list[str]:
 def inspect_dataflash(path: str) -> LogSummary:
     notes: list[str] = []
     with quiet_fds():  # pymavlink's compiled indexer prints a line per bad byte, to fd 2 itself
-        loaded = load_messages(path, WANTED + ("PARM", "RCOU", "MSG", "BARO"))
-    msgs = follow_primary(loaded, notes)
+        loaded = load_messages(path, WANTED + LAYOUT_EXTRA + ("PARM", "RCOU", "MSG", "BARO"))
+    msgs = in_one_layout(loaded, notes)
     baro = msgs.pop("BARO")
     params_all = _parameters(msgs.pop("PARM"))
     banner = firmware(msgs.pop("MSG"))

@@ -11,12 +11,13 @@ from dobwind.core.errors import InputError
 from dobwind.inspect.loginspect import (AutopilotWind, LogSummary, Role, Vehicle, inside, intervals,
                                 stream_stats, total, wind_activity)
 from dobwind.io.ulog import PX4_WIND_TOPICS, TOPICS_READ, open_ulog, truncation
+from dobwind.io.px4layout import BATTERY_SCALE_PARAM, NOT_COLLECTIVE, THRUST_SOURCES, battery_scale_note
 from dobwind.io.vehiclekind import px4_not_multirotor
 
 # Read for the vehicle only (rotor count when esc_status is absent): not estimator inputs.
 EXTRA_TOPICS = ("actuator_motors", "actuator_outputs")
 PARAMETERS = ("MPC_THR_HOVER", "EKF2_AID_MASK", "EKF2_DRAG_CTRL", "EKF2_BCOEF_X", "EKF2_BCOEF_Y", "EKF2_MCOEF",
-              "SYS_AUTOSTART", "CA_ROTOR_COUNT", "MAV_TYPE")
+              "SYS_AUTOSTART", "CA_ROTOR_COUNT", "MAV_TYPE", BATTERY_SCALE_PARAM)
 # MAV_TYPE (MAVLink) of multirotors -> rotor count: the last resort for the rotor count.
 MAV_TYPE_ROTORS = {2: 4, 13: 6, 14: 8, 15: 3}
 EKF2_AID_MASK_DRAG = 1 << 5   # "use drag": PX4 up to v1.13; later EKF2_DRAG_CTRL
@@ -44,6 +45,21 @@ def _role(topics: dict, role: str, candidates: tuple[tuple[str, tuple[str, ...]]
     return Role(role, None, None, missing)
 
 
+def _thrust_role(topics: dict, params: dict) -> Role:
+    """The collective thrust source read_ulog takes (px4layout.THRUST_SOURCES, first found), with what an
+    older layout's source is and what the battery scale adds; when none, the mixer outputs are named as not
+    read (they are not the collective)."""
+    for source in THRUST_SOURCES:
+        data = topics.get(source.topic)
+        if data is not None and source.field in data and len(data["t"]) >= 2:
+            said = [] if source in THRUST_SOURCES[:2] else [source.what]
+            said += [n for n in (battery_scale_note(source, params),) if n]
+            return Role("thrust", source.name, source.topic, "; ".join(said))
+    mixer = [name for name in NOT_COLLECTIVE if name in topics]
+    return Role("thrust", None, None, f"none of {', '.join(s.name for s in THRUST_SOURCES)}"
+                + (f" ({' and '.join(mixer)}: the mixer's per-motor outputs, not a collective: not read)" if mixer else ""))
+
+
 def _roles(topics: dict, params: dict) -> tuple[Role, ...]:
     q = tuple(f"q[{i}]" for i in range(4))
     roles = [
@@ -53,8 +69,7 @@ def _roles(topics: dict, params: dict) -> tuple[Role, ...]:
               "no sensor_combined"),
         _role(topics, "attitude", (("vehicle_attitude", q),), "no vehicle_attitude"),
         _role(topics, "rpm", (("esc_status", ("esc[0].esc_rpm",)),), "no esc_status"),
-        _role(topics, "thrust", (("vehicle_thrust_setpoint", ("xyz[2]",)), ("vehicle_attitude_setpoint", ("thrust_body[2]",))),
-              "neither vehicle_thrust_setpoint nor vehicle_attitude_setpoint.thrust_body"),
+        _thrust_role(topics, params),
         _role(topics, "hover_thrust", (("hover_thrust_estimate", ("hover_thrust",)),), ""),
         _role(topics, "heading", (("vehicle_attitude_setpoint", ("yaw_body",)),), ""),
         _role(topics, "ground", (("vehicle_land_detected", ("landed",)),), ""),
@@ -82,10 +97,10 @@ def _airborne(topics: dict, params: dict, end_s: float) -> tuple[tuple[tuple[flo
                 ground |= land[flag] > 0.5
         return intervals(land["t"], ~ground, end_s), "vehicle_land_detected"
     hover = params.get("MPC_THR_HOVER", 0.5)
-    for name, fld in (("vehicle_thrust_setpoint", "xyz[2]"), ("vehicle_attitude_setpoint", "thrust_body[2]")):
-        if name in topics and fld in topics[name]:
-            return intervals(topics[name]["t"], -topics[name][fld] > 0.5 * hover, end_s), \
-                f"{name} above half the hover thrust (no vehicle_land_detected)"
+    for source in THRUST_SOURCES:
+        if source.topic in topics and source.field in topics[source.topic]:
+            return intervals(topics[source.topic]["t"], source.up * topics[source.topic][source.field] > 0.5 * hover,
+                             end_s), f"{source.name} above half the hover thrust (no vehicle_land_detected)"
     return (), "unknown: no vehicle_land_detected and no thrust setpoint"
 
 
@@ -173,6 +188,8 @@ def inspect_ulog(path: str) -> LogSummary:
     topics = _topics(ulog)
     params = {k: float(ulog.initial_parameters[k]) for k in PARAMETERS
               if k in ulog.initial_parameters and np.isfinite(float(ulog.initial_parameters[k]))}
+    if not params.get(BATTERY_SCALE_PARAM, 0):  # listed only when set: off (the default) changes nothing
+        params.pop(BATTERY_SCALE_PARAM, None)
     if not topics:
         raise InputError(path, None, "no topic the estimator reads is in the log")
     start = min(float(d["t"].min()) for d in topics.values())

@@ -41,17 +41,24 @@ from dobwind.io.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracke
 from dobwind.io.vehiclekind import MULTIROTORS_ONLY, ardupilot_not_multirotor, firmware
 from dobwind.io.densitystep import DensityStep, find_step
 from dobwind.io.sitlwind import MESSAGES as SITL_MESSAGES, SitlLog, describe as describe_sitl, sitl_from_messages
+from dobwind.io.aplayout import OLD_NAMES, logged_name, relabel
 from dobwind.model.signals import log_signals
 
 # (role, candidates as (message, instance field or None, instance value)), first found wins.
-VELOCITY = (("XKF1", "C", 0), ("NKF1", None, 0))
-ATTITUDE = (("XKQ", "C", 0), ("NKQ1", None, 0), ("NKQ", None, 0))
-AP_WIND = (("XKF2", "C", 0), ("NKF2", None, 0))
+# Older layouts (per-core names, ESC1..ESC8) are relabelled to these first (aplayout.py); a row without C
+# is core 0's. EKF2's names follow the primary core as EKF3's do (NKF4.PI).
+VELOCITY = (("XKF1", "C", 0), ("NKF1", "C", 0))
+ATTITUDE = (("XKQ", "C", 0), ("NKQ", "C", 0), ("NKQ1", None, 0))
+AP_WIND = (("XKF2", "C", 0), ("NKF2", "C", 0))
 IMU = (("IMU", "I", 0), ("IMU", None, 0))
 EV_GROUND = {11: True, 17: True, 18: True, 28: False}  # DISARMED, LAND_COMPLETE_MAYBE/_COMPLETE, NOT_LANDED
 WANTED = ("XKF1", "NKF1", "XKQ", "NKQ1", "NKQ", "XKF2", "NKF2", "IMU", "ESC", "CTUN", "ATT", "EV",
           "PSCN", "PSCE", "PSCD", "XKF4")
 CORE_MESSAGES = ("XKF1", "XKQ", "XKF2")  # logged per EKF3 core (field C)
+# (the message whose PI names the primary core, the messages logged per core, the estimator)
+EKF_FAMILIES = (("XKF4", CORE_MESSAGES, "EKF3"), ("NKF4", ("NKF1", "NKQ", "NKF2"), "EKF2"))
+# Read besides WANTED: older layouts' names, and EKF2's primary-core marker.
+LAYOUT_EXTRA = OLD_NAMES + ("NKF4",)
 
 
 def load_messages(path: str, wanted: tuple[str, ...] = WANTED) -> dict[str, list[dict]]:
@@ -73,13 +80,20 @@ def load_messages(path: str, wanted: tuple[str, ...] = WANTED) -> dict[str, list
                 msg = reader.recv_match(type=list(wanted))
                 if msg is None:
                     break
-                out[msg.get_type()].append(msg.to_dict())
+                out[msg.get_type()].append(_with_time_us(msg.to_dict()))
             _close(reader)
     except OSError as exc:
         raise InputError(path, None, f"cannot read: {exc.strerror}") from None
     except Exception as exc:  # DFReader raises many kinds on corrupt files
         raise InputError(path, None, f"not a readable DataFlash log ({type(exc).__name__}: {str(exc)[:80]})") from None
     return out
+
+
+def _with_time_us(row: dict) -> dict:
+    """The row with TimeUS: older firmware stamped some messages (ESC1..ESC8 among them) in TimeMS."""
+    if "TimeUS" not in row and isinstance(row.get("TimeMS"), (int, float)):
+        row["TimeUS"] = row["TimeMS"] * 1000
+    return row
 
 
 # Every DataFlash message starts with these two bytes (the format is public: ArduPilot's LogStructure.h).
@@ -113,33 +127,51 @@ def messages_found(path: str) -> dict[str, int]:
     return {name: len(rows) for name, rows in load_messages(path).items()}
 
 
+def in_one_layout(loaded: dict[str, list[dict]], notes: list[str]) -> dict[str, list[dict]]:
+    """The WANTED messages of ``loaded`` (read with WANTED + LAYOUT_EXTRA) in ArduPilot 4.1's layout
+    (aplayout.relabel), reduced to the primary EKF core (follow_primary); other names pass through."""
+    msgs, said = relabel({name: rows for name, rows in loaded.items()})
+    if said:
+        notes.append(said)
+    return follow_primary(msgs, notes)
+
+
 def follow_primary(msgs: dict[str, list[dict]], notes: list[str]) -> dict[str, list[dict]]:
+    """Each EKF's per-core messages (EKF_FAMILIES) reduced to the primary core's rows."""
+    for marker, names, ekf in EKF_FAMILIES:
+        msgs = _follow(msgs, marker, names, ekf, notes)
+    return msgs
+
+
+def _follow(msgs: dict[str, list[dict]], marker: str, names: tuple[str, ...], ekf: str,
+            notes: list[str]) -> dict[str, list[dict]]:
     """The per-core messages reduced to the primary core's rows, relabelled core 0 (what VELOCITY,
-    ATTITUDE and AP_WIND select). The primary at a row's time is the PI of the last XKF4 at or before
-    it (the first XKF4's before that). Without XKF4.PI the log is left as it is: core 0."""
-    marks = sorted((r["TimeUS"], int(r["PI"])) for r in msgs["XKF4"] if "PI" in r and "C" in r)
+    ATTITUDE and AP_WIND select). The primary at a row's time is the PI of the last marker (XKF4) at or
+    before it (the first marker's before that). Without the marker's PI the log is left as it is: core 0."""
+    marks = sorted((r["TimeUS"], int(r["PI"])) for r in msgs.get(marker, []) if "PI" in r and "C" in r)
     if not marks:
         return msgs
     t_mark = np.array([m[0] for m in marks], dtype=float)
     core = np.array([m[1] for m in marks])
     out = dict(msgs)
-    for name in CORE_MESSAGES:
-        rows = [r for r in msgs[name] if "C" in r]
+    for name in names:
+        rows = [r for r in msgs.get(name, []) if "C" in r]
         if not rows:
             continue
         idx = np.clip(np.searchsorted(t_mark, [r["TimeUS"] for r in rows], side="right") - 1, 0, None)
         out[name] = [dict(r, C=0) for r, want in zip(rows, core[idx]) if r["C"] == want]
     used = np.unique(core)
     switches = int(np.count_nonzero(np.diff(core)))
-    notes.append(f"EKF3 primary core from XKF4.PI: core {used[0]} throughout" if switches == 0 else
-                 f"EKF3 primary core from XKF4.PI: {switches} switch(es) among cores {', '.join(map(str, used))}; "
-                 f"{', '.join(CORE_MESSAGES)} follow it")
+    notes.append(f"{ekf} primary core from {marker}.PI: core {used[0]} throughout" if switches == 0 else
+                 f"{ekf} primary core from {marker}.PI: {switches} switch(es) among cores {', '.join(map(str, used))}; "
+                 f"{', '.join(names)} follow it")
     return out
 
 
 def pick_stream(msgs: dict[str, list[dict]], candidates, fields: list[str]) -> tuple[str, dict] | None:
     for name, inst_field, inst in candidates:
-        rows = [r for r in msgs.get(name, []) if inst_field is None or r.get(inst_field, inst) == inst]
+        rows = [r for r in msgs.get(name, []) if (inst_field is None or r.get(inst_field, inst) == inst)
+                and "TimeUS" in r]  # a row with no time cannot be placed on the clock
         if len(rows) >= 2 and all(f in rows[0] for f in fields):
             t = np.array([r["TimeUS"] for r in rows], dtype=float) * 1e-6
             order = np.argsort(t, kind="stable")
@@ -152,6 +184,19 @@ def _require(path: str, found, what: str, names: str):
     if found is None:
         raise InputError(path, f"message {names}", f"missing from the log ({what})")
     return found
+
+
+def _pick(path: str, msgs, candidates, fields: list[str], what: str, names: str) -> tuple[str, dict]:
+    """pick_stream, or exit 2 in one line: naming the fields when a candidate is logged without them (a
+    layout this reader does not know), else the messages as missing."""
+    found = pick_stream(msgs, candidates, fields)
+    for name, _, _ in candidates if found is None else ():
+        rows = msgs.get(name) or []
+        lacking = [f for f in fields if rows and f not in rows[0]]
+        if lacking:
+            raise InputError(path, f"message {name}", f"logged without field {', '.join(lacking)} ({what}): a layout "
+                             "this reader does not know")
+    return _require(path, found, what, names)
 
 
 def _esc_streams(path: str, msgs, rotors: int) -> list[dict]:
@@ -183,17 +228,16 @@ def _ground(msgs, clock: np.ndarray, notes: list[str]) -> np.ndarray:
 
 
 def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None, bridge_gaps: bool = False) -> AutopilotFlight:
-    loaded = load_messages(path, WANTED + tuple(m for m in SITL_MESSAGES + ("MSG", "BARO") if m not in WANTED))
+    loaded = load_messages(path, WANTED + LAYOUT_EXTRA + tuple(m for m in SITL_MESSAGES + ("MSG", "BARO") if m not in WANTED))
     _refuse_other_vehicles(path, loaded)
     sitl, sitl_notes = _sitl(path, loaded)
-    msgs = {name: loaded[name] for name in WANTED}
-    notes = ["messages " + ", ".join(f"{n} {len(r)}" for n, r in msgs.items() if r) + "; not in the log: "
-             + (", ".join(n for n, r in msgs.items() if not r) or "none")] + sitl_notes
-    msgs = follow_primary(msgs, notes)
+    notes = ["messages " + ", ".join(f"{n} {len(r)}" for n, r in loaded.items() if r and n in WANTED + LAYOUT_EXTRA)
+             + "; not in the log: " + (", ".join(n for n in WANTED if not loaded[n]) or "none")] + sitl_notes
+    msgs = in_one_layout({name: loaded[name] for name in WANTED + LAYOUT_EXTRA}, notes)
     msgs["BARO"] = loaded["BARO"]  # for the collective thrust's density step only (densitystep.py)
-    vel_name, vel = _require(path, pick_stream(msgs, VELOCITY, ["VN", "VE", "VD"]), "ground velocity", "XKF1 (or NKF1)")
-    att_name, att = _require(path, pick_stream(msgs, ATTITUDE, ["Q1", "Q2", "Q3", "Q4"]), "attitude", "XKQ (or NKQ1, NKQ)")
-    used = {vel_name: vel, att_name: att}
+    vel_name, vel = _pick(path, msgs, VELOCITY, ["VN", "VE", "VD"], "ground velocity", "XKF1 (or NKF1)")
+    att_name, att = _pick(path, msgs, ATTITUDE, ["Q1", "Q2", "Q3", "Q4"], "attitude", "XKQ (or NKQ1, NKQ)")
+    used = {logged_name(msgs, vel_name): vel, logged_name(msgs, att_name): att}  # named as the log names them
     imu = None
     if log_signals(af).specific_force or (log_signals(af).ned_acceleration and not msgs["PSCN"]):
         imu = _require(path, pick_stream(msgs, IMU, ["AccX", "AccY", "AccZ"]), "specific force", "IMU")[1]
@@ -207,7 +251,7 @@ def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None, bridge
     if log_signals(af).rotor_speeds:
         escs = _esc_streams(path, msgs, af.thrust.rotors)
     else:
-        ctun = _require(path, pick_stream(msgs, (("CTUN", None, 0),), ["ThO", "ThH"]), "collective thrust", "CTUN (ThO, ThH)")[1]
+        ctun = _pick(path, msgs, (("CTUN", None, 0),), ["ThO", "ThH"], "collective thrust", "CTUN (ThO, ThH)")[1]
         used["CTUN"] = ctun
     streams = list(used.values()) + escs
     clock = uniform_clock(path, [s["t"] for s in streams], rate_hz or 1.0 / af.observer.sample_time_s)

@@ -3,7 +3,8 @@ Python, no ROS install; optional dependency group `rosbag`).
 
 Two setups, told apart by their topics (every name can be replaced: `replay --topic ROLE=NAME`):
 - PX4 over micro XRCE-DDS (px4_msgs, microsecond `timestamp` fields; PX4 1.16 adds `_v1` to some
-  names, tried too):
+  names, tried too, and the microRTPS bridge of v1.13 and earlier named them /fmu/NAME/out, tried too,
+  with that version's VehicleOdometry layout):
   velocity /fmu/out/vehicle_odometry (velocity_frame NED, or BODY_FRD rotated by its q), else
   /fmu/out/vehicle_local_position (vx, vy, vz: NED; read with the bag's own message definition),
   attitude /fmu/out/vehicle_attitude (q: FRD body to NED), imu /fmu/out/sensor_combined
@@ -90,9 +91,11 @@ def _typestore(path: str, connections) -> object:
 
 
 def present_topic(topic: str, topics: set[str]) -> str | None:
-    """The name under which the bag holds a wanted topic: itself, its _v1, or an alternative's."""
+    """The name under which the bag holds a wanted topic: itself, its _v1, or an alternative's; for a
+    PX4 /fmu/out/NAME also the /fmu/NAME/out of the microRTPS bridge (PX4 v1.13 and earlier)."""
     for name in (topic, *ALTERNATIVES.get(topic, ())):
-        for candidate in (name, f"{name}_v1"):
+        rtps = (f"/fmu/{name[len('/fmu/out/'):]}/out",) if name.startswith("/fmu/out/") else ()
+        for candidate in (name, f"{name}_v1", *rtps):
             if candidate in topics:
                 return candidate
     return None
@@ -153,19 +156,26 @@ def _series(items: list, px4: bool, values) -> dict | None:
     return {"t": t[keep], "v": v[keep]}
 
 
-def _px4_streams(path: str, msgs: dict, rotors: int) -> dict:
-    def velocity(m):
-        if not hasattr(m, "velocity_frame") and hasattr(m, "vz"):  # vehicle_local_position: NED
-            return [m.vx, m.vy, m.vz]
-        v = np.asarray(m.velocity, dtype=float)
-        if m.velocity_frame == BODY_FRD:
-            return rotate(np.asarray(m.q, dtype=float)[None], v[None])[0]
-        if m.velocity_frame != 1:
-            raise InputError(path, "vehicle_odometry.velocity_frame", f"is {m.velocity_frame}: only NED (1) "
-                             "and BODY_FRD (3) have a known heading")
-        return v
+def _velocity(path: str, m) -> np.ndarray:
+    """NED ground velocity from vehicle_odometry (either px4_msgs layout) or vehicle_local_position. Before
+    v1.14 VehicleOdometry held vx vy vz and numbered its frames from LOCAL_FRAME_NED = 0 (BODY_FRAME_FRD 3);
+    v1.14 holds velocity[3] with VELOCITY_FRAME_NED = 1 (BODY_FRD 3)."""
+    if hasattr(m, "velocity"):
+        v, ned = np.asarray(m.velocity, dtype=float), 1
+    elif hasattr(m, "velocity_frame"):
+        v, ned = np.array([m.vx, m.vy, m.vz], dtype=float), 0
+    else:  # vehicle_local_position: NED
+        return np.array([m.vx, m.vy, m.vz], dtype=float)
+    if m.velocity_frame == BODY_FRD:
+        return rotate(np.asarray(m.q, dtype=float)[None], v[None])[0]
+    if m.velocity_frame != ned:
+        raise InputError(path, "vehicle_odometry.velocity_frame", f"is {m.velocity_frame}: only NED ({ned}) "
+                         f"and BODY_FRD (3) have a known heading{'' if ned else ' (px4_msgs before v1.14)'}")
+    return v
 
-    s = {"velocity": _series(msgs["velocity"], True, velocity),
+
+def _px4_streams(path: str, msgs: dict, rotors: int) -> dict:
+    s = {"velocity": _series(msgs["velocity"], True, lambda m: _velocity(path, m)),
          "attitude": _series(msgs["attitude"], True, lambda m: m.q),
          "imu": _series(msgs["imu"], True, lambda m: m.accelerometer_m_s2),
          "wind": _series(msgs["wind"], True, lambda m: [m.windspeed_north, m.windspeed_east, 0.0]),

@@ -1,8 +1,9 @@
 """PX4 ULog flights onto the estimator's inputs (pyulog, optional dependency group `ulog`).
 
 Topics: vehicle_local_position (vx vy vz, ax ay az), vehicle_attitude (q), esc_status (esc_rpm per
-motor) for rpm airframes, vehicle_thrust_setpoint (xyz[2]) or the older vehicle_attitude_setpoint
-(thrust_body[2]) scaled by hover_thrust_estimate (or the MPC_THR_HOVER parameter) times m g for
+motor) for rpm airframes, the collective thrust (vehicle_thrust_setpoint xyz[2], or on older logs
+vehicle_attitude_setpoint thrust_body[2] or thrust, or actuator_controls_0 control[3]: px4layout.py)
+scaled by hover_thrust_estimate (or the MPC_THR_HOVER parameter) times m g for
 collective airframes, sensor_combined (accelerometer) for specific force, and
 vehicle_attitude_setpoint (yaw_body) for the heading frame, else the vehicle's own yaw.
 
@@ -31,6 +32,7 @@ from dobwind.io.bridge import blanked, bridge, largest_silences
 from dobwind.io.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, hold,
                               interp, quaternions, source_gaps, topic_tolerances, truncated_note, uniform_clock,
                               wind_active)
+from dobwind.io.px4layout import NOT_COLLECTIVE, THRUST_SOURCES, ThrustSource, battery_scale_note
 from dobwind.model.signals import log_signals
 
 PX4_WIND_TOPICS = (("wind", "windspeed_north", "windspeed_east"),
@@ -43,7 +45,7 @@ PX4_WIND_TOPICS = (("wind", "windspeed_north", "windspeed_east"),
 # Filtered, pyulog's clock advances only on these topics' messages, so its last_timestamp and dropout
 # times differ from a full parse's: nothing here reads them; a new use must parse in full.
 TOPICS_READ = ("vehicle_local_position", "vehicle_attitude", "sensor_combined", "esc_status",
-               "vehicle_thrust_setpoint", "vehicle_attitude_setpoint", "hover_thrust_estimate",
+               "vehicle_thrust_setpoint", "vehicle_attitude_setpoint", "actuator_controls_0", "hover_thrust_estimate",
                "vehicle_land_detected") + tuple(name for name, _, _ in PX4_WIND_TOPICS)
 
 UlogFlight = AutopilotFlight  # the name this module's callers used first
@@ -223,6 +225,45 @@ def _ground(ulog, clock: np.ndarray, notes: list[str]) -> np.ndarray:
     return ground
 
 
+def collective_source(ulog) -> tuple[ThrustSource, dict[str, np.ndarray]] | None:
+    """The first of px4layout.THRUST_SOURCES the log has (instance 0, two messages at least), with its data."""
+    for source in THRUST_SOURCES:
+        data = _topic(ulog, source.topic, [source.field])
+        if data is not None:
+            return source, data
+    return None
+
+
+def _no_collective(ulog) -> str:
+    """The missing-topic text for a collective airframe: every source tried, and the mixer outputs the log
+    does have, named as not read (they are not the collective the hover thrust scales)."""
+    tried = ", ".join(s.name for s in THRUST_SOURCES)
+    logged = [name for name in NOT_COLLECTIVE if name in ulog.message_formats]  # type: ignore[attr-defined]
+    unused = (f"; {' and '.join(logged)} {'is' if len(logged) == 1 else 'are'} logged but hold the mixer's "
+              "per-motor outputs (after airmode, saturation and the thrust curve), not the collective: not read"
+              if logged else "")
+    return f"{tried} (collective thrust, one of them{unused})"
+
+
+def _missing(ulog, name: str, fields: list[str], what: str) -> str:
+    """A needed topic that is absent, too short, or logged with fields this reader does not know (a renamed
+    field of another PX4 version): the text names which."""
+    found = [d for d in ulog.data_list if d.name == name and d.multi_id == 0]
+    lacking = [f for f in fields if found and f not in found[0].data]
+    if lacking:
+        return f"{name} ({what}: logged without field {', '.join(lacking)}, a layout this reader does not know)"
+    return f"{name} ({what})"
+
+
+def _refuse_missing(path: str, ulog, need: dict, topics: dict, no_collective: bool) -> None:
+    """One line naming every needed topic (or field) the log lacks, exit 2."""
+    missing = [_missing(ulog, name, need[name][0], need[name][1]) for name, data in topics.items() if data is None]
+    if no_collective:
+        missing.append(_no_collective(ulog))
+    if missing:
+        raise InputError(path, "topic" + ("s " if len(missing) > 1 else " ") + ", ".join(missing), "missing from the log")
+
+
 def _needs(af: Airframe) -> dict[str, tuple[list[str], str]]:
     ned = log_signals(af).ned_acceleration
     need: dict[str, tuple[list[str], str]] = {
@@ -254,17 +295,11 @@ def read_ulog(path: str, af: Airframe, rate_hz: float | None = None, bridge_gaps
     need = _needs(af)
     topics = {name: _topic(ulog, name, fields, ("esc_count", "esc_online_flags") if name == "esc_status" else ())
               for name, (fields, _) in need.items()}
-    thrust_src = None
-    if af.thrust.source == "collective":
-        thrust_src = (("vehicle_thrust_setpoint", _topic(ulog, "vehicle_thrust_setpoint", ["xyz[2]"]), "xyz[2]")
-                      if _topic(ulog, "vehicle_thrust_setpoint", ["xyz[2]"]) is not None else
-                      ("vehicle_attitude_setpoint", _topic(ulog, "vehicle_attitude_setpoint", ["thrust_body[2]"]), "thrust_body[2]"))
-    missing = [f"{name} ({need[name][1]})" for name, data in topics.items() if data is None]
-    if thrust_src is not None and thrust_src[1] is None:
-        missing.append("vehicle_thrust_setpoint or vehicle_attitude_setpoint (collective thrust)")
-    if missing:
-        raise InputError(path, "topic" + ("s " if len(missing) > 1 else " ") + ", ".join(missing), "missing from the log")
+    thrust_src = collective_source(ulog) if af.thrust.source == "collective" else None
+    _refuse_missing(path, ulog, need, topics, af.thrust.source == "collective" and thrust_src is None)
     notes = [] if complaint is None else [f"pyulog: {complaint} (the parse went on past it)"]
+    if thrust_src:
+        notes += [n for n in (battery_scale_note(thrust_src[0], ulog.initial_parameters),) if n]
     cut = truncation(path)
     hover_topic, hover_param = _hover_source(path, ulog, notes) if thrust_src else (None, None)
     yaw_src = _topic(ulog, "vehicle_attitude_setpoint", ["yaw_body"])
@@ -273,7 +308,7 @@ def read_ulog(path: str, af: Airframe, rate_hz: float | None = None, bridge_gaps
 
     used = {n: d for n, d in topics.items() if d is not None}
     if thrust_src:
-        used[thrust_src[0]] = thrust_src[1]
+        used[thrust_src[0].topic] = thrust_src[1]
     clock = uniform_clock(path, [d["t"] for d in used.values()], rate_hz or 1.0 / af.observer.sample_time_s)
     max_gap = af.limits.max_dt_s
     tolerances, slow = topic_tolerances({name: d["t"] for name, d in used.items()}, max_gap,
@@ -298,7 +333,7 @@ def read_ulog(path: str, af: Airframe, rate_hz: float | None = None, bridge_gaps
     bridged = None
     if bridge_gaps:
         bridged, note = bridge(af, tolerances, clock, gappy, landed | (no_data & ~gappy),
-                              (thrust_src[0],) if thrust_src else ())
+                              (thrust_src[0].topic,) if thrust_src else ())
         notes += note
     return UlogFlight(FlightLog(path, blank(cols, blanked(no_data, landed, bridged))), no_data, landed, px4,
                       tuple(notes), float(clock[0]), warnings, autopilot_wind_variance=px4_var, bridged=bridged,
@@ -341,11 +376,11 @@ def _columns(af: Airframe, topics: dict, thrust_src, hover_topic, hover_param, y
         for i in range(af.thrust.rotors):
             cols[f"rpm_{i + 1}"] = rpm[:, i]
     else:
-        name, src, field = thrust_src
-        normalized = -hold(src, [field], clock)[:, 0]  # body z points down: upward thrust is negative
+        source, src = thrust_src
+        normalized = source.up * hold(src, [source.field], clock)[:, 0]  # upward positive, whatever the layout
         hover = hold(hover_topic, ["hover_thrust"], clock)[:, 0] if hover_topic else np.full(len(clock), hover_param)
         cols["thrust"] = af.mass_kg * af.gravity_mps2 * normalized / hover
-        notes.append(f"collective thrust from {name}.{field}")
+        notes.append(f"collective thrust from {source.name}" + ("" if source in THRUST_SOURCES[:2] else f": {source.what}"))
     if yaw_src is not None:
         cols["yaw_ref"] = hold(yaw_src, ["yaw_body"], clock)[:, 0]
     return cols
