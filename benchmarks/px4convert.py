@@ -30,6 +30,10 @@ take-off and landing as the octo logs it (ground_contact, then maybe_landed, the
 MPC_THR_HOVER (PX4's default 0.5, not the true hover thrust), MAV_TYPE, CA_ROTOR_COUNT, SYS_AUTOSTART and
 EKF2 drag fusion off. No wind: a PX4 log carries no truth. Nothing here is a PX4 SITL run.
 
+The simulated flight starts and ends in the air, moving: the ground meets it without a take-off or landing
+manoeuvre (a step in thrust and velocity), so the one or two rows at the landing instant, where the reader
+interpolates across that step, read as IMPLAUSIBLE (an acceleration no vehicle makes).
+
     .venv/bin/python -m benchmarks.px4convert FLIGHT.csv --mass 2.6 [--hover 0.42] [--no-esc] -o FLIGHT.ulg
 """
 from __future__ import annotations
