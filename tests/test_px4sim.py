@@ -72,26 +72,24 @@ def flight(rpm: bool = False) -> dict[str, np.ndarray]:
     return cols
 
 
-def _converted(folder: Path, rpm: bool) -> tuple[Path, Path]:
-    """The flight as a ULog, and the starter `init` writes from it."""
+def _converted(folder: Path, rpm: bool):
+    """The flight as a ULog, init's choices on it, and the reader's flight through init's starter."""
     log = folder / ("rpm.ulg" if rpm else "collective.ulg")
     convert(flight(rpm), Px4Setting(MASS, HOVER, rotors=ROTORS if rpm else 4, seed=7), log)
-    text, _, _ = build_airframe(str(log), MASS, str(folder / "start.toml"))
     start = folder / ("rpm.toml" if rpm else "collective.toml")
+    text, choices, _ = build_airframe(str(log), MASS, str(start))
     start.write_text(text)
-    return log, start
+    return log, choices, read_ulog(str(log), load_airframe(str(start)))
 
 
 @pytest.fixture(scope="module")
 def collective(tmp_path_factory):
-    log, start = _converted(tmp_path_factory.mktemp("px4sim"), rpm=False)
-    return log, start, read_ulog(str(log), load_airframe(str(start)))
+    return _converted(tmp_path_factory.mktemp("px4sim"), rpm=False)
 
 
 @pytest.fixture(scope="module")
 def rpm(tmp_path_factory):
-    log, start = _converted(tmp_path_factory.mktemp("px4sim_rpm"), rpm=True)
-    return log, start, read_ulog(str(log), load_airframe(str(start)))
+    return _converted(tmp_path_factory.mktemp("px4sim_rpm"), rpm=True)
 
 
 def _flight_time(read) -> np.ndarray:
@@ -173,8 +171,7 @@ def test_topics_at_the_rates_written(collective, rpm):
 
 
 def test_init_picks_collective_and_a_max_dt_the_rates_support(collective):
-    log, start, _ = collective
-    _, choices, _ = build_airframe(str(log), MASS, str(start))
+    log, choices, _ = collective
     lp = _intervals(log)["vehicle_local_position"]
     assert choices.thrust_source == "collective" and choices.acceleration == "ned"
     assert choices.rate_hz == Px4Rates().attitude
@@ -183,8 +180,7 @@ def test_init_picks_collective_and_a_max_dt_the_rates_support(collective):
 
 
 def test_init_picks_rpm_from_esc_status_and_the_reader_gets_it(rpm):
-    log, start, read = rpm
-    _, choices, _ = build_airframe(str(log), MASS, str(start))
+    _, choices, read = rpm
     assert choices.thrust_source == "rpm" and choices.rotors == ROTORS
     inside, t = _air(read)
     # clear of the step from 0 rpm on the ground by one report interval, which interpolation spans
