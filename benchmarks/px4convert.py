@@ -28,13 +28,16 @@ nominal grid, drawn for each topic (the octo's 10 Hz intervals run 0.09-0.11 s).
 GROUND_S of ground before and after (still, level, thrust and rpm 0), the land detector's sequence around
 take-off and landing as the octo logs it (ground_contact, then maybe_landed, then landed), parameters
 MPC_THR_HOVER (PX4's default 0.5, not the true hover thrust), MAV_TYPE, CA_ROTOR_COUNT, SYS_AUTOSTART and
-EKF2 drag fusion off. No wind: a PX4 log carries no truth. Nothing here is a PX4 SITL run.
+EKF2 drag fusion off. No wind: a PX4 log carries no truth. Nothing here is a PX4 SITL run. On request
+(``Px4Setting.silences``, ``--silence``) vehicle_local_position goes unlogged for given spans, as when the
+logger drops a burst: the reader's gaps and replay's bridging (dobwind/io/bridge.py) on a known flight.
 
 The simulated flight starts and ends in the air, moving: the ground meets it without a take-off or landing
 manoeuvre (a step in thrust and velocity), so the one or two rows at the landing instant, where the reader
 interpolates across that step, read as IMPLAUSIBLE (an acceleration no vehicle makes).
 
-    .venv/bin/python -m benchmarks.px4convert FLIGHT.csv --mass 2.6 [--hover 0.42] [--no-esc] -o FLIGHT.ulg
+    .venv/bin/python -m benchmarks.px4convert FLIGHT.csv --mass 2.6 [--hover 0.42] [--no-esc]
+        [--silence START,LENGTH ...] -o FLIGHT.ulg
 """
 from __future__ import annotations
 
@@ -119,6 +122,9 @@ class Px4Setting:
     esc: bool = True                # esc_status when the flight has rpm columns
     seed: int = 0                   # the stamps' jitter
     rates: Px4Rates = field(default_factory=Px4Rates)
+    # (start after take-off, length), s: vehicle_local_position not logged there (a lost burst of the logger,
+    # for the reader's gap handling and bridging); none by default
+    silences: tuple[tuple[float, float], ...] = ()
 
     def parameters(self) -> tuple[dict[str, float], dict[str, int]]:
         """(float, int32) parameters, as PX4 types them."""
@@ -286,6 +292,15 @@ def land_rows(tl: Timeline, setting: Px4Setting, rng: np.random.Generator) -> li
     return rows
 
 
+def silenced(us: np.ndarray, tl: Timeline, setting: Px4Setting) -> np.ndarray:
+    """The stamps outside ``setting.silences`` (measured from take-off)."""
+    since = us * 1e-6 - tl.takeoff_s
+    quiet = np.zeros(len(us), dtype=bool)
+    for start, length in setting.silences:
+        quiet |= (since > start) & (since < start + length)
+    return us[~quiet]
+
+
 def topics(tl: Timeline, setting: Px4Setting) -> list:
     """Every topic of the converted log, its stamps drawn from ``setting.seed``."""
     sys.path.insert(0, str(ROOT))  # tests/ is not installed (as tools/bench_slow_ulog.py imports it)
@@ -294,7 +309,8 @@ def topics(tl: Timeline, setting: Px4Setting) -> list:
     rng = np.random.default_rng(setting.seed)
     r = setting.rates
     air = (tl.takeoff_s, tl.landing_s)
-    out = [Topic("vehicle_local_position", LOCAL_POSITION, local_position_rows(tl, _grid(tl, r.local_position, setting, rng))),
+    out = [Topic("vehicle_local_position", LOCAL_POSITION,
+                 local_position_rows(tl, silenced(_grid(tl, r.local_position, setting, rng), tl, setting))),
            Topic("vehicle_attitude", ATTITUDE, attitude_rows(tl, _grid(tl, r.attitude, setting, rng))),
            Topic("vehicle_attitude_setpoint", ATTITUDE_SETPOINT,
                  attitude_setpoint_rows(tl, _grid(tl, r.attitude_setpoint, setting, rng), setting)),
@@ -339,6 +355,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--hover", type=float, default=0.42, help="the true hover thrust, 0..1 (default 0.42)")
     p.add_argument("--no-esc", action="store_true", help="no esc_status, even for a flight with rpm columns")
     p.add_argument("--seed", type=int, default=0, help="the timestamps' jitter (default 0)")
+    p.add_argument("--silence", action="append", default=[], metavar="START,LENGTH",
+                   help="no vehicle_local_position from START s after take-off for LENGTH s (repeatable)")
     p.add_argument("-o", "--output", required=True)
     args = p.parse_args(argv)
     if not (args.mass > 0 and 0 < args.hover < 1):
@@ -355,7 +373,13 @@ def main(argv: list[str] | None = None) -> int:
         print(f"px4convert: {args.flight}: column(s) {', '.join(missing)} missing (a `dobwind simulate` CSV has them)",
               file=sys.stderr)
         return 2
-    setting = Px4Setting(args.mass, args.hover, rotors=rotor_count(cols), esc=not args.no_esc, seed=args.seed)
+    try:
+        silences = tuple((float(a), float(b)) for a, b in (text.split(",") for text in args.silence))
+    except ValueError:
+        print(f"px4convert: --silence: {args.silence!r}: each is START,LENGTH in seconds (e.g. 20,0.7)", file=sys.stderr)
+        return 2
+    setting = Px4Setting(args.mass, args.hover, rotors=rotor_count(cols), esc=not args.no_esc, seed=args.seed,
+                         silences=silences)
     convert(cols, setting, Path(args.output))
     return 0
 

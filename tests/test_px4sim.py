@@ -198,3 +198,25 @@ def test_the_benchmark_flies_fieldcross_flights(tmp_path):
     assert [j.flight.name for j in jobs] == [CALIBRATION.name] + [f.name for f in TESTS]
     assert [(j.speed_mps, j.from_deg, j.seed) for j in jobs] == [
         (5.0 * f.speed_factor, (d + f.turn_deg) % 360, 100 + f.seed_offset) for f in (CALIBRATION, *TESTS)]
+
+
+SILENCE = (20.0, 0.7)   # vehicle_local_position lost for 0.7 s, 20 s after take-off
+
+
+def test_a_lost_burst_of_the_local_position_is_a_gap_or_bridged(tmp_path):
+    """0.7 s without vehicle_local_position (beyond its tolerance of four 10 Hz intervals): without bridging
+    those rows are NO_DATA with no inputs; bridged (dobwind/io/bridge.py, as replay reads) they carry the
+    velocity interpolated across the silence, within the sines' curvature over 0.8 s of the closed form."""
+    log = tmp_path / "silent.ulg"
+    convert(flight(), Px4Setting(MASS, HOVER, seed=7, silences=(SILENCE,)), log)
+    start = tmp_path / "silent.toml"
+    start.write_text(build_airframe(str(log), MASS, str(start))[0])
+    af = load_airframe(str(start))
+    plain, bridged = read_ulog(str(log), af), read_ulog(str(log), af, bridge_gaps=True)
+    t = _flight_time(plain)
+    inside = (t > SILENCE[0] + 0.15) & (t < SILENCE[0] + SILENCE[1] - 0.15)
+    assert plain.no_data[inside].all() and np.isnan(plain.log.columns["vel_n"][inside]).all()
+    assert not plain.no_data[(t > 1.0) & (t < SILENCE[0] - 0.5)].any()
+    assert bridged.bridged is not None and bridged.bridged[inside].all()
+    vel, _ = _velocity(t[inside])
+    assert np.max(np.abs(bridged.log.stack("vel_n", "vel_e", "vel_d")[inside] - vel)) < 0.03
