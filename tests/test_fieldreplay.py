@@ -12,7 +12,7 @@ import pytest
 from dobwind.cli.app import main
 from dobwind.model.airframe import load_airframe
 from dobwind.model.status import STATUS_LANDED, STATUS_NO_DATA, STATUS_SUSPECT, accepted
-from dobwind.replay.plausibility import FlightSeries, PlausibilityLimits, check_flight, mark
+from dobwind.replay.plausibility import DEFAULT_LIMITS, FlightSeries, PlausibilityLimits, check_flight, mark
 from dobwind.replay.replay import replay_ulog
 from dobwind.io.resample import GapPolicy, topic_tolerances, uniform_clock, wind_active
 from dobwind.simulate.simulate import simulate
@@ -191,6 +191,27 @@ def test_hover_balance_reads_thrust_over_weight_from_the_vertical_force():
     assert "1.60x the weight at hover" in found[0].message and found[0].rows.all()
     assert check_flight(af, _series(force_d=0.2 * weight)) == []          # within the 25 % tolerance
     assert check_flight(af, _series(force_d=-0.3 * weight))[0].value == pytest.approx(0.7)
+
+
+def test_hover_balance_is_judged_in_level_hover_only():
+    """A vehicle holding position in a steady wind hovers tilted into it, with a horizontal force of a
+    good share of its weight, and the air through the tilted body adds a vertical force (the simulated
+    family's PX4 logs: T / (m g) up to 1.28 at half the weight in horizontal force): not a wrong airframe.
+    The same vertical force with a level vehicle is one, streamed or whole."""
+    from dobwind.replay.plausibility import StreamedChecks
+
+    af = load_airframe(M300)
+    weight = af.mass_kg * af.gravity_mps2
+    limit = DEFAULT_LIMITS.hover_level_share * weight
+    for horizontal, expected in ((0.0, ["hover_thrust"]), (0.9 * limit, ["hover_thrust"]), (1.1 * limit, []),
+                                 (2.5 * limit, [])):
+        series = _series(force_d=0.3 * weight)
+        series.force[:, 0] = horizontal * 0.6 + af.observer.force_offset_n[0]  # along a diagonal: the norm counts
+        series.force[:, 1] = horizontal * 0.8 + af.observer.force_offset_n[1]
+        assert [f.check for f in check_flight(af, series)] == expected, horizontal
+        streamed = StreamedChecks(af)
+        streamed.add(series)
+        assert [f.check for f in streamed.findings()] == expected, horizontal
 
 
 def test_vertical_wind_and_wind_speed_checks_mark_only_their_rows():
