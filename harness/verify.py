@@ -14,7 +14,7 @@ from dobwind.codegen.generate import generate_code, write_files
 from dobwind.codegen.tolerance import TOLERANCE
 from dobwind.model.errors import CheckFailed, InputError
 from dobwind.harness.build import Compiler, available_compilers, build_shared_library, run, strict_compile, system_compiler
-from dobwind.harness.compare import Comparison, compare
+from dobwind.harness.compare import Comparison, RowStarts, compare
 from dobwind.harness.flagsets import FLAG_SETS, FlagSet, Toolchain, available_toolchains, build_selftest, compile_c
 from dobwind.harness.cstep import CStep
 from dobwind.harness.isolated import implies_fast_math, run_isolated
@@ -175,8 +175,9 @@ def verify_precision(model: StepModel, precision: Precision, steps: int, seed: i
         report.selftest = str(exc).strip().splitlines()[-1]
     extra = () if flags is None else tuple(f for f in flags.c if f not in ("-Werror", "-Wfatal-errors"))
     cases, flight = _run_c(model, precision, build_shared_library(model, precision, code_dir, work, extra), extra, checks)
-    report.cases = compare(model, cases, checks.cases, TOLERANCE[precision])
-    report.flight = compare(model, flight, checks.flight, TOLERANCE[precision])
+    report.cases = compare(model, cases, checks.cases, TOLERANCE[precision], RowStarts.cases(checks.states, checks.inputs))
+    report.flight = compare(model, flight, checks.flight, TOLERANCE[precision],
+                            RowStarts.flight(model, checks.flight_inputs, flight, checks.flight))
     return report
 
 

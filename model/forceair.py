@@ -376,6 +376,12 @@ def _body_law_value(law: DragLaw, a: ca.SX, rotor: ca.SX) -> ca.SX:
     return ca.Function("body_drag_value", [sa, sr, *coefficients], [value])(a, rotor, *coefficients)
 
 
+def body_law_at(law: DragLaw, a: ca.SX, rotor: ca.SX) -> ca.SX:
+    """The body-frame law's force at the airflow ``a`` as the inversion evaluates it (the same speed
+    smoothing): what the step's tracked airflow explains (model/airstate.py)."""
+    return _body_law_value(law, a, rotor)
+
+
 def _body_newton_chord(law: DragLaw, a: ca.SX, rotor: ca.SX, force_b: ca.SX) -> tuple[ca.SX, Callable[[ca.SX], ca.SX]]:
     """One Newton step from ``a``, and the correction J(a)^-1 r of that same Jacobian for a later
     iterate (a chord step: the Jacobian reused, only the law's value evaluated again)."""
