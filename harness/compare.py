@@ -29,6 +29,7 @@ class FieldError:
     worst_row: int
     # The element that sets worst_ratio: its |diff| and its reference's magnitude. max_abs alone misled
     # (issue #33): the limit cases reach 1e27, where a passing single-precision diff is 1e22.
+    # For air_prev on a row judged through the law (_tracked_airflow_ratio), both are forces in N.
     worst_diff: float = 0.0
     worst_ref: float = 0.0
 
@@ -101,7 +102,7 @@ def _field_ratio(name: str, g: np.ndarray, r: np.ndarray, tol: Tolerance, mask: 
 
 
 def _tracked_airflow_ratio(model: StepModel, got: Trajectory, ref: Trajectory, tol: Tolerance, starts: RowStarts,
-                           ratio: np.ndarray) -> np.ndarray:
+                           diff: np.ndarray, ratio: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``air_prev``'s element ratios, judged row by row through what that airflow means. On an accepted
     row the state passes as every state does (within the state tolerance, in m/s), or when the law's
     force at the C's airflow, evaluated in double, is within the force tolerance of the force the
@@ -109,11 +110,12 @@ def _tracked_airflow_ratio(model: StepModel, got: Trajectory, ref: Trajectory, t
     reference's own airflow: that is a tracking iterate, and where the law is nearly flat one chord step
     from zero airflow leaves it 0.1 m/s (2e-3 N) off the solution (docs/verification.md). On a rejected
     row the step keeps the airflow it had: its change from the row before is compared instead, so a
-    difference judged where it arose is not judged again in m/s."""
+    difference judged where it arose is not judged again in m/s. Returns (|diff|, its reference value,
+    ratio) per element: on a row judged through the force, the force's difference and the force (N)."""
     law = tracked_airflow_force(model)
     sl = model.state.slice(TRACKED_AIRFLOW)
     if law is None or len(ref.status) == 0 or got.states.shape != ref.states.shape:
-        return ratio
+        return diff, np.abs(ref.states[:, sl]), ratio
     law_got, target = (np.asarray(v).T for v in law.map(len(ref.status))(
         starts.ref_before.T, starts.inputs.T, got.states[:, sl].T))
     with np.errstate(invalid="ignore", over="ignore"):
@@ -126,7 +128,9 @@ def _tracked_airflow_ratio(model: StepModel, got: Trajectory, ref: Trajectory, t
     use_force = accepted & finite & (row_force < ratio.max(axis=1))
     use_kept = ~accepted & finite & np.isfinite(kept).all(axis=1)
     judged = np.where(use_force[:, None], force_ratio, ratio)
-    return np.where(use_kept[:, None], np.minimum(kept, ratio), judged)
+    force = use_force[:, None]
+    return (np.where(force, np.abs(law_got - target), diff), np.where(force, np.abs(target), np.abs(ref.states[:, sl])),
+            np.where(use_kept[:, None], np.minimum(kept, ratio), judged))
 
 
 def _field_errors(layout, got: np.ndarray, ref: np.ndarray, tol: Tolerance, valid: np.ndarray,
@@ -145,7 +149,7 @@ def _field_errors(layout, got: np.ndarray, ref: np.ndarray, tol: Tolerance, vali
                 mask = mask & (speed[:, None] >= MIN_SPEED_FOR_DIRECTION)
         diff, ratio = _field_ratio(name, g, r, tol, mask)
         if judge is not None and name == TRACKED_AIRFLOW:
-            ratio = judge(ratio)
+            diff, r, ratio = judge(diff, ratio)
         flat = ratio.max(axis=1) if ratio.size else np.zeros(0)
         row = int(np.argmax(flat)) if flat.size else -1
         col = int(np.argmax(ratio[row])) if flat.size else 0
@@ -165,7 +169,7 @@ def compare(model: StepModel, got: Trajectory, ref: Trajectory, tol: Tolerance,
     state_speed = ref.states[:, model.state.slice("last.wind_speed_h")].ravel()
     judge = None
     if starts is not None and TRACKED_AIRFLOW in model.state:
-        judge = lambda ratio: _tracked_airflow_ratio(model, got, ref, tol, starts, ratio)  # noqa: E731
+        judge = lambda diff, ratio: _tracked_airflow_ratio(model, got, ref, tol, starts, diff, ratio)  # noqa: E731
     return Comparison(
         rows=len(ref.status),
         status_mismatches=_status_mismatches(got.status, ref.status),

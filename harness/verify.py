@@ -81,8 +81,10 @@ class VerifyReport:
                 worst = sorted(comp.outputs, key=lambda e: -e.worst_ratio)[:4]
                 lines.append(f"    {title}: {comp.rows} steps, {comp.status_mismatches} status mismatches, "
                              f"worst error/tolerance {comp.worst_ratio:.3g}")
-                for e in worst:
-                    lines.append(f"      {e.name:14s} |diff| {e.worst_diff:.3g} at |value| {e.worst_ref:.3g} "
+                # The worst state too: a state alone can fail (issue: air_prev on the field fit's limit row).
+                state = max(comp.states, key=lambda e: e.worst_ratio, default=None)
+                for e, label in [(e, e.name) for e in worst] + ([(state, f"state {state.name}")] if state else []):
+                    lines.append(f"      {label:14s} |diff| {e.worst_diff:.3g} at |value| {e.worst_ref:.3g} "
                                  f"(x{e.worst_ratio:.3g} of tolerance, row {e.worst_row})")
         return "\n".join(lines)
 
