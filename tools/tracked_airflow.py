@@ -6,7 +6,9 @@ airframe: ``python -m tools.tracked_airflow AIRFRAME [--precision single|double]
 - from zero: the tracked inversion from zero airflow against the converged one, for small vertical
   forces at hover thrust (the overshoot of a law with lz = 0);
 - hover: the reference step from model/boundaries.py's neutral row (a settled estimator at zero airflow)
-  over hover samples with 0.01 m/s^2 of acceleration noise: the first sample's airflow and wind.
+  over hover samples with 0.01 m/s^2 of acceleration noise: the first sample's airflow and wind;
+- calm: the tracked inversion, sample by sample, at hover thrust and level, of a body-frame force that is
+  low-passed noise around zero (a hover in still air), against the converged inversion.
 """
 from __future__ import annotations
 
@@ -60,12 +62,31 @@ def smallest_failing_offsets(model: StepModel, precision: Precision, steps: int)
 
 def from_zero(model: StepModel, forces_z: tuple[float, ...] = (1e-5, 1e-4, 1e-3, 1e-2)) -> list[tuple[float, float, float]]:
     """(vertical force N, tracked vertical airflow from zero, converged one) at hover thrust, level."""
+    tracked, solved = _inversions(model)
+    return [(fz, float(tracked([0, 0, fz], [0, 0, 0])[2]), float(solved([0, 0, fz])[2])) for fz in forces_z]
+
+
+def _inversions(model: StepModel) -> tuple[ca.Function, ca.Function]:
+    """(force, previous airflow) -> tracked body-frame airflow, and force -> converged; level, hover thrust."""
     law, f, previous = model.airframe.drag, ca.SX.sym("f", 3), ca.SX.sym("previous", 3)
     rot, rotor = ca.SX.eye(3), ca.SX(1.0)
     tracked = ca.Function("tracked", [f, previous],
                           [forceair.body_drag_airflow_tracking(law, f, rot, rotor, previous, ca.SX(1))[1]])
-    solved = ca.Function("solved", [f], [forceair.body_drag_airflow(law, f, rot, rotor)])
-    return [(fz, float(tracked([0, 0, fz], [0, 0, 0])[2]), float(solved([0, 0, fz])[2])) for fz in forces_z]
+    return tracked, ca.Function("solved", [f], [forceair.body_drag_airflow(law, f, rot, rotor)])
+
+
+def calm(model: StepModel, sigma_n: float, samples: int = 20000, seed: int = 1) -> str:
+    """Tracking through low-passed force noise of about ``sigma_n`` around zero: how often it is off."""
+    tracked, solved = _inversions(model)
+    rng = np.random.default_rng(seed)
+    previous, force, errors = np.asarray(solved([0, 0, 0])).ravel(), np.zeros(3), np.zeros((samples, 2))
+    for k in range(samples):
+        force = 0.95 * force + 0.05 * rng.normal(0, sigma_n / np.sqrt(0.05), 3)  # std about sigma_n
+        previous, converged = np.asarray(tracked(force, previous)).ravel(), np.asarray(solved(force)).ravel()
+        errors[k] = np.abs(previous - converged).max(), np.abs(previous[:2] - converged[:2]).max()
+    return (f"force noise {sigma_n:g} N, {samples} samples: {int(np.sum(errors[:, 0] > 1))} off by more than 1 m/s "
+            f"(worst {errors[:, 0].max():.3g}), {int(np.sum(errors[:, 1] > 0.1))} off by more than 0.1 m/s "
+            f"horizontally (worst {errors[:, 1].max():.3g})")
 
 
 def hover(model: StepModel, rows: int = 200, seed: int = 2) -> str:
@@ -90,6 +111,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("airframe")
     parser.add_argument("--precision", choices=("single", "double"), default="single")
     parser.add_argument("--steps", type=int, default=5000)
+    parser.add_argument("--calm-samples", type=int, default=20000)
     args = parser.parse_args(argv)
     model = build_step(load_airframe(args.airframe))
     if "air_prev" not in model.state:
@@ -100,6 +122,8 @@ def main(argv: list[str] | None = None) -> int:
               f"offset {delta:.2g} m/s")
     for fz, tracked, solved in from_zero(model):
         print(f"from zero: vertical force {fz:g} N: tracked {tracked:.4g} m/s, converged {solved:.4g} m/s")
+    for sigma in (1e-3, 1e-2, 0.05):
+        print(f"calm: {calm(model, sigma, args.calm_samples)}")
     if "acc_ned" in model.inputs and "thrust" in model.inputs:
         print(f"hover: {hover(model)}")
     return 0
