@@ -18,7 +18,7 @@ from dobwind.model.step import StepModel, body_drag_target
 Signals = dict[str, ca.SX]
 
 
-def _signals(model: StepModel, x: ca.SX, u: ca.SX) -> Signals:
+def step_signals(model: StepModel, x: ca.SX, u: ca.SX) -> Signals:
     """Every signal up to the force-air stage, from the model's own stage functions (the same
     expressions the step composes)."""
     signals: Signals = {f"in.{f.name}": u[model.inputs.slice(f.name)] for f in model.inputs.fields}
@@ -38,7 +38,7 @@ def tracked_airflow_force(model: StepModel) -> ca.Function | None:
     if "air_prev" not in model.state:
         return None
     x, u, air = ca.SX.sym("state", model.state.size), ca.SX.sym("input", model.inputs.size), ca.SX.sym("air", 3)
-    signals = _signals(model, x, u)
+    signals = step_signals(model, x, u)
     force_ned, rotor = body_drag_target(model.airframe, signals)
     rot = ca.reshape(signals["rot_body_to_ned"], 3, 3)
     law = forceair.body_law_at(model.airframe.drag, air, rotor)

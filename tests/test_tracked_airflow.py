@@ -153,13 +153,11 @@ def test_a_c_mutant_of_the_tracked_airflow_is_caught_by_verify(tmp_path, name):
     assert "verify cases" in found and "verify flight" in found, found
 
 
-@pytest.mark.xfail(strict=True, reason="known, not fixed (docs/verification.md): with lz = 0 the tracked inversion "
-                   "from zero airflow overshoots along z by orders of magnitude")
 def test_the_tracked_inversion_from_zero_airflow_stays_near_the_solution_of_a_flat_law():
     """A running estimator whose previous airflow is zero (a hover in still air) and a small vertical
-    force: one Newton step (its vertical slope at zero airflow is qz times the 1e-3 m/s speed smoothing)
-    and one chord step reusing it should land near the law's solution; with lz = 0 they do not (1e-3 N
-    gives -1.0e5 m/s against 0.10 here). Strict: a fix makes this pass, and then the mark must go."""
+    force. From there one Newton step (its vertical slope at zero airflow is qz times the 1e-3 m/s speed
+    smoothing) and one chord step reusing it gave -1.0e5 m/s for 1e-3 N (the solution: 0.10); the step
+    now starts from the isotropic closed form when that explains the force better (model/forceair.py)."""
     import casadi as ca
 
     from dobwind.model.forceair import body_drag_airflow, body_drag_airflow_tracking

@@ -8,7 +8,9 @@ airframe: ``python -m tools.tracked_airflow AIRFRAME [--precision single|double]
 - hover: the reference step from model/boundaries.py's neutral row (a settled estimator at zero airflow)
   over hover samples with 0.01 m/s^2 of acceleration noise: the first sample's airflow and wind;
 - calm: the tracked inversion, sample by sample, at hover thrust and level, of a body-frame force that is
-  low-passed noise around zero (a hover in still air), against the converged inversion.
+  low-passed noise around zero (a hover in still air), against the converged inversion;
+- flight: the step's tracked airflow against the converged inversion of the same force on verify's
+  flight (model/exercise.py), after its first 100 samples.
 """
 from __future__ import annotations
 
@@ -27,11 +29,13 @@ from dobwind.harness.cstep import CStep
 from dobwind.harness.verify import ReferenceChecks
 from dobwind.model import forceair, reference
 from dobwind.model.airframe import load_airframe
+from dobwind.model.airstate import step_signals
+from dobwind.model.exercise import flight_inputs
 from dobwind.model.boundaries import neutral_row
 from dobwind.model.kinds import Precision
 from dobwind.model.reference import Trajectory
 from dobwind.model.status import REJECTED_MASK
-from dobwind.model.step import StepModel, build_step
+from dobwind.model.step import StepModel, body_drag_target, build_step
 
 OFFSETS = np.logspace(-13, 0, 131)  # m/s, ten per decade
 
@@ -89,6 +93,24 @@ def calm(model: StepModel, sigma_n: float, samples: int = 20000, seed: int = 1) 
             f"horizontally (worst {errors[:, 1].max():.3g})")
 
 
+def flight(model: StepModel, steps: int) -> str:
+    """The step's airflow against the converged inversion of the force it inverted, row by row."""
+    x, u = ca.SX.sym("state", model.state.size), ca.SX.sym("input", model.inputs.size)
+    signals = step_signals(model, x, u)
+    force, rotor = body_drag_target(model.airframe, signals)
+    converged = forceair.body_drag_airflow(model.airframe.drag, force, ca.reshape(signals["rot_body_to_ned"], 3, 3), rotor)
+    both = ca.Function("both", [x, u], [signals["air_rel_ned"], converged])
+    inputs = flight_inputs(model, steps, 1)
+    traj = reference.run(model, inputs)
+    before = np.vstack([model.initial_state(), traj.states[:-1]])
+    got, want = (np.asarray(v).T for v in both.map(steps)(before.T, inputs.T))
+    rows = (traj.status & REJECTED_MASK) == 0
+    rows[:100] = False
+    error = np.abs(got - want).max(axis=1)[rows]
+    return (f"{int(rows.sum())} accepted rows after the first 100: median {np.median(error):.3g}, 99.9th percentile "
+            f"{np.quantile(error, 0.999):.3g}, worst {error.max():.3g} m/s")
+
+
 def hover(model: StepModel, rows: int = 200, seed: int = 2) -> str:
     """The first hover sample from a settled state at zero airflow, against the converged inversion."""
     state, row = neutral_row(model)
@@ -122,6 +144,7 @@ def main(argv: list[str] | None = None) -> int:
               f"offset {delta:.2g} m/s")
     for fz, tracked, solved in from_zero(model):
         print(f"from zero: vertical force {fz:g} N: tracked {tracked:.4g} m/s, converged {solved:.4g} m/s")
+    print(f"flight: {flight(model, 20000)}")
     for sigma in (1e-3, 1e-2, 0.05):
         print(f"calm: {calm(model, sigma, args.calm_samples)}")
     if "acc_ned" in model.inputs and "thrust" in model.inputs:
