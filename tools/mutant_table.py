@@ -15,6 +15,7 @@ import math
 from dataclasses import dataclass
 
 from dobwind.model.airframe import Airframe
+from dobwind.model.kinds import DragFrame
 from dobwind.model.plausibility import MAX_ACCELERATION_MPS2, MAX_GROUND_SPEED_MPS, MAX_THRUST_TO_WEIGHT
 from dobwind.model.status import DT_TOLERANCE, QUATERNION_NORM_TOLERANCE, REJECTED_MASK
 from dobwind.model.settling import settling_time_s
@@ -227,7 +228,7 @@ def _tracked_airflow_mutants(af: Airframe) -> list[CMutant]:
     """The body-frame drag step's tracked airflow (state air_prev), for an airframe with that law: verify
     judges it through the force the law gives at it (harness/compare.py), which must still catch these
     where the law is well conditioned. Each changes the stored state only, not this sample's outputs."""
-    if af.drag is None or af.drag.frame != "body":
+    if af.drag is None or af.drag.frame != DragFrame.BODY:
         return []
     store = r"state->air_prev\[{0}\] = air_body\[{0}\];"
     out = [
