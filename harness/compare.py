@@ -107,8 +107,8 @@ def _tracked_airflow_ratio(model: StepModel, got: Trajectory, ref: Trajectory, t
     row the state passes as every state does (within the state tolerance, in m/s), or when the law's
     force at the C's airflow, evaluated in double, is within the force tolerance of the force the
     reference inverted on that row; the smaller of the two ratios counts. Not the law at the
-    reference's own airflow: that is a tracking iterate, and where the law is nearly flat one chord step
-    from zero airflow leaves it 0.1 m/s (2e-3 N) off the solution (docs/verification.md). On a rejected
+    reference's own airflow: that is a tracking iterate, which may miss its target (before the start
+    rule of forceair.body_drag_airflow_tracking, by 2e-3 N on the field fit: docs/verification.md). On a rejected
     row the step keeps the airflow it had: its change from the row before is compared instead, so a
     difference judged where it arose is not judged again in m/s. Returns (|diff|, its reference value,
     ratio) per element: on a row judged through the force, the force's difference and the force (N)."""

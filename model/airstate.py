@@ -4,8 +4,8 @@ the force the step inverted, for a step's (state, input).
 The body-frame step keeps the last accepted sample's body-frame airflow (``air_prev``) only as the start
 of the next inversion (model/forceair.py, ``body_drag_airflow_tracking``). Where the law is nearly flat
 along an axis (no linear vertical term and almost no airflow: slope qz |a| of about 0.01 N per m/s),
-that airflow moves by tenths of a m/s for a force that differs by a rounding error, and a comparison of
-the airflow itself with a tolerance in m/s says nothing about the estimate. What the airflow means is
+that airflow moves by tenths of a m/s for a force within the force tolerance (1e-3 N), and a comparison
+of the airflow itself with a tolerance in m/s says little about the estimate. What the airflow means is
 the force it explains; the harness (harness/compare.py) judges it there, in newtons.
 """
 from __future__ import annotations
