@@ -376,6 +376,12 @@ def _body_law_value(law: DragLaw, a: ca.SX, rotor: ca.SX) -> ca.SX:
     return ca.Function("body_drag_value", [sa, sr, *coefficients], [value])(a, rotor, *coefficients)
 
 
+def body_law_at(law: DragLaw, a: ca.SX, rotor: ca.SX) -> ca.SX:
+    """The body-frame law's force at the airflow ``a`` as the inversion evaluates it (the same speed
+    smoothing): what the step's tracked airflow explains (model/airstate.py)."""
+    return _body_law_value(law, a, rotor)
+
+
 def _body_newton_chord(law: DragLaw, a: ca.SX, rotor: ca.SX, force_b: ca.SX) -> tuple[ca.SX, Callable[[ca.SX], ca.SX]]:
     """One Newton step from ``a``, and the correction J(a)^-1 r of that same Jacobian for a later
     iterate (a chord step: the Jacobian reused, only the law's value evaluated again)."""
@@ -435,10 +441,11 @@ def body_drag_airflow_tracking(law: DragLaw, force_ned: ca.SX, rot: ca.SX, rotor
     step (the Jacobian of the step before reused: near the solution it barely changes, and the law's
     value alone is half the cost) from the previous sample's body-frame airflow (``warm`` = 1; the
     attitude turns little between samples, and Newton absorbs it), or from the isotropic start on the
-    first sample (``warm`` = 0) or after a jump. The force is low-passed, so from one sample to the next the solution
-    moves little and Newton, quadratic near it, tracks it in fewer steps than a cold start needs: each
-    sample continues the iteration of the one before (the first samples, within the settling time, may
-    be a few steps short of converged)."""
+    first sample (``warm`` = 0), after a jump, or when the isotropic start explains the force better.
+    The force is low-passed, so from one sample to the next the solution moves little and Newton,
+    quadratic near it, tracks it in fewer steps than a cold start needs: each sample continues the
+    iteration of the one before (the first samples, within the settling time, may be a few steps short
+    of converged)."""
     f_b = rot.T @ force_ned
     cold = _body_isotropic_start(law, f_b, rotor)
     # A jump of the force (a gust, the end of a gap) can leave the previous airflow far from the new
@@ -447,6 +454,14 @@ def body_drag_airflow_tracking(law: DragLaw, force_ned: ca.SX, rot: ca.SX, rotor
     # overflow): the previous airflow within half the start's size (plus 1 m/s) of it.
     distance = ca.sum1(ca.fabs(previous - cold))
     near = ca.logic_and(warm > 0, distance <= 0.5 * ca.sum1(ca.fabs(cold)) + 1.0)
+    # And only when it explains the force at least as well as the closed form (law residuals, 1-norms).
+    # Near zero airflow a law without a linear term along an axis (lz = 0) is flat there: the Jacobian
+    # at the previous airflow has a slope of qz times the speed smoothing, and the Newton and chord
+    # steps from it overshot by orders of magnitude (1e-3 N of vertical force gave -3.7e4 m/s in a hover
+    # in still air; docs/verification.md). The closed form solves each axis's quadratic exactly.
+    miss_previous = ca.sum1(ca.fabs(_body_law_value(law, previous, rotor) - f_b))
+    miss_cold = ca.sum1(ca.fabs(_body_law_value(law, cold, rotor) - f_b))
+    near = ca.logic_and(near, miss_previous <= miss_cold)
     start = cold + near * (previous - cold)  # a product, not a select: smaller code on a Cortex-M
     a, chord = _body_newton_chord(law, start, rotor, f_b)
     for _ in range(law.newton_steps(TRACKING_NEWTON_STEPS) - 2):

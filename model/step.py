@@ -438,16 +438,9 @@ def _force_air(af: Airframe, s: Signals) -> Signals:
     c, sn = ca.cos(s["in.yaw_ref"]), ca.sin(s["in.yaw_ref"])
     mm, nn, fz = forceair.heading_force(s["f_filt_new"], c, sn, offset)
     if _body_drag(af):
-        # The offset is calibrated in the heading frame; the law acts on the body-frame airflow. Without
-        # a horizontal offset, turning into the heading frame and back is the identity: the NED force
-        # itself (no sine and cosine of yaw_ref at all).
-        if offset[0] == 0.0 and offset[1] == 0.0:
-            fn, fe = s["f_filt_new"][0], s["f_filt_new"][1]
-        else:
-            fn, fe = forceair.heading_to_ned(mm, nn, c, sn)
-        rotor = ca.sqrt(ca.fmax(s["u_f"], 0) * (1 / (af.mass_kg * af.gravity_mps2)))
+        force, rotor = body_drag_target(af, s)
         air, air_body = forceair.body_drag_airflow_tracking(
-            af.drag, ca.vertcat(fn, fe, fz), ca.reshape(s["rot_body_to_ned"], 3, 3), rotor, s["state.air_prev"],
+            af.drag, force, ca.reshape(s["rot_body_to_ned"], 3, 3), rotor, s["state.air_prev"],
             s["state.initialized"])
         north, east, rel_z = air[0], air[1], air[2]
         speed_h = ca.sqrt(north * north + east * east)
@@ -469,6 +462,24 @@ def _force_air(af: Airframe, s: Signals) -> Signals:
             north, east = forceair.heading_to_ned(rel_x, rel_y, c, sn)
     return {"force_heading": ca.vertcat(mm, nn, fz), "airflow_speed_h": speed_h,
             "air_rel_ned": ca.vertcat(north, east, rel_z)}
+
+
+def body_drag_target(af: Airframe, s: Signals) -> tuple[ca.SX, ca.SX]:
+    """What the body-frame drag law is inverted for: the NED force with the offset removed, and the
+    rotor term sqrt(u_f / (m g)). Also the harness's (harness/compare.py judges the tracked airflow
+    ``air_prev`` through the force the law gives at it)."""
+    offset = af.observer.force_offset_n
+    c, sn = ca.cos(s["in.yaw_ref"]), ca.sin(s["in.yaw_ref"])
+    mm, nn, fz = forceair.heading_force(s["f_filt_new"], c, sn, offset)
+    # The offset is calibrated in the heading frame; the law acts on the body-frame airflow. Without
+    # a horizontal offset, turning into the heading frame and back is the identity: the NED force
+    # itself (no sine and cosine of yaw_ref at all).
+    if offset[0] == 0.0 and offset[1] == 0.0:
+        fn, fe = s["f_filt_new"][0], s["f_filt_new"][1]
+    else:
+        fn, fe = forceair.heading_to_ned(mm, nn, c, sn)
+    rotor = ca.sqrt(ca.fmax(s["u_f"], 0) * (1 / (af.mass_kg * af.gravity_mps2)))
+    return ca.vertcat(fn, fe, fz), rotor
 
 
 def _wind(s: Signals) -> Signals:

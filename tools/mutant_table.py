@@ -15,6 +15,7 @@ import math
 from dataclasses import dataclass
 
 from dobwind.model.airframe import Airframe
+from dobwind.model.kinds import DragFrame
 from dobwind.model.plausibility import MAX_ACCELERATION_MPS2, MAX_GROUND_SPEED_MPS, MAX_THRUST_TO_WEIGHT
 from dobwind.model.status import DT_TOLERANCE, QUATERNION_NORM_TOLERANCE, REJECTED_MASK
 from dobwind.model.settling import settling_time_s
@@ -51,7 +52,8 @@ MODEL_TESTS = ("tests/test_model.py", "tests/test_limits_pinned.py")
 def c_mutants(af: Airframe) -> list[CMutant]:
     """Every C mutant for ``af``, in the order the table is reported."""
     return (_validation_mutants(af) + _estimate_mutants(af) + _commit_mutants() + _kernel_mutants()
-            + _bias_mutants(af) + _header_mutants(af) + _plausibility_mutants(af) + _envelope_mutants(af))
+            + _bias_mutants(af) + _header_mutants(af) + _plausibility_mutants(af) + _envelope_mutants(af)
+            + _tracked_airflow_mutants(af))
 
 
 def _validation_mutants(af: Airframe) -> list[CMutant]:
@@ -215,6 +217,38 @@ def _envelope_mutants(af: Airframe) -> list[CMutant]:
     for label, value in (("low", env.force_z_n[0]), ("high", env.force_z_n[1])):
         if value != 0.0:
             out.append(CMutant(f"envelope: force_z {label} x1.01", "quality", near=value, scale=1.01, count=None))
+    return out
+
+
+# The body-frame law's coefficients whose terms are linear in the airflow (model/forceair.py).
+_LINEAR_DRAG_KEYS = ("l0", "l2c", "l2s", "lr", "lz")
+
+
+def _tracked_airflow_mutants(af: Airframe) -> list[CMutant]:
+    """The body-frame drag step's tracked airflow (state air_prev), for an airframe with that law: verify
+    judges it through the force the law gives at it (harness/compare.py), which must still catch these
+    where the law is well conditioned. Each changes the stored state only, not this sample's outputs."""
+    if af.drag is None or af.drag.frame != DragFrame.BODY:
+        return []
+    store = r"state->air_prev\[{0}\] = air_body\[{0}\];"
+    out = [
+        CMutant("tracked airflow: air_prev store skipped", "commit",
+                store.format(0) + r"\s*" + store.format(1) + r"\s*" + store.format(2), "(void)air_body;"),
+        CMutant("tracked airflow: air_prev[2] store skipped", "commit", store.format(2), ""),
+        CMutant("tracked airflow: air_prev[0] stores air_body[1]", "commit", store.format(0),
+                "state->air_prev[0] = air_body[1];"),
+        CMutant("tracked airflow: air_prev[2] + 0.01 m/s", "commit", store.format(2),
+                "state->air_prev[2] = air_body[2] + ({real})0.01;"),
+        CMutant("tracked airflow: stored airflow x1.01", "force_air", r"(air_body\[\d\] = )(t\d+);",
+                r"\1\2 * ({real})1.01;", count=3),
+    ]
+    # A wrong last update, seen by the state only: air_body[2] takes the iterate before the chord step. On
+    # a linear law Newton lands on the solution in one step and the chord step changes nothing (an
+    # equivalent mutant), so only a law with a term that is not linear in the airflow gets it.
+    if any(getattr(af.drag, k) != 0.0 for k in af.drag.keys() if k not in _LINEAR_DRAG_KEYS):
+        out.append(CMutant("tracked airflow: air_body[2] without the chord step", "force_air",
+                           r"(const \w+ (t\d+) = (t\d+) - t\d+;)((?:\n[^\n]*)*?\n\s*air_body\[2\] = )\2;",
+                           r"\1\4\3;"))
     return out
 
 
