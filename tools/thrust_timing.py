@@ -15,7 +15,8 @@ run on it. For each change the table gives:
 - vertical: the down force at the fit band after a least-squares fit of thrust scale, vertical drag and
   an offset (thrustscale's regressors), RMS; the thrust's magnitude shows most here;
 - the wind found and its 1-sigma (the solve's identification test; the limit is 0.5 m/s); with
-  ``--wind-ne N,E`` the wind is given and only the law fitted (no 1-sigma).
+  ``--known`` the wind is given row by row (a SITL log's simulated wind, a simulated log's columns) and
+  only the law fitted (no wind, no 1-sigma).
 
 ``--inject KIND:SECONDS`` first applies a known change (e.g. ``qdelay:-0.05``, the attitude logged
 50 ms late) to check that the measurement finds one where it exists (a simulated log, whose thrust and
@@ -25,6 +26,7 @@ mean. Outside the package: a measurement, not a feature.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -119,51 +121,61 @@ def _vertical_rms(rows: windsolve.VerticalRows) -> float:
     return float(np.sqrt(np.mean((y - a @ coef) ** 2)))
 
 
-def _samples(af: Airframe, path: str, flight: LogTime) -> tuple[list, list, list, np.ndarray]:
-    """windsolve.log_samples, and the horizontal force before the low-pass (the first call of
-    windrows.smooth per log, see windsolve._rows)."""
+def _samples(af: Airframe, path: str, flight: LogTime) -> tuple[list, list, np.ndarray, np.ndarray]:
+    """windsolve.log_samples; the horizontal force before the low-pass (the first call of
+    windrows.smooth per log, see windsolve._rows); and which of the log's rows they are (its ``ok``)."""
     raw: list[np.ndarray] = []
-    smooth = windrows.smooth
+    used: list[np.ndarray] = []
+    smooth, rows_of = windrows.smooth, windsolve._rows
 
     def recording(sos: np.ndarray, force: np.ndarray) -> np.ndarray:
         raw.append(np.array(force))
         return smooth(sos, force)
 
-    windrows.smooth = recording
+    def remembering(cal, log, force, ok, *rest):
+        used.append(ok)
+        return rows_of(cal, log, force, ok, *rest)
+
+    windrows.smooth, windsolve._rows = recording, remembering
     try:
-        logs, spans, verticals = windsolve.log_samples(af, [(path, flight)], None)
+        logs, _, verticals = windsolve.log_samples(af, [(path, flight)], None)
     finally:
-        windrows.smooth = smooth
-    return logs, spans, verticals, raw[0]
+        windrows.smooth, windsolve._rows = smooth, rows_of
+    return logs, verticals, raw[0], used[0]
 
 
-def _solution(af: Airframe, logs: list, verticals: list, known_ne: tuple[float, float] | None):
-    """(problem, x, wind 1-sigma): the joint solve, or with the wind known only the law (the filtered
-    force is linear in it: windsolve._linear_law) and no 1-sigma (NaN)."""
-    if known_ne is None:
+def _solution(af: Airframe, logs: list, verticals: list, known: bool):
+    """(problem, x, wind 1-sigma): the joint solve, or with the wind known (the rows' velocity made
+    relative to it already) only the law at zero wind (the filtered force is linear in it:
+    windsolve._linear_law) and no 1-sigma (NaN)."""
+    if not known:
         problem, result, _ = windsolve._solve_with_thrust_scale(af, logs, 1, verticals)
         return problem, result.x, float(windsolve.identification(result.x, problem)[1][0])
     problem = windsolve._problem(af, logs, 1)
-    winds = np.array([known_ne])
+    winds = np.zeros((1, 2))
     return problem, np.r_[winds.ravel(), windsolve._linear_law(problem, winds)], math.nan
 
 
 def measure(af: Airframe, path: str, flight: LogTime, kind: str, seconds: float,
-            known_ne: tuple[float, float] | None = None) -> Row:
-    """The joint solve on the retimed log (or the law alone at a known wind), and its residuals (module
-    text)."""
+            known: np.ndarray | None = None) -> Row:
+    """The joint solve on the retimed log, or with ``known`` ((N, 2) north/east wind on the log's rows)
+    the law alone at that wind; its residuals (module text)."""
     changed = LogTime(retimed(flight.log, af, kind, seconds), flight.t0_s)
-    logs, _, verticals, raw = _samples(af, path, changed)
-    problem, x, sigma = _solution(af, logs, verticals, known_ne)
+    logs, verticals, raw, ok = _samples(af, path, changed)
+    if known is not None:
+        # the airflow is w - v: the ground velocity less the known wind is the airflow at zero wind
+        logs = [dataclasses.replace(logs[0], vel=logs[0].vel - known[ok])]
+    problem, x, sigma = _solution(af, logs, verticals, known is not None)
     data = problem.data(x)
     rows = logs[0]
     winds = x[:2].reshape(1, 2)
     law = dict(zip(windsolve.LAW, x[2:])) | {"kappa": problem.kappa}
     predicted = windrows.through_observer(rows.path, windrows.law_force_ne(rows, winds, law))
     wide = (raw - predicted)[rows.fitted]
+    found = (float(winds[0, 0]), float(winds[0, 1])) if known is None else (math.nan, math.nan)
     return Row(kind, seconds, float(np.sqrt(np.mean(data ** 2))),
                1.4826 * float(np.median(np.abs(data - np.median(data)))), float(np.sqrt(np.mean(wide ** 2))),
-               _vertical_rms(verticals[0]), sigma, (float(winds[0, 0]), float(winds[0, 1])))
+               _vertical_rms(verticals[0]), sigma, found)
 
 
 def _line(row: Row, weight_n: float, truth: tuple[float, float] | None) -> str:
@@ -173,6 +185,19 @@ def _line(row: Row, weight_n: float, truth: tuple[float, float] | None) -> str:
             f"{row.vertical_n:.3f} | {row.sigma_mps:.2f} | {row.wind_ne[0]:+.2f}, {row.wind_ne[1]:+.2f} |{error}")
 
 
+def _known_wind(spec: str | None, path: str, flight: LogTime) -> np.ndarray | None:
+    """(N, 2) the known north/east wind on the log's rows (``--known``), or None."""
+    if spec is None:
+        return None
+    if spec == "sitl":
+        from dobwind.calibrate.sitlwind import SitlTruth
+
+        return SitlTruth().wind(path, flight)[0][:, :2]
+    if spec == "columns":
+        return np.column_stack([flight.log.columns["wind_n"], flight.log.columns["wind_e"]])
+    return np.tile([float(v) for v in spec.split(",")], (flight.log.rows, 1))
+
+
 def _arguments() -> argparse.Namespace:
     p = argparse.ArgumentParser(prog="python -m tools.thrust_timing", description=__doc__.split("\n\n")[0])
     p.add_argument("airframe")
@@ -180,7 +205,8 @@ def _arguments() -> argparse.Namespace:
     p.add_argument("--lags-ms", type=float, nargs="*", default=[0, 10, 20, 40, 60, 80, 120])
     p.add_argument("--delays-ms", type=float, nargs="*", default=[-100, -50, -20, 20, 50, 100])
     p.add_argument("--inject", help="KIND:SECONDS applied first (KIND: lag, delay, qdelay)")
-    p.add_argument("--wind-ne", help="N,E m/s: the wind is known (fit only the law; e.g. a SITL log's mean wind)")
+    p.add_argument("--known", help="the wind is known, fit only the law: 'sitl' (an ArduPilot SITL log's "
+                   "SIM_WIND_*), 'columns' (a simulated log's wind_n, wind_e) or N,E m/s")
     return p.parse_args()
 
 
@@ -200,7 +226,7 @@ def main() -> None:
     print("| change | fit band RMS N (of weight) | fit band MAD N | observer band RMS N (of weight) | vertical N "
           "| wind 1-sigma m/s | wind N, E m/s |" + (" wind error m/s |" if truth else ""))
     print("|---|---|---|---|---|---|---|" + ("---|" if truth else ""))
-    known = tuple(float(v) for v in args.wind_ne.split(",")) if args.wind_ne else None
+    known = _known_wind(args.known, args.log, flight)
     for kind, seconds in plan:
         print(_line(measure(af, args.log, flight, kind, seconds, known), weight, truth), flush=True)
 
