@@ -392,22 +392,24 @@ def _body_newton_chord(law: DragLaw, a: ca.SX, rotor: ca.SX, force_b: ca.SX) -> 
     coefficients = _symbols(law)
     law_and_slope = ca.Function("body_drag_law", [sa, sr, *coefficients], [value, jacobian])
     f, slope = law_and_slope(a, rotor, *coefficients)
-    # J^-1 r by the adjugate, with J and r divided by J's trace first: the same step, but products of
-    # three Jacobian entries stay within single precision at any airflow the validation lets through.
-    # The determinant is floored (a calibrated law is strictly increasing along every axis).
-    inv_trace = 1 / ca.fmax(slope[0, 0] + slope[1, 1] + slope[2, 2], _DENOMINATOR_FLOOR)
-    j, r = slope * inv_trace, (f - force_b) * inv_trace
+    # J^-1 r by the adjugate of J divided by its trace t: products of three Jacobian entries stay
+    # within single precision at any airflow the validation lets through. J^-1 r = adj(J/t) r /
+    # (t det(J/t)): the residual itself is not divided (one product instead of three divisions per
+    # step, the chord's included; the same step to rounding). The determinant is floored (a calibrated
+    # law is strictly increasing along every axis).
+    trace = ca.fmax(slope[0, 0] + slope[1, 1] + slope[2, 2], _DENOMINATOR_FLOOR)
+    j = slope / trace
     adj = ca.vertcat(
         ca.horzcat(j[1, 1] * j[2, 2] - j[1, 2] * j[2, 1], j[0, 2] * j[2, 1] - j[0, 1] * j[2, 2], j[0, 1] * j[1, 2] - j[0, 2] * j[1, 1]),
         ca.horzcat(j[1, 2] * j[2, 0] - j[1, 0] * j[2, 2], j[0, 0] * j[2, 2] - j[0, 2] * j[2, 0], j[0, 2] * j[1, 0] - j[0, 0] * j[1, 2]),
         ca.horzcat(j[1, 0] * j[2, 1] - j[1, 1] * j[2, 0], j[0, 1] * j[2, 0] - j[0, 0] * j[2, 1], j[0, 0] * j[1, 1] - j[0, 1] * j[1, 0]))
     det = j[0, 0] * adj[0, 0] + j[0, 1] * adj[1, 0] + j[0, 2] * adj[2, 0]
-    inv_det = 1 / ca.fmax(det, _DENOMINATOR_FLOOR)
+    scale = ca.fmax(det, _DENOMINATOR_FLOOR) * trace
 
     def chord(later: ca.SX) -> ca.SX:
-        return later - (adj @ ((_body_law_value(law, later, rotor) - force_b) * inv_trace)) * inv_det
+        return later - (adj @ (_body_law_value(law, later, rotor) - force_b)) / scale
 
-    return a - (adj @ r) * inv_det, chord
+    return a - (adj @ (f - force_b)) / scale, chord
 
 
 def _body_isotropic_start(law: DragLaw, f_b: ca.SX, rotor: ca.SX) -> ca.SX:
