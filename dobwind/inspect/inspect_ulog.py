@@ -11,7 +11,7 @@ from dobwind.core.errors import InputError
 from dobwind.inspect.loginspect import (AutopilotWind, LogSummary, Role, Vehicle, inside, intervals,
                                 stream_stats, total, wind_activity)
 from dobwind.io.ulog import PX4_WIND_TOPICS, TOPICS_READ, open_ulog, truncation
-from dobwind.io.px4layout import BATTERY_SCALE_PARAM, NOT_COLLECTIVE, THRUST_SOURCES, battery_scale_note
+from dobwind.io.px4layout import BATTERY_SCALE_PARAM, NOT_COLLECTIVE, THRUST_SOURCES, battery_scale_note, older_layout
 from dobwind.io.vehiclekind import px4_not_multirotor
 
 # Read for the vehicle only (rotor count when esc_status is absent): not estimator inputs.
@@ -52,8 +52,7 @@ def _thrust_role(topics: dict, params: dict) -> Role:
     for source in THRUST_SOURCES:
         data = topics.get(source.topic)
         if data is not None and source.field in data and len(data["t"]) >= 2:
-            said = [] if source in THRUST_SOURCES[:2] else [source.what]
-            said += [n for n in (battery_scale_note(source, params),) if n]
+            said = [n for n in (older_layout(source), battery_scale_note(source, params)) if n]
             return Role("thrust", source.name, source.topic, "; ".join(said))
     mixer = [name for name in NOT_COLLECTIVE if name in topics]
     return Role("thrust", None, None, f"none of {', '.join(s.name for s in THRUST_SOURCES)}"

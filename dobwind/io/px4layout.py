@@ -39,6 +39,13 @@ THRUST_SOURCES = (
                  "v1.14 logs as vehicle_thrust_setpoint.xyz[2], sign aside"),
 )
 
+
+def older_layout(source: ThrustSource) -> str | None:
+    """What an older layout's source is (its ``what``), for the notes; None for the first two sources,
+    which were read before the older layouts were added and so need no word."""
+    return None if source in THRUST_SOURCES[:2] else source.what
+
+
 # Logged, but not a collective thrust: the mixer's (control allocator's) per-motor outputs come after
 # airmode, saturation, the thrust curve (THR_MDL_FAC) and, for actuator_outputs, the PWM range. Their mean
 # is not the collective the hover thrust scales, so replay never reads them; it names them when it refuses.

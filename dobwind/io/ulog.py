@@ -32,7 +32,7 @@ from dobwind.io.bridge import blanked, bridge, largest_silences
 from dobwind.io.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, hold,
                               interp, quaternions, source_gaps, topic_tolerances, truncated_note, uniform_clock,
                               wind_active)
-from dobwind.io.px4layout import NOT_COLLECTIVE, THRUST_SOURCES, ThrustSource, battery_scale_note
+from dobwind.io.px4layout import NOT_COLLECTIVE, THRUST_SOURCES, ThrustSource, battery_scale_note, older_layout
 from dobwind.model.signals import log_signals
 
 PX4_WIND_TOPICS = (("wind", "windspeed_north", "windspeed_east"),
@@ -380,7 +380,8 @@ def _columns(af: Airframe, topics: dict, thrust_src, hover_topic, hover_param, y
         normalized = source.up * hold(src, [source.field], clock)[:, 0]  # upward positive, whatever the layout
         hover = hold(hover_topic, ["hover_thrust"], clock)[:, 0] if hover_topic else np.full(len(clock), hover_param)
         cols["thrust"] = af.mass_kg * af.gravity_mps2 * normalized / hover
-        notes.append(f"collective thrust from {source.name}" + ("" if source in THRUST_SOURCES[:2] else f": {source.what}"))
+        said = older_layout(source)
+        notes.append(f"collective thrust from {source.name}" + (f": {said}" if said else ""))
     if yaw_src is not None:
         cols["yaw_ref"] = hold(yaw_src, ["yaw_body"], clock)[:, 0]
     return cols
