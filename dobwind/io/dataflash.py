@@ -48,7 +48,7 @@ from dobwind.model.signals import log_signals
 # Older layouts (per-core names, ESC1..ESC8) are relabelled to these first (aplayout.py); a row without C
 # is core 0's. EKF2's names follow the primary core as EKF3's do (NKF4.PI).
 VELOCITY = (("XKF1", "C", 0), ("NKF1", "C", 0))
-ATTITUDE = (("XKQ", "C", 0), ("NKQ", "C", 0), ("NKQ1", None, 0))
+ATTITUDE = (("XKQ", "C", 0), ("NKQ", "C", 0))  # NKQ1 (EKF2 before 4.1) is relabelled NKQ C 0
 AP_WIND = (("XKF2", "C", 0), ("NKF2", "C", 0))
 IMU = (("IMU", "I", 0), ("IMU", None, 0))
 EV_GROUND = {11: True, 17: True, 18: True, 28: False}  # DISARMED, LAND_COMPLETE_MAYBE/_COMPLETE, NOT_LANDED
@@ -130,7 +130,7 @@ def messages_found(path: str) -> dict[str, int]:
 def in_one_layout(loaded: dict[str, list[dict]], notes: list[str]) -> dict[str, list[dict]]:
     """The WANTED messages of ``loaded`` (read with WANTED + LAYOUT_EXTRA) in ArduPilot 4.1's layout
     (aplayout.relabel), reduced to the primary EKF core (follow_primary); other names pass through."""
-    msgs, said = relabel({name: rows for name, rows in loaded.items()})
+    msgs, said = relabel(loaded)  # a new dict: ``loaded`` is left as it was
     if said:
         notes.append(said)
     return follow_primary(msgs, notes)
