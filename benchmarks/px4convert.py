@@ -49,6 +49,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.sitlconvert import GRAVITY, ROOT, euler_deg, read_flight_csv
+from dobwind.io.atomic import write_file_atomically
 
 GROUND_S = 8.0            # on the ground before take-off and after landing
 BOOT_S = 30.0             # the log's first instant, seconds since boot (PX4's timestamps count from boot)
@@ -336,10 +337,10 @@ def convert(cols: dict[str, np.ndarray], setting: Px4Setting, out: Path) -> Time
 
     tl = timeline(cols)
     floats, ints = setting.parameters()
-    tmp = out.with_name(out.name + ".part")
-    write_ulog(tmp, topics(tl, setting), floats, ESC_REPORT, info={"sys_name": "PX4", "ver_hw": "DOBWIND_PX4CONVERT",
-                                                                    "ver_sw_release": VER_SW_RELEASE}, int_parameters=ints)
-    tmp.replace(out)  # atomically: an interrupted conversion leaves no half log under the final name
+    info = {"sys_name": "PX4", "ver_hw": "DOBWIND_PX4CONVERT", "ver_sw_release": VER_SW_RELEASE}
+    # Atomically: an interrupted conversion leaves no half log under the final name, nor a temporary.
+    write_file_atomically(out, lambda tmp: write_ulog(tmp, topics(tl, setting), floats, ESC_REPORT, info=info,
+                                                      int_parameters=ints))
     return tl
 
 
