@@ -369,17 +369,14 @@ def _body_newton_step(law: DragLaw, a: ca.SX, rotor: ca.SX, force_b: ca.SX) -> c
     return _body_newton_chord(law, a, rotor, force_b)[0]
 
 
-def _body_law_value(law: DragLaw, a: ca.SX, rotor: ca.SX) -> ca.SX:
+def body_law_at(law: DragLaw, a: ca.SX, rotor: ca.SX) -> ca.SX:
+    """The body-frame law's force at the airflow ``a`` as the inversion evaluates it (the same speed
+    smoothing): the chord's and the start rule's residuals, and what the step's tracked airflow explains
+    (model/airstate.py)."""
     sa, sr = ca.SX.sym("a", 3), ca.SX.sym("rotor")
     value = body_law_value(*body_law_scalars(law, sa, sr, DRAG_SPEED_EPS_MPS), sa)  # regrouped (dragform.py)
     coefficients = _symbols(law)
     return ca.Function("body_drag_value", [sa, sr, *coefficients], [value])(a, rotor, *coefficients)
-
-
-def body_law_at(law: DragLaw, a: ca.SX, rotor: ca.SX) -> ca.SX:
-    """The body-frame law's force at the airflow ``a`` as the inversion evaluates it (the same speed
-    smoothing): what the step's tracked airflow explains (model/airstate.py)."""
-    return _body_law_value(law, a, rotor)
 
 
 def _body_newton_chord(law: DragLaw, a: ca.SX, rotor: ca.SX, force_b: ca.SX) -> tuple[ca.SX, Callable[[ca.SX], ca.SX]]:
@@ -407,7 +404,7 @@ def _body_newton_chord(law: DragLaw, a: ca.SX, rotor: ca.SX, force_b: ca.SX) -> 
     scale = ca.fmax(det, _DENOMINATOR_FLOOR) * trace
 
     def chord(later: ca.SX) -> ca.SX:
-        return later - (adj @ (_body_law_value(law, later, rotor) - force_b)) / scale
+        return later - (adj @ (body_law_at(law, later, rotor) - force_b)) / scale
 
     return a - (adj @ (f - force_b)) / scale, chord
 
@@ -461,8 +458,8 @@ def body_drag_airflow_tracking(law: DragLaw, force_ned: ca.SX, rot: ca.SX, rotor
     # at the previous airflow has a slope of qz times the speed smoothing, and the Newton and chord
     # steps from it overshot by orders of magnitude (1e-3 N of vertical force gave -3.7e4 m/s in a hover
     # in still air; docs/verification.md). The closed form solves each axis's quadratic exactly.
-    miss_previous = ca.sum1(ca.fabs(_body_law_value(law, previous, rotor) - f_b))
-    miss_cold = ca.sum1(ca.fabs(_body_law_value(law, cold, rotor) - f_b))
+    miss_previous = ca.sum1(ca.fabs(body_law_at(law, previous, rotor) - f_b))
+    miss_cold = ca.sum1(ca.fabs(body_law_at(law, cold, rotor) - f_b))
     near = ca.logic_and(near, miss_previous <= miss_cold)
     start = cold + near * (previous - cold)  # a product, not a select: smaller code on a Cortex-M
     a, chord = _body_newton_chord(law, start, rotor, f_b)
