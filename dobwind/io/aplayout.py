@@ -31,25 +31,27 @@ OLD_NAMES = tuple(sorted({n for n in PER_CORE if n not in ("XKF1", "XKF2", "XKF4
 def relabel(msgs: dict[str, list[dict]]) -> tuple[dict[str, list[dict]], str | None]:
     """``msgs`` (name -> rows) in the 4.1 layout, and a note naming what was relabelled (None: nothing).
     Rows keep their order within each name; merged names are sorted by TimeUS (stable)."""
-    out = {name: list(rows) for name, rows in msgs.items()}
+    out = dict(msgs)  # every list changed below is a new one: ``msgs``'s lists are never touched
     moved: list[str] = []
+    filled: set[str] = set()  # the names that gained rows: only these need sorting (a 4.1 log has none)
     for old, (new, core) in PER_CORE.items():
         rows = [r for r in msgs.get(old, []) if "C" not in r]
         if not rows:
             continue
         out[old] = [r for r in out.get(old, []) if "C" in r]
         out[new] = out.get(new, []) + [dict(r, C=core, **{ORIGIN: old}) for r in rows]
+        filled.add(new)
         moved.append(f"{old} as {new} C {core}" if old != new else f"{old} as C {core}")
     esc = [(k, r) for name, k in ESC_PER_MOTOR.items() for r in msgs.get(name, [])]
     if esc:
         out["ESC"] = out.get("ESC", []) + [dict(r, Instance=k, **{ORIGIN: f"ESC{k + 1}"}) for k, r in esc]
         for name in ESC_PER_MOTOR:
             out[name] = []
+        filled.add("ESC")
         names = [n for n in ESC_PER_MOTOR if msgs.get(n)]
         moved.append(f"{', '.join(names)} as ESC Instance {', '.join(str(ESC_PER_MOTOR[n]) for n in names)}")
-    for name in {new for new, _ in PER_CORE.values()} | {"ESC"}:
-        if name in out:
-            out[name].sort(key=lambda r: r.get("TimeUS", 0))
+    for name in filled:
+        out[name].sort(key=lambda r: r.get("TimeUS", 0))
     if not moved:
         return out, None
     return out, f"{LAYOUT_NOTE}: read " + "; ".join(moved)
