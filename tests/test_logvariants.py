@@ -343,3 +343,41 @@ def test_esc_messages_stamped_in_milliseconds_replay_alike(tmp_path):
     rows = [(n, {"TimeMS": v["TimeUS"] // 1000, "RPM": v["RPM"]} if n.startswith("ESC") else v) for n, v in rows]
     milli = replay_autopilot(af, str(write_dataflash(tmp_path / "ms.bin", msgs, rows)), rate_hz=20.0)[2]
     np.testing.assert_array_equal(milli.outputs, micro.outputs)
+
+
+def _without_definitions(src, dst):
+    """The bag ``src`` as rosbag2 before Iron stored it (sqlite3, no message definitions): what a
+    microRTPS-era (PX4 v1.13, ROS 2 Foxy) recording holds."""
+    import sqlite3
+
+    from rosbags.rosbag2 import Reader, StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    from dobwind.io.rosbag import _typestore
+
+    old = get_typestore(Stores.ROS2_HUMBLE)
+    old.register(get_types_from_msg(OLD_ODOMETRY, "px4_msgs/msg/VehicleOdometry"))
+    with Reader(src) as reader, Writer(dst, version=8, storage_plugin=StoragePlugin.SQLITE3) as writer:
+        store = _typestore(str(src), reader.connections)
+        ids = {c.id: writer.add_connection(c.topic, c.msgtype, typestore=old if "odometry" in c.topic else store)
+               for c in reader.connections}
+        for conn, stamp, raw in reader.messages():
+            writer.write(ids[conn.id], stamp, raw)
+    with sqlite3.connect(next(dst.glob("*.db3"))) as db:
+        db.execute("DELETE FROM message_definitions")
+    return dst
+
+
+def test_an_old_odometry_without_its_definition_names_the_topic_and_the_cause(tmp_path, capsys):
+    """A v1.13 bag with no definitions of its own is decoded with the shipped (v1.14) px4_msgs, which
+    its VehicleOdometry does not fit: one line naming the topic and that the bag carries no definition,
+    not "not a readable ROS 2 bag"."""
+    pytest.importorskip("rosbags")
+    from tests import test_rosbag as rb
+
+    af, cols = rb._flight()
+    rtps = _micrortps(rb._px4_bag(tmp_path / "current", af, cols, "mcap"), tmp_path / "rtps")
+    bag = _without_definitions(rtps, tmp_path / "foxy")
+    assert main(["replay", str(M300), str(bag)]) == 2
+    err = _one_line(capsys, "topic /fmu/vehicle_odometry/out", "px4_msgs/msg/VehicleOdometry", "carries none")
+    assert "not a readable ROS 2 bag" not in err

@@ -121,12 +121,27 @@ def collect_messages(path: str, wanted: dict[str, str]) -> tuple[dict[str, list]
             conns = [c for c in reader.connections if c.topic in by_topic]
             store = _typestore(path, conns)
             for conn, stamp, raw in reader.messages(connections=conns):
-                out[by_topic[conn.topic]].append((stamp, store.deserialize_cdr(raw, conn.msgtype)))
+                out[by_topic[conn.topic]].append((stamp, _decoded(path, store, conn, raw)))
     except InputError:
         raise
     except Exception as exc:  # rosbags raises its own kinds on damaged bags and unknown types
         raise not_a_bag(path, exc) from None
     return out, topics
+
+
+def _decoded(path: str, store, conn, raw: bytes):
+    """One message, or exit 2 naming the topic and the definition that did not fit: a bag without its
+    own definitions (rosbag2 before Iron, as the microRTPS bridge's users recorded) is decoded with the
+    px4_msgs dobwind ships, whose layouts are v1.14's and later (VehicleOdometry's among them)."""
+    try:
+        return store.deserialize_cdr(raw, conn.msgtype)
+    except Exception as exc:  # rosbags' SerdeError and kin: the bytes do not fit the layout
+        msgdef = getattr(conn, "msgdef", None)
+        own = bool(getattr(msgdef, "data", msgdef)) if msgdef is not None else False
+        whose = ("the bag's own definition" if own else "the definition dobwind ships (px4_msgs of PX4 v1.14 "
+                 "and later; the bag carries none: record with message definitions, e.g. MCAP)")
+        raise InputError(path, f"topic {conn.topic}", f"{conn.msgtype} does not decode with {whose} "
+                         f"({type(exc).__name__}: {str(exc)[:80]})") from None
 
 
 def not_a_bag(path: str, exc: Exception) -> InputError:
