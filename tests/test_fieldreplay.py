@@ -214,6 +214,28 @@ def test_hover_balance_is_judged_in_level_hover_only():
         assert [f.check for f in streamed.findings()] == expected, horizontal
 
 
+def test_level_hover_takes_the_force_offset_in_the_heading_frame():
+    """The force offset is calibrated in the heading frame (docs/airframes.md): a vehicle heading east
+    whose force is its offset alone (0.15 of the weight forward, so east in NED) is level. Subtracted in
+    NED instead, the offset left sqrt(2) x 0.15 = 0.21 of the weight: over the share, the wrong
+    vertical force went unjudged. Whole and streamed."""
+    import dataclasses
+
+    from dobwind.replay.plausibility import StreamedChecks
+
+    base = load_airframe(M300)
+    weight = base.mass_kg * base.gravity_mps2
+    af = dataclasses.replace(base, observer=dataclasses.replace(base.observer, force_offset_n=(0.15 * weight, 0.0, 0.0)))
+    series = _series(force_d=0.3 * weight)
+    series.force[:, 1] = 0.15 * weight
+    east = dataclasses.replace(series, yaw=np.full(len(series.t), np.pi / 2))
+    assert [f.check for f in check_flight(af, east)] == ["hover_thrust"]
+    streamed = StreamedChecks(af)
+    streamed.add(east)
+    assert [f.check for f in streamed.findings()] == ["hover_thrust"]
+    assert check_flight(af, dataclasses.replace(east, yaw=None)) == []  # heading north: 0.21 of the weight
+
+
 def test_vertical_wind_and_wind_speed_checks_mark_only_their_rows():
     af = load_airframe(M300)
     limits = PlausibilityLimits(vertical_wind_mps=2.0)

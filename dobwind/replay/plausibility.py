@@ -34,9 +34,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from dobwind.io.accelcheck import LIMIT_MPS2, check_acceleration
+from dobwind.io.inputs import heading_yaw
 from dobwind.io.logs import FlightLog
 from dobwind.model.airframe import Airframe
-from dobwind.model.forceair import HORIZONTAL_DRAG_KEYS, drag_airflow_numpy
+from dobwind.model.forceair import HORIZONTAL_DRAG_KEYS, drag_airflow_numpy, heading_force
 from dobwind.model.kinds import DragFrame
 from dobwind.model.signals import log_signals
 from dobwind.model.status import STATUS_BITS, STATUS_LANDED, STATUS_SUSPECT, accepted
@@ -92,6 +93,14 @@ class FlightSeries:
     force: np.ndarray     # the step's filtered external force NED
     wind: np.ndarray      # wind NED
     status: np.ndarray    # after replay's own bits (NO_DATA, LANDED)
+    yaw: np.ndarray | None = None  # the heading frame's yaw (rad), the force offset's frame; None: 0 (NED)
+
+    @staticmethod
+    def replayed(log: FlightLog, force: np.ndarray, wind: np.ndarray, status: np.ndarray) -> "FlightSeries":
+        """A replayed log's series: its ground velocity and heading (the step's yaw_ref), the step's
+        force and wind."""
+        return FlightSeries(log.time_s, log.stack("vel_n", "vel_e", "vel_d"), force, wind, status,
+                            heading_yaw(log, log.stack("q_w", "q_x", "q_y", "q_z")))
 
 
 def _hover_text(ratio: float, seconds: float, lim: PlausibilityLimits) -> str:
@@ -153,12 +162,13 @@ def _hover_balance(af: Airframe, s: FlightSeries, ok: np.ndarray, limits: Plausi
 
 
 def _level(af: Airframe, s: FlightSeries, limits: PlausibilityLimits) -> np.ndarray:
-    """Rows whose horizontal external force (less the airframe's force offset) is below
-    ``hover_level_share`` of the weight: the hover balance is judged in level hover only (see the limit)."""
-    offset = af.observer.force_offset_n
+    """Rows whose horizontal external force (less the airframe's force offset, in the heading frame where
+    it is calibrated) is below ``hover_level_share`` of the weight: the hover balance is judged in level
+    hover only (see the limit)."""
+    yaw = np.zeros(len(s.t)) if s.yaw is None else s.yaw
+    m, n, _ = heading_force(s.force.T, np.cos(yaw), np.sin(yaw), af.observer.force_offset_n)
     with np.errstate(invalid="ignore"):
-        return (np.hypot(s.force[:, 0] - offset[0], s.force[:, 1] - offset[1])
-                <= limits.hover_level_share * af.mass_kg * af.gravity_mps2)
+        return np.hypot(m, n) <= limits.hover_level_share * af.mass_kg * af.gravity_mps2
 
 
 def _height_above_takeoff(s: FlightSeries) -> np.ndarray:

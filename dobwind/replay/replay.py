@@ -81,9 +81,8 @@ def replay_stream(af: Airframe, log_path: str, backend: str = "python", precisio
     for chunk in iter_log(log_path, required_columns(af), block_bytes, progress):
         log = chunk.log
         traj = runner.run(step_inputs(model, log, previous_t))
-        checks.add(FlightSeries(log.time_s, log.stack("vel_n", "vel_e", "vel_d"),
-                                traj.outputs[:, model.outputs.slice("force_ned")],
-                                traj.outputs[:, model.outputs.slice("wind_ned")], traj.status))
+        checks.add(FlightSeries.replayed(log, traj.outputs[:, model.outputs.slice("force_ned")],
+                                         traj.outputs[:, model.outputs.slice("wind_ned")], traj.status))
         previous_t = float(log.time_s[-1])
         wind, truth = traj.outputs[:, model.outputs.slice("wind_ned")], log.true_wind
         if truth is not None:
@@ -132,8 +131,8 @@ def _plausibility(af: Airframe, model: StepModel, path: str, flight, outputs: np
     from dobwind.replay.plausibility import FlightSeries, acceleration_input, check_flight, mark
 
     log = flight.log
-    series = FlightSeries(log.time_s, log.stack("vel_n", "vel_e", "vel_d"), outputs[:, model.outputs.slice("force_ned")],
-                          outputs[:, model.outputs.slice("wind_ned")], status)
+    series = FlightSeries.replayed(log, outputs[:, model.outputs.slice("force_ned")],
+                                   outputs[:, model.outputs.slice("wind_ned")], status)
     findings = check_flight(af, series)
     findings += [f for f in (acceleration_input(af, log, status),) if f is not None]
     if not findings:
