@@ -190,7 +190,9 @@ def _pick(path: str, msgs, candidates, fields: list[str], what: str, names: str)
     """pick_stream, or exit 2 in one line: naming the fields when a candidate is logged without them (a
     layout this reader does not know), else the messages as missing."""
     found = pick_stream(msgs, candidates, fields)
-    for name, _, _ in candidates if found is None else ():
+    if found is not None:
+        return found
+    for name, _, _ in candidates:
         rows = msgs.get(name) or []
         lacking = [f for f in fields if rows and f not in rows[0]]
         if lacking:
