@@ -29,6 +29,7 @@ import numpy as np
 from scipy.signal import lfilter, lfilter_zi
 
 from dobwind.calibrate import runmeans
+from dobwind.calibrate.directionshape import DirectionShape
 from dobwind.model.airframe import Airframe
 from dobwind.model.attitude import rotation_matrices
 from dobwind.model.discretization import first_order
@@ -160,6 +161,8 @@ class DragSamples:
     # Fit on the logs' means and normalized within-log variation (dobwind/calibrate/runmeans.py) instead of on
     # every sample alike: set by anchor_on_runs when the logs' means disagree with a per-sample fit.
     anchor: bool = False
+    # Direction harmonics tied to q0 (tie_to_q0): the shape the flight could not tell, from elsewhere.
+    direction_shape: DirectionShape | None = None
     # A CV split's samples (fold_splits, top_split): their parent's memo and the split's name. What is
     # computed from them is remembered with the parent, so it outlives the split objects, which are made
     # again for each CV rather than kept (keeping every split of every sample set tripled the fit's memory).
@@ -181,7 +184,7 @@ class DragSamples:
         return DragSamples(self.observed[keep], self.columns[keep], self.cos_yaw[keep], self.sin_yaw[keep],
                            self.airflow[keep], self.group[keep], self.log_index[keep], self.frame,
                            pick(self.rotation), pick(self.rotor), pick(self.hold), pick(self.hold_age_s),
-                           pick(self.interval_s), self.exponent, self.anchor)
+                           pick(self.interval_s), self.exponent, self.anchor, self.direction_shape)
 
     def __len__(self) -> int:
         return len(self.observed)
@@ -508,7 +511,7 @@ def _solve(samples: DragSamples, active: tuple[str, ...], weights: np.ndarray | 
     of an SVD of the whole (3N x P) system per set, which made the fit's cross-validation slow."""
     parameters = samples.parameters
     gram, rhs = _normal_equations(samples, weights, [parameters.index(p) for p in active])
-    return solve_normal(parameters, active, gram, rhs)
+    return tied(samples, solve_normal(parameters, active, gram, rhs))
 
 
 def solve_normal(parameters: tuple[str, ...], active: tuple[str, ...], gram: np.ndarray,
@@ -598,7 +601,7 @@ def anchored_theta(samples: DragSamples, active: tuple[str, ...],
                                _axis_scale(samples, start))
 
     def solve(gram: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-        return solve_normal(parameters, active, gram, rhs)
+        return tied(samples, solve_normal(parameters, active, gram, rhs))
 
     return runmeans.anchored_fit(stats, solve, lambda theta: run_errors(samples, theta)[2])
 
@@ -617,6 +620,40 @@ def anchor_on_runs(samples: DragSamples) -> DragSamples:
     if not runmeans.needs_anchor(run_errors(samples, theta)[2]):
         return samples
     return dataclasses.replace(samples, anchor=True)
+
+
+def tie_to_q0(samples: DragSamples, shape: DirectionShape) -> DragSamples:
+    """The samples with direction harmonics tied to q0 (dobwind/calibrate/directionshape.py): q0's column
+    becomes the shaped one, q0 + sum(ratio x the harmonic's column), and each tied harmonic's column is
+    zero. Every solve then sets the harmonic to ratio x q0 (tied), so the coefficients stay the law's own:
+    the columns times them give the shaped force (the tied columns add nothing), and law_of, the step's
+    inversion and the written airframe read the harmonics from them as they would fitted ones."""
+    columns = samples.columns.copy()
+    q0 = samples.parameters.index("q0")
+    for key, ratio in shape.ratios:
+        index = samples.parameters.index(key)
+        columns[:, :, q0] += ratio * columns[:, :, index]
+        columns[:, :, index] = 0.0
+    return dataclasses.replace(samples, columns=columns, direction_shape=shape)
+
+
+def tied(samples: DragSamples, theta: np.ndarray) -> np.ndarray:
+    """``theta`` with the harmonics tie_to_q0 tied set from its q0 (the same array when none are)."""
+    if samples.direction_shape is None:
+        return theta
+    theta = theta.copy()
+    q0 = float(theta[samples.parameters.index("q0")])
+    for key, ratio in samples.direction_shape.ratios:
+        theta[samples.parameters.index(key)] = ratio * q0
+    return theta
+
+
+def shape_if_unidentified(samples: DragSamples, shape: DirectionShape | None) -> DragSamples:
+    """The samples tied to ``shape`` (tie_to_q0) when their airflow's directions do not identify the
+    four-fold harmonics (direction_coverage); else as they are: a flight that identifies them fits them."""
+    if shape is None or direction_coverage(samples.airflow).allows(FOURFOLD_KEYS):
+        return samples
+    return tie_to_q0(samples, shape)
 
 
 def anchored_sets(candidates: tuple[tuple[str, ...], ...]) -> tuple[tuple[str, ...], ...]:

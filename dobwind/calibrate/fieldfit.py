@@ -7,6 +7,7 @@ import argparse
 from dataclasses import dataclass, field
 
 from dobwind.core.errors import InputError
+from dobwind.calibrate.directionshape import ARDUPILOT_SITL, DirectionShape
 from dobwind.calibrate.fieldtruth import LogReader, PerLogWind, Truth, flight_of, parse_wind, read_truth_csv, truth_reader
 from dobwind.io.provenance import provenance
 from dobwind.model.airframe import Airframe
@@ -39,6 +40,8 @@ class FieldTruth:
     truth: Truth
     reader: LogReader
     summary: list[str] = field(default_factory=list)   # printed with the fit report (the winds found)
+    # The drag law's direction shape where the flight does not identify it: the simulator's for a SITL log.
+    direction_shape: DirectionShape | None = None
 
     def warnings(self) -> list[str]:
         return list(getattr(self.truth, "warnings", []))
@@ -123,7 +126,9 @@ def field_truth(options: FieldOptions, af: Airframe, log_paths: list[str]) -> Fi
         truth = SitlTruth()
     else:
         truth = read_truth_csv(str(options.truth))
-    return FieldTruth(truth, truth_reader(truth, options.rate_hz), summary)
+    # --truth sitl: the logs are ArduPilot SITL's, whose drag acts per body axis (directionshape.py).
+    shape = ARDUPILOT_SITL if options.truth == SITL else None
+    return FieldTruth(truth, truth_reader(truth, options.rate_hz), summary, shape)
 
 
 SEGMENT_S = Bound(5.0, 36_000.0, "s")

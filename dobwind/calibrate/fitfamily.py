@@ -11,6 +11,7 @@ import numpy as np
 
 from dobwind.calibrate import accelroute, blendnoise, calstream, dragexponent, dragfit, holdcv, runmeans
 from dobwind.io.csvchunks import BLOCK_BYTES
+from dobwind.calibrate.directionshape import DirectionShape
 from dobwind.calibrate.envelope import calibration_envelope, uncertainty_table, with_observer_noise
 from dobwind.core.errors import CheckFailed
 from dobwind.calibrate.hovernoise import HoverNoise, quieter_schedule
@@ -152,13 +153,16 @@ class FitOptions:
     block_bytes: int | None
     hover: HoverNoise
     log_reader: LogReader | None = None  # each log with its truth read another way (dobwind/calibrate/fieldtruth.py)
+    # The drag law's direction shape where the flight does not identify it (dobwind/calibrate/directionshape.py).
+    direction_shape: DirectionShape | None = None
 
 
 def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynamic: bool = False,
                  model: str = "auto", still_air: bool = False, limits: Thresholds = Thresholds(),
                  block_bytes: int | None = BLOCK_BYTES,
                  hover: HoverNoise = HoverNoise(),
-                 log_reader: LogReader | None = None) -> tuple[Airframe, FitReport, Points | None]:
+                 log_reader: LogReader | None = None,
+                 direction_shape: DirectionShape | None = None) -> tuple[Airframe, FitReport, Points | None]:
     """Both families fitted and scored, the better one chosen, then the self-check (report.self_check;
     the caller refuses to write a model that failed it unless forced), and the low-pass at zero airflow
     lowered when the noise there is above ``hover.target_mps`` (dobwind/calibrate/hovernoise.py). When it stays
@@ -171,7 +175,7 @@ def fit_airframe(af: Airframe, log_paths: list[str], terms: str = "auto", dynami
     options = FitOptions(terms, dynamic, model, still_air, limits, block_bytes, hover)
     # ``log_reader``: how each log is read with its true wind when not from its own columns (an autopilot
     # log and a known wind: dobwind/calibrate/fieldtruth.py).
-    options = dataclasses.replace(options, log_reader=log_reader)
+    options = dataclasses.replace(options, log_reader=log_reader, direction_shape=direction_shape)
     new, report, points, check = _fit_once(af, log_paths, options)
     new, report, points, check = _maybe_blend(af, log_paths, options, (new, report, points, check))
     report = dataclasses.replace(report, self_check=check)
@@ -249,7 +253,7 @@ def _fit_once(af: Airframe, log_paths: list[str],
                                      model in ("polynomial", "auto"), block_bytes, options.log_reader)
     by_frame, per_log = calibration.by_frame, calibration.per_log
     samples = by_frame.get(DragFrame.HEADING, next(iter(by_frame.values())))
-    families, scores, failures = _drag_families(af, by_frame, frames, len(samples))
+    families, scores, failures = _drag_families(af, by_frame, frames, len(samples), options.direction_shape)
     if model in ("polynomial", "auto"):
         try:
             fitted, report, points = fit_polynomial(af, [], terms, dynamic, points_of=calibration.points_of)
@@ -382,9 +386,11 @@ def choose_family(names: list[str], scores: dict[str, FamilyScores | None]) -> s
 
 
 def _drag_families(af: Airframe, by_frame: dict[DragFrame, dragfit.DragSamples], frames: tuple[DragFrame, ...],
-                   samples: int) -> tuple[dict[str, Family], dict[str, FamilyScores | None], list[str]]:
+                   samples: int, shape: DirectionShape | None = None
+                   ) -> tuple[dict[str, Family], dict[str, FamilyScores | None], list[str]]:
     """Each drag frame's law chosen and scored, the body frame's with its exponent (dragexponent):
-    (fitted families, their scores, why a family was not)."""
+    (fitted families, their scores, why a family was not). ``shape``: the direction shape tied to q0 where
+    the flight does not identify the harmonics (dragfit.shape_if_unidentified)."""
     families: dict[str, Family] = {}
     scores: dict[str, FamilyScores | None] = {}
     failures: list[str] = []
@@ -394,7 +400,7 @@ def _drag_families(af: Airframe, by_frame: dict[DragFrame, dragfit.DragSamples],
             failures.append(f"{family} family: only {samples} usable samples (need 100)")
             continue
         # Logs whose means a per-sample fit cannot meet are fitted on their means (dobwind/calibrate/runmeans.py).
-        by_frame[frame] = dragfit.anchor_on_runs(by_frame[frame])
+        by_frame[frame] = dragfit.shape_if_unidentified(dragfit.anchor_on_runs(by_frame[frame]), shape)
         choice = dragfit.choose_drag_law(by_frame[frame], holdcv.prefer_on_holds)
         reason = _uninvertible(by_frame[frame], choice)
         if reason is not None:
@@ -496,7 +502,17 @@ def _drag_report(choice: dragfit.DragChoice, samples: dragfit.DragSamples, fitte
                      horizontal_extrapolation_rmse_mps=_none(choice.extrapolation_h_mps),
                      vertical_rmse_mps=choice.rmse_v_mps, vertical_cv_rmse_mps=_none(choice.cv_v_mps),
                      not_increasing=list(choice.dropped), anchored=samples.anchor,
-                     warnings=[] if choice.directions is None else [
-                         "drag law: no direction harmonics (anisotropy) fitted, an isotropic law instead: "
-                         f"{choice.directions.text()}; fly more headings relative to the wind to calibrate them"],
+                     warnings=_directions_warning(choice, samples),
                      runs=dragfit.run_verdicts(samples, choice.active, choice.theta))
+
+
+def _directions_warning(choice: dragfit.DragChoice, samples: dragfit.DragSamples) -> list[str]:
+    """What the law assumes about the directions the flight did not calibrate: isotropy, or the shape
+    tied to its quadratic term (dobwind/calibrate/directionshape.py)."""
+    if choice.directions is None:
+        return []
+    shaped = samples.direction_shape is not None and "q0" in choice.active
+    instead = (f"its quadratic term takes the shape of {samples.direction_shape.text()}" if shaped  # type: ignore[union-attr]
+               else "an isotropic law instead")
+    return [f"drag law: no direction harmonics (anisotropy) fitted, {instead}: {choice.directions.text()}; "
+            "fly more headings relative to the wind to calibrate them"]

@@ -91,7 +91,7 @@ def run(args: argparse.Namespace) -> int:
         sys.stderr.write(f"dobwind fit: warning: {warning}\n")
     field = field_truth(options, af, list(args.logs))  # --wind unknown: the winds solved here (or exit 1)
     if field is not None:  # every fit of the logs below reads them with that truth
-        fit_airframe = functools.partial(fit_airframe, log_reader=field.reader)
+        fit_airframe = functools.partial(fit_airframe, log_reader=field.reader, direction_shape=field.direction_shape)
     limits = Thresholds(cv_share=args.max_error_share, replay_share=args.max_error_share,
                         floor_mps=args.error_floor, direction_deg=args.max_direction_error)
     hover = HoverNoise(target_mps=args.hover_noise)

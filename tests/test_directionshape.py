@@ -1,0 +1,135 @@
+"""The direction shape a `--truth sitl` fit ties to its quadratic term (dobwind/calibrate/directionshape.py).
+
+ArduPilot SITL's multicopter applies its quadratic drag on each body axis, c (|a_x| a_x, |a_y| a_y). The
+ratios of the law's four-fold harmonics to q0 are pinned here by a numerical Fourier series of that force
+(not by the closed forms the module states), the shaped law by the per-axis force itself, and the tie by a
+fit on front/back airflow only, read at the diagonals it never saw."""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from dobwind.calibrate import dragfit
+from dobwind.calibrate.directionshape import ARDUPILOT_SITL
+from dobwind.model.forceair import DragLaw, drag_airflow_numpy, drag_force
+
+C = 0.1          # N/(m/s)^2, the per-axis quadratic coefficient (areaCd 0.5 rho)
+L0 = 0.7         # N/(m/s), linear (momentum) drag: isotropic, as ArduPilot's per-axis linear term is
+
+
+def per_axis_force(ax: np.ndarray, ay: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    return L0 * ax + C * np.abs(ax) * ax, L0 * ay + C * np.abs(ay) * ay
+
+
+def test_ratios_are_the_fourier_coefficients_of_the_per_axis_force():
+    t = np.linspace(0.0, 2 * math.pi, 720_001)[:-1]
+    fx, fy = C * np.abs(np.cos(t)) * np.cos(t), C * np.abs(np.sin(t)) * np.sin(t)
+    along = fx * np.cos(t) + fy * np.sin(t)      # per unit s^2
+    across = -fx * np.sin(t) + fy * np.cos(t)
+    mean = along.mean()
+    ratios = dict(ARDUPILOT_SITL.ratios)
+    assert ratios["q4c"] == pytest.approx(2 * (along * np.cos(4 * t)).mean() / mean, abs=1e-9)
+    assert ratios["q4s"] == pytest.approx(2 * (across * np.sin(4 * t)).mean() / mean, abs=1e-9)
+
+
+def _shaped_law(q0: float) -> DragLaw:
+    ratios = dict(ARDUPILOT_SITL.ratios)
+    return DragLaw(l0=L0, q0=q0, q4c=ratios["q4c"] * q0, q4s=ratios["q4s"] * q0, lz=0.5)
+
+
+def test_the_shaped_law_is_the_per_axis_force_within_its_eighth_harmonics():
+    t = np.radians(np.arange(0.0, 360.0, 1.0))
+    mean = 8 / (3 * math.pi) * C   # the mean of the along-airflow part: the isotropic coefficient
+    for s in (2.0, 8.0, 15.0):
+        ax, ay = s * np.cos(t), s * np.sin(t)
+        want_x, want_y = per_axis_force(ax, ay)
+        got_x, got_y, _ = drag_force(_shaped_law(mean), ax, ay, np.zeros_like(ax))
+        error = np.hypot(got_x - want_x, got_y - want_y) / (C * s * s)
+        assert error.max() < 0.02
+        # the isotropic law with the same mean is 15-17 % off at the axes and the diagonals
+        iso_x, iso_y, _ = drag_force(DragLaw(l0=L0, q0=mean, lz=0.5), ax, ay, np.zeros_like(ax))
+        assert (np.hypot(iso_x - want_x, iso_y - want_y) / (C * s * s)).max() > 0.14
+
+
+def _front_back_samples() -> dragfit.DragSamples:
+    """A flight that met the air from within 20 deg of the nose and the tail only, 1-9 m/s, with noise."""
+    rng = np.random.default_rng(5)
+    n = 1600
+    speed = np.linspace(1.0, 9.0, n)
+    direction = np.radians(rng.uniform(-20.0, 20.0, n)) + np.where(np.arange(n) % 2 == 0, 0.0, math.pi)
+    air = np.column_stack([speed * np.cos(direction), speed * np.sin(direction), 0.3 * np.sin(np.arange(n) / 9)])
+    columns = dragfit.basis(air)
+    fx, fy = per_axis_force(air[:, 0], air[:, 1])
+    force = np.column_stack([fx, fy, 0.5 * air[:, 2]]) + 0.03 * rng.standard_normal((n, 3))
+    return dragfit.DragSamples(force, columns, np.ones(n), np.zeros(n), air, (np.arange(n) // 200).astype(int),
+                               np.zeros(n, dtype=int))
+
+
+def _diagonal_speed(theta: np.ndarray, samples: dragfit.DragSamples, s: float) -> float:
+    """The law's inversion of the per-axis force of s m/s from 45 deg off the nose: the speed it reads."""
+    law = dragfit.law_of(theta, samples.frame, samples.exponent)
+    a = s / math.sqrt(2)
+    fx, fy = per_axis_force(np.array([a]), np.array([a]))
+    airflow = drag_airflow_numpy(law, fx, fy, np.zeros(1))
+    return float(np.hypot(airflow[0, 0], airflow[0, 1]))
+
+
+ACTIVE = ("l0", "q0") + dragfit.VERTICAL_SETS[-1] + dragfit.ALWAYS
+
+
+def test_a_front_back_flight_fits_the_tied_shape_and_reads_the_diagonals():
+    samples = _front_back_samples()
+    shaped = dragfit.shape_if_unidentified(samples, ARDUPILOT_SITL)
+    assert shaped.direction_shape is ARDUPILOT_SITL
+    theta = dragfit.robust_fit(shaped, ACTIVE)
+    values = dict(zip(shaped.parameters, theta))
+    ratios = dict(ARDUPILOT_SITL.ratios)
+    assert values["q4c"] == pytest.approx(ratios["q4c"] * values["q0"], rel=1e-12)
+    assert values["q4s"] == pytest.approx(ratios["q4s"] * values["q0"], rel=1e-12)
+    # the columns times the coefficients are the law's force: the tied harmonics' columns add nothing
+    fx, fy, _ = drag_force(dragfit.law_of(theta), shaped.airflow[:, 0], shaped.airflow[:, 1], shaped.airflow[:, 2])
+    modelled = np.einsum("nap,p->na", shaped.columns, theta)
+    assert np.allclose(modelled[:, 0] - values["ox"], fx, atol=1e-9) and np.allclose(modelled[:, 1] - values["oy"], fy, atol=1e-9)
+    # along the axis the law is the per-axis force: q0 (1 + 6/35) = C, as the front/back data say
+    assert values["q0"] * (1 + ratios["q4c"]) == pytest.approx(C, rel=0.03)
+    for s in (5.0, 12.0):   # inside and beyond the calibrated 9 m/s
+        assert _diagonal_speed(theta, shaped, s) == pytest.approx(s, abs=0.05 * s)
+    # the isotropic law from the same samples reads the diagonal air slow (its force there is too large)
+    iso = dragfit.robust_fit(samples, ACTIVE)
+    assert _diagonal_speed(iso, samples, 12.0) < 12.0 - 1.0
+
+
+def test_a_flight_that_identifies_the_harmonics_is_not_shaped():
+    samples = _front_back_samples()
+    rng = np.random.default_rng(1)
+    turned = rng.uniform(0.0, 2 * math.pi, len(samples))
+    air = samples.airflow.copy()
+    speed = np.hypot(air[:, 0], air[:, 1])
+    air[:, 0], air[:, 1] = speed * np.cos(turned), speed * np.sin(turned)
+    every_way = dragfit.DragSamples(samples.observed, dragfit.basis(air), samples.cos_yaw, samples.sin_yaw, air,
+                                    samples.group, samples.log_index)
+    assert dragfit.shape_if_unidentified(every_way, ARDUPILOT_SITL) is every_way
+    assert dragfit.shape_if_unidentified(samples, None) is samples
+
+
+def test_the_tie_survives_a_selection_and_another_exponent():
+    shaped = dragfit.shape_if_unidentified(_front_back_samples(), ARDUPILOT_SITL)
+    part = shaped.select(np.arange(len(shaped)) % 3 != 0)
+    other = dragfit.with_exponent(shaped, 1.8)
+    for s in (part, other):
+        assert s.direction_shape is ARDUPILOT_SITL
+        values = dict(zip(s.parameters, dragfit.robust_fit(s, ACTIVE)))
+        assert values["q4c"] == pytest.approx(dict(ARDUPILOT_SITL.ratios)["q4c"] * values["q0"], rel=1e-12)
+
+
+def test_the_run_mean_anchored_fit_keeps_the_tie():
+    samples = _front_back_samples()
+    logs = dataclasses.replace(samples, log_index=(np.arange(len(samples)) * 4 // len(samples)).astype(int), anchor=True)
+    shaped = dragfit.shape_if_unidentified(logs, ARDUPILOT_SITL)
+    theta, _ = dragfit.anchored_theta(shaped, ACTIVE, dragfit.robust_fit(shaped, ACTIVE))
+    values = dict(zip(shaped.parameters, theta))
+    assert values["q0"] > 0
+    assert values["q4s"] == pytest.approx(dict(ARDUPILOT_SITL.ratios)["q4s"] * values["q0"], rel=1e-12)
