@@ -65,7 +65,8 @@ def fit_window(af: Airframe, log: str, window: TimeWindow, model: str = "auto") 
     from dobwind.model.airframe_toml import dump_airframe
 
     try:
-        new, report, _ = fit_airframe(af, [log], model=model, log_reader=truth_reader(SitlTruth(), None, window))
+        new, report, _ = fit_airframe(af, [log], model=model, log_reader=truth_reader(SitlTruth(), None, window),
+                                      direction_shape=SitlTruth.direction_shape)
     except CheckFailed as exc:  # too little to fit at all: nothing to replay
         return WindowFit(None, str(exc), None)
     # Through the TOML text as `fit` writes it and `replay` loads it, rounding included; `fit` refuses to

@@ -9,6 +9,8 @@ from __future__ import annotations
 import dataclasses
 import math
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -133,3 +135,45 @@ def test_the_run_mean_anchored_fit_keeps_the_tie():
     values = dict(zip(shaped.parameters, theta))
     assert values["q0"] > 0
     assert values["q4s"] == pytest.approx(dict(ARDUPILOT_SITL.ratios)["q4s"] * values["q0"], rel=1e-12)
+
+
+def test_only_the_sitl_truth_carries_the_shape():
+    from dobwind.calibrate.fieldtruth import parse_wind
+    from dobwind.calibrate.sitlwind import SitlTruth
+
+    assert SitlTruth.direction_shape is ARDUPILOT_SITL
+    assert getattr(parse_wind("5@90"), "direction_shape", None) is None
+
+
+@pytest.fixture(scope="module")
+def one_heading_bin(tmp_path_factory):
+    """The SITL stand-in flown along one track (air from the nose only), written as an ArduCopter log."""
+    pytest.importorskip("pymavlink")
+    from benchmarks.sitlconvert import main as convert_main
+    from dobwind.cli.app import main
+
+    root = Path(__file__).resolve().parents[1] / "benchmarks" / "vehicles" / "arducopter"
+    out = tmp_path_factory.mktemp("oneheading")
+    csv, log, start = out / "oh.csv", out / "oh.bin", out / "start.toml"
+    assert main(["simulate", "one-heading", "--airframe", f"{root}.airframe.toml", "--vehicle", f"{root}.vehicle.toml",
+                 "--wind", "5@37", "--seed", "11", "-o", str(csv)]) == 0
+    assert convert_main([str(csv), "--wind", "5@37", "-o", str(log)]) == 0
+    assert main(["init", str(log), "--mass", "3.0", "-o", str(start)]) == 0
+    return out, log, start
+
+
+@pytest.mark.parametrize("truth, shaped", [(["--truth", "sitl"], True), (["--wind", "5@37"], False)])
+def test_fit_ties_the_shape_for_a_sitl_truth_only(one_heading_bin, truth, shaped, capsys):
+    from dobwind.cli.app import main
+    from dobwind.model.airframe import load_airframe
+
+    out, log, start = one_heading_bin
+    fitted = out / f"fit_{shaped}.toml"
+    assert main(["fit", str(start), str(log), *truth, "-o", str(fitted)]) == 0
+    err = capsys.readouterr().err
+    law = load_airframe(str(fitted)).drag
+    if shaped:
+        assert law.q4c == pytest.approx(6 / 35 * law.q0, rel=1e-9) and law.q4s == pytest.approx(-8 / 35 * law.q0, rel=1e-9)
+        assert law.q0 > 0 and "per-body-axis" in err
+    else:
+        assert law.q4c == 0.0 and law.q4s == 0.0 and "an isotropic law instead" in err

@@ -7,7 +7,7 @@ import argparse
 from dataclasses import dataclass, field
 
 from dobwind.core.errors import InputError
-from dobwind.calibrate.directionshape import ARDUPILOT_SITL, DirectionShape
+from dobwind.calibrate.directionshape import DirectionShape
 from dobwind.calibrate.fieldtruth import LogReader, PerLogWind, Truth, flight_of, parse_wind, read_truth_csv, truth_reader
 from dobwind.io.provenance import provenance
 from dobwind.model.airframe import Airframe
@@ -126,9 +126,8 @@ def field_truth(options: FieldOptions, af: Airframe, log_paths: list[str]) -> Fi
         truth = SitlTruth()
     else:
         truth = read_truth_csv(str(options.truth))
-    # --truth sitl: the logs are ArduPilot SITL's, whose drag acts per body axis (directionshape.py).
-    shape = ARDUPILOT_SITL if options.truth == SITL else None
-    return FieldTruth(truth, truth_reader(truth, options.rate_hz), summary, shape)
+    # --truth sitl: the logs are ArduPilot SITL's, whose drag acts per body axis (sitlwind.SitlTruth).
+    return FieldTruth(truth, truth_reader(truth, options.rate_hz), summary, getattr(truth, "direction_shape", None))
 
 
 SEGMENT_S = Bound(5.0, 36_000.0, "s")

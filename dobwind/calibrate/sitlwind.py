@@ -6,9 +6,11 @@ fit's own refusals and warnings."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
+from dobwind.calibrate.directionshape import ARDUPILOT_SITL, DirectionShape
 from dobwind.calibrate.fieldtruth import LogTime
 from dobwind.core.errors import InputError
 from dobwind.io.sitlwind import MESSAGES, REQUIRED, SitlLog, describe, sitl_from_messages, sitl_wind_ned
@@ -34,6 +36,8 @@ class SitlTruth:
     """`--truth sitl`: each log's own SIM_WIND_* parameters (read once per log)."""
     logs: dict[str, SitlLog] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
+    # The logs are the simulator's: the drag law's direction shape where the flight does not identify it.
+    direction_shape: ClassVar[DirectionShape] = ARDUPILOT_SITL
 
     def _log(self, path: str) -> SitlLog:
         if path not in self.logs:
