@@ -151,15 +151,17 @@ def _follow(msgs: dict[str, list[dict]], marker: str, names: tuple[str, ...], ek
             notes: list[str]) -> dict[str, list[dict]]:
     """The per-core messages reduced to the primary core's rows, relabelled core 0 (what VELOCITY,
     ATTITUDE and AP_WIND select). The primary at a row's time is the PI of the last marker (XKF4) at or
-    before it (the first marker's before that). Without the marker's PI the log is left as it is: core 0."""
-    marks = sorted((r["TimeUS"], int(r["PI"])) for r in msgs.get(marker, []) if "PI" in r and "C" in r)
+    before it (the first marker's before that), by the stamps' order, not the log's. Without the marker's
+    PI the log is left as it is: core 0. A row without a stamp (load_messages has turned TimeMS into
+    TimeUS) cannot be placed in time: left out, as pick_stream leaves it out."""
+    marks = sorted((r["TimeUS"], int(r["PI"])) for r in msgs.get(marker, []) if "PI" in r and "C" in r and "TimeUS" in r)
     if not marks:
         return msgs
     t_mark = np.array([m[0] for m in marks], dtype=float)
     core = np.array([m[1] for m in marks])
     out = dict(msgs)
     for name in names:
-        rows = [r for r in msgs.get(name, []) if "C" in r]
+        rows = [r for r in msgs.get(name, []) if "C" in r and "TimeUS" in r]
         if not rows:
             continue
         idx = np.clip(np.searchsorted(t_mark, [r["TimeUS"] for r in rows], side="right") - 1, 0, None)
