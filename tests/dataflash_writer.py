@@ -13,6 +13,12 @@ _CODES = {"Z": "64s", "N": "16s", "Q": "Q", "B": "B", "f": "f", "d": "d", "i": "
           "c": "h", "C": "H", "e": "i", "E": "I", "L": "i"}
 _SCALES = {"c": 100.0, "C": 100.0, "e": 100.0, "E": 100.0, "L": 1e7}
 _FMT_TYPE = 128
+_FIRST_TYPE = 130  # the type of the first message write_dataflash declares; the others follow in order
+
+
+class Raw(int):
+    """A value stored as this very integer, whatever scale its format character implies (firmware that
+    logged rpm / 10 in a format c field, say)."""
 
 
 def _fmt_message(msg_type: int, name: str, fmt: str, columns: list[str]) -> bytes:
@@ -27,6 +33,8 @@ def _value(code: str, value):
         return str(value or "").encode()
     if code in "fd":
         return float(value if value is not None else 0.0)
+    if isinstance(value, Raw):
+        return int(value)
     if code in _SCALES:
         return int(round(_SCALES[code] * (value if value is not None else 0)))
     return int(round(value if value is not None else 0))
@@ -42,11 +50,23 @@ def write_dataflash(path: Path, messages: dict[str, tuple[str, list[str]]], rows
     # (adding to one bytes object copied the whole log at every row: 0.9 s for a 4 s flight).
     layouts = {}
     for k, (name, (fmt, cols)) in enumerate(messages.items()):
-        parts.append(_fmt_message(130 + k, name, fmt, cols))
-        layouts[name] = (bytes([0xA3, 0x95, 130 + k]), struct.Struct("<" + "".join(_CODES[c] for c in fmt)),
+        parts.append(_fmt_message(_FIRST_TYPE + k, name, fmt, cols))
+        layouts[name] = (bytes([0xA3, 0x95, _FIRST_TYPE + k]), struct.Struct("<" + "".join(_CODES[c] for c in fmt)),
                          list(zip(fmt, cols)))
     for name, values in rows:
         header, body, fields = layouts[name]
         parts.append(header + body.pack(*[_value(c, values.get(col)) for c, col in fields]))
     path.write_bytes(b"".join(parts))
     return path
+
+
+def with_multipliers(messages: dict[str, tuple[str, list[str]]], rows: list[tuple[str, dict]],
+                     mult_ids: dict[str, str], mults: dict[str, float]) -> tuple[dict, list]:
+    """``messages`` and ``rows`` with the MULT and FMTU messages ArduPilot writes at a log's start (since
+    3.6): ``mults`` id -> multiplier, ``mult_ids`` message name -> one multiplier id per column. For
+    write_dataflash, whose type numbers FMTU names (the messages keep their order, MULT and FMTU follow)."""
+    types = {name: _FIRST_TYPE + k for k, name in enumerate(messages)}
+    out = dict(messages, MULT=("Qbd", ["TimeUS", "Id", "Mult"]), FMTU=("QBNN", ["TimeUS", "FmtType", "UnitIds", "MultIds"]))
+    head = [("MULT", {"TimeUS": 0, "Id": ord(k), "Mult": v}) for k, v in mults.items()]
+    head += [("FMTU", {"TimeUS": 0, "FmtType": types[name], "UnitIds": "", "MultIds": ids}) for name, ids in mult_ids.items()]
+    return out, head + rows

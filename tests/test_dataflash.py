@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from dobwind.cli.app import main
+from dobwind.io.dataflash import follow_primary
 from dobwind.io.logs import write_csv
 from dobwind.model.airframe import load_airframe, parse_airframe
 from dobwind.model.airframe_toml import dumps
@@ -139,6 +140,70 @@ def test_the_primary_core_is_followed_across_a_lane_switch(tmp_path):
     _, flight0, _ = replay_autopilot(af, str(write_dataflash(tmp_path / "b.bin", MESSAGES, blind)), rate_hz=50.0)
     late = flight0.log.time_s > 8.5
     assert np.max(np.abs(flight0.log.columns["vel_n"][late] - f32(cols["vel_n"])[late])) > 1.0
+
+
+def _cores(times_us) -> list[dict]:
+    """XKF1 rows of cores 0 and 1 at each stamp, VN naming the row (core * 1000 + stamp in ms)."""
+    return [{"TimeUS": t, "C": c, "VN": float(c * 1000 + t // 1000)} for t in times_us for c in (0, 1)]
+
+
+def _kept(msgs: dict) -> list[float]:
+    return [r["VN"] for r in follow_primary(msgs, [])["XKF1"]]
+
+
+def test_the_primary_core_is_chosen_by_time_whatever_the_log_order():
+    """Markers and rows whose stamps go backwards in log order (XKF4 at 30 ms logged before those at 10
+    and 20 ms, an XKF1 at 5 ms after the one at 25 ms): each row takes the PI of the last marker at or
+    before its own stamp (the first marker's before any), as in time order."""
+    marks = [{"TimeUS": t, "C": 0, "PI": pi} for t, pi in ((30_000, 1), (10_000, 0), (20_000, 0))]
+    rows = _cores([15_000, 25_000, 5_000, 35_000, 30_000])
+    # before 30 ms core 0 (VN = stamp in ms); from 30 ms core 1 (1000 + stamp); log order kept
+    assert _kept({"XKF4": marks, "XKF1": rows}) == [15.0, 25.0, 5.0, 1035.0, 1030.0]
+
+
+def test_the_primary_core_is_followed_across_a_stamp_wrap():
+    """Stamps that wrap (TimeMS is a uint32: 2**32 ms, 49.7 days): the rows before the wrap, at the
+    largest stamps, take the markers before the wrap, and those after it the markers after it, each the
+    last at or before its stamp (markers of either stretch never reach into the other)."""
+    wrap = 2**32 * 1000  # TimeUS = 1000 TimeMS, the last stamp before the wrap
+    marks = [{"TimeUS": t, "C": 0, "PI": pi} for t, pi in ((wrap - 30_000, 0), (wrap - 15_000, 1), (0, 1), (20_000, 0))]
+    rows = _cores([wrap - 25_000, wrap - 10_000, 10_000, 25_000])
+    assert _kept({"XKF4": marks, "XKF1": rows}) == [float((wrap - 25_000) // 1000), 1000.0 + (wrap - 10_000) // 1000,
+                                                     1010.0, 25.0]
+
+
+def test_rows_without_a_stamp_are_left_out_of_the_primary_core_not_a_traceback():
+    """A marker or a per-core row with neither TimeUS nor TimeMS (load_messages turns TimeMS into TimeUS)
+    cannot be placed in time: it is skipped, as pick_stream skips it, never a KeyError."""
+    marks = [{"TimeUS": 10_000, "C": 0, "PI": 0}, {"C": 0, "PI": 1}, {"TimeUS": 20_000, "C": 0, "PI": 1}]
+    rows = _cores([15_000, 25_000]) + [{"C": 1, "VN": -1.0}]
+    assert _kept({"XKF4": marks, "XKF1": rows}) == [15.0, 1025.0]
+
+
+def test_a_marker_logged_without_a_stamp_reads_core_0(tmp_path):
+    """XKF4 declared with no time field at all (a layout this reader does not know): its PI cannot be
+    placed, so the log is read as one without XKF4 (core 0 throughout, no primary-core note), not by
+    its PI 1 (core 1 holds fifty times the north velocity)."""
+    af, cols = _flight(rate=20.0)
+    rows = [(n, {"C": v["C"], "PI": 1} if n == "XKF4" else v)
+            for n, v in _switch_primary(_rows(af, cols), 10**12, with_xkf4=True)]
+    _, flight, _ = replay_autopilot(af, str(write_dataflash(tmp_path / "n.bin", dict(MESSAGES, XKF4=("BB", ["C", "PI"])),
+                                                            rows)), rate_hz=20.0)
+    assert not any("primary core" in n for n in flight.notes)
+    np.testing.assert_allclose(flight.log.columns["vel_n"], f32(cols["vel_n"]), atol=1e-5)
+
+
+def test_a_marker_stamped_in_milliseconds_is_followed(tmp_path):
+    """XKF4 logged with TimeMS only (older firmware's stamp): read as TimeUS = 1000 TimeMS by
+    load_messages, the lane switch is followed as with microsecond stamps."""
+    af, cols = _flight()
+    rows = [(n, {"TimeMS": v["TimeUS"] // 1000, "C": v["C"], "PI": v["PI"]} if n == "XKF4" else v)
+            for n, v in _switch_primary(_rows(af, cols), 9_000_000, with_xkf4=True)]
+    messages = dict(MESSAGES, XKF4=("IBB", ["TimeMS", "C", "PI"]))
+    _, flight, traj = replay_autopilot(af, str(write_dataflash(tmp_path / "ms.bin", messages, rows)), rate_hz=50.0)
+    _, _, ref = replay(af, str(_equivalent_csv(tmp_path / "s.csv", af, cols)))
+    assert np.max(np.abs(traj.outputs - ref.outputs)) <= 1e-5
+    assert any("1 switch(es) among cores 0, 1" in n for n in flight.notes)
 
 
 def test_collective_thrust_from_ctun_and_the_landing_events(tmp_path):

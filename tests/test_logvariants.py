@@ -121,6 +121,26 @@ def test_the_battery_scale_is_named_only_where_px4_applied_it(tmp_path, px4_flig
         assert ("battery scale" in role.note) == named, role
 
 
+def _single_thrust_setpoint(cols) -> Topic:
+    """vehicle_thrust_setpoint with one message: too short to read, as the readers require two."""
+    return Topic("vehicle_thrust_setpoint", STAMP + [("float[3]", "xyz")],
+                 [dict(r, **{"xyz[2]": -HOVER}) for r in _rows(cols, [], [])[:1]])
+
+
+@pytest.mark.parametrize("layout, extra", [("v1.14", False), ("v1.12", False), ("v1.8", False), ("v1.12", True)])
+def test_inspect_takes_the_thrust_source_replay_takes(tmp_path, px4_flight, layout, extra):
+    """On every PX4 layout built here (and v1.12 with a one-message vehicle_thrust_setpoint, which the
+    readers skip), inspect's thrust role and the setpoint its airborne spans come from (no
+    vehicle_land_detected in these logs) are the source replay's note names."""
+    cols, _ = px4_flight
+    path = _px4_layout(tmp_path / "l.ulg", cols, layout, extra=(_single_thrust_setpoint(cols),) if extra else ())
+    _, flight, _ = replay_ulog(_collective(), str(path), rate_hz=100.0)
+    taken = [n.split(" ")[3].rstrip(":") for n in flight.notes if n.startswith("collective thrust from ")]
+    summary = inspect_log(str(path))
+    assert len(taken) == 1 and summary.role("thrust").source == taken[0], (taken, summary.role("thrust"))
+    assert summary.airborne_source == f"{taken[0]} above half the hover thrust (no vehicle_land_detected)"
+
+
 def _one_line(capsys, *needles: str) -> str:
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "Traceback" not in err and all(n in err for n in needles), err

@@ -49,6 +49,23 @@ def test_no_lag_and_a_constant_are_unchanged_and_nan_stays_put() -> None:
     assert np.allclose(np.delete(y, range(50, 60)), 0.6, rtol=0, atol=1e-15)
 
 
+def test_ground_rows_at_the_start_do_not_spread_and_an_all_nan_column_stays_nan() -> None:
+    """A log starts on the ground (NaN rows): the lag starts at rest at the first finite value and the
+    delay holds it, so the flight after them is as without them; a column with no finite row stays NaN."""
+    flat = np.full(len(TIMES), 0.6)
+    flat[:10] = np.nan
+    for y in (first_order_lag(TIMES, flat, 0.08), delayed(TIMES, flat, 0.05), delayed(TIMES, flat, -0.05)):
+        assert np.isnan(y[:10]).all() and np.allclose(y[10:], 0.6, rtol=0, atol=1e-15)
+    line = 1.0 + 3.0 * TIMES
+    line[:10] = np.nan
+    y = delayed(TIMES, line, 0.1)   # rows within 0.1 s of the first finite one take its value (held)
+    late = TIMES >= TIMES[10] + 0.1
+    assert np.allclose(y[late], 1.0 + 3.0 * (TIMES[late] - 0.1), rtol=0, atol=1e-12)
+    assert np.allclose(y[10:][~late[10:]], 1.0 + 3.0 * TIMES[10], rtol=0, atol=1e-12)
+    none = np.full(len(TIMES), np.nan)
+    assert np.isnan(first_order_lag(TIMES, none, 0.08)).all() and np.isnan(delayed(TIMES, none, 0.1)).all()
+
+
 def test_delay_of_a_line() -> None:
     x = 1.0 + 3.0 * TIMES
     y = delayed(TIMES, x, 0.1)

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dobwind.calibrate import windrows, windsolve
+from dobwind.calibrate import dragfit, windrows, windsolve
 from dobwind.calibrate.fieldtruth import LogTime, flight_of
 from dobwind.io.logs import FlightLog
 from dobwind.model.airframe import Airframe, load_airframe
@@ -45,16 +45,13 @@ LABELS = {"lag": "thrust lag", "delay": "thrust delay", "qdelay": "attitude dela
 
 def _filled(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(x with every NaN replaced by the last finite value before it, or the first finite one at the
-    start; the NaN mask): the filters below must not spread a ground row's NaN over the flight."""
+    start; the NaN mask): the filters below must not spread a ground row's NaN over the flight. The fill
+    is the drag fit's own (dragfit._forward_fill), carrying the first finite value into the rows before it."""
     x = np.asarray(x, dtype=float)
     bad = ~np.isfinite(x)
     if bad.all():
         return x.copy(), bad
-    index = np.where(bad, 0, np.arange(len(x)))
-    np.maximum.accumulate(index, out=index)
-    first = int(np.argmax(~bad))
-    index[:first] = first
-    return x[index], bad
+    return dragfit._forward_fill(x, ~bad, x[int(np.argmax(~bad))]), bad
 
 
 def first_order_lag(t: np.ndarray, x: np.ndarray, tau_s: float) -> np.ndarray:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from dobwind.io.dataflash import (AP_WIND, ATTITUDE, EV_GROUND, IMU, LAYOUT_EXTRA, VELOCITY, WANTED, density_step,
+from dobwind.io.dataflash import (AP_WIND, ATTITUDE, EV_GROUND, IMU, LAYOUT_FORMATS, VELOCITY, WANTED, density_step,
                                   in_one_layout, load_messages, pick_stream, truncation)
 from dobwind.core.errors import InputError
 from dobwind.io.aplayout import logged_name
@@ -196,7 +196,7 @@ def _density_step(msgs: dict, baro: list[dict]) -> list[str]:
 def inspect_dataflash(path: str) -> LogSummary:
     notes: list[str] = []
     with quiet_fds():  # pymavlink's compiled indexer prints a line per bad byte, to fd 2 itself
-        loaded = load_messages(path, WANTED + LAYOUT_EXTRA + ("PARM", "RCOU", "MSG", "BARO"))
+        loaded = load_messages(path, WANTED + LAYOUT_FORMATS + ("PARM", "RCOU", "MSG", "BARO"))
     msgs = in_one_layout(loaded, notes)
     baro = msgs.pop("BARO")
     params_all = _parameters(msgs.pop("PARM"))

@@ -10,8 +10,9 @@ import numpy as np
 from dobwind.core.errors import InputError
 from dobwind.inspect.loginspect import (AutopilotWind, LogSummary, Role, Vehicle, inside, intervals,
                                 stream_stats, total, wind_activity)
-from dobwind.io.ulog import PX4_WIND_TOPICS, TOPICS_READ, open_ulog, truncation
-from dobwind.io.px4layout import BATTERY_SCALE_PARAM, NOT_COLLECTIVE, THRUST_SOURCES, battery_scale_note, older_layout
+from dobwind.io.ulog import PX4_WIND_TOPICS, TOPICS_READ, collective_source, open_ulog, truncation
+from dobwind.io.px4layout import (BATTERY_SCALE_PARAM, NOT_COLLECTIVE, THRUST_SOURCES, ThrustSource, battery_scale_note,
+                                  older_layout)
 from dobwind.io.vehiclekind import px4_not_multirotor
 
 # Read for the vehicle only (rotor count when esc_status is absent): not estimator inputs.
@@ -45,21 +46,23 @@ def _role(topics: dict, role: str, candidates: tuple[tuple[str, tuple[str, ...]]
     return Role(role, None, None, missing)
 
 
-def _thrust_role(topics: dict, params: dict) -> Role:
-    """The collective thrust source read_ulog takes (px4layout.THRUST_SOURCES, first found), with what an
-    older layout's source is and what the battery scale adds; when none, the mixer outputs are named as not
-    read (they are not the collective)."""
-    for source in THRUST_SOURCES:
-        data = topics.get(source.topic)
-        if data is not None and source.field in data and len(data["t"]) >= 2:
-            said = [n for n in (older_layout(source), battery_scale_note(source, params)) if n]
-            return Role("thrust", source.name, source.topic, "; ".join(said))
+# The collective source replay reads (ulog.collective_source: its choice, not a copy of it), with its data.
+Collective = tuple[ThrustSource, dict] | None
+
+
+def _thrust_role(found: Collective, topics: dict, params: dict) -> Role:
+    """The collective thrust source read_ulog takes, with what an older layout's source is and what the
+    battery scale adds; when none, the mixer outputs are named as not read (they are not the collective)."""
+    if found is not None:
+        source = found[0]
+        said = [n for n in (older_layout(source), battery_scale_note(source, params)) if n]
+        return Role("thrust", source.name, source.topic, "; ".join(said))
     mixer = [name for name in NOT_COLLECTIVE if name in topics]
     return Role("thrust", None, None, f"none of {', '.join(s.name for s in THRUST_SOURCES)}"
                 + (f" ({' and '.join(mixer)}: the mixer's per-motor outputs, not a collective: not read)" if mixer else ""))
 
 
-def _roles(topics: dict, params: dict) -> tuple[Role, ...]:
+def _roles(topics: dict, params: dict, found: Collective) -> tuple[Role, ...]:
     q = tuple(f"q[{i}]" for i in range(4))
     roles = [
         _role(topics, "velocity", (("vehicle_local_position", ("vx", "vy", "vz")),), "no vehicle_local_position"),
@@ -68,7 +71,7 @@ def _roles(topics: dict, params: dict) -> tuple[Role, ...]:
               "no sensor_combined"),
         _role(topics, "attitude", (("vehicle_attitude", q),), "no vehicle_attitude"),
         _role(topics, "rpm", (("esc_status", ("esc[0].esc_rpm",)),), "no esc_status"),
-        _thrust_role(topics, params),
+        _thrust_role(found, topics, params),
         _role(topics, "hover_thrust", (("hover_thrust_estimate", ("hover_thrust",)),), ""),
         _role(topics, "heading", (("vehicle_attitude_setpoint", ("yaw_body",)),), ""),
         _role(topics, "ground", (("vehicle_land_detected", ("landed",)),), ""),
@@ -85,9 +88,9 @@ def _roles(topics: dict, params: dict) -> tuple[Role, ...]:
     return tuple(roles) + (wind,)
 
 
-def _airborne(topics: dict, params: dict, end_s: float) -> tuple[tuple[tuple[float, float], ...], str]:
+def _airborne(topics: dict, params: dict, end_s: float, found: Collective) -> tuple[tuple[tuple[float, float], ...], str]:
     """Airborne spans: vehicle_land_detected (landed, maybe_landed or ground_contact mean ground, as
-    replay reads it), else the collective setpoint above half the hover thrust."""
+    replay reads it), else replay's collective setpoint (``found``) above half the hover thrust."""
     land = topics.get("vehicle_land_detected")
     if land is not None and "landed" in land:
         ground = np.zeros(len(land["t"]), dtype=bool)
@@ -95,11 +98,11 @@ def _airborne(topics: dict, params: dict, end_s: float) -> tuple[tuple[tuple[flo
             if flag in land:
                 ground |= land[flag] > 0.5
         return intervals(land["t"], ~ground, end_s), "vehicle_land_detected"
-    hover = params.get("MPC_THR_HOVER", 0.5)
-    for source in THRUST_SOURCES:
-        if source.topic in topics and source.field in topics[source.topic]:
-            return intervals(topics[source.topic]["t"], source.up * topics[source.topic][source.field] > 0.5 * hover,
-                             end_s), f"{source.name} above half the hover thrust (no vehicle_land_detected)"
+    if found is not None:
+        source, data = found
+        hover = params.get("MPC_THR_HOVER", 0.5)
+        return (intervals(data["t"], source.up * data[source.field] > 0.5 * hover, end_s),
+                f"{source.name} above half the hover thrust (no vehicle_land_detected)")
     return (), "unknown: no vehicle_land_detected and no thrust setpoint"
 
 
@@ -193,8 +196,9 @@ def inspect_ulog(path: str) -> LogSummary:
         raise InputError(path, None, "no topic the estimator reads is in the log")
     start = min(float(d["t"].min()) for d in topics.values())
     end = max(float(d["t"].max()) for d in topics.values())
-    spans, airborne_source = _airborne(topics, params, end)
-    roles = _roles(topics, params)
+    found = collective_source(ulog)  # replay's choice of collective thrust, for the role and the spans
+    spans, airborne_source = _airborne(topics, params, end, found)
+    roles = _roles(topics, params, found)
     rotors, rotor_source = _rotor_count(topics, params, spans)
     rpm_ok, rpm_note, rpm_median, rpm_max = _rpm(topics, rotors, spans)
     hover, hover_source = _hover(topics, params, spans)

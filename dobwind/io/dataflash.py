@@ -42,6 +42,7 @@ from dobwind.io.vehiclekind import MULTIROTORS_ONLY, ardupilot_not_multirotor, f
 from dobwind.io.densitystep import DensityStep, find_step
 from dobwind.io.sitlwind import MESSAGES as SITL_MESSAGES, SitlLog, describe as describe_sitl, sitl_from_messages
 from dobwind.io.aplayout import OLD_NAMES, logged_name, relabel
+from dobwind.io.escrpm import FORMAT_MESSAGES, in_rpm
 from dobwind.model.signals import log_signals
 
 # (role, candidates as (message, instance field or None, instance value)), first found wins.
@@ -59,6 +60,8 @@ CORE_MESSAGES = ("XKF1", "XKQ", "XKF2")  # logged per EKF3 core (field C)
 EKF_FAMILIES = (("XKF4", CORE_MESSAGES, "EKF3"), ("NKF4", ("NKF1", "NKQ", "NKF2"), "EKF2"))
 # Read besides WANTED: older layouts' names, and EKF2's primary-core marker.
 LAYOUT_EXTRA = OLD_NAMES + ("NKF4",)
+# Read besides those for in_one_layout: the formats and multipliers that say what ESC RPM holds (escrpm.py).
+LAYOUT_FORMATS = LAYOUT_EXTRA + FORMAT_MESSAGES
 
 
 def load_messages(path: str, wanted: tuple[str, ...] = WANTED) -> dict[str, list[dict]]:
@@ -128,9 +131,10 @@ def messages_found(path: str) -> dict[str, int]:
 
 
 def in_one_layout(loaded: dict[str, list[dict]], notes: list[str]) -> dict[str, list[dict]]:
-    """The WANTED messages of ``loaded`` (read with WANTED + LAYOUT_EXTRA) in ArduPilot 4.1's layout
-    (aplayout.relabel), reduced to the primary EKF core (follow_primary); other names pass through."""
-    msgs, said = relabel(loaded)  # a new dict: ``loaded`` is left as it was
+    """The WANTED messages of ``loaded`` (read with WANTED + LAYOUT_FORMATS) in ArduPilot 4.1's layout
+    (aplayout.relabel), ESC RPM in rpm (escrpm.in_rpm, which drops the format messages), reduced to the
+    primary EKF core (follow_primary); other names pass through."""
+    msgs, said = relabel(in_rpm(loaded, notes))  # new dicts: ``loaded`` is left as it was
     if said:
         notes.append(said)
     return follow_primary(msgs, notes)
@@ -147,15 +151,17 @@ def _follow(msgs: dict[str, list[dict]], marker: str, names: tuple[str, ...], ek
             notes: list[str]) -> dict[str, list[dict]]:
     """The per-core messages reduced to the primary core's rows, relabelled core 0 (what VELOCITY,
     ATTITUDE and AP_WIND select). The primary at a row's time is the PI of the last marker (XKF4) at or
-    before it (the first marker's before that). Without the marker's PI the log is left as it is: core 0."""
-    marks = sorted((r["TimeUS"], int(r["PI"])) for r in msgs.get(marker, []) if "PI" in r and "C" in r)
+    before it (the first marker's before that), by the stamps' order, not the log's. Without the marker's
+    PI the log is left as it is: core 0. A row without a stamp (load_messages has turned TimeMS into
+    TimeUS) cannot be placed in time: left out, as pick_stream leaves it out."""
+    marks = sorted((r["TimeUS"], int(r["PI"])) for r in msgs.get(marker, []) if "PI" in r and "C" in r and "TimeUS" in r)
     if not marks:
         return msgs
     t_mark = np.array([m[0] for m in marks], dtype=float)
     core = np.array([m[1] for m in marks])
     out = dict(msgs)
     for name in names:
-        rows = [r for r in msgs.get(name, []) if "C" in r]
+        rows = [r for r in msgs.get(name, []) if "C" in r and "TimeUS" in r]
         if not rows:
             continue
         idx = np.clip(np.searchsorted(t_mark, [r["TimeUS"] for r in rows], side="right") - 1, 0, None)
@@ -230,12 +236,12 @@ def _ground(msgs, clock: np.ndarray, notes: list[str]) -> np.ndarray:
 
 
 def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None, bridge_gaps: bool = False) -> AutopilotFlight:
-    loaded = load_messages(path, WANTED + LAYOUT_EXTRA + tuple(m for m in SITL_MESSAGES + ("MSG", "BARO") if m not in WANTED))
+    loaded = load_messages(path, WANTED + LAYOUT_FORMATS + tuple(m for m in SITL_MESSAGES + ("MSG", "BARO") if m not in WANTED))
     _refuse_other_vehicles(path, loaded)
     sitl, sitl_notes = _sitl(path, loaded)
     notes = ["messages " + ", ".join(f"{n} {len(r)}" for n, r in loaded.items() if r and n in WANTED + LAYOUT_EXTRA)
              + "; not in the log: " + (", ".join(n for n in WANTED if not loaded[n]) or "none")] + sitl_notes
-    msgs = in_one_layout({name: loaded[name] for name in WANTED + LAYOUT_EXTRA}, notes)
+    msgs = in_one_layout({name: loaded[name] for name in WANTED + LAYOUT_FORMATS}, notes)
     msgs["BARO"] = loaded["BARO"]  # for the collective thrust's density step only (densitystep.py)
     vel_name, vel = _pick(path, msgs, VELOCITY, ["VN", "VE", "VD"], "ground velocity", "XKF1 (or NKF1)")
     att_name, att = _pick(path, msgs, ATTITUDE, ["Q1", "Q2", "Q3", "Q4"], "attitude", "XKQ (or NKQ1, NKQ)")

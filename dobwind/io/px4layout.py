@@ -1,6 +1,6 @@
 """Where PX4 put the collective thrust in its ULogs across versions, and what each source adds: the one
-table the ULog reader (ulog.py) and `dobwind inspect` (inspect_ulog.py) share, so that both take the same
-source and name it the same way. The survey behind it: docs/autopilot-logs.md, *Versions the readers accept*.
+table the ULog reader (ulog.py) and `dobwind inspect` (inspect_ulog.py) share; ulog.collective_source
+is the one choice among them, which both call, so that both take the same source and name it the same way. The survey behind it: docs/autopilot-logs.md, *Versions the readers accept*.
 """
 from __future__ import annotations
 
