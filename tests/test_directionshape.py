@@ -17,6 +17,7 @@ import pytest
 from dobwind.calibrate import dragfit
 from dobwind.calibrate.directionshape import ARDUPILOT_SITL
 from dobwind.model.forceair import DragLaw, drag_airflow_numpy, drag_force
+from dobwind.model.kinds import DragFrame
 
 C = 0.1          # N/(m/s)^2, the per-axis quadratic coefficient (areaCd 0.5 rho)
 L0 = 0.7         # N/(m/s), linear (momentum) drag: isotropic, as ArduPilot's per-axis linear term is
@@ -177,3 +178,40 @@ def test_fit_ties_the_shape_for_a_sitl_truth_only(one_heading_bin, truth, shaped
         assert law.q0 > 0 and "per-body-axis" in err
     else:
         assert law.q4c == 0.0 and law.q4s == 0.0 and "an isotropic law instead" in err
+
+
+def _three_track_samples() -> dragfit.DragSamples:
+    """Three logs, each flown with the air from one side of the nose only: straight on, 38 deg left and 38
+    deg right (+-6 deg), 1-12 m/s. Two 45-deg sectors of the axis: the harmonics are not identified."""
+    rng = np.random.default_rng(3)
+    n = 600
+    air = []
+    for centre in (0.0, 38.0, -38.0):
+        speed = np.linspace(1.0, 12.0, n)
+        direction = np.radians(centre + rng.uniform(-6.0, 6.0, n))
+        air.append(np.column_stack([speed * np.cos(direction), speed * np.sin(direction), 0.3 * np.sin(np.arange(n) / 9)]))
+    airflow = np.vstack(air)
+    fx, fy = per_axis_force(airflow[:, 0], airflow[:, 1])
+    force = np.column_stack([fx, fy, 0.5 * airflow[:, 2]]) + 0.03 * rng.standard_normal((len(airflow), 3))
+    return dragfit.DragSamples(force, dragfit.basis(airflow), np.ones(len(airflow)), np.zeros(len(airflow)), airflow,
+                               (np.arange(len(airflow)) // 200).astype(int), np.repeat(np.arange(3), n))
+
+
+def test_whether_to_fit_on_the_run_means_is_decided_with_the_tied_law():
+    """The isotropic law cannot meet the three tracks' means (the per-axis force at 38 deg is 0.8 of the
+    along-axis one), the tied law meets them: the fit, which fits the tied law, fits it per sample.
+    Deciding with the isotropic law anchored it on the run means (fitfamily tied after anchor_on_runs)."""
+    from dobwind.calibrate import fitfamily
+    from dobwind.model.airframe import load_airframe
+
+    samples = _three_track_samples()
+    assert not dragfit.direction_coverage(samples.airflow).allows(dragfit.FOURFOLD_KEYS)
+    assert dragfit.anchor_on_runs(samples).anchor   # the isotropic law misses some log's mean by > 0.25 m/s
+    af = load_airframe(str(Path(__file__).resolve().parents[1] / "benchmarks" / "vehicles" / "arducopter.airframe.toml"))
+    by_frame = {DragFrame.HEADING: samples}
+    families, _, failures = fitfamily._drag_families(af, by_frame, (DragFrame.HEADING,), len(samples), ARDUPILOT_SITL)
+    assert not failures
+    report, law = families["drag"][1], families["drag"][0].drag
+    assert not report.anchored and not by_frame[DragFrame.HEADING].anchor
+    assert law.q4c == pytest.approx(6 / 35 * law.q0, rel=1e-9) and law.q0 > 0
+    assert max(run.error_mps for run in report.runs) < 0.1

@@ -399,8 +399,9 @@ def _drag_families(af: Airframe, by_frame: dict[DragFrame, dragfit.DragSamples],
         if samples < 100:
             failures.append(f"{family} family: only {samples} usable samples (need 100)")
             continue
-        # Logs whose means a per-sample fit cannot meet are fitted on their means (dobwind/calibrate/runmeans.py).
-        by_frame[frame] = dragfit.shape_if_unidentified(dragfit.anchor_on_runs(by_frame[frame]), shape)
+        # Logs whose means a per-sample fit cannot meet are fitted on their means (dobwind/calibrate/runmeans.py);
+        # asked of the law the fit fits, so after the tie (an isotropic law misses tracks a tied one meets).
+        by_frame[frame] = dragfit.anchor_on_runs(dragfit.shape_if_unidentified(by_frame[frame], shape))
         choice = dragfit.choose_drag_law(by_frame[frame], holdcv.prefer_on_holds)
         reason = _uninvertible(by_frame[frame], choice)
         if reason is not None:
