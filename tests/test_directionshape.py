@@ -274,3 +274,22 @@ def test_either_frame_carries_the_tie_at_a_sitl_flights_tilt(frame):
         assert np.hypot(tied_air[:, 0], tied_air[:, 1]).mean() == pytest.approx(s, rel=0.02)
         assert np.degrees(np.arctan2(tied_air[:, 1], tied_air[:, 0])).mean() == pytest.approx(45.0, abs=0.5)
         assert np.hypot(iso_air[:, 0], iso_air[:, 1]).mean() < 0.93 * s
+
+
+def test_the_warning_names_the_shape_only_when_the_law_has_a_quadratic_term():
+    """A tied law with q0 says it took the shape; one whose chosen set has no quadratic term (or whose q0 was
+    dropped for its sign) is isotropic and says so; untied samples say isotropic."""
+    from dobwind.calibrate import fitfamily, holdcv
+
+    samples = _front_back_samples()
+    shaped = dragfit.shape_if_unidentified(samples, ARDUPILOT_SITL)
+    choice = dragfit.choose_drag_law(shaped, holdcv.prefer_on_holds)
+    assert choice.directions is not None and "q0" in choice.active
+    [warning] = fitfamily._directions_warning(choice, shaped)
+    assert "takes the shape of ArduPilot SITL's per-body-axis" in warning and "q4s = -0.2286 q0" in warning
+    linear = ("l0",) + dragfit.VERTICAL_SETS[-1] + dragfit.ALWAYS
+    without = dataclasses.replace(choice, active=linear, theta=dragfit.robust_fit(shaped, linear))
+    dropped = dataclasses.replace(choice, theta=np.where(np.array(shaped.parameters) == "q0", 0.0, choice.theta))
+    for isotropic, of in ((without, shaped), (dropped, shaped), (choice, samples)):
+        [warning] = fitfamily._directions_warning(isotropic, of)
+        assert "an isotropic law instead" in warning and "shape" not in warning

@@ -52,4 +52,4 @@ class DirectionShape:
 
 ARDUPILOT_SITL = DirectionShape(
     ratios=(("q4c", 6.0 / 35.0), ("q4s", -8.0 / 35.0)),
-    source="ArduPilot SITL's per-body-axis quadratic drag (libraries/SITL/SIM_Frame.cpp)")
+    source="ArduPilot SITL's per-body-axis quadratic drag, libraries/SITL/SIM_Frame.cpp")

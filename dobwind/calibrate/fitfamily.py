@@ -512,8 +512,9 @@ def _directions_warning(choice: dragfit.DragChoice, samples: dragfit.DragSamples
     tied to its quadratic term (dobwind/calibrate/directionshape.py)."""
     if choice.directions is None:
         return []
-    shaped = samples.direction_shape is not None and "q0" in choice.active
-    instead = (f"its quadratic term takes the shape of {samples.direction_shape.text()}" if shaped  # type: ignore[union-attr]
-               else "an isotropic law instead")
+    shape = samples.direction_shape
+    # Shaped only when the law has a quadratic term: a set without q0, or q0 dropped for its sign, is isotropic.
+    shaped = shape is not None and choice.theta[samples.parameters.index("q0")] > 0
+    instead = f"its quadratic term takes the shape of {shape.text()}" if shaped else "an isotropic law instead"
     return [f"drag law: no direction harmonics (anisotropy) fitted, {instead}: {choice.directions.text()}; "
             "fly more headings relative to the wind to calibrate them"]
