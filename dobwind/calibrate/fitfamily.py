@@ -399,8 +399,9 @@ def _drag_families(af: Airframe, by_frame: dict[DragFrame, dragfit.DragSamples],
         if samples < 100:
             failures.append(f"{family} family: only {samples} usable samples (need 100)")
             continue
-        # Logs whose means a per-sample fit cannot meet are fitted on their means (dobwind/calibrate/runmeans.py).
-        by_frame[frame] = dragfit.shape_if_unidentified(dragfit.anchor_on_runs(by_frame[frame]), shape)
+        # Logs whose means a per-sample fit cannot meet are fitted on their means (dobwind/calibrate/runmeans.py);
+        # asked of the law the fit fits, so after the tie (an isotropic law misses tracks a tied one meets).
+        by_frame[frame] = dragfit.anchor_on_runs(dragfit.shape_if_unidentified(by_frame[frame], shape))
         choice = dragfit.choose_drag_law(by_frame[frame], holdcv.prefer_on_holds)
         reason = _uninvertible(by_frame[frame], choice)
         if reason is not None:
@@ -511,8 +512,9 @@ def _directions_warning(choice: dragfit.DragChoice, samples: dragfit.DragSamples
     tied to its quadratic term (dobwind/calibrate/directionshape.py)."""
     if choice.directions is None:
         return []
-    shaped = samples.direction_shape is not None and "q0" in choice.active
-    instead = (f"its quadratic term takes the shape of {samples.direction_shape.text()}" if shaped  # type: ignore[union-attr]
-               else "an isotropic law instead")
+    shape = samples.direction_shape
+    # Shaped only when the law has a quadratic term: a set without q0, or q0 dropped for its sign, is isotropic.
+    shaped = shape is not None and choice.theta[samples.parameters.index("q0")] > 0
+    instead = f"its quadratic term takes the shape of {shape.text()}" if shaped else "an isotropic law instead"
     return [f"drag law: no direction harmonics (anisotropy) fitted, {instead}: {choice.directions.text()}; "
             "fly more headings relative to the wind to calibrate them"]
