@@ -147,7 +147,9 @@ def add_options(p: argparse.ArgumentParser) -> None:
                    help="the true wind as a time series in each log's own time (docs/formats.md, wind truth: t and "
                    "wind_n/wind_e/wind_d, or t, speed, from_deg [, up]); rows outside its span are not used; or "
                    "'sitl': the wind an ArduPilot SITL log's simulator was given (SIM_WIND_* parameters, the "
-                   "square-root or linear profile on the barometer altitude)")
+                   "square-root or linear profile on the barometer altitude); where the flight does not identify "
+                   "the drag's direction harmonics, the law then takes the simulator's per-body-axis shape "
+                   "(docs/field-calibration.md)")
     p.add_argument("--rate", type=ULOG_RATE,
                    help=f"autopilot logs: resample at this rate, Hz ({ULOG_RATE.text()}) (default: the attitude's clock)")
     p.add_argument("--segment-s", type=SEGMENT_S, metavar="SECONDS",
