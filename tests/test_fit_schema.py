@@ -144,6 +144,14 @@ def test_real_fit_reports_match_the_schema(reports, model):
     assert (model == "auto" or report["model"] == "polynomial") and report["self_check"]["logs"]
 
 
+def test_a_fit_with_climbs_reports_a_zero_score_its_vertical_cv_beats(reports):
+    """The simulated vehicle climbs and descends: the truth has vertical airflow (zero's score is not
+    zero) and the fitted vertical law predicts it better than zero does."""
+    report = reports["auto"]
+    assert report["vertical_zero_rmse_mps"] > 0.1
+    assert report["vertical_cv_rmse_mps"] < report["vertical_zero_rmse_mps"]
+
+
 def test_the_schema_names_every_field_of_the_report_in_its_order():
     fields = [f.name for f in dataclasses.fields(FitReport)]
     declared = list(SCHEMA["properties"])

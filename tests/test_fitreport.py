@@ -1,6 +1,7 @@
 """The fit's text report: each family's own form, and the hold-level CV's split with its longer-hold figure."""
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import pytest
@@ -47,3 +48,18 @@ def test_the_drag_law_line_is_followed_by_its_units():
     words = set(DRAG_UNITS.replace(",", " ").replace(";", " ").split())
     assert {*PARAMETERS, *BODY_PARAMETERS} <= words, {*PARAMETERS, *BODY_PARAMETERS} - words
     assert "l0, l2c, l2s, lr, lz, i1 in N/(m/s)" in DRAG_UNITS and "qz, i2 in N/(m/s)^2" in DRAG_UNITS
+
+
+@pytest.mark.parametrize("model", ["drag", "polynomial"])
+def test_the_vertical_cv_is_printed_next_to_the_zero_score_and_their_ratio(model):
+    """The margin the vertical rule judges (fitfamily.vertical_warning): CV 0.30 against zero's 0.40 is 0.75."""
+    report = dataclasses.replace(_drag_report("drag"), vertical_cv_rmse_mps=0.3, vertical_zero_rmse_mps=0.4)
+    if model == "polynomial":
+        report = dataclasses.replace(report, model=model, drag={}, vertical_terms=["vz"], vertical_coefficients=[1.0])
+    text = text_report(report)
+    assert "grouped 5-fold CV 0.300 m/s; zero vertical airflow scores 0.400 m/s" in text
+    assert "the CV 0.75 of it" in text
+
+
+def test_without_samples_no_zero_score_is_printed():
+    assert "zero vertical airflow" not in text_report(_drag_report("drag"))

@@ -3,8 +3,9 @@ held-out error is compared with predicting zero vertical airflow, whose error is
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
-from dobwind.calibrate.fitfamily import vertical_warning
+from dobwind.calibrate.fitfamily import vertical_warning, zero_rmse
 
 AIR_Z = np.array([0.3, -0.4, 0.0, 0.5, -0.5, 0.4, -0.3, 0.0])   # RMS sqrt(1.0 / 8) = 0.35355 m/s
 
@@ -22,3 +23,9 @@ def test_a_law_better_than_zero_is_not():
 def test_no_cv_or_no_samples_says_nothing():
     assert vertical_warning(None, AIR_Z) is None
     assert vertical_warning(1.0, np.zeros(0)) is None
+
+
+def test_the_zero_score_is_the_rms_of_the_truth():
+    """What fit reports as vertical_zero_rmse_mps: sqrt(mean(z^2)), None without samples."""
+    assert zero_rmse(AIR_Z) == pytest.approx(np.sqrt(1.0 / 8), rel=1e-12)
+    assert zero_rmse(np.array([-2.0])) == pytest.approx(2.0) and zero_rmse(np.zeros(0)) is None

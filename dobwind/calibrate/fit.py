@@ -94,6 +94,9 @@ class FitReport:
     vertical_rmse_mps: float | None = None
     vertical_cv_rmse_mps: float | None = None
     vertical_extrapolation_rmse_mps: float | None = None
+    # The RMS of the true vertical airflow over the fit's samples: what predicting zero vertical airflow
+    # scores, the figure the vertical CV must beat for the law to be used (fitfamily.vertical_warning).
+    vertical_zero_rmse_mps: float | None = None
     directions: int = 0
     speeds: int = 0
     model: str = "polynomial"

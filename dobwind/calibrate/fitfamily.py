@@ -306,10 +306,12 @@ def _chosen_report(report: FitReport, chosen: str, scores: dict[str, FamilyScore
     hold = (scores.get(chosen) or UNSCORED).hold
     window_s = None if hold is None else hold.by_speed.window_s
     sparse = holdcv.sparse_windows(window_s, float(np.median(samples.rates_hz()))) if len(samples) else None
-    vertical = vertical_warning(report.vertical_cv_rmse_mps, samples.airflow[:, 2] if len(samples) else np.zeros(0))
+    air_z = samples.airflow[:, 2] if len(samples) else np.zeros(0)
+    vertical = vertical_warning(report.vertical_cv_rmse_mps, air_z)
     warnings = [*report.warnings, *failures, *([sparse] if sparse else []),
                 *([vertical + VERTICAL_FALLBACK_NOTE] if vertical else [])]
     return dataclasses.replace(report, model=chosen, families=scores, samples=len(samples),
+                               vertical_zero_rmse_mps=zero_rmse(air_z),
                                hold_cv_speed_mps=None if hold is None else hold.cv_speed_mps,
                                hold_cv_by_speed=None if hold is None else hold.by_speed,
                                hold_extrapolation_speed_mps=None if hold is None else hold.extrapolation_speed_mps,
@@ -321,13 +323,18 @@ VERTICAL_FALLBACK_NOTE = (f'; the fitted airframe says force_air.vertical_law = 
                           "VERTICAL_ESTIMATED 0 (docs/c-api.md)")
 
 
+def zero_rmse(air_z_mps: np.ndarray) -> float | None:
+    """The RMS of the true vertical airflow: the error of predicting zero (None without samples)."""
+    return float(np.sqrt(np.mean(np.square(air_z_mps)))) if len(air_z_mps) else None
+
+
 def vertical_warning(cv_v_mps: float | None, air_z_mps: np.ndarray) -> str | None:
     """A warning when the chosen vertical law predicts held-out vertical airflow no better than zero does.
     The logs then do not identify it (level flight, or a thrust model whose error swamps the vertical
     drag), and the step, which inverts that law, turns the thrust error into vertical wind."""
-    if cv_v_mps is None or not len(air_z_mps):
+    zero_mps = zero_rmse(air_z_mps)
+    if cv_v_mps is None or zero_mps is None:
         return None
-    zero_mps = float(np.sqrt(np.mean(np.square(air_z_mps))))
     if cv_v_mps < zero_mps:
         return None
     return (f"the vertical law predicts held-out vertical airflow no better than zero does (grouped CV {cv_v_mps:.3f} "

@@ -22,6 +22,16 @@ def _errors(cv: float | None, extrapolated: float | None) -> str:
     return text + ("" if extrapolated is None else f", top holds extrapolated {extrapolated:.3f} m/s")
 
 
+def _zero_text(report: FitReport) -> str:
+    """The score the vertical CV is judged against (fitfamily.vertical_warning), and the CV's share of it:
+    the margin by which the vertical law beats publishing no vertical airflow at all."""
+    zero, cv = report.vertical_zero_rmse_mps, report.vertical_cv_rmse_mps
+    if zero is None:
+        return ""
+    share = f", the CV {cv / zero:.2f} of it" if cv is not None and zero > 0 else ""
+    return f"; zero vertical airflow scores {zero:.3f} m/s (RMS of the true vertical airflow){share}"
+
+
 def _hold_line(report: FitReport, scored_s: float = 15.0) -> list[str]:
     """The hold-level CV, split into what a longer hold keeps and what averages out (dobwind/calibrate/holdcv.py),
     and what that means for a hold scored for ``scored_s`` (replay scores a 20 s hold for 15 s)."""
@@ -107,7 +117,7 @@ def text_report(report: FitReport) -> str:
 
     vertical = ("kept from the airframe" if report.vertical_rmse_mps is None else
                 f"RMSE {report.vertical_rmse_mps:.3f} m/s, "
-                + _errors(report.vertical_cv_rmse_mps, report.vertical_extrapolation_rmse_mps))
+                + _errors(report.vertical_cv_rmse_mps, report.vertical_extrapolation_rmse_mps) + _zero_text(report))
     # Every printed figure of each family, in the order --json prints them (reportparts.family_dict).
     families = [f"family {name}: " + ", ".join(f"{k} {'n/a' if v is None else f'{v:.3f}'}"
                                               for k, v in family_dict(scores).items() if v is None or isinstance(v, float))
@@ -127,7 +137,8 @@ def text_report(report: FitReport) -> str:
             *runs_lines(report),
             f"  horizontal airflow RMSE {report.horizontal_rmse_mps:.3f} m/s, "
             + _errors(report.horizontal_cv_rmse_mps, report.horizontal_extrapolation_rmse_mps),
-            f"  vertical airflow RMSE {report.vertical_rmse_mps:.3f} m/s"])
+            f"  vertical airflow RMSE {report.vertical_rmse_mps:.3f} m/s, "
+            + _errors(report.vertical_cv_rmse_mps, report.vertical_extrapolation_rmse_mps) + _zero_text(report)])
     return "\n".join(chosen + [
         f"calibration points {report.points} (2 s means of steady flight; {report.outliers_removed} outliers removed), "
         f"{report.zero_airflow_points} at zero airflow; {report.directions} of 12 airflow directions, "
