@@ -93,9 +93,22 @@ def paired_t(rows: list[list[float]]) -> tuple[float, float, int]:
     return float(np.mean(d)), float(np.mean(d) / se) if se > 0 else math.inf, int(np.sum(d > 0))
 
 
+def ratio_bound(rows: list[list[float]]) -> tuple[float, float]:
+    """Over the units (blocks): R, the law's held-out squared error over zero's (the square of cv_v /
+    zero), and its standard error by linearising the ratio of sums (the delta method: each unit's residual
+    L_u - R Z_u), the usual error of a ratio estimator from units drawn alike."""
+    law, zero = np.array([r[1] for r in rows]), np.array([r[2] for r in rows])
+    if len(rows) < 2 or zero.sum() <= 0:
+        return math.nan, math.nan
+    ratio = float(law.sum() / zero.sum())
+    residual = law - ratio * zero
+    n = len(rows)
+    return ratio, float(math.sqrt(n / (n - 1) * np.sum(residual ** 2)) / zero.sum())
+
+
 def table_rows(path: Path) -> list[str]:
-    rows = ["| fit | family | cv_v | zero | ratio | folds won | t (folds) | blocks won | t (blocks) | warned |",
-            "|---|---|---|---|---|---|---|---|---|---|"]
+    rows = ["| fit | family | cv_v | zero | ratio | folds won | t (folds) | blocks won | t (blocks) | R | SE(R) | R + 2 SE | warned |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for text in path.read_text().splitlines():
         line = json.loads(text)
         name = " ".join(Path(a).name for a in line["argv"][1:3])
@@ -108,6 +121,8 @@ def table_rows(path: Path) -> list[str]:
                 cells += [f"{won}/{len(line[key])}", f"{t:.2f}"]
             else:
                 cells += ["-", "-"]
+        ratio_sq, se = ratio_bound(line["blocks"]) if line["blocks"] else (math.nan, math.nan)
+        cells += [f"{ratio_sq:.3f}", f"{se:.3f}", f"{ratio_sq + 2 * se:.3f}"]
         rows.append("| " + " | ".join(cells + ["yes" if line["warned"] else "no"]) + " |")
     return rows
 
