@@ -150,6 +150,10 @@ def test_a_fit_with_climbs_reports_a_zero_score_its_vertical_cv_beats(reports):
     report = reports["auto"]
     assert report["vertical_zero_rmse_mps"] > 0.1
     assert report["vertical_cv_rmse_mps"] < report["vertical_zero_rmse_mps"]
+    # ... by more than the blocks' scatter: the share (the square of their ratio) plus two standard errors
+    share, se = report["vertical_unexplained_share"], report["vertical_unexplained_share_se"]
+    assert share == pytest.approx((report["vertical_cv_rmse_mps"] / report["vertical_zero_rmse_mps"]) ** 2, rel=1e-6)
+    assert 0 < se and share + 2 * se < 1
 
 
 def test_the_schema_names_every_field_of_the_report_in_its_order():

@@ -111,7 +111,10 @@ def table_rows(path: Path) -> list[str]:
             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for text in path.read_text().splitlines():
         line = json.loads(text)
-        name = " ".join(Path(a).name for a in line["argv"][1:3])
+        # the airframe, then the first log with its folder (the benchmarks' run folders name vehicle and seed)
+        argv = line["argv"]
+        name = (f"{Path(argv[1]).stem} {Path(argv[2]).parent.name}/{Path(argv[2]).name}" if len(argv) > 2
+                else "(in process)")   # benchmarks/realdata.py fits in its own process
         cv, zero = line["cv_v"], line["zero"]
         ratio = f"{cv / zero:.2f}" if cv is not None and zero else "-"
         cells = [name, line["model"], f"{cv:.3f}" if cv is not None else "-", f"{zero:.3f}" if zero else "-", ratio]

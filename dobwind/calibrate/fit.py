@@ -97,6 +97,10 @@ class FitReport:
     # The RMS of the true vertical airflow over the fit's samples: what predicting zero vertical airflow
     # scores, the figure the vertical CV must beat for the law to be used (fitfamily.vertical_warning).
     vertical_zero_rmse_mps: float | None = None
+    # (vertical CV / zero)^2 from the per-block sums, and its standard error over the CV blocks: the law is
+    # used when the share is below 1 by more than two standard errors (dobwind/calibrate/verticalskill.py).
+    vertical_unexplained_share: float | None = None
+    vertical_unexplained_share_se: float | None = None
     directions: int = 0
     speeds: int = 0
     model: str = "polynomial"

@@ -9,7 +9,7 @@ from typing import Callable
 
 import numpy as np
 
-from dobwind.calibrate import accelroute, blendnoise, calstream, dragexponent, dragfit, holdcv, runmeans
+from dobwind.calibrate import accelroute, blendnoise, calstream, dragexponent, dragfit, holdcv, runmeans, verticalskill
 from dobwind.io.csvchunks import BLOCK_BYTES
 from dobwind.calibrate.directionshape import DirectionShape
 from dobwind.calibrate.envelope import calibration_envelope, uncertainty_table, with_observer_noise
@@ -90,8 +90,14 @@ def _family_scores(cv: tuple[float, float], extrapolation: float,
 def _polynomial_scores(fitted: Airframe, samples: dragfit.DragSamples) -> FamilyScores:
     fit_predict = dragfit.polynomial_fit_predict(list(fitted.horizontal.terms), list(fitted.vertical.terms),
                                                  fitted.observer.force_offset_n)
-    return _family_scores(dragfit.grouped_cv(samples, fit_predict), dragfit.extrapolation_error(samples, fit_predict),
-                          holdcv.hold_cv(samples, fit_predict))
+    scores = _family_scores(dragfit.grouped_cv(samples, fit_predict), dragfit.extrapolation_error(samples, fit_predict),
+                            holdcv.hold_cv(samples, fit_predict))
+    return dataclasses.replace(scores, vertical_skill=_skill(samples, fit_predict))
+
+
+def _skill(samples: dragfit.DragSamples, fit_predict: dragfit.FitPredict) -> verticalskill.VerticalSkill | None:
+    """The vertical law's skill on the grouped CV's folds (the same ones: fold_splits is deterministic)."""
+    return verticalskill.vertical_skill(*verticalskill.block_errors(samples, fit_predict))
 
 
 @dataclass(frozen=True)
@@ -307,11 +313,14 @@ def _chosen_report(report: FitReport, chosen: str, scores: dict[str, FamilyScore
     window_s = None if hold is None else hold.by_speed.window_s
     sparse = holdcv.sparse_windows(window_s, float(np.median(samples.rates_hz()))) if len(samples) else None
     air_z = samples.airflow[:, 2] if len(samples) else np.zeros(0)
-    vertical = vertical_warning(report.vertical_cv_rmse_mps, air_z)
+    skill = (scores.get(chosen) or UNSCORED).vertical_skill
+    vertical = vertical_warning(report.vertical_cv_rmse_mps, air_z, skill)
     warnings = [*report.warnings, *failures, *([sparse] if sparse else []),
                 *([vertical + VERTICAL_FALLBACK_NOTE] if vertical else [])]
     return dataclasses.replace(report, model=chosen, families=scores, samples=len(samples),
                                vertical_zero_rmse_mps=zero_rmse(air_z),
+                               vertical_unexplained_share=None if skill is None else skill.share,
+                               vertical_unexplained_share_se=None if skill is None else skill.share_se,
                                hold_cv_speed_mps=None if hold is None else hold.cv_speed_mps,
                                hold_cv_by_speed=None if hold is None else hold.by_speed,
                                hold_extrapolation_speed_mps=None if hold is None else hold.extrapolation_speed_mps,
@@ -328,18 +337,27 @@ def zero_rmse(air_z_mps: np.ndarray) -> float | None:
     return float(np.sqrt(np.mean(np.square(air_z_mps)))) if len(air_z_mps) else None
 
 
-def vertical_warning(cv_v_mps: float | None, air_z_mps: np.ndarray) -> str | None:
-    """A warning when the chosen vertical law predicts held-out vertical airflow no better than zero does.
-    The logs then do not identify it (level flight, or a thrust model whose error swamps the vertical
-    drag), and the step, which inverts that law, turns the thrust error into vertical wind."""
+def vertical_warning(cv_v_mps: float | None, air_z_mps: np.ndarray,
+                     skill: verticalskill.VerticalSkill | None = None) -> str | None:
+    """A warning when the chosen vertical law is not identified: it predicts held-out vertical airflow no
+    better than zero does, or beats zero by less than the CV blocks' own scatter (``skill``, verticalskill.py:
+    a law that wins on one block of climbs and loses on the rest). The logs then do not identify it (level
+    flight, or a thrust model whose error swamps the vertical drag), and the step, which inverts that law,
+    turns the thrust error into vertical wind."""
     zero_mps = zero_rmse(air_z_mps)
     if cv_v_mps is None or zero_mps is None:
         return None
-    if cv_v_mps < zero_mps:
+    figures = (f"grouped CV {cv_v_mps:.3f} m/s{dragfit.diverged(cv_v_mps)}, RMS of the true vertical airflow "
+               f"{zero_mps:.3f} m/s")
+    advice = "these logs do not identify it and the vertical wind is unreliable (fly climbs and descents; check the thrust model)"
+    if cv_v_mps >= zero_mps:
+        return f"the vertical law predicts held-out vertical airflow no better than zero does ({figures}): {advice}"
+    if skill is None or skill.identified:
         return None
-    return (f"the vertical law predicts held-out vertical airflow no better than zero does (grouped CV {cv_v_mps:.3f} "
-            f"m/s{dragfit.diverged(cv_v_mps)}, RMS of the true vertical airflow {zero_mps:.3f} m/s): these logs do not identify it and the "
-            "vertical wind is unreliable (fly climbs and descents; check the thrust model)")
+    return (f"the vertical law beats zero vertical airflow by less than the scatter over the CV blocks ({figures}; "
+            f"it leaves {skill.share:.2f} of the vertical mean square unexplained, standard error {skill.share_se:.2f} "
+            f"over {skill.blocks} blocks, and {verticalskill.SE_MULTIPLE:g} standard errors above it is "
+            f"{skill.upper:.2f}, not below 1): {advice}")
 
 
 Family = tuple[Airframe, FitReport, "Points | None"]
@@ -436,7 +454,9 @@ def _drag_family(af: Airframe, picked: dragexponent.ExponentChoice) -> tuple[Fam
     scores = _family_scores((picked.choice.cv_h_mps, picked.choice.cv_v_mps), picked.choice.extrapolation_h_mps,
                             picked.hold)
     run_loss = runmeans.cauchy_loss(np.array([run.error_mps for run in report.runs])) if report.anchored else None
-    return (fitted, report, None), dataclasses.replace(scores, run_loss=run_loss, exponent=picked.exponent)
+    skill = _skill(picked.samples, dragfit.drag_fit_predict(picked.choice.active))
+    return (fitted, report, None), dataclasses.replace(scores, run_loss=run_loss, exponent=picked.exponent,
+                                                       vertical_skill=skill)
 
 
 def _uninvertible(samples: dragfit.DragSamples, choice: dragfit.DragChoice) -> str | None:

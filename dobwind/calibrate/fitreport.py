@@ -29,7 +29,11 @@ def _zero_text(report: FitReport) -> str:
     if zero is None:
         return ""
     share = f", the CV {cv / zero:.2f} of it" if cv is not None and zero > 0 else ""
-    return f"; zero vertical airflow scores {zero:.3f} m/s (RMS of the true vertical airflow){share}"
+    unexplained, se = report.vertical_unexplained_share, report.vertical_unexplained_share_se
+    judged = ("" if unexplained is None or se is None else
+              f"; unexplained share of the vertical mean square {unexplained:.2f}, standard error {se:.2f} over "
+              "the CV blocks (the law is used when the share is below 1 by more than two)")
+    return f"; zero vertical airflow scores {zero:.3f} m/s (RMS of the true vertical airflow){share}{judged}"
 
 
 def _hold_line(report: FitReport, scored_s: float = 15.0) -> list[str]:

@@ -11,7 +11,10 @@ import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from dobwind.calibrate.verticalskill import VerticalSkill
 
 
 @dataclass(frozen=True)
@@ -120,6 +123,10 @@ class FamilyScores:
     hold: HoldScores | None = None
     run_loss: float | None = None             # robust loss of the logs' mean errors (runmeans.cauchy_loss)
     exponent: float | None = None             # the drag law's exponent (dragexponent.py)
+    # The vertical law's share of the held-out vertical mean square left unexplained and its standard error
+    # over the CV blocks (verticalskill.py): what decides whether it is identified. Not printed here: the
+    # chosen family's figures are the report's vertical_unexplained_share and its _se.
+    vertical_skill: VerticalSkill | None = None
 
     def as_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {"cv_h_mps": self.cv_h_mps, "cv_v_mps": self.cv_v_mps,
