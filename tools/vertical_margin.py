@@ -1,5 +1,5 @@
 """How far the chosen vertical law beats zero vertical airflow, fold by fold and block by block: the
-measurement behind docs/tunnel-runs.md's "How sure the vertical law is" (issue #31).
+measurement behind docs/tunnel-runs.md's "How far the law must beat zero" (issue #31).
 
     DOBWIND_VERTICAL_MARGIN=margins.jsonl PYTHONPATH=DIR:. python -m benchmarks.accuracy --quick
         with DIR/sitecustomize.py holding ``import tools.vertical_margin as m; m.install_from_environment()``:
