@@ -206,7 +206,7 @@ def _render(af: Airframe, precision: Precision, model: StepModel, target: str | 
     prefix = f"{af.name}_wind_"
     printer = CPrinter(precision, kernel_prefix=prefix)
     validate, sections, check = build_sections(model, printer)
-    every_line = [line for s in (validate.section, *sections, check) for line in s.lines]
+    every_line = [line for s in (validate.quick, validate.section, *sections, check) for line in s.lines]
     kernels = {k: any(f"{prefix}{k}(" in line for line in every_line) for k in ("sincos", "expm1", "atan2")}
     kernels["ieee_within"] = any(f"{prefix}within(" in line for line in every_line)
     kernels["ieee"] = any(f"{prefix}bits(" in line for line in every_line)
@@ -219,7 +219,7 @@ def _render(af: Airframe, precision: Precision, model: StepModel, target: str | 
         "real": printer.real,
         "zero": printer.zero(),
     }
-    total_ops = validate.section.ops + sum(s.ops for s in sections) + check.ops
+    total_ops = validate.quick.ops + sum(s.ops for s in sections) + check.ops  # an accepted sample's path
     header = _ENV.get_template("header.h.j2").render(
         **common, af=af, guard=f"{af.name.upper()}_WIND_H", status_bits=STATUS_BITS, rejected_mask=REJECTED_MASK,
         settling_time=printer.literal(model.settling_time_s),
@@ -230,7 +230,7 @@ def _render(af: Airframe, precision: Precision, model: StepModel, target: str | 
         **common, validate=validate, sections=sections, check=check, commit=_commit_lines(model, printer),
         reset=[f"state->{field} = {printer.literal(value)};" for field, value in model.reset_on_reject],
         advance=_advance_lines(model, printer),
-        total_ops=total_ops, total_calls=validate.section.calls + sum(s.calls for s in sections) + check.calls,
+        total_ops=total_ops, total_calls=validate.quick.calls + sum(s.calls for s in sections) + check.calls,
         kernels=kernels, coefficients=kernel_literals(printer), ieee=IEEE_TYPES[precision],
         finite=_finite_loop(model, printer),
         state_fields=[f for f in model.state.fields],

@@ -110,7 +110,14 @@ class _Writer:
         self.index = 0  # the instruction being printed (constants are read from the Function by index)
         self.sincos: dict[tuple[int, int], str] = {}     # angle value -> its sincos temporary
         self.reciprocal: dict[tuple[int, int], str] = {}  # denominator value -> 1/it
-        self.magnitudes: set[str] = set()  # temporaries holding an absolute value (fabs)
+        # Temporaries never holding a negative number (NaN of either sign aside): |x|, x*x, and sums and
+        # products of such; with flush to zero too (a product flushes to +0). A comparison's set holds no
+        # NaN, so for these its patterns in the negative half can go: "x*x + y*y <= c" is one interval.
+        self.nonnegative: set[str] = set()
+        # A test that only has to imply the exact one (the quick acceptance, model/step.py): -0 may be
+        # dropped from its sets (a rotor at -0 rpm then takes the exact path), which saves a comparison.
+        # Sound because such a test is an and/or of its tests, checked as it is printed (monotone).
+        self.sufficient = False
         # The rejection tests (a printer with directed_limits): comparisons with a constant kept as bit-pattern
         # sets until something other than another test of the same operand reads them (_RangeTest).
         self.range_tests = printer.directed_limits and printer.kernel_prefix is not None
@@ -132,6 +139,10 @@ class _Writer:
             bit = self.constants.get(ins.args[1])
             if bit is not None and bit.is_integer() and 0 < bit < 2 ** 30:
                 name = self.temp("int", f"({args[0]} ? {int(bit)} : 0)", lines)
+                self.ints.add(name)
+                return name
+            if args[1] in self.ints:  # bits selected again: still those bits or none
+                name = self.temp("int", f"({args[0]} ? {args[1]} : 0)", lines)
                 self.ints.add(name)
                 return name
         if ins.op == ca.OP_ADD and all(a in self.ints for a in args):
@@ -156,7 +167,7 @@ class _Writer:
             limit = directed_float(value, up=left != strict) if f.bits == 32 else value
             operand = self.work[ins.args[1 if left else 0]]
             intervals = bitranges.comparison(f, left, strict, limit)
-            if operand in self.magnitudes:  # |y|: only patterns below the sign bit occur
+            if operand in self.nonnegative:  # only patterns below the sign bit occur (NaN aside)
                 intervals = bitranges.intersection(f, intervals, ((0, f.sign - 1),))
             self.define_test(ins, _RangeTest(operand, intervals, ((f.pattern(limit), self.printer.literal(limit)),)))
             return True
@@ -175,6 +186,15 @@ class _Writer:
         self.define_test(ins, _RangeTest(tests[0].operand, intervals, named))
         return True
 
+    def _never_negative(self, ins: _Instruction) -> bool:
+        """Whether the result is never a negative number (see ``nonnegative``): |x|, x*x, sqrt, and sums and
+        products of such and of constants > 0."""
+        if ins.op in (ca.OP_FABS, ca.OP_SQ) or (ins.op == ca.OP_MUL and ins.uses[0] == ins.uses[1]):
+            return True
+        if ins.op not in (ca.OP_ADD, ca.OP_MUL, ca.OP_SQRT):
+            return False
+        return all(self.work[a] in self.nonnegative or self.constants.get(a, -1.0) > 0.0 for a in ins.args)
+
     def define_test(self, ins: _Instruction, test: _RangeTest) -> None:
         self.tests[ins.res[0]] = test
         self.work[ins.res[0]], self.is_bool[ins.res[0]] = "", True
@@ -184,6 +204,10 @@ class _Writer:
         """Prints the pending test in ``slot`` as an int temporary (codegen/bitranges.py's sets as C)."""
         test = self.tests.pop(slot, None)
         if test is not None:
+            f = bitranges.fmt(self.printer.precision)
+            if self.sufficient and bitranges.contains(test.intervals, f.sign) and test.intervals != ((f.sign, f.sign),):
+                test = dataclasses.replace(test, intervals=bitranges.intersection(
+                    f, test.intervals, bitranges.complement(f, ((f.sign, f.sign),))))
             self.work[slot] = self.temp("int", _test_text(self.printer, test), lines)
 
     def temp(self, ctype: str, expr: str, lines: list[str], counted: bool = True) -> str:
@@ -232,12 +256,15 @@ class _Writer:
             return
         for slot in ins.args:
             self.materialize(slot, lines)
+        if self.sufficient and ins.op not in (ca.OP_AND, ca.OP_OR, ca.OP_OUTPUT) and any(self.is_bool[a] for a in ins.args):
+            raise ValueError(f"CasADi operation {ins.op} on a test in a sufficient test: only and/or keep "
+                             "a dropped -0 from accepting more than the exact test")
         if ins.op != ca.OP_OUTPUT:
             self.tests.pop(ins.res[0], None)
         if ins.op == ca.OP_OUTPUT:
             signal = out_names[ins.res[0]]
             value = self.work[ins.args[0]]
-            if self.is_bool[ins.args[0]]:
+            if self.is_bool[ins.args[0]] and not self.integer_status:  # an int status or decision stays int
                 value = f"({p.real}){value}"
             lines.append(f"{c_element(signal, ins.res[1], sizes[signal], p)} = {value};")
             return
@@ -254,8 +281,8 @@ class _Writer:
                                         lambda i: self.constants.get(ins.args[i]) if i < len(ins.args) else None)
             name = self.temp("int" if boolean else p.real, expr, lines)
             self.calls += ins.op in CALL_OPS
-            if ins.op == ca.OP_FABS:
-                self.magnitudes.add(name)
+            if self._never_negative(ins):
+                self.nonnegative.add(name)
         self.work[ins.res[0]], self.is_bool[ins.res[0]] = name, boolean
         self.constants.pop(ins.res[0], None)
 
@@ -307,40 +334,54 @@ def _declarations(out_names: list[str], sizes: dict[str, int], printer: CPrinter
                  for name in out_names)
 
 
-def build_section(stage: Stage, used: set[str], sizes: dict[str, int], printer: CPrinter) -> Section:
+def build_section(stage: Stage, used: set[str], sizes: dict[str, int], printer: CPrinter,
+                  integer_status: bool = False) -> Section:
+    """``integer_status``: the stage's outputs are status bits, printed and declared as int."""
     keep = [i for i, name in enumerate(stage.outputs) if name in used]
     out_names = [stage.outputs[i] for i in keep]
     function = _pruned(stage, keep)
     code = _instructions(function)
     writer = _Writer(printer, code)
+    writer.integer_status = integer_status
     lines: list[str] = []
     for k, ins in enumerate(code):
         writer.index = k
         writer.emit(ins, function, stage, out_names, sizes, lines)
-    return Section(stage.name, stage.doc, _declarations(out_names, sizes, printer), tuple(lines), writer.ops,
-                   writer.calls)
+    declarations = tuple(f"int {name};" for name in out_names) if integer_status else \
+        _declarations(out_names, sizes, printer)
+    return Section(stage.name, stage.doc, declarations, tuple(lines), writer.ops, writer.calls)
 
 
 @dataclass(frozen=True)
 class Validation:
-    """The validate stage as one pass: ``section`` computes the int ``status`` (0: accepted), every test an
-    exact integer test of bit patterns (codegen/bitranges.py), so that one computation gives both the
-    decision and each status bit as the reference's for any input, NaN included."""
+    """The validate stage in two parts. ``quick`` computes the int ``quick_accept``: a cheaper test that
+    implies acceptance (model/step.py), each of its tests one bit-pattern interval, none over every input.
+    ``section`` computes the int ``status`` (0: accepted) for a sample the quick test does not accept, every
+    test an exact integer test of bit patterns (codegen/bitranges.py), so that one computation gives both
+    the decision and each status bit as the reference's for any input, NaN included."""
     section: Section
+    quick: Section
 
 
-def build_validation(stage: Stage, sizes: dict[str, int], printer: CPrinter) -> Validation:
-    out_names = list(stage.outputs)  # ("status", "accepted"): "accepted" is status == 0, not printed
-    keep = [out_names.index("status")]
-    function = _pruned(stage, keep)
+def _integer_section(stage: Stage, output: str, sizes: dict[str, int], printer: CPrinter, prefix: str,
+                     sufficient: bool) -> Section:
+    """One int output of the validate stage as C lines, with temporaries named ``prefix``0, 1, ..."""
+    function = _pruned(stage, [list(stage.outputs).index(output)])
     code = _instructions(function)
-    writer = _Writer(printer, code)
-    writer.integer_status = True
+    writer = _Writer(printer, code, prefix)
+    writer.integer_status, writer.sufficient = True, sufficient
     lines: list[str] = []
     for k, ins in enumerate(code):
         writer.index = k
-        writer.emit(ins, function, stage, ["status"], sizes, lines)
-    return Validation(Section(stage.name, stage.doc, (), tuple(lines), writer.ops, writer.calls))
+        writer.emit(ins, function, stage, [output], sizes, lines)
+    return Section(stage.name, stage.doc, (), tuple(lines), writer.ops, writer.calls)
+
+
+def build_validation(stage: Stage, sizes: dict[str, int], printer: CPrinter) -> Validation:
+    # The quick test's temporaries are named a0, a1, ...: the status's t0, ... are in a block inside its
+    # scope, and the same names would shadow them (-Wshadow).
+    return Validation(_integer_section(stage, "status", sizes, printer, "t", False),
+                      _integer_section(stage, "quick_accept", sizes, printer, "a", True))
 
 
 def build_sections(model: StepModel, printer: CPrinter) -> tuple[Validation, tuple[Section, ...], Section]:
@@ -350,5 +391,5 @@ def build_sections(model: StepModel, printer: CPrinter) -> tuple[Validation, tup
     limits = dataclasses.replace(printer, directed_limits=True)  # the rejection tests
     # Validation with the finiteness test as an input: the template computes it as one loop over the inputs.
     validate = build_validation(validate_given_finite(model.airframe, model.inputs), {**sizes, FINITE_SIGNAL: 1}, limits)
-    check = build_section(model.check_result, used, sizes, limits)
+    check = build_section(model.check_result, used, sizes, limits, integer_status=True)
     return validate, tuple(build_section(stage, used, sizes, printer) for stage in model.stages), check

@@ -22,6 +22,8 @@ NONFINITE; an infinite input is then both NONFINITE and IMPLAUSIBLE.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import casadi as ca
 import numpy as np
 
@@ -55,19 +57,45 @@ def _any(conditions: list[ca.SX]) -> ca.SX:
     return result
 
 
+@dataclass(frozen=True)
+class InputBound:
+    """One plausibility bound on an input: on the vector's norm, or on each element."""
+    field: str     # "in.<field>"
+    limit: float   # in the input's unit
+    norm: bool     # True: |x| <= limit (a vector); False: x[i] <= limit for every element
+
+
+def input_bounds(fields: set[str] | frozenset[str], mass_kg: float, gravity_mps2: float,
+                 max_rpm: float) -> tuple[InputBound, ...]:
+    """The bounds of the inputs among ``fields`` ("in.<field>" names): ground speed, the acceleration
+    input, rotor speed against ``max_rpm`` (rpm airframes) or collective thrust against weight."""
+    bounds = [InputBound("in.vel_ned", MAX_GROUND_SPEED_MPS, True),
+              InputBound("in.acc_ned", MAX_ACCELERATION_MPS2, True),
+              InputBound("in.specific_force", MAX_ACCELERATION_MPS2, True),
+              InputBound("in.rotor_rpm", MAX_RPM_FRACTION * max_rpm, False),
+              InputBound("in.thrust", MAX_THRUST_TO_WEIGHT * mass_kg * gravity_mps2, False)]
+    return tuple(b for b in bounds if b.field in fields)
+
+
 def implausible_inputs(s: dict[str, ca.SX], mass_kg: float, gravity_mps2: float, max_rpm: float) -> ca.SX:
     """True when an input is beyond what any multirotor does (``s`` holds the ``in.*`` signals)."""
-    tests = [_above(s["in.vel_ned"], MAX_GROUND_SPEED_MPS)]
-    if "in.acc_ned" in s:
-        tests.append(_above(s["in.acc_ned"], MAX_ACCELERATION_MPS2))
-    if "in.specific_force" in s:
-        tests.append(_above(s["in.specific_force"], MAX_ACCELERATION_MPS2))
-    if "in.rotor_rpm" in s:
-        rpm = s["in.rotor_rpm"]
-        tests += [rpm[i] > MAX_RPM_FRACTION * max_rpm for i in range(rpm.numel())]
-    if "in.thrust" in s:
-        tests.append(s["in.thrust"] > MAX_THRUST_TO_WEIGHT * mass_kg * gravity_mps2)
+    tests = []
+    for bound in input_bounds(set(s), mass_kg, gravity_mps2, max_rpm):
+        x = s[bound.field]
+        tests += [_above(x, bound.limit)] if bound.norm else [x[i] > bound.limit for i in range(x.numel())]
     return _any(tests)
+
+
+def within_bounds(s: dict[str, ca.SX], bounds: tuple[InputBound, ...]) -> list[ca.SX]:
+    """The bounds in the form a NaN fails ("within" rather than "not beyond"): a sample that passes
+    every one is plausible, and each element of a bounded input is finite. The element bounds are on
+    rotor speeds and thrust, which validation also requires to be >= 0: 0 <= x <= limit, one interval."""
+    tests = []
+    for bound in bounds:
+        x = s[bound.field]
+        tests += [ca.sumsqr(x) <= bound.limit * bound.limit] if bound.norm else \
+            [ca.logic_and(0 <= x[i], x[i] <= bound.limit) for i in range(x.numel())]
+    return tests
 
 
 def wind_beyond_bound(wind_ned: ca.SX) -> ca.SX:

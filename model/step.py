@@ -29,7 +29,7 @@ from dobwind.model import biasgate, forceair
 from dobwind.model.discretization import first_order
 from dobwind.model.dynamics import quaternion_to_rotation_any_norm, solve_external_force
 from dobwind.model.layout import Field, Layout
-from dobwind.model.plausibility import implausible_inputs, wind_beyond_bound
+from dobwind.model.plausibility import implausible_inputs, input_bounds, wind_beyond_bound, within_bounds
 from dobwind.model.settling import settling_time_s
 from dobwind.model.status import (DT_TOLERANCE, INPUT_MAGNITUDE_LIMIT, MIN_DT_S, QUATERNION_NORM_TOLERANCE,
                                   RESULT_MAGNITUDE_LIMIT, STATUS_BITS)
@@ -271,10 +271,29 @@ def _validate(af: Airframe, lin: Layout, s: Signals) -> Signals:
         + ca.if_else(tilt_ok, 0, bits["TILT"])
         + ca.if_else(thrust_ok, 0, bits["BAD_THRUST"])
     )
-    # The same tests as one truth value: the C checks this alone and assembles the status bits only
-    # for a rejected sample (validation then costs a few instructions per input).
     accepted = _all([finite, dt_ok, q_ok, tilt_ok, thrust_ok, plausible])
-    return {"status": status, "accepted": accepted}
+    return {"status": status, "accepted": accepted, "quick_accept": _quick_accept(af, lin, s, [dt_ok, q_ok, tilt_ok])}
+
+
+def _quick_accept(af: Airframe, lin: Layout, s: Signals, exact: list[ca.SX]) -> ca.SX:
+    """A test that implies acceptance (status 0) and costs less: the C runs it first and computes the
+    status bits only for a sample it does not accept (the rare one).
+
+    It is validation's tests in the form that a NaN fails: dt's, the quaternion's and the tilt's as
+    they are (``exact``), the plausibility bounds as "within" (model/plausibility.py), and each rotor
+    speed or the thrust as 0 <= x <= its bound, which implies thrust_ok too. Every element those bounds
+    hold below INPUT_MAGNITUDE_LIMIT is then finite without NONFINITE's test (dt <= max_dt, |q_i| <=
+    |q| <= 1.1, |v_i| <= |v|, ...): that test, a pass over every input, is kept only for the elements no
+    bound holds (yaw_ref, and any input added later). Sufficient, not necessary: a sample it refuses
+    may still be accepted (a rotor at -0 rpm), by the exact status."""
+    bounds = input_bounds(set(s), af.mass_kg, af.gravity_mps2, af.thrust.max_rpm)
+    tests = list(exact) + within_bounds(s, bounds)
+    held = {b.field for b in bounds if b.limit <= INPUT_MAGNITUDE_LIMIT}
+    held |= {"in.q"} | ({"in.dt"} if af.limits.max_dt_s * (1 + DT_TOLERANCE) <= INPUT_MAGNITUDE_LIMIT else set())
+    for field in lin.fields:
+        if f"in.{field.name}" not in held:
+            tests.append(finite_inputs(s[f"in.{field.name}"]))
+    return _all(tests)
 
 
 # --- front end: external force --------------------------------------------------------------------
@@ -536,11 +555,13 @@ def _add_result_check(b: _Builder, af: Airframe) -> None:
 
 
 def _check_result(committed: list[str], s: Signals) -> Signals:
-    # One sum: NaN and infinity propagate into it, and so does any overflow. The wind speed is a square
-    # root, never negative, so it needs no fabs.
-    values = [ca.fabs(s[name]) if name != "wind_speed_h" else s[name] for name in committed]
+    # One sum: NaN and infinity propagate into it, and so does any overflow. Every term a magnitude (the
+    # wind speed, a square root, too), so that the C knows the sum is never negative: its test is then one
+    # comparison of the bits (codegen/sections.py, nonnegative).
+    values = [ca.fabs(s[name]) for name in committed]
     ok = ca.sum1(ca.vertcat(*values)) <= RESULT_MAGNITUDE_LIMIT
     bits = {bit.name: bit.value for bit in STATUS_BITS}
+    IMPLAUSIBLE = bits["IMPLAUSIBLE"]
     # No bound on the sample's raw external force: it is a difference of noisy measurements divided by dt
     # (velocity differentiated at 500 Hz reads several weights of noise), so bounding it rejected a quarter
     # of a high-rate log. The input bounds (implausible_inputs) catch the glitches it was meant for.
@@ -548,7 +569,9 @@ def _check_result(committed: list[str], s: Signals) -> Signals:
     if "acc_status" in s:
         # Like every rejection, the acceleration check's restarts SETTLING: the first glitched samples (the
         # average needs a few to see it) were accepted, and their transient must pass before trust returns.
-        status = ca.if_else(ok, s["acc_status"], status)
+        # acc_status is 0 or IMPLAUSIBLE, a float between stages; the test makes it a bit of the int status
+        # the C assembles (codegen/sections.py, integer_status), as validation's are.
+        status = ca.if_else(ok, ca.if_else(s["acc_status"] > 0, IMPLAUSIBLE, 0), status)
     return {"result_status": status}
 
 

@@ -118,7 +118,8 @@ def test_single_precision_step_uses_the_kernels_and_shares_divisions():
     assert step.count("m300_wind_sincos(") == 1  # one reduction for sin and cos of yaw_ref
     assert "expm1f(" not in single and "atan2f(" not in single and "sinf(" not in single
     assert step.count("/ in->dt") == 1 and "1.0f / in->dt" in step  # one reciprocal, then products
-    assert step.count(" / ") == 3  # 1/|q|^2, 1/dt and the airflow scale over sqrt
+    # 1/|q|^2, 1/dt, the airflow scale over sqrt, and the acceleration check's weight dt / (0.1 + dt)
+    assert step.count(" / ") == 4
     dstep = double[double.index("int m300_wind_step("):]
     assert dstep.count("/ in->dt") == 3 and "expm1(" in dstep and "atan2(" in dstep
 

@@ -39,10 +39,10 @@ def test_verify_checks_a_given_folder_and_catches_a_hand_edit(tmp_path, capsys):
     shutil.copytree(checked_in, edited)
     source = edited / "m300_wind.c"
     text = source.read_text()
-    # The dt bounds are one interval of IEEE bit patterns (flag-safe, codegen/bitranges.py): end it one
-    # pattern lower, so that a step of exactly max_dt is now rejected.
+    # The dt bounds are one interval of IEEE bit patterns (flag-safe, codegen/bitranges.py), in the quick
+    # test and in the exact one: end both one pattern lower, so that a step of exactly max_dt is rejected.
     anchor = "m300_wind_bits(in->dt), m300_wind_bits(1.00000007e-05f), m300_wind_bits(0.100009993f))"
-    assert text.count(anchor) == 1
+    assert text.count(anchor) == 2
     text = text.replace(anchor, anchor[:-1] + " - 1u)")
     source.write_text(text)
     assert main(["verify", str(M300), "--c-dir", str(edited), "--steps", "200"]) == 1

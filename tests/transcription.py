@@ -244,14 +244,14 @@ def step(af: Airframe, st: dict[str, np.ndarray], inp: dict[str, np.ndarray]):
 
 
 def _acceleration_check(st: dict, disagreement: np.ndarray, dt: float, v: np.ndarray) -> dict:
-    """The acceleration check of docs/c-api.md: the disagreement averaged over 0.1 s; IMPLAUSIBLE when its
-    squared norm exceeds 36 times its mean square (20 s) plus (2 m/s^2)^2; the mean square takes in at most
+    """The acceleration check of docs/c-api.md: the disagreement averaged over 0.1 s (weight dt / (0.1 + dt));
+    IMPLAUSIBLE when its squared norm exceeds 36 times its mean square (20 s) plus (2 m/s^2)^2; the mean square takes in at most
     that bound. Nothing moves when the previous sample failed validation (vel_prev is not its velocity)."""
     mean = np.array(st["acc_check"], float)
     spread = float(st["acc_noise"])
     limit = 36.0 * spread + 4.0
     if float(st["check_follows"]) > 0.5:
-        mean = mean + (1 - math.exp(-dt / 0.1)) * (disagreement - mean)
+        mean = mean + dt / (0.1 + dt) * (disagreement - mean)  # backward Euler
         spread = spread + (1 - math.exp(-dt / 20.0)) * (min(float(mean @ mean), limit) - spread)
     return {"acc_check": mean, "acc_noise": spread, "check_follows": 1.0, "vel_prev": v,
             "trips": float(mean @ mean) > limit}

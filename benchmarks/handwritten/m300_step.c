@@ -143,7 +143,7 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
 #ifdef HANDWRITTEN_ACC_CHECK
         const float slow = -m300_wind_expm1(in->dt * -0.05f); /* 20 s: the bias's and the check's mean square */
         const float gain = state->run_s > 0.0f ? slow : 0.0f;
-        const float fast = -state->check_follows * m300_wind_expm1(in->dt * -10.0f); /* 0.1 s */
+        const float fast = state->check_follows * (in->dt / (0.1f + in->dt)); /* 0.1 s, backward Euler */
         float square = 0.0f, bound;
 #else
         const float gain = state->run_s > 0.0f ? -m300_wind_expm1(in->dt * -0.05f) : 0.0f;

@@ -5,8 +5,8 @@
  * d9fe9baff7b6cfef8d666b58101c13ced95956e1653f591ef4ca4a5757c1bf1d.
  * DO NOT EDIT: regenerate with `dobwind generate <airframe file>`.
  *
- * Total ops per accepted step: 298 (16 math-library calls), of which
- * 56 validate the input and 24 check the result.
+ * Total ops per accepted step: 285 (17 math-library calls), of which
+ * 41 validate the input and 27 check the result.
  */
 #include "m300_wind.h"
 
@@ -154,89 +154,137 @@ void m300_wind_init(m300_wind_state_t *state)
 
 int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_wind_output_t *out)
 {
-    /* ---- validate: reject NaN/inf, bad dt, non-unit quaternion, excessive tilt, negative thrust (56 ops and a loop) ---- */
+    /* ---- validate: reject NaN/inf, bad dt, non-unit quaternion, excessive tilt, negative thrust (41 ops; 56 ops and a loop more for a sample the quick test refuses) ---- */
     {
-        /* NONFINITE's test, |x| <= 1e+06 for each of the 16 input elements, on the bits (a NaN's or an
-         * infinity's magnitude bits are above every number's): limit - |x| is negative for an element
-         * beyond, so the sign bit of the OR of the differences decides. The input struct holds floats only
-         * (the sizeof below fails to compile otherwise), read as bytes as C and C++ allow. */
-        int finite;
-        int status;
-        {
-            uint32_t over = 0u;
-            size_t k;
-            (void)sizeof(char[sizeof *in == 16 * sizeof(float) ? 1 : -1]);
-            for (k = 0; k < 16; ++k) {
-                uint32_t u;
-                memcpy(&u, (const unsigned char *)in + k * sizeof u, sizeof u);
-                over |= 0x49742400u - (u & 0x7fffffffu);
+        /* The quick test (model/step.py, _quick_accept): validation's tests in the form a NaN fails, which
+         * imply every test below; their bounds hold each input they test far inside |x| <= 1e+06, so
+         * NONFINITE's pass over every input is left to the exact tests. */
+        int quick_accept;
+        const float a0 = in->q[0] * in->q[0];
+        const float a1 = in->q[1] * in->q[1];
+        const float a2 = a0 + a1;
+        const float a3 = in->q[2] * in->q[2];
+        const float a4 = a2 + a3;
+        const float a5 = in->q[3] * in->q[3];
+        const float a6 = a4 + a5;
+        const int a7 = m300_wind_within(m300_wind_bits(in->dt), m300_wind_bits(1.00000007e-05f), m300_wind_bits(0.100009993f));
+        const int a8 = m300_wind_within(m300_wind_bits(a6), m300_wind_bits(0.810000002f), m300_wind_bits(1.20999992f));
+        const int a9 = a7 & a8;
+        const float a10 = 0.5f * a6;
+        const float a11 = a0 - a1;
+        const float a12 = a11 - a3;
+        const float a13 = a12 + a5;
+        const int a14 = a10 <= a13;
+        const int a15 = a9 & a14;
+        const float a16 = in->vel_ned[0] * in->vel_ned[0];
+        const float a17 = in->vel_ned[1] * in->vel_ned[1];
+        const float a18 = a16 + a17;
+        const float a19 = in->vel_ned[2] * in->vel_ned[2];
+        const float a20 = a18 + a19;
+        const int a21 = m300_wind_bits(a20) <= m300_wind_bits(22500.0f);
+        const int a22 = a15 & a21;
+        const float a23 = in->acc_ned[0] * in->acc_ned[0];
+        const float a24 = in->acc_ned[1] * in->acc_ned[1];
+        const float a25 = a23 + a24;
+        const float a26 = in->acc_ned[2] * in->acc_ned[2];
+        const float a27 = a25 + a26;
+        const int a28 = m300_wind_bits(a27) <= m300_wind_bits(9617.03809f);
+        const int a29 = a22 & a28;
+        const int a30 = m300_wind_bits(in->rotor_rpm[0]) <= m300_wind_bits(18000.0f);
+        const int a31 = a29 & a30;
+        const int a32 = m300_wind_bits(in->rotor_rpm[1]) <= m300_wind_bits(18000.0f);
+        const int a33 = a31 & a32;
+        const int a34 = m300_wind_bits(in->rotor_rpm[2]) <= m300_wind_bits(18000.0f);
+        const int a35 = a33 & a34;
+        const int a36 = m300_wind_bits(in->rotor_rpm[3]) <= m300_wind_bits(18000.0f);
+        const int a37 = a35 & a36;
+        const float a38 = fabsf(in->yaw_ref);
+        const int a39 = m300_wind_bits(a38) <= m300_wind_bits(1000000.0f);
+        const int a40 = a37 & a39;
+        quick_accept = a40;
+        if (!quick_accept) {
+            /* NONFINITE's test, |x| <= 1e+06 for each of the 16 input elements, on the bits (a NaN's or an
+             * infinity's magnitude bits are above every number's): limit - |x| is negative for an element
+             * beyond, so the sign bit of the OR of the differences decides. The input struct holds floats only
+             * (the sizeof below fails to compile otherwise), read as bytes as C and C++ allow. */
+            int finite;
+            int status;
+            {
+                uint32_t over = 0u;
+                size_t k;
+                (void)sizeof(char[sizeof *in == 16 * sizeof(float) ? 1 : -1]);
+                for (k = 0; k < 16; ++k) {
+                    uint32_t u;
+                    memcpy(&u, (const unsigned char *)in + k * sizeof u, sizeof u);
+                    over |= 0x49742400u - (u & 0x7fffffffu);
+                }
+                finite = (over >> 31) == 0u;
             }
-            finite = (over >> 31) == 0u;
-        }
-        const float t0 = in->vel_ned[0] * in->vel_ned[0];
-        const float t1 = in->vel_ned[1] * in->vel_ned[1];
-        const float t2 = t0 + t1;
-        const float t3 = in->vel_ned[2] * in->vel_ned[2];
-        const float t4 = t2 + t3;
-        const float t5 = in->acc_ned[0] * in->acc_ned[0];
-        const float t6 = in->acc_ned[1] * in->acc_ned[1];
-        const float t7 = t5 + t6;
-        const float t8 = in->acc_ned[2] * in->acc_ned[2];
-        const float t9 = t7 + t8;
-        const int t10 = m300_wind_within(m300_wind_bits(t4), (m300_wind_bits(22500.0f) + 1u), 0x7f800000u);
-        const int t11 = m300_wind_within(m300_wind_bits(t9), (m300_wind_bits(9617.03809f) + 1u), 0x7f800000u);
-        const int t12 = t10 | t11;
-        const int t13 = m300_wind_within(m300_wind_bits(in->rotor_rpm[0]), (m300_wind_bits(18000.0f) + 1u), 0x7f800000u);
-        const int t14 = t12 | t13;
-        const int t15 = m300_wind_within(m300_wind_bits(in->rotor_rpm[1]), (m300_wind_bits(18000.0f) + 1u), 0x7f800000u);
-        const int t16 = t14 | t15;
-        const int t17 = m300_wind_within(m300_wind_bits(in->rotor_rpm[2]), (m300_wind_bits(18000.0f) + 1u), 0x7f800000u);
-        const int t18 = t16 | t17;
-        const int t19 = m300_wind_within(m300_wind_bits(in->rotor_rpm[3]), (m300_wind_bits(18000.0f) + 1u), 0x7f800000u);
-        const int t20 = t18 | t19;
-        const int t21 = (t20 ? 2048 : 0);
-        const int t22 = !finite;
-        const int t23 = (t22 ? 1 : 0);
-        const int t24 = t21 | t23;
-        const int t25 = !(m300_wind_within(m300_wind_bits(in->dt), m300_wind_bits(1.00000007e-05f), m300_wind_bits(0.100009993f)));
-        const int t26 = (t25 ? 2 : 0);
-        const int t27 = t24 | t26;
-        const float t28 = in->q[0] * in->q[0];
-        const float t29 = in->q[1] * in->q[1];
-        const float t30 = t28 + t29;
-        const float t31 = in->q[2] * in->q[2];
-        const float t32 = t30 + t31;
-        const float t33 = in->q[3] * in->q[3];
-        const float t34 = t32 + t33;
-        const int t35 = !(m300_wind_within(m300_wind_bits(t34), m300_wind_bits(0.810000002f), m300_wind_bits(1.20999992f)));
-        const int t36 = (t35 ? 4 : 0);
-        const int t37 = t27 | t36;
-        const float t38 = 0.5f * t34;
-        const float t39 = t28 - t29;
-        const float t40 = t39 - t31;
-        const float t41 = t40 + t33;
-        const int t42 = t38 <= t41;
-        const int t43 = !t42;
-        const int t44 = (t43 ? 8 : 0);
-        const int t45 = t37 | t44;
-        const int t46 = (m300_wind_bits(in->rotor_rpm[0]) <= 0x7f800000u) || (m300_wind_bits(in->rotor_rpm[0]) == 0x80000000u);
-        const int t47 = (m300_wind_bits(in->rotor_rpm[1]) <= 0x7f800000u) || (m300_wind_bits(in->rotor_rpm[1]) == 0x80000000u);
-        const int t48 = t46 & t47;
-        const int t49 = (m300_wind_bits(in->rotor_rpm[2]) <= 0x7f800000u) || (m300_wind_bits(in->rotor_rpm[2]) == 0x80000000u);
-        const int t50 = t48 & t49;
-        const int t51 = (m300_wind_bits(in->rotor_rpm[3]) <= 0x7f800000u) || (m300_wind_bits(in->rotor_rpm[3]) == 0x80000000u);
-        const int t52 = t50 & t51;
-        const int t53 = !t52;
-        const int t54 = (t53 ? 16 : 0);
-        const int t55 = t45 | t54;
-        status = t55;
-        if (status != 0) {
-            /* rejected: the estimate is untouched and the last accepted output repeated; only the gap
-             * bookkeeping records that this sample was missed */
-            state->run_s = 0.0f;
-            state->check_follows = 0.0f;
-            *out = state->last;
-            return status;
+            const float t0 = in->vel_ned[0] * in->vel_ned[0];
+            const float t1 = in->vel_ned[1] * in->vel_ned[1];
+            const float t2 = t0 + t1;
+            const float t3 = in->vel_ned[2] * in->vel_ned[2];
+            const float t4 = t2 + t3;
+            const float t5 = in->acc_ned[0] * in->acc_ned[0];
+            const float t6 = in->acc_ned[1] * in->acc_ned[1];
+            const float t7 = t5 + t6;
+            const float t8 = in->acc_ned[2] * in->acc_ned[2];
+            const float t9 = t7 + t8;
+            const int t10 = m300_wind_within(m300_wind_bits(t4), (m300_wind_bits(22500.0f) + 1u), 0x7f800000u);
+            const int t11 = m300_wind_within(m300_wind_bits(t9), (m300_wind_bits(9617.03809f) + 1u), 0x7f800000u);
+            const int t12 = t10 | t11;
+            const int t13 = m300_wind_within(m300_wind_bits(in->rotor_rpm[0]), (m300_wind_bits(18000.0f) + 1u), 0x7f800000u);
+            const int t14 = t12 | t13;
+            const int t15 = m300_wind_within(m300_wind_bits(in->rotor_rpm[1]), (m300_wind_bits(18000.0f) + 1u), 0x7f800000u);
+            const int t16 = t14 | t15;
+            const int t17 = m300_wind_within(m300_wind_bits(in->rotor_rpm[2]), (m300_wind_bits(18000.0f) + 1u), 0x7f800000u);
+            const int t18 = t16 | t17;
+            const int t19 = m300_wind_within(m300_wind_bits(in->rotor_rpm[3]), (m300_wind_bits(18000.0f) + 1u), 0x7f800000u);
+            const int t20 = t18 | t19;
+            const int t21 = (t20 ? 2048 : 0);
+            const int t22 = !finite;
+            const int t23 = (t22 ? 1 : 0);
+            const int t24 = t21 | t23;
+            const int t25 = !(m300_wind_within(m300_wind_bits(in->dt), m300_wind_bits(1.00000007e-05f), m300_wind_bits(0.100009993f)));
+            const int t26 = (t25 ? 2 : 0);
+            const int t27 = t24 | t26;
+            const float t28 = in->q[0] * in->q[0];
+            const float t29 = in->q[1] * in->q[1];
+            const float t30 = t28 + t29;
+            const float t31 = in->q[2] * in->q[2];
+            const float t32 = t30 + t31;
+            const float t33 = in->q[3] * in->q[3];
+            const float t34 = t32 + t33;
+            const int t35 = !(m300_wind_within(m300_wind_bits(t34), m300_wind_bits(0.810000002f), m300_wind_bits(1.20999992f)));
+            const int t36 = (t35 ? 4 : 0);
+            const int t37 = t27 | t36;
+            const float t38 = 0.5f * t34;
+            const float t39 = t28 - t29;
+            const float t40 = t39 - t31;
+            const float t41 = t40 + t33;
+            const int t42 = t38 <= t41;
+            const int t43 = !t42;
+            const int t44 = (t43 ? 8 : 0);
+            const int t45 = t37 | t44;
+            const int t46 = (m300_wind_bits(in->rotor_rpm[0]) <= 0x7f800000u) || (m300_wind_bits(in->rotor_rpm[0]) == 0x80000000u);
+            const int t47 = (m300_wind_bits(in->rotor_rpm[1]) <= 0x7f800000u) || (m300_wind_bits(in->rotor_rpm[1]) == 0x80000000u);
+            const int t48 = t46 & t47;
+            const int t49 = (m300_wind_bits(in->rotor_rpm[2]) <= 0x7f800000u) || (m300_wind_bits(in->rotor_rpm[2]) == 0x80000000u);
+            const int t50 = t48 & t49;
+            const int t51 = (m300_wind_bits(in->rotor_rpm[3]) <= 0x7f800000u) || (m300_wind_bits(in->rotor_rpm[3]) == 0x80000000u);
+            const int t52 = t50 & t51;
+            const int t53 = !t52;
+            const int t54 = (t53 ? 16 : 0);
+            const int t55 = t45 | t54;
+            status = t55;
+            if (status != 0) {
+                /* rejected: the estimate is untouched and the last accepted output repeated; only the gap
+                 * bookkeeping records that this sample was missed */
+                state->run_s = 0.0f;
+                state->check_follows = 0.0f;
+                *out = state->last;
+                return status;
+            }
         }
     }
 
@@ -290,7 +338,7 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         u_f = t13;
     }
 
-    /* ---- acceleration: kinematic acceleration p'' (m/s^2, NED), minus its velocity-aided bias (time constant 20 s) (59 ops, 2 math calls) ---- */
+    /* ---- acceleration: kinematic acceleration p'' (m/s^2, NED), minus its velocity-aided bias (time constant 20 s) (58 ops, 1 math calls) ---- */
     float p_ddot[3];
     float acc_bias_new[3];
     float acc_check_new[3];
@@ -335,38 +383,37 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const float t30 = (t3 ? t29 : 0.0f);
         const float t31 = state->acc_bias[2] + t30;
         acc_bias_new[2] = t31;
-        const float t32 = in->dt * 10.0f;
-        const float t33 = -t32;
-        const float t34 = m300_wind_expm1(t33);
-        const float t35 = state->check_follows * t34;
-        const float t36 = t11 - state->acc_check[0];
-        const float t37 = t35 * t36;
-        const float t38 = state->acc_check[0] - t37;
-        acc_check_new[0] = t38;
-        const float t39 = t19 - state->acc_check[1];
-        const float t40 = t35 * t39;
-        const float t41 = state->acc_check[1] - t40;
-        acc_check_new[1] = t41;
-        const float t42 = t27 - state->acc_check[2];
-        const float t43 = t35 * t42;
-        const float t44 = state->acc_check[2] - t43;
-        acc_check_new[2] = t44;
-        const float t45 = state->check_follows * t6;
-        const float t46 = t38 * t38;
-        const float t47 = t41 * t41;
-        const float t48 = t46 + t47;
-        const float t49 = t44 * t44;
-        const float t50 = t48 + t49;
-        const float t51 = 36.0f * state->acc_noise;
-        const float t52 = t51 + 4.0f;
-        const float t53 = (t50 < t52 ? t50 : t52);
-        const float t54 = t53 - state->acc_noise;
-        const float t55 = t45 * t54;
-        const float t56 = state->acc_noise - t55;
-        acc_noise_new = t56;
-        const int t57 = t52 < t50;
-        const float t58 = (t57 ? 2048.0f : 0.0f);
-        acc_status = t58;
+        const float t32 = 0.1f + in->dt;
+        const float t33 = in->dt / t32;
+        const float t34 = state->check_follows * t33;
+        const float t35 = t11 - state->acc_check[0];
+        const float t36 = t34 * t35;
+        const float t37 = state->acc_check[0] + t36;
+        acc_check_new[0] = t37;
+        const float t38 = t19 - state->acc_check[1];
+        const float t39 = t34 * t38;
+        const float t40 = state->acc_check[1] + t39;
+        acc_check_new[1] = t40;
+        const float t41 = t27 - state->acc_check[2];
+        const float t42 = t34 * t41;
+        const float t43 = state->acc_check[2] + t42;
+        acc_check_new[2] = t43;
+        const float t44 = state->check_follows * t6;
+        const float t45 = t37 * t37;
+        const float t46 = t40 * t40;
+        const float t47 = t45 + t46;
+        const float t48 = t43 * t43;
+        const float t49 = t47 + t48;
+        const float t50 = 36.0f * state->acc_noise;
+        const float t51 = t50 + 4.0f;
+        const float t52 = (t49 < t51 ? t49 : t51);
+        const float t53 = t52 - state->acc_noise;
+        const float t54 = t44 * t53;
+        const float t55 = state->acc_noise - t54;
+        acc_noise_new = t55;
+        const int t56 = t51 < t49;
+        const float t57 = (t56 ? 2048.0f : 0.0f);
+        acc_status = t57;
     }
 
     /* ---- external_force: f_e solved from m p'' = -u_f z_b + m g e3 + f_e (N, NED) (10 ops) ---- */
@@ -564,8 +611,8 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         wind_sigma_up = (-1.0f);
     }
 
-    /* ---- check_result: an accepted sample must give a finite result, else it is rejected too (NUMERIC); and its acceleration must agree with its velocity (IMPLAUSIBLE, model/biasgate.py) (24 ops) ---- */
-    float result_status;
+    /* ---- check_result: an accepted sample must give a finite result, else it is rejected too (NUMERIC); and its acceleration must agree with its velocity (IMPLAUSIBLE, model/biasgate.py) (27 ops) ---- */
+    int result_status;
     {
         const float t0 = fabsf(f_filt_new[0]);
         const float t1 = fabsf(f_filt_new[1]);
@@ -578,22 +625,25 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const float t8 = t6 + t7;
         const float t9 = fabsf(wind_ned[2]);
         const float t10 = t8 + t9;
-        const float t11 = t10 + wind_speed_h;
-        const float t12 = fabsf(acc_bias_new[0]);
-        const float t13 = t11 + t12;
-        const float t14 = fabsf(acc_bias_new[1]);
-        const float t15 = t13 + t14;
-        const float t16 = fabsf(acc_bias_new[2]);
-        const float t17 = t15 + t16;
-        const int t18 = (m300_wind_bits(t17) <= m300_wind_bits(9.99999939e+29f)) || (m300_wind_within(m300_wind_bits(t17), 0x80000000u, 0xff800000u));
-        const float t19 = (t18 ? acc_status : 0.0f);
-        const int t20 = !t18;
-        const float t21 = (t20 ? 32.0f : 0.0f);
-        const float t22 = (t20 ? t21 : 0.0f);
-        const float t23 = t19 + t22;
-        result_status = t23;
+        const float t11 = fabsf(wind_speed_h);
+        const float t12 = t10 + t11;
+        const float t13 = fabsf(acc_bias_new[0]);
+        const float t14 = t12 + t13;
+        const float t15 = fabsf(acc_bias_new[1]);
+        const float t16 = t14 + t15;
+        const float t17 = fabsf(acc_bias_new[2]);
+        const float t18 = t16 + t17;
+        const int t19 = m300_wind_within(m300_wind_bits(acc_status), (m300_wind_bits(0.0f) + 1u), 0x7f800000u);
+        const int t20 = (t19 ? 2048 : 0);
+        const int t21 = m300_wind_bits(t18) <= m300_wind_bits(9.99999939e+29f);
+        const int t22 = (t21 ? t20 : 0);
+        const int t23 = !t21;
+        const int t24 = (t23 ? 32 : 0);
+        const int t25 = (t23 ? t24 : 0);
+        const int t26 = t22 | t25;
+        result_status = t26;
     }
-    if (result_status > 0.0f) { /* a sum of status bits: > 0, not != 0 (-Wfloat-equal) */
+    if (result_status != 0) {
         state->run_s = 0.0f;
         state->check_follows = 0.0f;
         /* a validated sample: the acceleration check follows it even though it is rejected */
@@ -606,7 +656,7 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         state->vel_prev[1] = in->vel_ned[1];
         state->vel_prev[2] = in->vel_ned[2];
         *out = state->last;
-        return (int)result_status;
+        return result_status;
     }
 
     /* ---- commit: the next state; the output is the new last valid output ---- */
