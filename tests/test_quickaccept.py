@@ -8,6 +8,8 @@ zeros of both signs, subnormals and out-of-range values. Then the printer's part
 bit-pattern interval, -0 leaves only a sufficient test, and a sufficient test must be monotone."""
 from __future__ import annotations
 
+import re
+
 import casadi as ca
 import numpy as np
 import pytest
@@ -106,6 +108,24 @@ def test_the_quick_test_is_one_comparison_per_bound_and_no_loop(precision):
         assert quick.count(f"m300_wind_bits(in->rotor_rpm[{rotor}]) <= m300_wind_bits(18000.0{lit});") == 1
     assert "||" not in quick and "for (" not in quick and "0x80000000" not in quick.lower()
     assert quick.count("fabs") == 1  # yaw_ref's own finiteness test
+
+
+@pytest.mark.parametrize("precision", ["single", "double"])
+def test_the_exact_tests_read_the_quick_tests_values(precision):
+    """|q|^2, the tilt's terms, |v|^2 and |a|^2 are computed once, in the quick test, and the exact tests
+    compare those very values: two copies of a sum may be reassociated differently under PX4's
+    -funsafe-math-optimizations (clang's m300 double step, fed |q|^2 within an ulp of 1.21, accepted rows in
+    its quick test that the same C's exact tests, compiled without it, rejected), and then the quick test
+    would no longer imply the exact ones."""
+    source = generate_code(load_airframe(M300), precision).files["m300_wind.c"]
+    quick, exact = source[source.index("int quick_accept;"):].split("if (!quick_accept) {", 1)
+    exact = exact[:exact.index("---- attitude:")]
+    real = "float" if precision == "single" else "double"
+    defined = re.compile(rf"const {real} [at]\d+ = (.+);")
+    computed = set(defined.findall(quick))
+    assert "in->q[0] * in->q[0]" in computed  # the quaternion's squares are the quick test's
+    assert not computed & set(defined.findall(exact))
+    assert re.search(r"m300_wind_bits\(a\d+\), m300_wind_bits\(0\.81", exact)  # |q|^2 read, not recomputed
 
 
 def _stage(expression) -> tuple[Stage, dict[str, int]]:
