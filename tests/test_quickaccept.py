@@ -22,7 +22,7 @@ from dobwind.model.airframe import load_airframe, parse_airframe
 from dobwind.model.airframe_toml import dumps
 from dobwind.model.exercise import flight_inputs
 from dobwind.model.step import Stage, StepModel, build_step
-from tests.helpers import M300, all_modes
+from tests.helpers import M300, airframe_dict, all_modes, collective
 
 # Every value a glitching log or a unit error puts in one element, and the neighbours of every limit the
 # validation tests (the input limit 1e6, the ground speed, the 10 g acceleration, 1.5 max_rpm, zero).
@@ -71,6 +71,15 @@ def test_the_quick_test_never_accepts_what_the_exact_tests_reject(mode):
     assert _wrongly_accepted(model, inputs) == 0
     assert np.all(out["quick_accept"][:300] > 0)  # and it accepts a whole clean flight: the path it saves
     assert np.sum(out["status"][300:] != 0) > inputs.shape[1] * 5  # the adversarial rows do reach the limits
+
+
+@pytest.mark.parametrize("doc", [airframe_dict(**{"name": "fast_rotors", "thrust.max_rpm": 9e5}),
+                                 collective(airframe_dict(**{"name": "heavy", "mass": 9000.0}))], ids=lambda d: d["name"])
+def test_a_bound_beyond_the_input_limit_leaves_its_input_to_the_finiteness_test(doc):
+    """1.5 max_rpm = 1.35e6 rpm, or 20 weights of a 9 t airframe (1.8e6 N), lie beyond |x| <= 1e6: 0 <= x <=
+    bound then does not imply NONFINITE's test, so the quick test must keep it for that input (``held``)."""
+    model = _model(doc)
+    assert _wrongly_accepted(model, _adversarial(model)) == 0
 
 
 def test_a_quick_test_without_yaws_finiteness_is_caught(monkeypatch):
