@@ -271,8 +271,7 @@ def _validate(af: Airframe, lin: Layout, s: Signals) -> Signals:
         + ca.if_else(tilt_ok, 0, bits["TILT"])
         + ca.if_else(thrust_ok, 0, bits["BAD_THRUST"])
     )
-    accepted = _all([finite, dt_ok, q_ok, tilt_ok, thrust_ok, plausible])
-    return {"status": status, "accepted": accepted, "quick_accept": _quick_accept(af, lin, s, [dt_ok, q_ok, tilt_ok])}
+    return {"status": status, "quick_accept": _quick_accept(af, lin, s, [dt_ok, q_ok, tilt_ok])}
 
 
 def _quick_accept(af: Airframe, lin: Layout, s: Signals, exact: list[ca.SX]) -> ca.SX:
