@@ -143,6 +143,24 @@ def _stage(expression) -> tuple[Stage, dict[str, int]]:
     return Stage("validate", "test", function, ("in.x", "in.y"), ("quick_accept",)), {"in.x": 1, "in.y": 1, "quick_accept": 1}
 
 
+NEVER_NEGATIVE = {"x*x + y*y": lambda x, y: x * x + y * y, "|x|": lambda x, y: ca.fabs(x),
+                  "sqrt(x*x + y*y)": lambda x, y: ca.sqrt(x * x + y * y), "x*x*y*y": lambda x, y: (x * x) * (y * y)}
+MAYBE_NEGATIVE = {"x*x - y*y": lambda x, y: x * x - y * y, "x*y": lambda x, y: x * y,
+                  "x*x - 1": lambda x, y: x * x - 1, "x*x * -2": lambda x, y: (x * x) * -2.0,
+                  "|x| * y": lambda x, y: ca.fabs(x) * y}
+
+
+@pytest.mark.parametrize("name", [*NEVER_NEGATIVE, *MAYBE_NEGATIVE])
+def test_only_a_value_never_negative_loses_the_negative_half_of_its_test(name):
+    """e <= 5 holds every negative e: only for an e that is never negative (nonnegative in
+    codegen/sections.py) may the printed test be the one comparison of the bits with bits(5)."""
+    expression = {**NEVER_NEGATIVE, **MAYBE_NEGATIVE}[name]
+    stage, sizes = _stage(lambda x, y: expression(x, y) <= 5)
+    printer = CPrinter("single", kernel_prefix="p_", directed_limits=True)
+    test = _integer_section(stage, "quick_accept", sizes, printer, "a", False).lines[-2]
+    assert ("0x80000000u" not in test) == (name in NEVER_NEGATIVE), test
+
+
 def test_negative_zero_is_dropped_only_from_a_sufficient_test():
     stage, sizes = _stage(lambda x, y: ca.logic_and(ca.logic_and(0 <= x, x <= 5), y <= 1))
     printer = CPrinter("single", kernel_prefix="p_", directed_limits=True)
