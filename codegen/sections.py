@@ -100,6 +100,7 @@ class _Writer:
 
     def __init__(self, printer: CPrinter, code: list[_Instruction], temp_prefix: str = "t") -> None:
         self.printer = printer
+        self.code = code
         self.temp_prefix = temp_prefix
         self.integer_status = False  # print status bits as int (integer_bits); the rejection path only
         self.ints: set[str] = set()
@@ -350,15 +351,20 @@ def build_section(stage: Stage, used: set[str], sizes: dict[str, int], printer: 
     keep = [i for i, name in enumerate(stage.outputs) if name in used]
     out_names = [stage.outputs[i] for i in keep]
     function = _pruned(stage, keep)
-    code = _instructions(function)
-    writer = _Writer(printer, code)
+    writer = _Writer(printer, _instructions(function))
     writer.integer_status = integer_status
-    lines: list[str] = []
-    for k, ins in enumerate(code):
-        writer.index = k
-        writer.emit(ins, function, stage, out_names, sizes, lines)
     declarations = tuple(f"int {name};" for name in out_names) if integer_status else \
         _declarations(out_names, sizes, printer)
+    return _written(writer, function, stage, out_names, sizes, declarations)
+
+
+def _written(writer: _Writer, function: ca.Function, stage: Stage, out_names: list[str], sizes: dict[str, int],
+             declarations: tuple[str, ...]) -> Section:
+    """The section ``writer`` prints from ``function``'s instructions (those it was made with)."""
+    lines: list[str] = []
+    for k, ins in enumerate(writer.code):
+        writer.index = k
+        writer.emit(ins, function, stage, out_names, sizes, lines)
     return Section(stage.name, stage.doc, declarations, tuple(lines), writer.ops, writer.calls)
 
 
@@ -379,16 +385,11 @@ def _integer_section(stage: Stage, output: str, sizes: dict[str, int], printer: 
     """One int output of the validate stage as C lines, with temporaries named ``prefix``0, 1, ...
     ``given``: real-valued temporaries in scope by expression, reused; ``defined`` receives this one's."""
     function = _pruned(stage, [list(stage.outputs).index(output)])
-    code = _instructions(function)
-    writer = _Writer(printer, code, prefix)
+    writer = _Writer(printer, _instructions(function), prefix)
     writer.integer_status, writer.sufficient = True, sufficient
     writer.given = dict(given or {})
     writer.defined = defined if defined is not None else {}
-    lines: list[str] = []
-    for k, ins in enumerate(code):
-        writer.index = k
-        writer.emit(ins, function, stage, [output], sizes, lines)
-    return Section(stage.name, stage.doc, (), tuple(lines), writer.ops, writer.calls)
+    return _written(writer, function, stage, [output], sizes, ())
 
 
 def build_validation(stage: Stage, sizes: dict[str, int], printer: CPrinter) -> Validation:
