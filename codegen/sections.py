@@ -100,6 +100,7 @@ class _Writer:
 
     def __init__(self, printer: CPrinter, code: list[_Instruction], temp_prefix: str = "t") -> None:
         self.printer = printer
+        self.code = code
         self.temp_prefix = temp_prefix
         self.integer_status = False  # print status bits as int (integer_bits); the rejection path only
         self.ints: set[str] = set()
@@ -107,6 +108,10 @@ class _Writer:
         self.is_bool: dict[int, bool] = {}
         self.constants: dict[int, float] = {}
         self.serial = self.ops = self.calls = 0
+        # Real-valued temporaries by their C expression: ``given`` are another section's, in scope here (the
+        # quick test's, for the exact tests), reused rather than computed again; ``defined`` this one's.
+        self.given: dict[str, str] = {}
+        self.defined: dict[str, str] = {}
         self.index = 0  # the instruction being printed (constants are read from the Function by index)
         self.sincos: dict[tuple[int, int], str] = {}     # angle value -> its sincos temporary
         self.reciprocal: dict[tuple[int, int], str] = {}  # denominator value -> 1/it
@@ -211,10 +216,16 @@ class _Writer:
             self.work[slot] = self.temp("int", _test_text(self.printer, test), lines)
 
     def temp(self, ctype: str, expr: str, lines: list[str], counted: bool = True) -> str:
+        if ctype == self.printer.real and expr in self.given:
+            # Computed once: with -funsafe-math-optimizations (PX4) two copies of a sum may be reassociated
+            # differently, and the quick test's |q|^2 could then pass where the exact test's fails.
+            return self.given[expr]
         name = f"{self.temp_prefix}{self.serial}"
         self.serial += 1
         self.ops += counted
         lines.append(f"const {ctype} {name} = {expr};")
+        if ctype == self.printer.real:
+            self.defined[expr] = name
         return name
 
     def special(self, ins: _Instruction, lines: list[str]) -> str | None:
@@ -340,15 +351,20 @@ def build_section(stage: Stage, used: set[str], sizes: dict[str, int], printer: 
     keep = [i for i, name in enumerate(stage.outputs) if name in used]
     out_names = [stage.outputs[i] for i in keep]
     function = _pruned(stage, keep)
-    code = _instructions(function)
-    writer = _Writer(printer, code)
+    writer = _Writer(printer, _instructions(function))
     writer.integer_status = integer_status
-    lines: list[str] = []
-    for k, ins in enumerate(code):
-        writer.index = k
-        writer.emit(ins, function, stage, out_names, sizes, lines)
     declarations = tuple(f"int {name};" for name in out_names) if integer_status else \
         _declarations(out_names, sizes, printer)
+    return _written(writer, function, stage, out_names, sizes, declarations)
+
+
+def _written(writer: _Writer, function: ca.Function, stage: Stage, out_names: list[str], sizes: dict[str, int],
+             declarations: tuple[str, ...]) -> Section:
+    """The section ``writer`` prints from ``function``'s instructions (those it was made with)."""
+    lines: list[str] = []
+    for k, ins in enumerate(writer.code):
+        writer.index = k
+        writer.emit(ins, function, stage, out_names, sizes, lines)
     return Section(stage.name, stage.doc, declarations, tuple(lines), writer.ops, writer.calls)
 
 
@@ -364,24 +380,26 @@ class Validation:
 
 
 def _integer_section(stage: Stage, output: str, sizes: dict[str, int], printer: CPrinter, prefix: str,
-                     sufficient: bool) -> Section:
-    """One int output of the validate stage as C lines, with temporaries named ``prefix``0, 1, ..."""
+                     sufficient: bool, given: dict[str, str] | None = None,
+                     defined: dict[str, str] | None = None) -> Section:
+    """One int output of the validate stage as C lines, with temporaries named ``prefix``0, 1, ...
+    ``given``: real-valued temporaries in scope by expression, reused; ``defined`` receives this one's."""
     function = _pruned(stage, [list(stage.outputs).index(output)])
-    code = _instructions(function)
-    writer = _Writer(printer, code, prefix)
+    writer = _Writer(printer, _instructions(function), prefix)
     writer.integer_status, writer.sufficient = True, sufficient
-    lines: list[str] = []
-    for k, ins in enumerate(code):
-        writer.index = k
-        writer.emit(ins, function, stage, [output], sizes, lines)
-    return Section(stage.name, stage.doc, (), tuple(lines), writer.ops, writer.calls)
+    writer.given = dict(given or {})
+    writer.defined = defined if defined is not None else {}
+    return _written(writer, function, stage, [output], sizes, ())
 
 
 def build_validation(stage: Stage, sizes: dict[str, int], printer: CPrinter) -> Validation:
     # The quick test's temporaries are named a0, a1, ...: the status's t0, ... are in a block inside its
-    # scope, and the same names would shadow them (-Wshadow).
-    return Validation(_integer_section(stage, "status", sizes, printer, "t", False),
-                      _integer_section(stage, "quick_accept", sizes, printer, "a", True))
+    # scope, and the same names would shadow them (-Wshadow). The exact tests read the quick test's
+    # values (|q|^2, the tilt's terms, |v|^2, ...) rather than computing them again: one value, so that
+    # the quick test implies them whatever the compiler does to a computation (sections.py, temp).
+    values: dict[str, str] = {}
+    quick = _integer_section(stage, "quick_accept", sizes, printer, "a", True, defined=values)
+    return Validation(_integer_section(stage, "status", sizes, printer, "t", False, given=values), quick)
 
 
 def build_sections(model: StepModel, printer: CPrinter) -> tuple[Validation, tuple[Section, ...], Section]:

@@ -271,8 +271,7 @@ def _validate(af: Airframe, lin: Layout, s: Signals) -> Signals:
         + ca.if_else(tilt_ok, 0, bits["TILT"])
         + ca.if_else(thrust_ok, 0, bits["BAD_THRUST"])
     )
-    accepted = _all([finite, dt_ok, q_ok, tilt_ok, thrust_ok, plausible])
-    return {"status": status, "accepted": accepted, "quick_accept": _quick_accept(af, lin, s, [dt_ok, q_ok, tilt_ok])}
+    return {"status": status, "quick_accept": _quick_accept(af, lin, s, [dt_ok, q_ok, tilt_ok])}
 
 
 def _quick_accept(af: Airframe, lin: Layout, s: Signals, exact: list[ca.SX]) -> ca.SX:
@@ -561,7 +560,6 @@ def _check_result(committed: list[str], s: Signals) -> Signals:
     values = [ca.fabs(s[name]) for name in committed]
     ok = ca.sum1(ca.vertcat(*values)) <= RESULT_MAGNITUDE_LIMIT
     bits = {bit.name: bit.value for bit in STATUS_BITS}
-    IMPLAUSIBLE = bits["IMPLAUSIBLE"]
     # No bound on the sample's raw external force: it is a difference of noisy measurements divided by dt
     # (velocity differentiated at 500 Hz reads several weights of noise), so bounding it rejected a quarter
     # of a high-rate log. The input bounds (implausible_inputs) catch the glitches it was meant for.
@@ -571,7 +569,7 @@ def _check_result(committed: list[str], s: Signals) -> Signals:
         # average needs a few to see it) were accepted, and their transient must pass before trust returns.
         # acc_status is 0 or IMPLAUSIBLE, a float between stages; the test makes it a bit of the int status
         # the C assembles (codegen/sections.py, integer_status), as validation's are.
-        status = ca.if_else(ok, ca.if_else(s["acc_status"] > 0, IMPLAUSIBLE, 0), status)
+        status = ca.if_else(ok, ca.if_else(s["acc_status"] > 0, bits["IMPLAUSIBLE"], 0), status)
     return {"result_status": status}
 
 

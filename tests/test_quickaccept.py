@@ -8,6 +8,8 @@ zeros of both signs, subnormals and out-of-range values. Then the printer's part
 bit-pattern interval, -0 leaves only a sufficient test, and a sufficient test must be monotone."""
 from __future__ import annotations
 
+import re
+
 import casadi as ca
 import numpy as np
 import pytest
@@ -20,7 +22,7 @@ from dobwind.model.airframe import load_airframe, parse_airframe
 from dobwind.model.airframe_toml import dumps
 from dobwind.model.exercise import flight_inputs
 from dobwind.model.step import Stage, StepModel, build_step
-from tests.helpers import M300, all_modes
+from tests.helpers import M300, airframe_dict, all_modes, collective
 
 # Every value a glitching log or a unit error puts in one element, and the neighbours of every limit the
 # validation tests (the input limit 1e6, the ground speed, the 10 g acceleration, 1.5 max_rpm, zero).
@@ -71,6 +73,15 @@ def test_the_quick_test_never_accepts_what_the_exact_tests_reject(mode):
     assert np.sum(out["status"][300:] != 0) > inputs.shape[1] * 5  # the adversarial rows do reach the limits
 
 
+@pytest.mark.parametrize("doc", [airframe_dict(**{"name": "fast_rotors", "thrust.max_rpm": 9e5}),
+                                 collective(airframe_dict(**{"name": "heavy", "mass": 9000.0}))], ids=lambda d: d["name"])
+def test_a_bound_beyond_the_input_limit_leaves_its_input_to_the_finiteness_test(doc):
+    """1.5 max_rpm = 1.35e6 rpm, or 20 weights of a 9 t airframe (1.8e6 N), lie beyond |x| <= 1e6: 0 <= x <=
+    bound then does not imply NONFINITE's test, so the quick test must keep it for that input (``held``)."""
+    model = _model(doc)
+    assert _wrongly_accepted(model, _adversarial(model)) == 0
+
+
 def test_a_quick_test_without_yaws_finiteness_is_caught(monkeypatch):
     """The check can fail: yaw_ref is the one input no bound holds; without its own test, a NaN heading
     passes the quick test."""
@@ -108,10 +119,46 @@ def test_the_quick_test_is_one_comparison_per_bound_and_no_loop(precision):
     assert quick.count("fabs") == 1  # yaw_ref's own finiteness test
 
 
+@pytest.mark.parametrize("precision", ["single", "double"])
+def test_the_exact_tests_read_the_quick_tests_values(precision):
+    """|q|^2, the tilt's terms, |v|^2 and |a|^2 are computed once, in the quick test, and the exact tests
+    compare those very values: two copies of a sum may be reassociated differently under PX4's
+    -funsafe-math-optimizations (clang's m300 double step, fed |q|^2 within an ulp of 1.21, accepted rows in
+    its quick test that the same C's exact tests, compiled without it, rejected), and then the quick test
+    would no longer imply the exact ones."""
+    source = generate_code(load_airframe(M300), precision).files["m300_wind.c"]
+    quick, exact = source[source.index("int quick_accept;"):].split("if (!quick_accept) {", 1)
+    exact = exact[:exact.index("---- attitude:")]
+    real = "float" if precision == "single" else "double"
+    defined = re.compile(rf"const {real} [at]\d+ = (.+);")
+    computed = set(defined.findall(quick))
+    assert "in->q[0] * in->q[0]" in computed  # the quaternion's squares are the quick test's
+    assert not computed & set(defined.findall(exact))
+    assert re.search(r"m300_wind_bits\(a\d+\), m300_wind_bits\(0\.81", exact)  # |q|^2 read, not recomputed
+
+
 def _stage(expression) -> tuple[Stage, dict[str, int]]:
     x, y = ca.SX.sym("in_x"), ca.SX.sym("in_y")
     function = ca.Function("validate", [x, y], [expression(x, y)], ["in_x", "in_y"], ["quick_accept"])
     return Stage("validate", "test", function, ("in.x", "in.y"), ("quick_accept",)), {"in.x": 1, "in.y": 1, "quick_accept": 1}
+
+
+NEVER_NEGATIVE = {"x*x + y*y": lambda x, y: x * x + y * y, "|x|": lambda x, y: ca.fabs(x),
+                  "sqrt(x*x + y*y)": lambda x, y: ca.sqrt(x * x + y * y), "x*x*y*y": lambda x, y: (x * x) * (y * y)}
+MAYBE_NEGATIVE = {"x*x - y*y": lambda x, y: x * x - y * y, "x*y": lambda x, y: x * y,
+                  "x*x - 1": lambda x, y: x * x - 1, "x*x * -2": lambda x, y: (x * x) * -2.0,
+                  "|x| * y": lambda x, y: ca.fabs(x) * y}
+
+
+@pytest.mark.parametrize("name", [*NEVER_NEGATIVE, *MAYBE_NEGATIVE])
+def test_only_a_value_never_negative_loses_the_negative_half_of_its_test(name):
+    """e <= 5 holds every negative e: only for an e that is never negative (nonnegative in
+    codegen/sections.py) may the printed test be the one comparison of the bits with bits(5)."""
+    expression = {**NEVER_NEGATIVE, **MAYBE_NEGATIVE}[name]
+    stage, sizes = _stage(lambda x, y: expression(x, y) <= 5)
+    printer = CPrinter("single", kernel_prefix="p_", directed_limits=True)
+    test = _integer_section(stage, "quick_accept", sizes, printer, "a", False).lines[-2]
+    assert ("0x80000000u" not in test) == (name in NEVER_NEGATIVE), test
 
 
 def test_negative_zero_is_dropped_only_from_a_sufficient_test():

@@ -154,7 +154,7 @@ void m300_wind_init(m300_wind_state_t *state)
 
 int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_wind_output_t *out)
 {
-    /* ---- validate: reject NaN/inf, bad dt, non-unit quaternion, excessive tilt, negative thrust (41 ops; 56 ops and a loop more for a sample the quick test refuses) ---- */
+    /* ---- validate: reject NaN/inf, bad dt, non-unit quaternion, excessive tilt, negative thrust (41 ops; 35 ops and a loop more for a sample the quick test refuses) ---- */
     {
         /* The quick test (model/step.py, _quick_accept): validation's tests in the form a NaN fails, which
          * imply every test below; their bounds hold each input they test far inside |x| <= 1e+06, so
@@ -220,63 +220,42 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
                 }
                 finite = (over >> 31) == 0u;
             }
-            const float t0 = in->vel_ned[0] * in->vel_ned[0];
-            const float t1 = in->vel_ned[1] * in->vel_ned[1];
-            const float t2 = t0 + t1;
-            const float t3 = in->vel_ned[2] * in->vel_ned[2];
-            const float t4 = t2 + t3;
-            const float t5 = in->acc_ned[0] * in->acc_ned[0];
-            const float t6 = in->acc_ned[1] * in->acc_ned[1];
-            const float t7 = t5 + t6;
-            const float t8 = in->acc_ned[2] * in->acc_ned[2];
-            const float t9 = t7 + t8;
-            const int t10 = m300_wind_within(m300_wind_bits(t4), (m300_wind_bits(22500.0f) + 1u), 0x7f800000u);
-            const int t11 = m300_wind_within(m300_wind_bits(t9), (m300_wind_bits(9617.03809f) + 1u), 0x7f800000u);
-            const int t12 = t10 | t11;
-            const int t13 = m300_wind_within(m300_wind_bits(in->rotor_rpm[0]), (m300_wind_bits(18000.0f) + 1u), 0x7f800000u);
-            const int t14 = t12 | t13;
-            const int t15 = m300_wind_within(m300_wind_bits(in->rotor_rpm[1]), (m300_wind_bits(18000.0f) + 1u), 0x7f800000u);
-            const int t16 = t14 | t15;
-            const int t17 = m300_wind_within(m300_wind_bits(in->rotor_rpm[2]), (m300_wind_bits(18000.0f) + 1u), 0x7f800000u);
-            const int t18 = t16 | t17;
-            const int t19 = m300_wind_within(m300_wind_bits(in->rotor_rpm[3]), (m300_wind_bits(18000.0f) + 1u), 0x7f800000u);
-            const int t20 = t18 | t19;
-            const int t21 = (t20 ? 2048 : 0);
-            const int t22 = !finite;
-            const int t23 = (t22 ? 1 : 0);
-            const int t24 = t21 | t23;
-            const int t25 = !(m300_wind_within(m300_wind_bits(in->dt), m300_wind_bits(1.00000007e-05f), m300_wind_bits(0.100009993f)));
-            const int t26 = (t25 ? 2 : 0);
-            const int t27 = t24 | t26;
-            const float t28 = in->q[0] * in->q[0];
-            const float t29 = in->q[1] * in->q[1];
-            const float t30 = t28 + t29;
-            const float t31 = in->q[2] * in->q[2];
-            const float t32 = t30 + t31;
-            const float t33 = in->q[3] * in->q[3];
-            const float t34 = t32 + t33;
-            const int t35 = !(m300_wind_within(m300_wind_bits(t34), m300_wind_bits(0.810000002f), m300_wind_bits(1.20999992f)));
-            const int t36 = (t35 ? 4 : 0);
-            const int t37 = t27 | t36;
-            const float t38 = 0.5f * t34;
-            const float t39 = t28 - t29;
-            const float t40 = t39 - t31;
-            const float t41 = t40 + t33;
-            const int t42 = t38 <= t41;
-            const int t43 = !t42;
-            const int t44 = (t43 ? 8 : 0);
-            const int t45 = t37 | t44;
-            const int t46 = (m300_wind_bits(in->rotor_rpm[0]) <= 0x7f800000u) || (m300_wind_bits(in->rotor_rpm[0]) == 0x80000000u);
-            const int t47 = (m300_wind_bits(in->rotor_rpm[1]) <= 0x7f800000u) || (m300_wind_bits(in->rotor_rpm[1]) == 0x80000000u);
-            const int t48 = t46 & t47;
-            const int t49 = (m300_wind_bits(in->rotor_rpm[2]) <= 0x7f800000u) || (m300_wind_bits(in->rotor_rpm[2]) == 0x80000000u);
-            const int t50 = t48 & t49;
-            const int t51 = (m300_wind_bits(in->rotor_rpm[3]) <= 0x7f800000u) || (m300_wind_bits(in->rotor_rpm[3]) == 0x80000000u);
-            const int t52 = t50 & t51;
-            const int t53 = !t52;
-            const int t54 = (t53 ? 16 : 0);
-            const int t55 = t45 | t54;
-            status = t55;
+            const int t0 = m300_wind_within(m300_wind_bits(a20), (m300_wind_bits(22500.0f) + 1u), 0x7f800000u);
+            const int t1 = m300_wind_within(m300_wind_bits(a27), (m300_wind_bits(9617.03809f) + 1u), 0x7f800000u);
+            const int t2 = t0 | t1;
+            const int t3 = m300_wind_within(m300_wind_bits(in->rotor_rpm[0]), (m300_wind_bits(18000.0f) + 1u), 0x7f800000u);
+            const int t4 = t2 | t3;
+            const int t5 = m300_wind_within(m300_wind_bits(in->rotor_rpm[1]), (m300_wind_bits(18000.0f) + 1u), 0x7f800000u);
+            const int t6 = t4 | t5;
+            const int t7 = m300_wind_within(m300_wind_bits(in->rotor_rpm[2]), (m300_wind_bits(18000.0f) + 1u), 0x7f800000u);
+            const int t8 = t6 | t7;
+            const int t9 = m300_wind_within(m300_wind_bits(in->rotor_rpm[3]), (m300_wind_bits(18000.0f) + 1u), 0x7f800000u);
+            const int t10 = t8 | t9;
+            const int t11 = (t10 ? 2048 : 0);
+            const int t12 = !finite;
+            const int t13 = (t12 ? 1 : 0);
+            const int t14 = t11 | t13;
+            const int t15 = !(m300_wind_within(m300_wind_bits(in->dt), m300_wind_bits(1.00000007e-05f), m300_wind_bits(0.100009993f)));
+            const int t16 = (t15 ? 2 : 0);
+            const int t17 = t14 | t16;
+            const int t18 = !(m300_wind_within(m300_wind_bits(a6), m300_wind_bits(0.810000002f), m300_wind_bits(1.20999992f)));
+            const int t19 = (t18 ? 4 : 0);
+            const int t20 = t17 | t19;
+            const int t21 = a10 <= a13;
+            const int t22 = !t21;
+            const int t23 = (t22 ? 8 : 0);
+            const int t24 = t20 | t23;
+            const int t25 = (m300_wind_bits(in->rotor_rpm[0]) <= 0x7f800000u) || (m300_wind_bits(in->rotor_rpm[0]) == 0x80000000u);
+            const int t26 = (m300_wind_bits(in->rotor_rpm[1]) <= 0x7f800000u) || (m300_wind_bits(in->rotor_rpm[1]) == 0x80000000u);
+            const int t27 = t25 & t26;
+            const int t28 = (m300_wind_bits(in->rotor_rpm[2]) <= 0x7f800000u) || (m300_wind_bits(in->rotor_rpm[2]) == 0x80000000u);
+            const int t29 = t27 & t28;
+            const int t30 = (m300_wind_bits(in->rotor_rpm[3]) <= 0x7f800000u) || (m300_wind_bits(in->rotor_rpm[3]) == 0x80000000u);
+            const int t31 = t29 & t30;
+            const int t32 = !t31;
+            const int t33 = (t32 ? 16 : 0);
+            const int t34 = t24 | t33;
+            status = t34;
             if (status != 0) {
                 /* rejected: the estimate is untouched and the last accepted output repeated; only the gap
                  * bookkeeping records that this sample was missed */
