@@ -20,10 +20,11 @@ A sample is IMPLAUSIBLE when ``|acc_check|^2 > SIGMAS^2 acc_noise + FLOOR^2``: f
 spread. The bound scales with the log because real logs differ by an order of magnitude (the PX4 logs of
 the shared data, e averaged over 0.1 s after the bias: median 0.04-2.9 m/s^2, 99th percentile
 0.08-12 m/s^2 at 50 Hz), so no fixed bound both catches the glitch on a clean log and passes a vibrating
-one. A rejected sample adds the bound itself to ``acc_noise``, not its own square (winsorised): a 0.5 s
-glitch raises the bound about 2.4-fold at 100 Hz, not to its own size, while a lasting change of the
-inputs (a new bias, a vibrating flight phase) raises it geometrically (by SIGMAS^2 - 1 noise-time
-fractions per sample) until it is accepted: the check cannot lock the estimator out. Like every
+one. A rejected sample adds the bound itself to ``acc_noise``, not its own square (winsorised): a glitch
+of T seconds multiplies the bound by about exp((SIGMAS^2 - 1) T / NOISE_TIME_S), 2.4-fold for 0.5 s at any
+sample rate, not to the glitch's own size, while a lasting change of the inputs (a new bias, a vibrating
+flight phase) raises it by that same law until it is accepted: the check cannot lock the estimator out
+(the closed form: tests/test_hardening.py). Like every
 rejection it restarts SETTLING: the few glitched samples the average needs before it trips were
 accepted, and their transient passes within one settling time.
 
@@ -39,8 +40,8 @@ from dobwind.model.status import STATUS_BITS
 # Time constant (s) of the fast average: a few samples at any supported rate, far shorter than any observer.
 CHECK_TIME_S = 0.1
 # Time constant (s) of the mean square: long against a glitch (0.5 s of one raises the bound by a factor
-# of about 2.4 at 100 Hz, not to the glitch's own size), short enough to learn a log's spread in its first
-# seconds of flight.
+# of about 2.4 at any rate, not to the glitch's own size), short enough to learn a log's spread in its
+# first seconds of flight.
 NOISE_TIME_S = 20.0
 # How far outside the log's own spread (in standard deviations of the averaged disagreement) a sample is.
 SIGMAS = 6.0
