@@ -123,6 +123,11 @@ class _Writer:
         # dropped from its sets (a rotor at -0 rpm then takes the exact path), which saves a comparison.
         # Sound because such a test is an and/or of its tests, checked as it is printed (monotone).
         self.sufficient = False
+        # A sufficient test's and/or, not printed yet (``junction``): its operator and its terms as C. Printed
+        # as one short-circuit expression where it is assigned, the tests then run only until one fails and
+        # the compiler may branch past the rest (4 x86 instructions and 56 B of M4F code less on the m300
+        # than an int per test combined with & (issue #32)).
+        self.junctions: dict[str, tuple[int, tuple[str, ...]]] = {}
         # The rejection tests (a printer with directed_limits): comparisons with a constant kept as bit-pattern
         # sets until something other than another test of the same operand reads them (_RangeTest).
         self.range_tests = printer.directed_limits and printer.kernel_prefix is not None
@@ -213,7 +218,26 @@ class _Writer:
             if self.sufficient and bitranges.contains(test.intervals, f.sign) and test.intervals != ((f.sign, f.sign),):
                 test = dataclasses.replace(test, intervals=bitranges.intersection(
                     f, test.intervals, bitranges.complement(f, ((f.sign, f.sign),))))
-            self.work[slot] = self.temp("int", _test_text(self.printer, test), lines)
+            text = _test_text(self.printer, test)
+            if self.sufficient:  # a term of the junction that reads it (and/or only: emit checks it)
+                self.ops += 1
+                self.work[slot] = text if _atomic(text) else f"({text})"
+            else:
+                self.work[slot] = self.temp("int", text, lines)
+
+    def junction(self, ins: _Instruction) -> None:
+        """A sufficient test's and/or of two tests as a pending junction (see ``junctions``): the terms of an
+        operand of the same operator are taken in, another is one term (parenthesised when printed)."""
+        terms: list[str] = []
+        for slot in ins.args:
+            value = self.work[slot]
+            op, inner = self.junctions.get(value, (None, ()))
+            terms += inner if op == ins.op else [_junction_text(self.junctions[value]) if op is not None else value]
+        joined = _junction_text((ins.op, tuple(terms)))
+        self.junctions[joined] = (ins.op, tuple(terms))
+        self.ops += 1
+        self.work[ins.res[0]], self.is_bool[ins.res[0]] = joined, True
+        self.constants.pop(ins.res[0], None)
 
     def temp(self, ctype: str, expr: str, lines: list[str], counted: bool = True) -> str:
         if ctype == self.printer.real and expr in self.given:
@@ -248,6 +272,20 @@ class _Writer:
             return self.temp(p.real, f"{self.work[ins.args[0]]} * {self.reciprocal[key]}", lines)
         return None
 
+    def output(self, ins: _Instruction, out_names: list[str], sizes: dict[str, int], lines: list[str]) -> None:
+        """The assignment of an output element; a junction one term per line."""
+        target = c_element(out_names[ins.res[0]], ins.res[1], sizes[out_names[ins.res[0]]], self.printer)
+        value = self.work[ins.args[0]]
+        if value in self.junctions:
+            op, terms = self.junctions[value]
+            ends = [" &&" if op == ca.OP_AND else " ||"] * (len(terms) - 1) + [";"]
+            lines.append(f"{target} = {terms[0]}{ends[0]}")
+            lines += [f"    {term}{end}" for term, end in zip(terms[1:], ends[1:])]
+            return
+        if self.is_bool[ins.args[0]] and not self.integer_status:  # an int status or decision stays int
+            value = f"({self.printer.real}){value}"
+        lines.append(f"{target} = {value};")
+
     def emit(self, ins: _Instruction, function: ca.Function, stage: Stage, out_names: list[str],
              sizes: dict[str, int], lines: list[str]) -> None:
         p = self.printer
@@ -272,12 +310,11 @@ class _Writer:
                              "a dropped -0 from accepting more than the exact test")
         if ins.op != ca.OP_OUTPUT:
             self.tests.pop(ins.res[0], None)
+        if self.sufficient and ins.op in (ca.OP_AND, ca.OP_OR):
+            self.junction(ins)
+            return
         if ins.op == ca.OP_OUTPUT:
-            signal = out_names[ins.res[0]]
-            value = self.work[ins.args[0]]
-            if self.is_bool[ins.args[0]] and not self.integer_status:  # an int status or decision stays int
-                value = f"({p.real}){value}"
-            lines.append(f"{c_element(signal, ins.res[1], sizes[signal], p)} = {value};")
+            self.output(ins, out_names, sizes, lines)
             return
         if self.integer_status:
             name = self.integer_bits(ins, lines)
@@ -290,12 +327,27 @@ class _Writer:
         if name is None:
             expr, boolean = p.operation(ins.op, [self.work[a] for a in ins.args], [self.is_bool[a] for a in ins.args],
                                         lambda i: self.constants.get(ins.args[i]) if i < len(ins.args) else None)
+            if boolean and self.sufficient:  # a comparison of two values: a term of a junction, as a range test
+                self.ops += 1
+                self.work[ins.res[0]], self.is_bool[ins.res[0]] = expr if _atomic(expr) else f"({expr})", True
+                self.constants.pop(ins.res[0], None)
+                return
             name = self.temp("int" if boolean else p.real, expr, lines)
             self.calls += ins.op in CALL_OPS
             if self._never_negative(ins):
                 self.nonnegative.add(name)
         self.work[ins.res[0]], self.is_bool[ins.res[0]] = name, boolean
         self.constants.pop(ins.res[0], None)
+
+
+def _atomic(text: str) -> bool:
+    """Whether a test's C needs no parentheses as a term of && or || (no operator of lower precedence)."""
+    return "||" not in text and "&&" not in text and "?" not in text
+
+
+def _junction_text(junction: tuple[int, tuple[str, ...]]) -> str:
+    op, terms = junction
+    return "(" + (" && " if op == ca.OP_AND else " || ").join(terms) + ")"
 
 
 def _pattern_text(printer: CPrinter, f: bitranges.Format, pattern: int, named: tuple[tuple[int, str], ...]) -> str:

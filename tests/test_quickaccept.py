@@ -112,9 +112,9 @@ def test_the_quick_test_is_one_comparison_per_bound_and_no_loop(precision):
     comparison; a rotor's 0 <= rpm <= 1.5 max_rpm is one too, -0 left to the exact tests."""
     quick = _quick_lines(precision)
     lit = "f" if precision == "single" else ""
-    assert quick.count(f"<= m300_wind_bits(22500.0{lit});") == 1
+    assert quick.count(f"<= m300_wind_bits(22500.0{lit})") == 1
     for rotor in range(4):
-        assert quick.count(f"m300_wind_bits(in->rotor_rpm[{rotor}]) <= m300_wind_bits(18000.0{lit});") == 1
+        assert quick.count(f"m300_wind_bits(in->rotor_rpm[{rotor}]) <= m300_wind_bits(18000.0{lit})") == 1
     assert "||" not in quick and "for (" not in quick and "0x80000000" not in quick.lower()
     assert quick.count("fabs") == 1  # yaw_ref's own finiteness test
 
@@ -166,7 +166,7 @@ def test_negative_zero_is_dropped_only_from_a_sufficient_test():
     printer = CPrinter("single", kernel_prefix="p_", directed_limits=True)
     sufficient = "\n".join(_integer_section(stage, "quick_accept", sizes, printer, "a", True).lines)
     exact = "\n".join(_integer_section(stage, "quick_accept", sizes, printer, "a", False).lines)
-    assert "p_bits(in->x) <= p_bits(5.0f);" in sufficient and "0x80000000u" not in sufficient
+    assert "p_bits(in->x) <= p_bits(5.0f) &&" in sufficient and "0x80000000u" not in sufficient
     assert "0x80000000u" in exact  # x = -0 passes 0 <= x: the exact test keeps it
 
 
@@ -176,3 +176,69 @@ def test_a_sufficient_test_must_be_monotone():
     printer = CPrinter("single", kernel_prefix="p_", directed_limits=True)
     with pytest.raises(ValueError, match="and/or"):
         _integer_section(stage, "quick_accept", sizes, printer, "a", True)
+
+
+_JUNCTION_C = """#include <stdint.h>
+#include <stdio.h>
+#include <string.h>
+typedef struct {{ float x; float y; }} in_t;
+static uint32_t p_bits(float v) {{ uint32_t u; memcpy(&u, &v, sizeof u); return u; }}
+static int p_within(uint32_t u, uint32_t lo, uint32_t hi) {{ return (uint32_t)(u - lo) <= (uint32_t)(hi - lo); }}
+static int quick(const in_t *in)
+{{
+    int quick_accept;
+{lines}
+    return quick_accept;
+}}
+int main(void)
+{{
+    static const float values[] = {{{values}}};
+    const int n = (int)(sizeof values / sizeof values[0]);
+    int i, j;
+    for (i = 0; i < n; ++i) {{
+        for (j = 0; j < n; ++j) {{
+            in_t in;
+            in.x = values[i];
+            in.y = values[j];
+            putchar('0' + quick(&in));
+        }}
+    }}
+    return 0;
+}}
+"""
+
+
+def test_a_sufficient_junction_compiles_to_its_truth_table(tmp_path):
+    """The quick test's and/or is printed as one short-circuit expression (codegen/sections.py, junctions):
+    an or of ands, with a comparison of two values and a sum of squares among its terms, compiled strictly
+    and run over every pair of special values, is the CasADi expression's truth wherever no input is -0,
+    and never accepts what it refuses (-0 may only be refused: the exact tests decide it)."""
+    import shutil
+    import subprocess
+
+    compiler = shutil.which("cc") or shutil.which("gcc")
+    if compiler is None:
+        pytest.fail("no C compiler: the suite's setup installs gcc")
+    expression = lambda x, y: ca.logic_or(ca.logic_and(ca.logic_and(x <= 1, x <= y), 0 <= y),  # noqa: E731
+                                          ca.logic_and(5 <= x, x * x + y * y <= 100))
+    stage, sizes = _stage(expression)
+    lines = _integer_section(stage, "quick_accept", sizes, CPrinter("single", kernel_prefix="p_", directed_limits=True),
+                             "a", True).lines
+    assert any("||" in line for line in lines) and any("&&" in line for line in lines)
+    values = np.array(SPECIALS + (0.5, 1.0, 1.5, 5.0, 6.0, 9.9, 10.0, 11.0, -5.0), dtype=np.float32)
+    text = _JUNCTION_C.format(lines="\n".join(f"    {line}" for line in lines),
+                              values=", ".join("(0.0f / 0.0f)" if np.isnan(v) else
+                                               ("(1e30f * 1e30f)" if v > 0 else "(-1e30f * 1e30f)") if np.isinf(v)
+                                               else f"{float(v):.9e}f" for v in values))
+    (tmp_path / "j.c").write_text(text)
+    subprocess.run([compiler, "-std=c99", "-Wall", "-Wextra", "-Werror", "-O2", str(tmp_path / "j.c"),
+                    "-o", str(tmp_path / "j")], check=True)
+    got = np.array([c == "1" for c in subprocess.run([str(tmp_path / "j")], capture_output=True, text=True,
+                                                     check=True).stdout]).reshape(len(values), len(values))
+    f = stage.function
+    truth = np.array([[bool(float(f(float(x), float(y)))) for y in values] for x in values])
+    negative_zero = np.signbit(values) & (values == 0)
+    plain = ~negative_zero[:, None] & ~negative_zero[None, :]
+    assert np.array_equal(got[plain], truth[plain])
+    assert not np.any(got & ~truth)
+    assert got.sum() > 10 and (~got).sum() > 10  # both outcomes occur

@@ -84,7 +84,7 @@ def _validation_mutants(af: Airframe) -> list[CMutant]:
         CMutant("quaternion lower bound <= becomes <", "validate", r"(\w+bits\([ta]\d+\), )(\w+bits\(0\.81\d*f?\))",
                 r"\1(\2 + 1u)", count=2, precisions=("double",)),
         CMutant("tilt threshold cos(max_tilt) -0.01", "validate", near=cos_tilt, value=cos_tilt - 0.01),
-        CMutant("tilt test <= becomes <", "validate", r"(= [ta]\d+) <= ([ta]\d+;)", r"\1 < \2", count=2,
+        CMutant("tilt test <= becomes <", "validate", r"\b([ta]\d+) <= ([ta]\d+)(?=;| &&)", r"\1 < \2", count=2,
                 precisions=("double",)),
         *[CMutant(f"rpm check on rotor {i + 1} dropped", "validate",
                   rf"\(\w+bits\(in->rotor_rpm\[{i}\]\) <= [^|]+\|\| \(\w+bits\(in->rotor_rpm\[{i}\]\) == [^;]+;",
@@ -215,19 +215,19 @@ def _quick_mutants(af: Airframe) -> list[CMutant]:
     """The quick acceptance test (model/step.py, _quick_accept) wrong on its own, accepting a sample the
     exact tests reject: each must be seen, since the exact tests then never run for that sample. (One that
     refuses more is an equivalent mutant: the exact tests accept the sample after it.)"""
-    out = [CMutant("quick test: accepts every sample", "validate", r"quick_accept = (a\d+);", r"quick_accept = \1 | 1;"),
+    out = [CMutant("quick test: accepts every sample", "validate", r"quick_accept = ([^;]*);", r"quick_accept = (\1) | 1;"),
            # yaw_ref's |x| <= 1e6 widened to every pattern below the sign bit, NaN and infinity too
            CMutant("quick test: yaw_ref's finiteness dropped", "validate",
-                   r"(const int a\d+ = \w+bits\(a\d+\) <= )\w+bits\(1000000\.0f\);", r"\g<1>0x7fffffffu;",
+                   r"(\w+bits\(a\d+\) <= )\w+bits\(1000000\.0f\)", r"\g<1>0x7fffffffu",
                    precisions=("single",)),
            CMutant("quick test: yaw_ref's finiteness dropped", "validate",
-                   r"(const int a\d+ = \w+bits\(a\d+\) <= )\w+bits\(1000000\.0\);",
-                   r"\g<1>UINT64_C(0x7fffffffffffffff);", precisions=("double",)),
+                   r"(\w+bits\(a\d+\) <= )\w+bits\(1000000\.0\)",
+                   r"\g<1>UINT64_C(0x7fffffffffffffff)", precisions=("double",)),
            CMutant("quick test: its ground speed bound x1.1 (the exact one kept)", "validate",
                    r"(\w+bits\(a\d+\) <= \w+bits\()22500\.0(f?)\)", r"\g<1>27225.0\2)")]
     if af.thrust.source == "rpm":
         out.append(CMutant("quick test: rotor 2's bound admits negative rpm", "validate",
-                           r"(\w+bits\(in->rotor_rpm\[1\]\)) <= (\w+bits\([^)]+\));", r"(\1 & 0x7fffffffu) <= \2;",
+                           r"(\w+bits\(in->rotor_rpm\[1\]\)) <= (\w+bits\([^)]+\))(?= &&|;)", r"(\1 & 0x7fffffffu) <= \2",
                            precisions=("single",)))
     return out
 

@@ -167,41 +167,31 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
         const float a4 = a2 + a3;
         const float a5 = in->q[3] * in->q[3];
         const float a6 = a4 + a5;
-        const int a7 = m300_wind_within(m300_wind_bits(in->dt), m300_wind_bits(1.00000007e-05f), m300_wind_bits(0.100009993f));
-        const int a8 = m300_wind_within(m300_wind_bits(a6), m300_wind_bits(0.810000002f), m300_wind_bits(1.20999992f));
-        const int a9 = a7 & a8;
-        const float a10 = 0.5f * a6;
-        const float a11 = a0 - a1;
-        const float a12 = a11 - a3;
-        const float a13 = a12 + a5;
-        const int a14 = a10 <= a13;
-        const int a15 = a9 & a14;
-        const float a16 = in->vel_ned[0] * in->vel_ned[0];
-        const float a17 = in->vel_ned[1] * in->vel_ned[1];
+        const float a7 = 0.5f * a6;
+        const float a8 = a0 - a1;
+        const float a9 = a8 - a3;
+        const float a10 = a9 + a5;
+        const float a11 = in->vel_ned[0] * in->vel_ned[0];
+        const float a12 = in->vel_ned[1] * in->vel_ned[1];
+        const float a13 = a11 + a12;
+        const float a14 = in->vel_ned[2] * in->vel_ned[2];
+        const float a15 = a13 + a14;
+        const float a16 = in->acc_ned[0] * in->acc_ned[0];
+        const float a17 = in->acc_ned[1] * in->acc_ned[1];
         const float a18 = a16 + a17;
-        const float a19 = in->vel_ned[2] * in->vel_ned[2];
+        const float a19 = in->acc_ned[2] * in->acc_ned[2];
         const float a20 = a18 + a19;
-        const int a21 = m300_wind_bits(a20) <= m300_wind_bits(22500.0f);
-        const int a22 = a15 & a21;
-        const float a23 = in->acc_ned[0] * in->acc_ned[0];
-        const float a24 = in->acc_ned[1] * in->acc_ned[1];
-        const float a25 = a23 + a24;
-        const float a26 = in->acc_ned[2] * in->acc_ned[2];
-        const float a27 = a25 + a26;
-        const int a28 = m300_wind_bits(a27) <= m300_wind_bits(9617.03809f);
-        const int a29 = a22 & a28;
-        const int a30 = m300_wind_bits(in->rotor_rpm[0]) <= m300_wind_bits(18000.0f);
-        const int a31 = a29 & a30;
-        const int a32 = m300_wind_bits(in->rotor_rpm[1]) <= m300_wind_bits(18000.0f);
-        const int a33 = a31 & a32;
-        const int a34 = m300_wind_bits(in->rotor_rpm[2]) <= m300_wind_bits(18000.0f);
-        const int a35 = a33 & a34;
-        const int a36 = m300_wind_bits(in->rotor_rpm[3]) <= m300_wind_bits(18000.0f);
-        const int a37 = a35 & a36;
-        const float a38 = fabsf(in->yaw_ref);
-        const int a39 = m300_wind_bits(a38) <= m300_wind_bits(1000000.0f);
-        const int a40 = a37 & a39;
-        quick_accept = a40;
+        const float a21 = fabsf(in->yaw_ref);
+        quick_accept = m300_wind_within(m300_wind_bits(in->dt), m300_wind_bits(1.00000007e-05f), m300_wind_bits(0.100009993f)) &&
+            m300_wind_within(m300_wind_bits(a6), m300_wind_bits(0.810000002f), m300_wind_bits(1.20999992f)) &&
+            a7 <= a10 &&
+            m300_wind_bits(a15) <= m300_wind_bits(22500.0f) &&
+            m300_wind_bits(a20) <= m300_wind_bits(9617.03809f) &&
+            m300_wind_bits(in->rotor_rpm[0]) <= m300_wind_bits(18000.0f) &&
+            m300_wind_bits(in->rotor_rpm[1]) <= m300_wind_bits(18000.0f) &&
+            m300_wind_bits(in->rotor_rpm[2]) <= m300_wind_bits(18000.0f) &&
+            m300_wind_bits(in->rotor_rpm[3]) <= m300_wind_bits(18000.0f) &&
+            m300_wind_bits(a21) <= m300_wind_bits(1000000.0f);
         if (!quick_accept) {
             /* NONFINITE's test, |x| <= 1e+06 for each of the 16 input elements, on the bits (a NaN's or an
              * infinity's magnitude bits are above every number's): limit - |x| is negative for an element
@@ -220,8 +210,8 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
                 }
                 finite = (over >> 31) == 0u;
             }
-            const int t0 = m300_wind_within(m300_wind_bits(a20), (m300_wind_bits(22500.0f) + 1u), 0x7f800000u);
-            const int t1 = m300_wind_within(m300_wind_bits(a27), (m300_wind_bits(9617.03809f) + 1u), 0x7f800000u);
+            const int t0 = m300_wind_within(m300_wind_bits(a15), (m300_wind_bits(22500.0f) + 1u), 0x7f800000u);
+            const int t1 = m300_wind_within(m300_wind_bits(a20), (m300_wind_bits(9617.03809f) + 1u), 0x7f800000u);
             const int t2 = t0 | t1;
             const int t3 = m300_wind_within(m300_wind_bits(in->rotor_rpm[0]), (m300_wind_bits(18000.0f) + 1u), 0x7f800000u);
             const int t4 = t2 | t3;
@@ -241,7 +231,7 @@ int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_w
             const int t18 = !(m300_wind_within(m300_wind_bits(a6), m300_wind_bits(0.810000002f), m300_wind_bits(1.20999992f)));
             const int t19 = (t18 ? 4 : 0);
             const int t20 = t17 | t19;
-            const int t21 = a10 <= a13;
+            const int t21 = a7 <= a10;
             const int t22 = !t21;
             const int t23 = (t22 ? 8 : 0);
             const int t24 = t20 | t23;
