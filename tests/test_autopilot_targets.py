@@ -112,6 +112,29 @@ def test_a_module_that_drifts_from_its_message_fails_to_compile(tmp_path):
                      tmp_path / "module.o", PX4_DEFINES)
 
 
+def test_a_px4_module_for_more_rotors_than_esc_status_holds_does_not_build(tmp_path, capsys):
+    """esc_status holds 8 ESC reports (EscStatus.msg CONNECTED_ESC_MAX, the stand-in's esc[8]): a nine-rotor
+    module would read NaN for the ninth and reject every sample, so its build stops at a static_assert, and
+    generate says why on stderr (a warning: a PX4 fork may hold more). Eight rotors build (the check above)."""
+    from dobwind.cli.app import main
+
+    doc = airframe_dict(**{"thrust.rotors": 9})
+    folder = _generated(parse_airframe(dumps(doc), "<test>"), "px4", tmp_path / "gen") / "px4"
+    topics = tmp_path / "msg" / "uORB" / "topics"
+    topics.mkdir(parents=True)
+    (topics / "dob_wind.h").write_text(msg_header((folder / "msg" / "DobWind.msg").read_text(), "dob_wind"))
+    gcc = Toolchain("gcc", "gcc", "g++")
+    with pytest.raises(CheckFailed, match="fewer ESC reports"):
+        _compile_cxx(gcc, FLAG_SETS["px4"].cxx, folder / "DobWind.cpp", [folder, tmp_path / "msg", STANDINS / "px4"],
+                     tmp_path / "module.o", PX4_DEFINES)
+    (tmp_path / "nine.toml").write_text(dumps(doc))
+    assert main(["generate", str(tmp_path / "nine.toml"), "--target", "px4", "-o", str(tmp_path / "c")]) == 0
+    err = capsys.readouterr().err
+    assert "thrust.rotors = 9" in err and "holds 8 ESC reports" in err and len(err.strip().splitlines()) == 1
+    assert main(["generate", str(M300), "--target", "px4", "-o", str(tmp_path / "c8")]) == 0
+    assert "ESC reports" not in capsys.readouterr().err
+
+
 _SIZES = {"Q": 8, "f": 4, "I": 4}
 _C_SIZES = {"uint64_t": 8, "float": 4, "uint32_t": 4}
 

@@ -47,7 +47,15 @@ def run(args: argparse.Namespace) -> int:
                             gate=gate)
     for path in files:
         print(path)
+    if args.target == "px4" and af.thrust.source == "rpm" and af.thrust.rotors > PX4_ESC_REPORTS:
+        sys.stderr.write(f"dobwind generate: warning: {args.airframe}: thrust.rotors = {af.thrust.rotors}, but PX4's "
+                         f"esc_status holds {PX4_ESC_REPORTS} ESC reports (EscStatus.msg CONNECTED_ESC_MAX): the "
+                         "module's static_assert stops its build against that message\n")
     return 0
+
+
+# EscStatus.msg's CONNECTED_ESC_MAX: the ESC reports one esc_status message holds (PX4 msg/EscStatus.msg).
+PX4_ESC_REPORTS = 8
 
 
 def selftest_gate(name: str, folder: Path, command: str = "generate") -> None:
