@@ -5,6 +5,7 @@ contract of ../shared/spec/INTERFACES.md: one stderr line naming the file, exit 
 from __future__ import annotations
 
 import struct
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -111,3 +112,25 @@ def test_a_dataflash_message_of_an_undeclared_type_does_not_end_the_log_there(tm
     _, got, traj = replay_autopilot(af, str(path), rate_hz=50.0)
     np.testing.assert_array_equal(got.log.time_s, want.log.time_s)
     assert any(f"type 7 at byte {at:,}" in said for said in got.warnings), got.warnings
+
+
+def test_a_huge_finite_quaternion_cell_prints_no_numpy_warning(tmp_path):
+    """A damaged cell (q_z = 1e308, finite, so the reader takes it) overflowed in the heading's yaw
+    (model/attitude.py) and numpy printed "RuntimeWarning: overflow encountered in multiply" and the
+    source line on stderr of a replay that succeeded. The step rejects that row by its quaternion norm;
+    stderr says nothing of numpy's."""
+    from dobwind.io.logs import write_csv
+    from dobwind.simulate.simulate import column_order, simulate
+    from dobwind.model.airframe import load_airframe
+
+    af = load_airframe(M300)
+    cols = simulate(af, "tunnel", seed=2, hold_s=1.0, rate_hz=50.0)
+    cols["q_z"] = cols["q_z"].copy()
+    cols["q_z"][100:103] = 1e308
+    names = [n for n in column_order(cols) if n != "yaw_ref"]  # the heading from q: its yaw
+    log = tmp_path / "huge.csv"
+    write_csv(log, names, np.column_stack([cols[n] for n in names]), ["%.17g"] * len(names))
+    with warnings.catch_warnings(record=True) as caught:  # what Python would print on stderr
+        warnings.simplefilter("always")
+        assert main(["replay", str(M300), str(log), "-o", str(tmp_path / "e.csv")]) == 0
+    assert not [w for w in caught if issubclass(w.category, RuntimeWarning)], [str(w.message) for w in caught]
