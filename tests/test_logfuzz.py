@@ -9,6 +9,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from dobwind.cli.app import main
 from tests import atmos_logs
@@ -134,3 +135,27 @@ def test_a_huge_finite_quaternion_cell_prints_no_numpy_warning(tmp_path):
         warnings.simplefilter("always")
         assert main(["replay", str(M300), str(log), "-o", str(tmp_path / "e.csv")]) == 0
     assert not [w for w in caught if issubclass(w.category, RuntimeWarning)], [str(w.message) for w in caught]
+
+
+@pytest.mark.parametrize("name", ["CTUN", "EV", "ESC", "PARM"])
+def test_a_dataflash_message_logged_without_timeus_is_no_traceback(tmp_path, capsys, name):
+    """A message whose FMT names no TimeUS column (a damaged FMT's column list; the campaign emptied
+    CTUN's) came back from DFReader without that key, and inspect and init died on KeyError 'TimeUS'
+    with a traceback (exit 1). Such rows cannot be placed in time: inspect, init and replay go on
+    without them (exit 0), or say in one line what is missing (exit 2)."""
+    from tests.dataflash_writer import write_dataflash
+    from tests.test_dataflash import MESSAGES, _flight, _rows
+
+    af, cols = _flight()
+    messages = dict(MESSAGES, PARM=("QNf", ["TimeUS", "Name", "Value"]))
+    fmt, columns = messages[name]
+    messages[name] = (fmt, ["Stamp"] + columns[1:])  # the first column is the time, under another name
+    rows = [("PARM", {"TimeUS": 0, "Name": "SIM_WIND_SPD", "Value": 5.0}),
+            ("PARM", {"TimeUS": 0, "Name": "SIM_WIND_DIR", "Value": 90.0})] + _rows(af, cols)
+    log = write_dataflash(tmp_path / "f.bin", messages, rows)
+    for argv in (["inspect", str(log)], ["init", str(log), "--mass", "8", "-o", str(tmp_path / "i.toml")],
+                 ["replay", str(M300), str(log), "-o", str(tmp_path / "e.csv")]):
+        code = main(argv)
+        err = capsys.readouterr().err
+        errors = [line for line in err.splitlines() if "warning:" not in line]
+        assert code == 0 or (code == 2 and len(errors) == 1 and str(log) in errors[0]), (argv[0], code, err)

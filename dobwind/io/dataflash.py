@@ -29,6 +29,7 @@ airborne: NO_DATA, named).
 from __future__ import annotations
 
 import contextlib
+import math
 import os
 import tempfile
 from typing import Iterator
@@ -89,7 +90,9 @@ def load_messages(path: str, wanted: tuple[str, ...] = WANTED) -> dict[str, list
                 msg = reader.recv_match(type=list(wanted))
                 if msg is None:
                     break
-                out[msg.get_type()].append(_with_time_us(msg.to_dict()))
+                row = _with_time_us(msg.to_dict())
+                if _placeable(msg.get_type(), row):
+                    out[msg.get_type()].append(row)
             _close(reader)
     except OSError as exc:
         raise InputError(path, None, f"cannot read: {exc.strerror}") from None
@@ -103,6 +106,21 @@ def _with_time_us(row: dict) -> dict:
     if "TimeUS" not in row and isinstance(row.get("TimeMS"), (int, float)):
         row["TimeUS"] = row["TimeMS"] * 1000
     return row
+
+
+# Messages read for what they say, not when: kept without a time (older firmware logs PARM and MSG
+# without TimeUS; the format messages describe the others).
+UNTIMED = ("PARM", "MSG") + FORMAT_MESSAGES
+
+
+def _placeable(name: str, row: dict) -> bool:
+    """Whether a row can be placed on the log's clock: a finite number in TimeUS. A damaged FMT (its
+    column list emptied or renamed) gives rows without it, which every stream, the ground state and
+    inspect's rates would otherwise look up and fail on (KeyError, a traceback); a message in UNTIMED
+    is kept whatever its time."""
+    stamp = row.get("TimeUS")
+    number = isinstance(stamp, (int, float)) and not isinstance(stamp, bool)
+    return name in UNTIMED or (number and math.isfinite(stamp))
 
 
 def _read(path: str) -> bytes:
