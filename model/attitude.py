@@ -37,7 +37,11 @@ def rotation_matrices(q: np.ndarray) -> np.ndarray:
 def yaw_from_quaternion(q: np.ndarray) -> np.ndarray:
     """Yaw (rad, ZYX Euler angle) of each quaternion row (w, x, y, z)."""
     w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
-    return np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    # A damaged log's huge finite component (1e308) overflows to inf or NaN: that row's yaw is no number,
+    # and the step rejects the row by its quaternion's norm anyway; numpy's warning would only print
+    # its own lines on stderr.
+    with np.errstate(over="ignore", invalid="ignore"):
+        return np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
 
 
 def attitude_with_body_down(z_b: np.ndarray, yaw: np.ndarray) -> Rotation:

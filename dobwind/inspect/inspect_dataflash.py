@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from dobwind.io.dataflash import (AP_WIND, ATTITUDE, EV_GROUND, IMU, LAYOUT_FORMATS, VELOCITY, WANTED, density_step,
-                                  in_one_layout, load_messages, pick_stream, truncation)
+                                  damage, in_one_layout, load_messages, pick_stream, truncation)
 from dobwind.core.errors import InputError
 from dobwind.io.aplayout import logged_name
 from dobwind.io.quietfd import quiet_fds
@@ -216,7 +216,7 @@ def inspect_dataflash(path: str) -> LogSummary:
                 if "FRAME_CLASS" in params else "ArduPilot (no FRAME_CLASS)") + (f", firmware {banner}" if banner else "")
     vehicle = Vehicle(rotors, rotor_source, airframe, rpm_ok, rpm_note, hover, hover_source, rpm_median, rpm_max,
                       ardupilot_not_multirotor(banner, params_all))
-    notes += [cut for cut in (truncation(path),) if cut] + _density_step(msgs, baro)
+    notes += [said for said in (truncation(path), damage(path)) if said] + _density_step(msgs, baro)
     if "SIM_WIND_SPD" in params:
         notes.append(f"SITL wind: {params['SIM_WIND_SPD']:g} m/s from {params.get('SIM_WIND_DIR', 0):g} deg"
                      + (f", below {params.get('SIM_WIND_T_ALT', 0):g} m scaled by sqrt(height / SIM_WIND_T_ALT)"

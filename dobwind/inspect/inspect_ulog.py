@@ -13,6 +13,7 @@ from dobwind.inspect.loginspect import (AutopilotWind, LogSummary, Role, Vehicle
 from dobwind.io.ulog import PX4_WIND_TOPICS, TOPICS_READ, collective_source, open_ulog, truncation
 from dobwind.io.px4layout import (BATTERY_SCALE_PARAM, NOT_COLLECTIVE, THRUST_SOURCES, ThrustSource, battery_scale_note,
                                   older_layout)
+from dobwind.io.resample import in_time_order
 from dobwind.io.vehiclekind import px4_not_multirotor
 
 # Read for the vehicle only (rotor count when esc_status is absent): not estimator inputs.
@@ -34,7 +35,7 @@ def _topics(ulog) -> dict[str, dict]:
             with np.errstate(invalid="ignore"):
                 cols = {k: np.asarray(v, dtype=float) for k, v in data.data.items()}
             cols["t"] = cols["timestamp"] * 1e-6
-            out[data.name] = cols
+            out[data.name] = in_time_order(cols)  # as read_ulog takes it: rates and gaps in time order
     return out
 
 

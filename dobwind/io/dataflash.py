@@ -28,11 +28,17 @@ airborne: NO_DATA, named).
 """
 from __future__ import annotations
 
+import contextlib
+import math
+import os
+import tempfile
+from typing import Iterator
 
 import numpy as np
 
 from dobwind.core.errors import InputError
 from dobwind.io.quietfd import quiet_fds
+from dobwind.io.dfwalk import DATAFLASH_MAGIC, FMT_LENGTH, FMT_TYPE, Undeclared, readable, undeclared_headers
 from dobwind.io.logs import FlightLog
 from dobwind.model.airframe import Airframe
 from dobwind.io.bridge import blanked, bridge, largest_silences
@@ -71,19 +77,22 @@ def load_messages(path: str, wanted: tuple[str, ...] = WANTED) -> dict[str, list
     except ImportError:  # pragma: no cover - the ardupilot extra is part of `make setup`
         raise InputError(path, None, "reading DataFlash needs pymavlink (pip install 'dobwind[ardupilot]')") from None
     _require_magic(path)
-    _refuse_short_formats(path)
+    blob = _read(path)
+    undeclared = undeclared_headers(path, blob)
     out: dict[str, list[dict]] = {name: [] for name in wanted}
     try:
         # DFReader prints a line per skipped byte of a corrupt log ("bad header ...", partly from compiled
         # code, to the descriptors themselves): hundreds of thousands for a damaged file. The outcome is
         # judged from the messages found instead.
-        with quiet_fds():
-            reader = DFReader.DFReader_binary(path, zero_time_base=False)
+        with quiet_fds(), _readable_copy(blob, undeclared, path) as source:
+            reader = DFReader.DFReader_binary(source, zero_time_base=False)
             while True:
                 msg = reader.recv_match(type=list(wanted))
                 if msg is None:
                     break
-                out[msg.get_type()].append(_with_time_us(msg.to_dict()))
+                row = _with_time_us(msg.to_dict())
+                if _placeable(msg.get_type(), row):
+                    out[msg.get_type()].append(row)
             _close(reader)
     except OSError as exc:
         raise InputError(path, None, f"cannot read: {exc.strerror}") from None
@@ -99,8 +108,53 @@ def _with_time_us(row: dict) -> dict:
     return row
 
 
-# Every DataFlash message starts with these two bytes (the format is public: ArduPilot's LogStructure.h).
-DATAFLASH_MAGIC = b"\xa3\x95"
+# Messages read for what they say, not when: kept without a time (older firmware logs PARM and MSG
+# without TimeUS; the format messages describe the others).
+UNTIMED = ("PARM", "MSG") + FORMAT_MESSAGES
+
+
+def _placeable(name: str, row: dict) -> bool:
+    """Whether a row can be placed on the log's clock: a finite number in TimeUS. A damaged FMT (its
+    column list emptied or renamed) gives rows without it, which every stream, the ground state and
+    inspect's rates would otherwise look up and fail on (KeyError, a traceback); a message in UNTIMED
+    is kept whatever its time."""
+    stamp = row.get("TimeUS")
+    number = isinstance(stamp, (int, float)) and not isinstance(stamp, bool)
+    return name in UNTIMED or (number and math.isfinite(stamp))
+
+
+def _read(path: str) -> bytes:
+    try:
+        with open(path, "rb") as handle:
+            return handle.read()
+    except OSError as exc:
+        raise InputError(path, None, f"cannot read: {exc.strerror}") from None
+
+
+@contextlib.contextmanager
+def _readable_copy(blob: bytes, undeclared: Undeclared, path: str) -> Iterator[str]:
+    """``path`` itself, or, when it holds headers of undeclared types (at which DFReader stops reading,
+    dfwalk.py), a temporary copy with them blanked, removed afterwards."""
+    if not undeclared.headers:
+        yield path
+        return
+    handle, name = tempfile.mkstemp(suffix=".bin", prefix="dobwind-df-")
+    try:
+        with os.fdopen(handle, "wb") as out:
+            out.write(readable(blob, undeclared))
+        yield name
+    finally:
+        with contextlib.suppress(OSError):
+            os.remove(name)
+
+
+def damage(path: str) -> str | None:
+    """The note on headers of undeclared types that load_messages skipped, or None."""
+    try:
+        blob = _read(path)
+        return undeclared_headers(path, blob).note(len(blob))
+    except InputError:  # unreadable or a corrupt FMT: load_messages has said so already
+        return None
 
 
 def _require_magic(path: str) -> None:
@@ -294,37 +348,6 @@ def read_dataflash(path: str, af: Airframe, rate_hz: float | None = None, bridge
                            silences=largest_silences(tolerances, clock), sitl=sitl, warnings=_cut(path, clock))
 
 
-_FMT = 128           # the FMT message's type; its body starts with the type it defines and that type's length
-_FMT_LENGTH = 89
-
-
-def _refuse_short_formats(path: str) -> None:
-    """Refuse a log DFReader would never finish: it walks the file as below (a byte at a time past a bad
-    header, stopping at an unknown type) and steps each message by the length its FMT declares, so a type
-    declared shorter than its own 3-byte header stalls it for ever (a corrupt FMT; pymavlink's DFReader.py
-    init_arrays). The same walk, refused at the first such message."""
-    try:
-        with open(path, "rb") as handle:
-            blob = handle.read()
-    except OSError as exc:
-        raise InputError(path, None, f"cannot read: {exc.strerror}") from None
-    lengths, pos, size = {_FMT: _FMT_LENGTH}, 0, len(blob)
-    while pos + 3 <= size:
-        if blob[pos:pos + 2] != DATAFLASH_MAGIC:
-            pos = blob.find(DATAFLASH_MAGIC, pos + 1)
-            if pos < 0:
-                return
-            continue
-        kind = blob[pos + 2]
-        if kind not in lengths:
-            return
-        if lengths[kind] < 3:
-            raise InputError(path, None, f"not a readable DataFlash log: message type {kind} at byte {pos} is "
-                             f"declared {lengths[kind]} bytes long by its FMT, shorter than its own 3-byte header "
-                             "(a corrupt FMT)")
-        if kind == _FMT and pos + 5 <= size:
-            lengths[blob[pos + 3]] = blob[pos + 4]
-        pos += lengths[kind]
 
 
 def truncation(path: str) -> str | None:
@@ -337,10 +360,10 @@ def truncation(path: str) -> str | None:
             blob = handle.read()
     except OSError:
         return None
-    lengths, pos, size = {_FMT: _FMT_LENGTH}, 0, len(blob)
+    lengths, pos, size = {FMT_TYPE: FMT_LENGTH}, 0, len(blob)
     while pos + 3 <= size and blob[pos:pos + 2] == DATAFLASH_MAGIC:
         kind = blob[pos + 2]
-        if kind == _FMT and pos + 5 <= size:
+        if kind == FMT_TYPE and pos + 5 <= size:
             lengths[blob[pos + 3]] = blob[pos + 4]
         if kind not in lengths or lengths[kind] < 3:  # a length short of its own header: corrupt (and no step)
             return None
@@ -353,8 +376,9 @@ def truncation(path: str) -> str | None:
 
 
 def _cut(path: str, clock: np.ndarray) -> tuple[str, ...]:
-    cut = truncation(path)
-    return (f"{path}: {cut} ({clock[-1] - clock[0]:.2f} s readable)",) if cut else ()
+    cut, damaged = truncation(path), damage(path)
+    return ((f"{path}: {cut} ({clock[-1] - clock[0]:.2f} s readable)",) if cut else ()) + \
+        ((f"{path}: {damaged}",) if damaged else ())
 
 
 def _refuse_other_vehicles(path: str, loaded: dict[str, list[dict]]) -> None:

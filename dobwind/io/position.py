@@ -14,8 +14,6 @@ they are read here, separately, and put on the estimate rows by ``on_rows``.
 """
 from __future__ import annotations
 
-import contextlib
-import io
 from dataclasses import dataclass
 
 import numpy as np
@@ -115,25 +113,13 @@ def gps_to_unix(week: np.ndarray, ms: np.ndarray) -> np.ndarray:
 
 
 def _dataflash_messages(path: str) -> dict[str, list[dict]]:
-    try:
-        from pymavlink import DFReader
-    except ImportError:  # pragma: no cover - the ardupilot extra is part of `make setup`
-        raise InputError(path, None, "reading DataFlash needs pymavlink (pip install 'dobwind[ardupilot]')") from None
-    out: dict[str, list[dict]] = {"POS": [], "GPS": [], "XKF1": [], "NKF1": []}
-    try:
-        with contextlib.redirect_stdout(io.StringIO()):
-            reader = DFReader.DFReader_binary(path, zero_time_base=False)
-            try:
-                while (msg := reader.recv_match(type=list(out))) is not None:
-                    out[msg.get_type()].append(msg.to_dict())
-            finally:
-                with contextlib.suppress(Exception):
-                    reader.close()
-    except OSError as exc:
-        raise InputError(path, None, f"cannot read: {exc.strerror}") from None
-    except Exception as exc:  # DFReader raises many kinds on corrupt files
-        raise InputError(path, None, f"not a readable DataFlash log ({type(exc).__name__}: {str(exc)[:80]})") from None
-    return out
+    """POS, GPS and the EKF's local position, read by the DataFlash reader's own loader: it silences
+    pymavlink at the descriptor level (its compiled indexer prints a "bad header" line per skipped byte
+    of a damaged log to descriptor 2, which Python's redirect_stdout does not catch) and turns every
+    DFReader failure into one InputError naming the file."""
+    from dobwind.io.dataflash import load_messages  # the replay's reader: pymavlink only when needed
+
+    return load_messages(path, ("POS", "GPS", "XKF1", "NKF1"))
 
 
 def _column(rows: list[dict], name: str) -> np.ndarray:

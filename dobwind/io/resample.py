@@ -169,6 +169,20 @@ def bracketing(t_src: np.ndarray, flag: np.ndarray, t_dst: np.ndarray) -> np.nda
     return before | (after & ~exact)
 
 
+def in_time_order(cols: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The columns (one row per sample, times in "t") with the rows sorted by time, stably, and a
+    repeated stamp's later rows dropped. interp, hold and bracketing take times that increase: a log
+    written out of order (a logger flushing a buffer late, two files spliced, a damaged timestamp)
+    otherwise interpolates between the wrong samples without a word. The DataFlash reader's pick_stream
+    orders its rows so too."""
+    t = cols["t"]
+    if len(t) < 2 or bool(np.all(np.diff(t) > 0)):
+        return cols
+    order = np.argsort(t, kind="stable")
+    keep = order[np.r_[True, np.diff(t[order]) > 0]]
+    return {name: values[keep] for name, values in cols.items()}
+
+
 def interp(src: dict, fields: list[str], t: np.ndarray) -> np.ndarray:
     return np.column_stack([np.interp(t, src["t"], src[f]) for f in fields])
 

@@ -71,9 +71,11 @@ def sitl_parameters(msgs: dict[str, list[dict]]) -> dict[str, list[tuple[float, 
     """Each SIM_WIND_* parameter's (time s, value) in log order, from the PARM messages."""
     params: dict[str, list[tuple[float, float]]] = {}
     for row in msgs.get("PARM", []):
-        name = str(row.get("Name", ""))
-        if name.startswith("SIM_WIND"):
-            params.setdefault(name, []).append((float(row["TimeUS"]) * 1e-6, float(row["Value"])))
+        name, value = str(row.get("Name", "")), row.get("Value")
+        # A PARM without a time (older firmware) is set from the start; one whose value is no number (a
+        # damaged FMT) says nothing.
+        if name.startswith("SIM_WIND") and isinstance(value, (int, float)):
+            params.setdefault(name, []).append((float(row.get("TimeUS", 0)) * 1e-6, float(value)))
     return params
 
 

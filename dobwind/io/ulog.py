@@ -29,7 +29,7 @@ from dobwind.io.logs import FlightLog
 from dobwind.io.vehiclekind import MULTIROTORS_ONLY, px4_not_multirotor
 from dobwind.model.airframe import Airframe
 from dobwind.io.bridge import blanked, bridge, largest_silences
-from dobwind.io.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, hold,
+from dobwind.io.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, hold, in_time_order,
                               interp, quaternions, source_gaps, topic_tolerances, truncated_note, uniform_clock,
                               wind_active)
 from dobwind.io.px4layout import NOT_COLLECTIVE, THRUST_SOURCES, ThrustSource, battery_scale_note, older_layout
@@ -115,7 +115,8 @@ def _topic(ulog, name: str, fields: list[str], optional: tuple[str, ...] = ()) -
             with np.errstate(invalid="ignore"):
                 out = {f: np.asarray(data.data[f], dtype=float) for f in fields + [o for o in optional if o in data.data]}
             out["t"] = np.asarray(data.data["timestamp"], dtype=float) * 1e-6
-            return out
+            out = in_time_order(out)
+            return out if len(out["t"]) >= 2 else None
     return None
 
 
