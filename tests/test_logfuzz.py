@@ -159,3 +159,18 @@ def test_a_dataflash_message_logged_without_timeus_is_no_traceback(tmp_path, cap
         err = capsys.readouterr().err
         errors = [line for line in err.splitlines() if "warning:" not in line]
         assert code == 0 or (code == 2 and len(errors) == 1 and str(log) in errors[0]), (argv[0], code, err)
+
+
+@pytest.mark.parametrize("argv", [["inspect", "{log}"], ["replay", str(M300), "{log}", "-o", "{out}"]])
+def test_a_gzip_compressed_csv_is_refused_with_the_hint_to_decompress_it(tmp_path, capsys, argv):
+    """The tunnel runs come as .csv.gz: read as CSV its first bytes are gzip's magic, and the one line says so
+    (before: 'not UTF-8 text', which does not tell a user what to do)."""
+    import gzip
+
+    log = tmp_path / "run.csv.gz"
+    log.write_bytes(gzip.compress(b"t,vel_n,vel_e,vel_d\n0,1,2,3\n"))
+    args = [a.format(log=log, out=tmp_path / "out.csv") for a in argv]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and str(log) in err and "gzip-compressed" in err and "gunzip" in err
+    assert not (tmp_path / "out.csv").exists()

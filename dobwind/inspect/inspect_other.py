@@ -8,6 +8,7 @@ import re
 import numpy as np
 
 from dobwind.core.errors import InputError
+from dobwind.io.csvchunks import not_text
 from dobwind.io.logs import airframe_given_as_log, refuse_an_estimate
 from dobwind.inspect.loginspect import AutopilotWind, LogSummary, Role, Vehicle, inside, intervals, stream_stats, total, \
     wind_activity
@@ -138,7 +139,8 @@ def _csv_columns(path: str) -> tuple[list[str], dict[str, np.ndarray]]:
     except OSError as exc:
         raise InputError(path, None, f"cannot read: {exc.strerror}") from None
     except UnicodeDecodeError:
-        raise InputError(path, None, "not UTF-8 text") from None
+        with open(path, "rb") as handle:
+            raise InputError(path, None, not_text(handle.read(2))) from None
     if not rows:
         raise InputError(path, None, "empty: no header line")
     header = [h.strip() for h in rows[0]]

@@ -34,11 +34,21 @@ class Header:
     line: int          # its 1-based line number
 
 
+_GZIP = b"\x1f\x8b"  # a gzip stream's first two bytes (RFC 1952)
+
+
+def not_text(first: bytes) -> str:
+    """Why a file whose bytes start with ``first`` is not read as CSV text."""
+    if first.startswith(_GZIP):
+        return "gzip-compressed, not CSV text: decompress it first (gunzip)"
+    return "not UTF-8 text"
+
+
 def _decode(raw: bytes, path: str, line: int) -> str:
     try:
         return raw.decode("utf-8")
     except UnicodeDecodeError:
-        raise InputError(path, f"line {line}", "not UTF-8 text") from None
+        raise InputError(path, f"line {line}", not_text(raw) if line == 1 else "not UTF-8 text") from None
 
 
 def read_header(handle: BinaryIO, path: str) -> Header:
