@@ -174,3 +174,18 @@ def test_a_gzip_compressed_csv_is_refused_with_the_hint_to_decompress_it(tmp_pat
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and str(log) in err and "gzip-compressed" in err and "gunzip" in err
     assert not (tmp_path / "out.csv").exists()
+
+
+def test_a_csv_with_quoted_column_names_reads_as_without(tmp_path, capsys):
+    """A spreadsheet or pandas export may quote the header ("t","vel_n",...): the names are the same, and so is
+    the replay (before: 'column t: missing')."""
+    plain = tmp_path / "plain.csv"
+    assert main(["simulate", "tunnel", "--hold", "2", "-o", str(plain)]) == 0
+    lines = plain.read_text().split("\n")
+    k = next(i for i, line in enumerate(lines) if line and not line.startswith("#"))
+    lines[k] = ",".join(f'"{name}"' for name in lines[k].split(","))
+    quoted = tmp_path / "quoted.csv"
+    quoted.write_text("\n".join(lines))
+    for log in (plain, quoted):
+        assert main(["replay", str(M300), str(log), "-o", str(tmp_path / f"{log.stem}.out.csv")]) == 0
+    assert (tmp_path / "plain.out.csv").read_text() == (tmp_path / "quoted.out.csv").read_text()

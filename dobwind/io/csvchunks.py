@@ -51,6 +51,10 @@ def _decode(raw: bytes, path: str, line: int) -> str:
         raise InputError(path, f"line {line}", not_text(raw) if line == 1 else "not UTF-8 text") from None
 
 
+def _unquoted(name: str) -> str:
+    return name[1:-1].strip() if len(name) >= 2 and name[0] == name[-1] == '"' else name
+
+
 def read_header(handle: BinaryIO, path: str) -> Header:
     """Skips comment and blank lines before the header; a byte-order mark (a spreadsheet's) is not part
     of the first column's name."""
@@ -62,7 +66,8 @@ def read_header(handle: BinaryIO, path: str) -> Header:
         text = _decode(raw, path, line).strip()
         if not text or text.startswith("#"):
             continue
-        names = [h.strip().lstrip("\ufeff") for h in text.split(",")]
+        # A spreadsheet or pandas may quote the names ("t","vel_n"): the quotes are not part of them.
+        names = [_unquoted(h.strip().lstrip("\ufeff")) for h in text.split(",")]
         if len(set(names)) != len(names):
             dup = next(h for h in names if names.count(h) > 1)
             raise InputError(path, f"line {line}, column {dup}", "appears twice in the header")
