@@ -17,6 +17,12 @@ class Thresholds:
     replay_share: float = 0.06       # each log's training replay: RMS of its per-segment speed errors
     floor_mps: float = 0.15
     direction_deg: float = 10.0      # each log's mean per-segment direction error
+    # A WARNING, not a refusal: the share direction_tail_share of a log's segments at direction_tail_speed_mps
+    # or faster read the direction within direction_tail_deg (selfcheck.direction_tail_warnings). The mean
+    # above hides a law that is right along its axes and 15-20 deg off between them (a long thin body).
+    direction_tail_deg: float = 12.0
+    direction_tail_share: float = 0.9
+    direction_tail_speed_mps: float = 3.0
     max_coefficient: float = 1e6     # any model coefficient, in its SI units
     # Logs the fit itself flagged as outliers (dobwind/calibrate/runmeans.py, a minority of them only): replayed and
     # reported, but not held to the per-log replay limits. Set by the fit, never by the user.
