@@ -256,6 +256,7 @@ def test_a_good_fit_passes_and_its_replay_matches_replay(tiny, tmp_path, capsys,
     sweep = check["logs"][0]
     assert sweep["fit_samples"] > 100 and len(sweep["segments"]) > 100 and sweep["speed_rms_mps"] < check["replay_limit_mps"]
     assert len(check["logs"][1]["segments"]) >= 10
+    assert check["warnings"] == [] and not any("direction error" in w for w in report["warnings"])
     # The self-check runs the same step as `replay` (an independent path: its own reader, runner and
     # scoring). Scored from the same 5 s into each segment, the per-segment speed errors agree up to the
     # delay matching of the truth, which a steady hold's mean hardly sees.
@@ -389,3 +390,15 @@ def test_a_direction_tail_warns_but_never_refuses():
     assert "warning: b.csv" in text_table(check) and text_table(check).endswith("self-check: PASS")
     quiet = verdict(load_airframe(M300), [good, bad], 0.1, 10.0, dataclasses.replace(limits, direction_tail_deg=16.0))
     assert quiet.warnings == []   # at the limit is within it
+
+
+def test_the_fit_reports_the_self_checks_direction_tail_warning(tiny):
+    """The warning reaches the fit's report (the command prints its warnings on stderr and in --json):
+    with the tail limit at 0 deg every log with a direction error at speed is named, and the model passes."""
+    from dobwind.calibrate.fitfamily import fit_airframe
+
+    limits = Thresholds(direction_tail_deg=0.0, direction_tail_speed_mps=0.0)
+    _, report, _ = fit_airframe(load_airframe(tiny["airframe"]), [tiny["sweep"]], limits=limits)
+    tails = [w for w in report.warnings if "training replay direction error" in w]
+    assert report.self_check.passed and tails == report.self_check.warnings
+    assert len(tails) == 1 and tails[0].startswith(tiny["sweep"] + ": ")

@@ -20,7 +20,7 @@ class Thresholds:
     # A WARNING, not a refusal: the share direction_tail_share of a log's segments at direction_tail_speed_mps
     # or faster read the direction within direction_tail_deg (selfcheck.direction_tail_warnings). The mean
     # above hides a law that is right along its axes and 15-20 deg off between them (a long thin body).
-    direction_tail_deg: float = 12.0
+    direction_tail_deg: float = 4.0
     direction_tail_share: float = 0.9
     direction_tail_speed_mps: float = 3.0
     max_coefficient: float = 1e6     # any model coefficient, in its SI units
