@@ -386,7 +386,7 @@ def test_a_direction_tail_warns_but_never_refuses():
     limits = Thresholds(direction_tail_deg=12.0, direction_tail_share=0.9, direction_tail_speed_mps=3.0)
     check = verdict(load_airframe(M300), [good, bad], 0.1, 10.0, limits)
     assert check.passed and len(check.warnings) == 1, check.warnings
-    assert check.warnings[0].startswith("b.csv: training replay direction error 16.0 deg or more on 10% of its segments")
+    assert check.warnings[0].startswith("b.csv: training replay direction error 16.0 deg or more on at least 10% of its segments")
     assert "warning: b.csv" in text_table(check) and text_table(check).endswith("self-check: PASS")
     quiet = verdict(load_airframe(M300), [good, bad], 0.1, 10.0, dataclasses.replace(limits, direction_tail_deg=16.0))
     assert quiet.warnings == []   # at the limit is within it
