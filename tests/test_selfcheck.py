@@ -256,6 +256,7 @@ def test_a_good_fit_passes_and_its_replay_matches_replay(tiny, tmp_path, capsys,
     sweep = check["logs"][0]
     assert sweep["fit_samples"] > 100 and len(sweep["segments"]) > 100 and sweep["speed_rms_mps"] < check["replay_limit_mps"]
     assert len(check["logs"][1]["segments"]) >= 10
+    assert check["warnings"] == [] and not any("direction error" in w for w in report["warnings"])
     # The self-check runs the same step as `replay` (an independent path: its own reader, runner and
     # scoring). Scored from the same 5 s into each segment, the per-segment speed errors agree up to the
     # delay matching of the truth, which a steady hold's mean hardly sees.
@@ -353,3 +354,51 @@ def test_force_writes_a_model_that_failed_and_warns(tmp_path, capsys, monkeypatc
                                                      "no usable sample to the fit); written anyway (--force)")
     assert main(["fit", str(M300), "a.csv", "-o", str(tmp_path / "refused.toml")]) == 1
     assert not (tmp_path / "refused.toml").exists()
+
+
+# --- the direction tail (a warning) ---------------------------------------------------------------
+
+def _segments(errors_deg, speed_mps=5.0):
+    from dobwind.calibrate.reportparts import Segment
+
+    return [Segment(k, speed_mps, 0.0, e, 0.0, 100) for k, e in enumerate(errors_deg)]
+
+
+def test_the_direction_tail_is_the_error_that_the_share_of_fast_segments_stays_within():
+    from dobwind.calibrate.selfcheck import direction_tail_deg
+
+    # 20 fast segments 1..20 deg: 90 % (18 of them) are within 18 deg; slow and direction-less ones are left out.
+    fast = _segments([float(e) for e in range(20, 0, -1)])
+    slow = _segments([80.0, 90.0], speed_mps=1.5) + [dataclasses.replace(fast[0], direction_error_deg=None)]
+    log = dataclasses.replace(_log("a.csv"), segments=fast + slow)
+    assert direction_tail_deg(log, 0.9, 3.0) == 18.0
+    assert direction_tail_deg(log, 1.0, 3.0) == 20.0 and direction_tail_deg(log, 0.5, 3.0) == 10.0
+    assert direction_tail_deg(log, 0.9, 1.0) == 20.0  # the slow ones now count: 20 of 22 within 20 deg
+    assert direction_tail_deg(log, 0.9, 30.0) is None
+
+
+def test_a_direction_tail_warns_but_never_refuses():
+    """A mean within the 10 deg limit with a tail of 15-20 deg (a long thin body's calibration): PASS,
+    with a warning naming the log; a clean log says nothing."""
+    errors = [5.0] * 16 + [15.0, 16.0, 18.0, 20.0]      # mean 7.45 deg; 90 % within 16 deg
+    bad = dataclasses.replace(_log("b.csv", direction=7.45), segments=_segments(errors), direction_max_deg=20.0)
+    good = dataclasses.replace(_log("a.csv", direction=2.0), segments=_segments([2.0] * 20))
+    limits = Thresholds(direction_tail_deg=12.0, direction_tail_share=0.9, direction_tail_speed_mps=3.0)
+    check = verdict(load_airframe(M300), [good, bad], 0.1, 10.0, limits)
+    assert check.passed and len(check.warnings) == 1, check.warnings
+    assert check.warnings[0].startswith("b.csv: training replay direction error 16.0 deg or more on at least 10% of its segments")
+    assert "warning: b.csv" in text_table(check) and text_table(check).endswith("self-check: PASS")
+    quiet = verdict(load_airframe(M300), [good, bad], 0.1, 10.0, dataclasses.replace(limits, direction_tail_deg=16.0))
+    assert quiet.warnings == []   # at the limit is within it
+
+
+def test_the_fit_reports_the_self_checks_direction_tail_warning(tiny):
+    """The warning reaches the fit's report (the command prints its warnings on stderr and in --json):
+    with the tail limit at 0 deg every log with a direction error at speed is named, and the model passes."""
+    from dobwind.calibrate.fitfamily import fit_airframe
+
+    limits = Thresholds(direction_tail_deg=0.0, direction_tail_speed_mps=0.0)
+    _, report, _ = fit_airframe(load_airframe(tiny["airframe"]), [tiny["sweep"]], limits=limits)
+    tails = [w for w in report.warnings if "training replay direction error" in w]
+    assert report.self_check.passed and tails == report.self_check.warnings
+    assert len(tails) == 1 and tails[0].startswith(tiny["sweep"] + ": ")

@@ -291,7 +291,8 @@ def _fit_once(af: Airframe, log_paths: list[str],
     new, check, low_pass, quiet_warnings = _quiet_hover(
         new, check, hover, lambda af_: calibration.check(af_, cv, speed_range, limits))
     check = _short_flight(check, samples)
-    return new, dataclasses.replace(report, low_pass=low_pass, warnings=[*report.warnings, *quiet_warnings]), points, check
+    return new, dataclasses.replace(report, low_pass=low_pass,
+                                    warnings=[*report.warnings, *quiet_warnings, *check.warnings]), points, check
 
 
 def _short_flight(check: SelfCheck, samples: dragfit.DragSamples) -> SelfCheck:

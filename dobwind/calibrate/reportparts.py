@@ -73,6 +73,7 @@ class SelfCheck:
     noise_up_mps: float = 0.0
     still_noise_mps: float | None = None  # per-axis horizontal noise at low airflow (None: no such segment)
     outlier_logs: list[str] = field(default_factory=list)  # replayed, not judged (Thresholds.outlier_logs)
+    warnings: list[str] = field(default_factory=list)      # said, not refused (selfcheck.direction_tail_warnings)
 
     def as_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)

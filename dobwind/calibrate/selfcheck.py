@@ -274,6 +274,36 @@ def direction_fails(check: LogCheck, limit_deg: float, replay_limit_mps: float) 
     return check.direction_mean_mps is None or check.direction_mean_mps > replay_limit_mps
 
 
+def direction_tail_deg(check: LogCheck, share: float, min_speed_mps: float) -> float | None:
+    """The direction error that ``share`` of the log's segments at ``min_speed_mps`` or faster stay within
+    (the lower of the two segment errors around that rank: a tail it reports is met by that many
+    segments); None without such a segment."""
+    errors = sorted(r.direction_error_deg for r in check.segments
+                    if r.direction_error_deg is not None and r.true_speed_mps >= min_speed_mps)
+    if not errors:
+        return None
+    return float(errors[max(0, math.ceil(share * len(errors)) - 1)])
+
+
+def direction_tail_warnings(logs: list[LogCheck], limits: Thresholds) -> list[str]:
+    """A warning per log whose direction errors at speed have a tail over limits.direction_tail_deg. The
+    refusal judges the MEAN (direction_fails): a law that is right along the body axes and 15-20 deg off
+    between them (a drag law whose harmonics cannot follow a strongly per-axis body) averages under the
+    limit, and its user would fly it unwarned."""
+    warnings = []
+    for check in logs:
+        tail = direction_tail_deg(check, limits.direction_tail_share, limits.direction_tail_speed_mps)
+        if tail is not None and tail > limits.direction_tail_deg:
+            warnings.append(f"{check.log}: training replay direction error {tail:.1f} deg or more on at least "
+                            f"{1 - limits.direction_tail_share:.0%} of its segments at "
+                            f"{limits.direction_tail_speed_mps:g} m/s or faster (warned above "
+                            f"{limits.direction_tail_deg:g} deg; the worst {check.direction_max_deg or tail:.1f} deg): the "
+                            f"law misreads some airflow directions, which the mean limit does not refuse (a body "
+                            f"whose drag differs strongly by axis: docs/calibration.md); expect wind directions "
+                            f"that far off")
+    return warnings
+
+
 def verdict(af: Airframe, logs: list[LogCheck], cv_mps: float | None, speed_range_mps: float,
             limits: Thresholds) -> SelfCheck:
     cv_limit = limits.speed_limit_mps(limits.cv_share, speed_range_mps)
@@ -302,7 +332,7 @@ def verdict(af: Airframe, logs: list[LogCheck], cv_mps: float | None, speed_rang
     noise_up = pooled_noise([(c.noise_up_mps, c.noise_dof) for c in logs])
     still = pooled_noise([(c.still_noise_mps, c.still_dof) for c in logs]) if any(c.still_dof for c in logs) else None
     return SelfCheck(not reasons, reasons, cv_mps, speed_range_mps, cv_limit, replay_limit, limits.direction_deg, logs,
-                     noise_h, noise_up, still, list(limits.outlier_logs))
+                     noise_h, noise_up, still, list(limits.outlier_logs), direction_tail_warnings(logs, limits))
 
 
 def self_check(af: Airframe, logs: list[FlightLog], fit_samples: list[int], cv_mps: float | None,
@@ -359,5 +389,6 @@ def text_table(check: SelfCheck) -> str:
     if check.still_noise_mps is not None:
         lines.append(f"  at low airflow (segments under {STILL_AIRFLOW_MPS:g} m/s): {check.still_noise_mps:.3f} m/s "
                      "per horizontal axis")
+    lines.extend(f"  warning: {warning}" for warning in check.warnings)
     lines.append("self-check: " + ("PASS" if check.passed else "FAIL: " + "; ".join(check.reasons)))
     return "\n".join(lines)
