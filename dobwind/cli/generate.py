@@ -33,6 +33,7 @@ def run(args: argparse.Namespace) -> int:
     from dobwind.codegen.generate import is_generated_name
     from dobwind.generate.emit import generate_to_dir
     from dobwind.model.airframe import load_airframe
+    from dobwind.model.signals import log_signals
 
     if args.output is not None:
         check_targets([Target("-o", args.output, "dir")], [args.airframe])
@@ -47,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
                             gate=gate)
     for path in files:
         print(path)
-    if args.target == "px4" and af.thrust.source == "rpm" and af.thrust.rotors > PX4_ESC_REPORTS:
+    if args.target == "px4" and log_signals(af).rotor_speeds and af.thrust.rotors > PX4_ESC_REPORTS:
         sys.stderr.write(f"dobwind generate: warning: {args.airframe}: thrust.rotors = {af.thrust.rotors}, but PX4's "
                          f"esc_status holds {PX4_ESC_REPORTS} ESC reports (EscStatus.msg CONNECTED_ESC_MAX): the "
                          "module's static_assert stops its build against that message\n")
