@@ -189,3 +189,71 @@ def test_a_csv_with_quoted_column_names_reads_as_without(tmp_path, capsys):
     for log in (plain, quoted):
         assert main(["replay", str(M300), str(log), "-o", str(tmp_path / f"{log.stem}.out.csv")]) == 0
     assert (tmp_path / "plain.out.csv").read_text() == (tmp_path / "quoted.out.csv").read_text()
+
+
+WILD_US = 1 << 61  # a flipped high bit in a microsecond clock: 2.3e12 s
+
+
+def _wild_ulog(tmp_path: Path) -> tuple[Path, Path]:
+    """A ULog flight, and the same with one vehicle_attitude row's timestamp set to WILD_US."""
+    from tests.test_ulog import _flight, _ulog
+
+    _, cols = _flight()
+    clean = _ulog(tmp_path / "clean.ulg", cols, landed_until=1.0)
+    blob = bytearray(clean.read_bytes())
+    at = [o for o, _, kind in _ulog_messages(bytes(blob))
+          if kind == "D" and struct.unpack_from("<H", blob, o + 3)[0] == 1][200]  # 1: vehicle_attitude
+    struct.pack_into("<Q", blob, at + 5, WILD_US)
+    wild = tmp_path / "wild.ulg"
+    wild.write_bytes(bytes(blob))
+    return clean, wild
+
+
+def _wild_dataflash(tmp_path: Path) -> tuple[Path, Path]:
+    from tests.dataflash_writer import write_dataflash
+    from tests.test_dataflash import MESSAGES, _flight, _rows
+
+    af, cols = _flight()
+    rows = _rows(af, cols)
+    clean = write_dataflash(tmp_path / "clean.bin", MESSAGES, rows)
+    k = next(i for i, (name, _) in enumerate(rows) if name == "ATT")
+    rows[k] = ("ATT", {**rows[k][1], "TimeUS": WILD_US})
+    return clean, write_dataflash(tmp_path / "wild.bin", MESSAGES, rows)
+
+
+def _wild_csv(tmp_path: Path) -> tuple[Path, Path]:
+    from dobwind.io.logs import write_csv
+    from dobwind.model.airframe import load_airframe
+    from dobwind.simulate.simulate import column_order, simulate
+
+    cols = simulate(load_airframe(M300), "tunnel", seed=2, hold_s=1.0, rate_hz=50.0)
+    names = column_order(cols)
+    clean = tmp_path / "clean.csv"
+    write_csv(clean, names, np.column_stack([cols[n] for n in names]), ["%.17g"] * len(names))
+    cols["t"] = cols["t"].copy()
+    cols["t"][-1] = WILD_US * 1e-6
+    wild = tmp_path / "wild.csv"
+    write_csv(wild, names, np.column_stack([cols[n] for n in names]), ["%.17g"] * len(names))
+    return clean, wild
+
+
+@pytest.mark.parametrize("make", [_wild_ulog, _wild_dataflash, _wild_csv])
+def test_one_wild_timestamp_does_not_set_the_span(tmp_path, capsys, make):
+    """One row stamped 2.3e12 s (a flipped bit; the campaign's DataFlash flips) made inspect report "span
+    73 .. 2.3e12 s". The span is now the bulk's, the same as the log without that row's stamp (the CSV's
+    bulk ends one row earlier), and the report says one sample lies outside it, where."""
+    import json
+
+    clean, wild = make(tmp_path)
+    docs = []
+    for log in (clean, wild):
+        assert main(["inspect", str(log), "--json"]) == 0
+        docs.append(json.loads(capsys.readouterr().out))
+    want, got = docs
+    assert want["outside_span"] == 0 and got["outside_span"] == 1
+    assert got["start_s"] == want["start_s"] and got["end_s"] <= want["end_s"] < 1e6
+    assert got["outside_span_s"] == [WILD_US * 1e-6, WILD_US * 1e-6]
+    assert got["airborne_s"] <= got["duration_s"] < 1e6
+    assert any("1 of " in n and "outside the span" in n for n in got["notes"]), got["notes"]
+    assert main(["inspect", str(wild)]) == 0
+    assert "1 sample outside it" in capsys.readouterr().out

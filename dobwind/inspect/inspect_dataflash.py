@@ -15,7 +15,7 @@ from dobwind.core.errors import InputError
 from dobwind.io.aplayout import logged_name
 from dobwind.io.quietfd import quiet_fds
 from dobwind.io.vehiclekind import ardupilot_not_multirotor, firmware
-from dobwind.inspect.loginspect import (AutopilotWind, LogSummary, Role, Vehicle, inside, intervals,
+from dobwind.inspect.loginspect import (AutopilotWind, LogSummary, Role, Vehicle, bulk_span, inside, intervals,
                                 stream_stats, total, wind_activity)
 
 PARAMETERS = ("MOT_THST_HOVER", "FRAME_CLASS", "FRAME_TYPE", "EK3_DRAG_BCOEF_X", "EK3_DRAG_BCOEF_Y",
@@ -205,9 +205,10 @@ def inspect_dataflash(path: str) -> LogSummary:
     streams = _streams(msgs)
     if not streams:
         raise InputError(path, None, "no message the estimator reads is in the log")
-    start = min(s.start_s for s in streams if s.start_s is not None)
-    end = max(s.end_s for s in streams if s.end_s is not None)
+    span = bulk_span(np.array([r["TimeUS"] for rows in msgs.values() for r in rows], dtype=float) * 1e-6)
+    start, end = span.start_s, span.end_s
     spans, source = _airborne(msgs, end)
+    spans = span.clip(spans)
     rotors, rotor_source = _rotors(msgs, params_all, spans)
     rpm_ok, rpm_note, rpm_median, rpm_max = _rpm(msgs, rotors, spans)
     hover, hover_source = _hover(msgs, params, spans)
@@ -216,11 +217,11 @@ def inspect_dataflash(path: str) -> LogSummary:
                 if "FRAME_CLASS" in params else "ArduPilot (no FRAME_CLASS)") + (f", firmware {banner}" if banner else "")
     vehicle = Vehicle(rotors, rotor_source, airframe, rpm_ok, rpm_note, hover, hover_source, rpm_median, rpm_max,
                       ardupilot_not_multirotor(banner, params_all))
-    notes += [said for said in (truncation(path), damage(path)) if said] + _density_step(msgs, baro)
+    notes += [said for said in (truncation(path), damage(path), span.note()) if said] + _density_step(msgs, baro)
     if "SIM_WIND_SPD" in params:
         notes.append(f"SITL wind: {params['SIM_WIND_SPD']:g} m/s from {params.get('SIM_WIND_DIR', 0):g} deg"
                      + (f", below {params.get('SIM_WIND_T_ALT', 0):g} m scaled by sqrt(height / SIM_WIND_T_ALT)"
                         if params.get("SIM_WIND_T", 0) == 0 and params.get("SIM_WIND_T_ALT", 0) > 0 else ""))
     return LogSummary(path, "dataflash", "ArduPilot", start, end, total(spans) if spans or "unknown" not in source else None,
                       source, spans, tuple(streams), _roles(msgs, params), params, vehicle, _ap_wind(msgs, params),
-                      tuple(notes))
+                      tuple(notes), outside_span=span.outside, outside_span_s=span.outside_s)

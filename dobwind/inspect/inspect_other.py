@@ -10,7 +10,7 @@ import numpy as np
 from dobwind.core.errors import InputError
 from dobwind.io.csvchunks import not_text
 from dobwind.io.logs import airframe_given_as_log, refuse_an_estimate
-from dobwind.inspect.loginspect import AutopilotWind, LogSummary, Role, Vehicle, inside, intervals, stream_stats, total, \
+from dobwind.inspect.loginspect import AutopilotWind, LogSummary, Role, Vehicle, bulk_span, inside, intervals, stream_stats, total, \
     wind_activity
 
 # rosbag.py's role names -> inspect's roles. "imu" is the specific force (and, under mavros, the attitude).
@@ -177,8 +177,11 @@ def inspect_csv(path: str) -> LogSummary:
                       share >= RPM_AIRBORNE_SHARE, f"rpm > 0 on every rotor in {100 * share:.0f} % of rows" if rpm_cols else "",
                       None, "", float(np.nanmedian(rpm)) if rpm is not None else None,
                       float(np.nanmax(rpm)) if rpm is not None else None)
-    end = float(np.nanmax(t))
-    spans = ((float(np.nanmin(t)), end),)
-    return LogSummary(path, "csv", None, float(np.nanmin(t)), end, total(spans), "every row (CSV: no ground state)",
+    span = bulk_span(t)
+    if span.samples < 2:
+        raise InputError(path, "column t", "fewer than two rows with a finite time")
+    spans = ((span.start_s, span.end_s),)
+    notes = ("rates are of the rows: a CSV log has one clock",) + ((span.note(),) if span.outside else ())
+    return LogSummary(path, "csv", None, span.start_s, span.end_s, total(spans), "every row (CSV: no ground state)",
                       spans, (stream,), tuple(roles), {}, vehicle, wind_activity(None, None, None, None),
-                      ("rates are of the rows: a CSV log has one clock",))
+                      tuple(n for n in notes if n), outside_span=span.outside, outside_span_s=span.outside_s)

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from dobwind.core.errors import InputError
-from dobwind.inspect.loginspect import (AutopilotWind, LogSummary, Role, Vehicle, inside, intervals,
+from dobwind.inspect.loginspect import (AutopilotWind, LogSummary, Role, Vehicle, bulk_span, inside, intervals,
                                 stream_stats, total, wind_activity)
 from dobwind.io.ulog import PX4_WIND_TOPICS, TOPICS_READ, collective_source, open_ulog, truncation
 from dobwind.io.px4layout import (BATTERY_SCALE_PARAM, NOT_COLLECTIVE, THRUST_SOURCES, ThrustSource, battery_scale_note,
@@ -195,10 +195,11 @@ def inspect_ulog(path: str) -> LogSummary:
         params.pop(BATTERY_SCALE_PARAM, None)
     if not topics:
         raise InputError(path, None, "no topic the estimator reads is in the log")
-    start = min(float(d["t"].min()) for d in topics.values())
-    end = max(float(d["t"].max()) for d in topics.values())
+    span = bulk_span(np.concatenate([d["t"] for d in topics.values()]))
+    start, end = span.start_s, span.end_s
     found = collective_source(ulog)  # replay's choice of collective thrust, for the role and the spans
     spans, airborne_source = _airborne(topics, params, end, found)
+    spans = span.clip(spans)
     roles = _roles(topics, params, found)
     rotors, rotor_source = _rotor_count(topics, params, spans)
     rpm_ok, rpm_note, rpm_median, rpm_max = _rpm(topics, rotors, spans)
@@ -206,8 +207,10 @@ def inspect_ulog(path: str) -> LogSummary:
     autostart = f"PX4 SYS_AUTOSTART {int(params['SYS_AUTOSTART'])}" if "SYS_AUTOSTART" in params else "PX4 (no SYS_AUTOSTART)"
     vehicle = Vehicle(rotors, rotor_source, autostart, rpm_ok, rpm_note, hover, hover_source, rpm_median, rpm_max,
                       px4_not_multirotor(params))
-    notes = [n for n in (complaint and f"pyulog: {complaint}", truncation(path), _acceleration_note(topics, spans)) if n]
+    notes = [n for n in (complaint and f"pyulog: {complaint}", truncation(path), span.note(),
+                         _acceleration_note(topics, spans)) if n]
     streams = tuple(stream_stats(name, d["t"]) for name, d in sorted(topics.items()))
     return LogSummary(path, "ulog", "PX4", start, end, total(spans) if spans or "unknown" not in airborne_source else None,
                       airborne_source, spans, streams, roles, params, vehicle,
-                      _px4_wind(topics, roles[-1], params), tuple(notes))
+                      _px4_wind(topics, roles[-1], params), tuple(notes), outside_span=span.outside,
+                      outside_span_s=span.outside_s)

@@ -22,6 +22,10 @@ ROLES = ("velocity", "acceleration", "specific_force", "attitude", "rpm", "thrus
          "heading", "ground", "autopilot_wind")
 # Roles without which replay refuses the log whatever the airframe says.
 ESSENTIAL_ROLES = ("velocity", "attitude")
+# No flight log falls silent on every stream at once for this long: a longer gap between consecutive
+# samples (all streams pooled) is a broken clock (a flipped bit in a timestamp, a jump), and the span
+# reported is the bulk's, the run of samples between such gaps that holds the most of them.
+SPAN_GAP_S = 60.0
 
 
 @dataclass(frozen=True)
@@ -85,6 +89,10 @@ class LogSummary:
     autopilot_wind: AutopilotWind
     notes: tuple[str, ...] = ()
     other_streams: tuple[str, ...] = field(default=())  # logged, but nothing the estimator reads
+    # Samples (all streams pooled) whose timestamps lie outside [start_s, end_s] (bulk_span), and the
+    # earliest and latest of them: a damaged clock's, not part of the span.
+    outside_span: int = 0
+    outside_span_s: tuple[float, float] | None = None
 
     @property
     def duration_s(self) -> float:
@@ -155,6 +163,45 @@ def intervals(t: np.ndarray, airborne: np.ndarray, end_s: float) -> tuple[tuple[
     return tuple(out)
 
 
+@dataclass(frozen=True)
+class Span:
+    """The span of the bulk of a log's samples and the samples outside it (bulk_span)."""
+    start_s: float
+    end_s: float
+    outside: int = 0
+    outside_s: tuple[float, float] | None = None   # the earliest and latest timestamp outside
+    samples: int = 0
+
+    def note(self) -> str | None:
+        if not self.outside or self.outside_s is None:
+            return None
+        share = 100.0 * self.outside / max(self.samples, 1)
+        return (f"time: {self.outside} of {self.samples} samples ({share:.2g} %) lie outside the span, at "
+                f"{self.outside_s[0]:.6g} .. {self.outside_s[1]:.6g} s, beyond a gap of more than {SPAN_GAP_S:g} s "
+                "with no sample: a damaged clock; the span is that of the bulk of the samples")
+
+    def clip(self, spans: tuple[tuple[float, float], ...]) -> tuple[tuple[float, float], ...]:
+        """Airborne intervals cut to the span: a ground state stamped far outside it does not fly for days."""
+        out = ((max(a, self.start_s), min(b, self.end_s)) for a, b in spans)
+        return tuple((a, b) for a, b in out if b > a)
+
+
+def bulk_span(t: np.ndarray) -> Span:
+    """The span of the largest run of samples (sorted, all streams pooled) with no gap above SPAN_GAP_S:
+    one wild timestamp (2.3e12 s from a flipped bit) no longer sets the end. Non-finite stamps are ignored."""
+    t = np.sort(np.asarray(t, dtype=float))
+    t = t[np.isfinite(t)]
+    if len(t) == 0:
+        return Span(float("nan"), float("nan"))
+    cuts = np.flatnonzero(np.diff(t) > SPAN_GAP_S) + 1
+    bounds = np.r_[0, cuts, len(t)]
+    k = int(np.argmax(np.diff(bounds)))  # the first of the largest runs
+    lo, hi = int(bounds[k]), int(bounds[k + 1])
+    rest = np.r_[t[:lo], t[hi:]]
+    return Span(float(t[lo]), float(t[hi - 1]), len(rest),
+                (float(rest.min()), float(rest.max())) if len(rest) else None, len(t))
+
+
 def inside(t: np.ndarray, spans: tuple[tuple[float, float], ...]) -> np.ndarray:
     """True where t lies in one of the spans [start, end): at the end the state has changed."""
     t = np.asarray(t, dtype=float)
@@ -188,7 +235,8 @@ def _fmt(value: float | None, unit: str = "", digits: int = 3) -> str:
 
 def text_report(s: LogSummary) -> str:
     lines = [f"{s.path}: {s.format}" + (f" ({s.autopilot})" if s.autopilot else ""),
-             f"  span {s.start_s:.2f} .. {s.end_s:.2f} s ({s.duration_s:.1f} s); airborne "
+             f"  span {s.start_s:.2f} .. {s.end_s:.2f} s ({s.duration_s:.1f} s"
+             + (f"; {s.outside_span} sample{'s' * (s.outside_span != 1)} outside it" if s.outside_span else "") + "); airborne "
              + (f"{s.airborne_s:.1f} s" if s.airborne_s is not None else "unknown") + f" ({s.airborne_source})",
              "  streams (messages, median rate, worst gap):"]
     for st in s.streams:
