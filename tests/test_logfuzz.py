@@ -257,3 +257,30 @@ def test_one_wild_timestamp_does_not_set_the_span(tmp_path, capsys, make):
     assert any("1 of " in n and "outside the span" in n for n in got["notes"]), got["notes"]
     assert main(["inspect", str(wild)]) == 0
     assert "1 sample outside it" in capsys.readouterr().out
+
+
+def test_dataflash_ground_events_written_out_of_time_order_read_as_in_order(tmp_path, capsys):
+    """replay's DataFlash ground state looked EV events up with searchsorted in file order: a NOT_LANDED
+    written after a later LAND_COMPLETE (a buffer flushed late) left the whole flight on the ground (or in
+    the air), while inspect sorted them. Both now read the events by time, file order among equal stamps."""
+    import json
+
+    from dobwind.io.dataflash import read_dataflash
+    from tests.dataflash_writer import write_dataflash
+    from tests.test_dataflash import MESSAGES, _flight, _rows
+
+    af, cols = _flight()
+    rows = _rows(af, cols, landed_until=1.0)
+    rows.append(("EV", {"TimeUS": 1_000_000 + 3_000_000, "Id": 18}))  # LAND_COMPLETE at 3 s: the end of the flight
+    rows.sort(key=lambda r: r[1]["TimeUS"])  # stable: the writer's order at equal stamps
+    ordered = write_dataflash(tmp_path / "ordered.bin", MESSAGES, rows)
+    ev = [r for r in rows if r[0] == "EV"]
+    shuffled = write_dataflash(tmp_path / "shuffled.bin", MESSAGES, [r for r in rows if r[0] != "EV"] + ev[::-1])
+    want, got = (read_dataflash(str(p), af, rate_hz=50.0) for p in (ordered, shuffled))
+    assert 0 < want.landed.mean() < 1  # on the ground before 1 s and after 3 s
+    np.testing.assert_array_equal(got.landed, want.landed)
+    spans = []
+    for log in (ordered, shuffled):
+        assert main(["inspect", str(log), "--json"]) == 0
+        spans.append(json.loads(capsys.readouterr().out)["airborne_intervals"])
+    assert spans[0] == spans[1] == [[2.0, 4.0]]

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from dobwind.io.dataflash import (AP_WIND, ATTITUDE, EV_GROUND, IMU, LAYOUT_FORMATS, VELOCITY, WANTED, density_step,
-                                  damage, in_one_layout, load_messages, pick_stream, truncation)
+                                  damage, ground_events, in_one_layout, load_messages, pick_stream, truncation)
 from dobwind.core.errors import InputError
 from dobwind.io.aplayout import logged_name
 from dobwind.io.quietfd import quiet_fds
@@ -101,9 +101,9 @@ def _roles(msgs: dict, params: dict) -> tuple[Role, ...]:
 
 def _airborne(msgs: dict, end_s: float) -> tuple[tuple[tuple[float, float], ...], str]:
     """As replay reads the ground: EV events (a log starts on the ground), else CTUN.ThO > 0."""
-    events = sorted((r["TimeUS"] * 1e-6, not EV_GROUND[r["Id"]]) for r in msgs["EV"] if r.get("Id") in EV_GROUND)
-    if events:
-        return intervals(np.array([e[0] for e in events]), np.array([e[1] for e in events]), end_s), "EV events"
+    t_ev, ground = ground_events(msgs)  # replay's order: by time, the log's among equal stamps
+    if len(t_ev):
+        return intervals(t_ev, ~ground, end_s), "EV events"
     ctun = pick_stream(msgs, (("CTUN", None, 0),), ["ThO"])
     if ctun is not None:
         return intervals(ctun[1]["t"], ctun[1]["ThO"] > 0, end_s), "CTUN.ThO above 0 (no EV events)"

@@ -269,11 +269,20 @@ def _esc_streams(path: str, msgs, rotors: int) -> list[dict]:
     return streams
 
 
-def _ground(msgs, clock: np.ndarray, notes: list[str]) -> np.ndarray:
+def ground_events(msgs) -> tuple[np.ndarray, np.ndarray]:
+    """The EV events that change the ground state: their times (s) and whether each puts the vehicle on the
+    ground, in time order (the lookups below are binary searches); among equal stamps in the log's order, so
+    the last one written wins. A log may hold them out of order (a buffer flushed late, a damaged stamp)."""
     events = [(r["TimeUS"] * 1e-6, EV_GROUND[r["Id"]]) for r in msgs["EV"] if r.get("Id") in EV_GROUND]
-    if events:
-        t_ev = np.array([e[0] for e in events])
-        state = np.array([e[1] for e in events])
+    t_ev = np.array([e[0] for e in events], dtype=float)
+    state = np.array([e[1] for e in events], dtype=bool)
+    order = np.argsort(t_ev, kind="stable")
+    return t_ev[order], state[order]
+
+
+def _ground(msgs, clock: np.ndarray, notes: list[str]) -> np.ndarray:
+    t_ev, state = ground_events(msgs)
+    if len(t_ev):
         idx = np.searchsorted(t_ev, clock, side="right") - 1
         ground = np.where(idx >= 0, state[np.clip(idx, 0, None)], True)  # a log starts on the ground
         source = "EV landing events"
