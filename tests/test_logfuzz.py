@@ -284,3 +284,51 @@ def test_dataflash_ground_events_written_out_of_time_order_read_as_in_order(tmp_
         assert main(["inspect", str(log), "--json"]) == 0
         spans.append(json.loads(capsys.readouterr().out)["airborne_intervals"])
     assert spans[0] == spans[1] == [[2.0, 4.0]]
+
+
+def _reformatted(blob: bytes, name: str, old: str, new: str) -> bytes:
+    """``blob`` with ``old`` replaced by ``new`` in topic ``name``'s format definition ('F' message)."""
+    out = bytearray(blob[:16])
+    for o, s, kind in _ulog_messages(blob):
+        payload = blob[o + 3:o + 3 + s]
+        if kind == "F" and payload.split(b":")[0] == name.encode():
+            assert old.encode() in payload
+            payload = payload.replace(old.encode(), new.encode())
+        out += struct.pack("<HB", len(payload), ord(kind)) + payload
+    return bytes(out)
+
+
+@pytest.mark.parametrize("new, why", [
+    ("bogus_t[4] q", "type bogus_t is neither a ULog type nor a format"),
+    ("float[-1] q", "array size -1"),
+    ("float[3] q", "defines 20 bytes a message"),        # a field shortened: the data no longer fits
+    ("double[4] q", "defines 40 bytes a message"),       # retyped
+    ("vehicle_attitude[4] q", "nests itself"),           # pyulog recursed without end (RecursionError)
+])
+def test_a_damaged_ulog_format_definition_is_named_as_such_not_missing(tmp_path, capsys, new, why):
+    """pyulog drops a topic whose format definition it cannot build or whose messages do not fit it: replay
+    said "topic vehicle_attitude (attitude): missing from the log" (the campaign's ulog-fmt-type and
+    ulog-fmt-drop mutants), which sends a user to the logger's topic list. It now names the topic and the
+    damage, exit 2 in one line; inspect says it in the attitude role."""
+    import json
+
+    from tests.test_ulog import _flight, _ulog
+
+    _, cols = _flight()
+    clean = _ulog(tmp_path / "clean.ulg", cols, landed_until=1.0)
+    log = tmp_path / "damaged.ulg"
+    log.write_bytes(_reformatted(clean.read_bytes(), "vehicle_attitude", "float[4] q", new))
+    assert main(["replay", str(M300), str(log), "-o", str(tmp_path / "e.csv")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len([e for e in err if "warning:" not in e]) == 1, err
+    line = err[-1]
+    assert str(log) in line and "topic vehicle_attitude" in line and "damaged" in line and why in line, line
+    assert "missing" not in line
+    code = main(["inspect", str(log), "--json"])
+    done = capsys.readouterr()
+    if code == 0:
+        doc = json.loads(done.out)
+        assert "damaged" in doc["roles"]["attitude"]["note"] and why in doc["roles"]["attitude"]["note"]
+        assert any("vehicle_attitude" in n and "damaged" in n for n in doc["notes"])
+    else:  # a format nesting itself stops pyulog's whole parse
+        assert code == 2 and str(log) in done.err and "vehicle_attitude" in done.err and why in done.err

@@ -5,11 +5,14 @@ role listed here is the topic replay reads for it, in the same order of preferen
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from dobwind.core.errors import InputError
 from dobwind.inspect.loginspect import (AutopilotWind, LogSummary, Role, Vehicle, bulk_span, inside, intervals,
                                 stream_stats, total, wind_activity)
+from dobwind.io.ulogformat import damaged_formats
 from dobwind.io.ulog import PX4_WIND_TOPICS, TOPICS_READ, collective_source, open_ulog, truncation
 from dobwind.io.px4layout import (BATTERY_SCALE_PARAM, NOT_COLLECTIVE, THRUST_SOURCES, ThrustSource, battery_scale_note,
                                   older_layout)
@@ -186,6 +189,20 @@ def _acceleration_note(topics: dict, spans) -> str | None:
             "signal logged at a few hertz)")
 
 
+def _damaged(path: str, ulog, topics: dict, roles: tuple[Role, ...]) -> tuple[tuple[Role, ...], list[str]]:
+    """Topics read here that pyulog dropped for a damaged format definition (dobwind/io/ulogformat.py), named
+    as such in the roles that miss them and in a note; walked only when pyulog found the file corrupt."""
+    if not getattr(ulog, "file_corruption", False):
+        return roles, []
+    damaged = damaged_formats(path, [n for n in TOPICS_READ + EXTRA_TOPICS if n not in topics])
+    if not damaged:
+        return roles, []
+    said = {name: f"{name}: its format definition in the log is damaged ({why})" for name, why in damaged.items()}
+    out = tuple(next((replace(r, note=text) for name, text in said.items() if r.source is None
+                      and r.note.startswith(f"no {name}")), r) for r in roles)
+    return out, [f"{text}: none of its messages can be read" for text in said.values()]
+
+
 def inspect_ulog(path: str) -> LogSummary:
     ulog, complaint = open_ulog(path, TOPICS_READ + EXTRA_TOPICS)
     topics = _topics(ulog)
@@ -200,7 +217,7 @@ def inspect_ulog(path: str) -> LogSummary:
     found = collective_source(ulog)  # replay's choice of collective thrust, for the role and the spans
     spans, airborne_source = _airborne(topics, params, end, found)
     spans = span.clip(spans)
-    roles = _roles(topics, params, found)
+    roles, damaged = _damaged(path, ulog, topics, _roles(topics, params, found))
     rotors, rotor_source = _rotor_count(topics, params, spans)
     rpm_ok, rpm_note, rpm_median, rpm_max = _rpm(topics, rotors, spans)
     hover, hover_source = _hover(topics, params, spans)
@@ -208,7 +225,7 @@ def inspect_ulog(path: str) -> LogSummary:
     vehicle = Vehicle(rotors, rotor_source, autostart, rpm_ok, rpm_note, hover, hover_source, rpm_median, rpm_max,
                       px4_not_multirotor(params))
     notes = [n for n in (complaint and f"pyulog: {complaint}", truncation(path), span.note(),
-                         _acceleration_note(topics, spans)) if n]
+                         _acceleration_note(topics, spans)) if n] + damaged
     streams = tuple(stream_stats(name, d["t"]) for name, d in sorted(topics.items()))
     return LogSummary(path, "ulog", "PX4", start, end, total(spans) if spans or "unknown" not in airborne_source else None,
                       airborne_source, spans, streams, roles, params, vehicle,

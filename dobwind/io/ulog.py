@@ -32,6 +32,7 @@ from dobwind.io.bridge import blanked, bridge, largest_silences
 from dobwind.io.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, hold, in_time_order,
                               interp, quaternions, source_gaps, topic_tolerances, truncated_note, uniform_clock,
                               wind_active)
+from dobwind.io.ulogformat import damaged_formats
 from dobwind.io.px4layout import NOT_COLLECTIVE, THRUST_SOURCES, ThrustSource, battery_scale_note, older_layout
 from dobwind.model.signals import log_signals
 
@@ -99,6 +100,9 @@ def open_ulog(path: str, topics: tuple[str, ...] | None = TOPICS_READ) -> tuple[
         raise InputError(path, None, "not a readable ULog file (corrupt: the parser made no progress)") from None
     except OSError as exc:
         raise InputError(path, None, f"cannot read: {exc.strerror}") from None
+    except RecursionError:  # pyulog flattens nested formats recursively: a format that names itself
+        _refuse_damaged(path, None)
+        raise InputError(path, None, "not a readable ULog file (a format definition nests without end)") from None
     except Exception as exc:  # pyulog raises many kinds on corrupt or truncated files
         raise InputError(path, None, f"not a readable ULog file ({type(exc).__name__}: {str(exc)[:80]})") from None
     complaints = [line.strip() for line in printed.getvalue().splitlines() if line.strip()]
@@ -256,8 +260,25 @@ def _missing(ulog, name: str, fields: list[str], what: str) -> str:
     return f"{name} ({what})"
 
 
+def _refuse_damaged(path: str, names: list[str] | None) -> None:
+    """Exit 2 in one line when a needed topic (``names``; None: any) came out of pyulog empty because its
+    format definition is damaged (ulogformat.py): "missing from the log" would send a user to the logger's
+    settings."""
+    damaged = damaged_formats(path, names) if names is None or names else {}
+    if len(damaged) == 1:
+        (name, why), = damaged.items()
+        raise InputError(path, f"topic {name}", f"its format definition in the log is damaged ({why}): none of its "
+                         "messages can be read")
+    if damaged:
+        raise InputError(path, "topics " + ", ".join(damaged), "their format definitions in the log are damaged ("
+                         + "; ".join(f"{name}: {why}" for name, why in damaged.items()) + "): none of their messages "
+                         "can be read")
+
+
 def _refuse_missing(path: str, ulog, need: dict, topics: dict, no_collective: bool) -> None:
-    """One line naming every needed topic (or field) the log lacks, exit 2."""
+    """One line naming every needed topic (or field) the log lacks, exit 2; a damaged definition first."""
+    _refuse_damaged(path, [name for name, data in topics.items() if data is None]
+                    + ([s.topic for s in THRUST_SOURCES] if no_collective else []))
     missing = [_missing(ulog, name, need[name][0], need[name][1]) for name, data in topics.items() if data is None]
     if no_collective:
         missing.append(_no_collective(ulog))
