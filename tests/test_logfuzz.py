@@ -332,3 +332,31 @@ def test_a_damaged_ulog_format_definition_is_named_as_such_not_missing(tmp_path,
         assert any("vehicle_attitude" in n and "damaged" in n for n in doc["notes"])
     else:  # a format nesting itself stops pyulog's whole parse
         assert code == 2 and str(log) in done.err and "vehicle_attitude" in done.err and why in done.err
+
+
+def test_replay_bounds_true_wind_as_fit_does(tmp_path, capsys):
+    """A true-wind cell of 1e308 (finite: the reader took it) overflowed replay's scoring sums: numpy printed
+    "RuntimeWarning: overflow encountered in reduce" and the report read "speed error mean inf", exit 0.
+    fit refuses true wind beyond +-100 m/s in one line; replay now refuses it with fit's line, no output."""
+    from dobwind.io.logs import write_csv
+    from dobwind.model.airframe import load_airframe
+    from dobwind.simulate.simulate import column_order, simulate
+
+    cols = simulate(load_airframe(M300), "tunnel", seed=2, hold_s=2.0, rate_hz=50.0)
+    cols["wind_n"] = cols["wind_n"].copy()
+    k = len(cols["t"]) * 3 // 4  # scored: after the warm-up
+    cols["wind_n"][k:k + 2] = 1e308
+    names = column_order(cols)
+    log = tmp_path / "huge.csv"
+    write_csv(log, names, np.column_stack([cols[n] for n in names]), ["%.17g"] * len(names))
+    lines = {}
+    for command, out in (("replay", "e.csv"), ("fit", "f.toml")):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            assert main([command, str(M300), str(log), "-o", str(tmp_path / out)]) == 2
+        assert not [w for w in caught if issubclass(w.category, RuntimeWarning)], [str(w.message) for w in caught]
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and str(log) in err[0] and "column wind_n" in err[0], err
+        lines[command] = err[0].split(": ", 1)[1]
+        assert not (tmp_path / out).exists()
+    assert lines["replay"] == lines["fit"]

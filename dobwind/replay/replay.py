@@ -11,8 +11,8 @@ import numpy as np
 
 from dobwind.replay.backends import Runner, run_backend
 from dobwind.io.csvchunks import BLOCK_BYTES
-from dobwind.io.logs import (FlightLog, estimate_rows, estimate_writer, iter_log, read_log, required_columns,
-                          step_inputs, write_estimates)
+from dobwind.io.logs import (TRUTH_BOUNDS, FlightLog, estimate_rows, estimate_writer, iter_log, read_log,
+                          required_columns, step_inputs, write_estimates)
 from dobwind.model.airframe import Airframe
 from dobwind.model.reference import Trajectory
 from dobwind.model.status import STATUS_LANDED, STATUS_NO_DATA, accepted
@@ -42,7 +42,7 @@ def score_wind(log: FlightLog, wind: np.ndarray, status: np.ndarray) -> dict:
 def replay(af: Airframe, log_path: str, backend: str = "python", precision: Precision = Precision.SINGLE):
     """The whole log in memory: (model, log, trajectory). The command streams with ``replay_stream``."""
     model = build_step(af)
-    log = read_log(log_path, required_columns(af))
+    log = read_log(log_path, required_columns(af), TRUTH_BOUNDS)  # true wind bounded as fit bounds it
     traj = run_backend(model, step_inputs(model, log), backend, precision)
     return model, log, traj
 
@@ -78,7 +78,9 @@ def replay_stream(af: Airframe, log_path: str, backend: str = "python", precisio
     from dobwind.replay.plausibility import FlightSeries, StreamedChecks
 
     checks = StreamedChecks(af)
-    for chunk in iter_log(log_path, required_columns(af), block_bytes, progress):
+    # True wind beyond +-100 m/s is an export error (1e308 overflowed the scoring's sums): refused in one
+    # line, as fit refuses it (dobwind/io/logs.py, TRUE_WIND_MAX_MPS).
+    for chunk in iter_log(log_path, required_columns(af), block_bytes, progress, TRUTH_BOUNDS):
         log = chunk.log
         traj = runner.run(step_inputs(model, log, previous_t))
         checks.add(FlightSeries.replayed(log, traj.outputs[:, model.outputs.slice("force_ned")],
