@@ -360,3 +360,30 @@ def test_replay_bounds_true_wind_as_fit_does(tmp_path, capsys):
         lines[command] = err[0].split(": ", 1)[1]
         assert not (tmp_path / out).exists()
     assert lines["replay"] == lines["fit"]
+
+
+@pytest.mark.parametrize("rows", [2, None])
+@pytest.mark.parametrize("truth", [[], ["--wind", "unknown"]])
+def test_every_fit_refusal_on_a_log_names_it(tmp_path, capsys, rows, truth):
+    """fit's exit-1 refusals are about the logs ("no airborne row of the logs is accepted and settled",
+    "drag family: only 0 usable samples"): on a single log they did not name it (the campaign's csv-1-rows
+    and short DataFlash mutants). Every refusal line now names the log."""
+    assert main(["simulate", "tunnel", "--hold", "1", "-o", str(tmp_path / "short.csv")]) == 0
+    lines = (tmp_path / "short.csv").read_text().splitlines()
+    head = next(i for i, line in enumerate(lines) if line and not line.startswith("#"))
+    log = tmp_path / "log.csv"
+    log.write_text("\n".join(lines[:head + 1 + rows] if rows else lines) + "\n")
+    capsys.readouterr()
+    assert main(["fit", str(M300), str(log), *truth, "-o", str(tmp_path / "f.toml")]) == 1
+    errors = [e for e in capsys.readouterr().err.strip().splitlines() if "warning:" not in e]
+    assert len(errors) == 1 and str(log) in errors[0], errors
+    assert not (tmp_path / "f.toml").exists()
+
+
+def test_a_refusal_about_many_logs_names_them_shortly():
+    from dobwind.cli.fit import naming_logs
+
+    assert naming_logs(["a.csv"], "too short") == "a.csv: too short"
+    assert naming_logs(["a.csv", "b.csv"], "too short") == "a.csv, b.csv: too short"
+    assert naming_logs([f"{k}.csv" for k in range(5)], "x") == "0.csv, 1.csv and 3 more logs: x"
+    assert naming_logs(["a.csv", "b.csv"], "b.csv: no usable sample") == "b.csv: no usable sample"

@@ -67,6 +67,24 @@ def add(command: Command) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    try:
+        return _run(args)
+    except CheckFailed as exc:
+        raise CheckFailed(naming_logs(list(args.logs), str(exc))) from None
+
+
+def naming_logs(logs: list[str], message: str) -> str:
+    """A refusal (exit 1) as one line that names the logs it is about (../shared/spec/INTERFACES.md: the line
+    names the file): the fit's own reasons ("no airborne row of the logs is accepted", "only 0 usable
+    samples") are about the logs as a whole and did not name them. A message that names a log (the one at
+    fault: "b.csv: contributed no usable sample") is kept."""
+    if any(log in message for log in logs):
+        return message
+    names = ", ".join(logs) if len(logs) <= 3 else f"{', '.join(logs[:2])} and {len(logs) - 2} more logs"
+    return f"{names}: {message}"
+
+
+def _run(args: argparse.Namespace) -> int:
     from dobwind.calibrate.fitreport import fit_plot, text_report
     from dobwind.calibrate.fitfamily import fit_airframe
     from dobwind.io.logs import write_atomically
