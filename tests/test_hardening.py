@@ -409,7 +409,8 @@ def test_a_log_slower_than_max_dt_warns(tmp_path, capsys):
     assert main(["simulate", "outdoor", "--hold", "2", "--rate", "5", "-o", str(log)]) == 0
     capsys.readouterr()
     assert main(["replay", str(M300), str(log)]) == 0
-    assert "rows rejected" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "rejected as BAD_DT" in err and "a log slower than 1/limits.max_dt" in err and "10 Hz" in err
 
 
 def test_analyze_writes_no_unstable_design(tmp_path, capsys):

@@ -387,3 +387,50 @@ def test_a_refusal_about_many_logs_names_them_shortly():
     assert naming_logs(["a.csv", "b.csv"], "too short") == "a.csv, b.csv: too short"
     assert naming_logs([f"{k}.csv" for k in range(5)], "x") == "0.csv, 1.csv and 3 more logs: x"
     assert naming_logs(["a.csv", "b.csv"], "b.csv: no usable sample") == "b.csv: no usable sample"
+
+
+def _swapped_csv(tmp_path: Path, a: str, b: str) -> tuple[Path, int]:
+    """A simulated flight CSV whose columns ``a`` and ``b`` trade names (a spreadsheet's column moved), and
+    its row count."""
+    from dobwind.io.logs import write_csv
+    from dobwind.model.airframe import load_airframe
+    from dobwind.simulate.simulate import column_order, simulate
+
+    cols = simulate(load_airframe(M300), "tunnel", seed=2, hold_s=2.0, rate_hz=50.0)
+    names = column_order(cols)
+    data = np.column_stack([cols[n] for n in names])
+    i, j = names.index(a), names.index(b)
+    names[i], names[j] = names[j], names[i]
+    log = tmp_path / f"{a}_{b}.csv"
+    write_csv(log, names, data, ["%.17g"] * len(names))
+    return log, len(cols["t"])
+
+
+@pytest.mark.parametrize("a, b, bit", [("q_w", "wind_n", "BAD_QUATERNION"), ("vel_n", "rpm_1", "IMPLAUSIBLE")])
+def test_swapped_csv_columns_are_named_as_the_likely_cause(tmp_path, capsys, a, b, bit):
+    """q_w holding the wind and wind_n a quaternion component replayed with exit 0, every row rejected, and a
+    generic "rows rejected (see the status column ...)". The flight is not refused (a valid log of a bad
+    flight may be rejected too), but one stderr line names the reason, its share and the likely cause, and
+    the report and --json count the rows per reason."""
+    import json
+
+    log, rows = _swapped_csv(tmp_path, a, b)
+    assert main(["replay", str(M300), str(log), "-o", str(tmp_path / "e.csv")]) == 0
+    done = capsys.readouterr()
+    warned = [line for line in done.err.splitlines() if "rejected" in line]
+    assert len(warned) == 1, done.err
+    assert str(log) in warned[0] and f"rejected as {bit}" in warned[0] and "swapped or mislabelled" in warned[0]
+    assert f"{rows} of {rows} rows (100 %)" in warned[0]
+    assert f"({bit} {rows}" in done.out
+    assert main(["replay", str(M300), str(log), "-o", str(tmp_path / "e.csv"), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["rejections"][bit] == rows
+
+
+def test_a_log_rejected_for_mixed_reasons_keeps_the_general_line():
+    from dobwind.replay.rejections import rejection_warning
+
+    assert rejection_warning("f.csv", 100, 10, {"TILT": 10}, 0.05) is None
+    mixed = rejection_warning("f.csv", 100, 95, {"TILT": 45, "BAD_THRUST": 50}, 0.05)
+    assert mixed is not None and "95 of 100 rows rejected" in mixed and "likely cause" not in mixed
+    one = rejection_warning("f.csv", 100, 60, {"BAD_DT": 51, "NONFINITE": 9}, 0.05)
+    assert one is not None and "51 of 100 rows (51 %) rejected as BAD_DT" in one and "20 Hz" in one

@@ -50,17 +50,19 @@ def replay_csv_netcdf(args: argparse.Namespace, af: Airframe, out, block_bytes: 
     """A CSV log to NetCDF, streamed (dobwind/atmos/ncstream.py) and scored as ``replay_stream`` scores it."""
     from dobwind.replay.backends import Runner
     from dobwind.io.csvchunks import BLOCK_BYTES
-    from dobwind.io.logs import iter_log, required_columns, step_inputs
+    from dobwind.io.logs import TRUTH_BOUNDS, iter_log, required_columns, step_inputs
     from dobwind.model.status import accepted
     from dobwind.model.step import build_step
     from dobwind.atmos.ncstream import stream_csv_netcdf
     from dobwind.replay.plausibility import FlightSeries, StreamedChecks
+    from dobwind.replay.rejections import count_rejections
     from dobwind.replay.scoring import WindScore
 
     model = build_step(af)
     checks = StreamedChecks(af)
     runner = Runner(model, args.backend, args.precision)
     scorer, counts, kept = WindScore(), {"rows": 0, "rejected_rows": 0}, []
+    rejections: dict[str, int] = {}
     last: dict[str, float | None] = {"t": None, "truth": None}  # the previous chunk's last time; true wind seen
 
     def step(log):
@@ -73,11 +75,13 @@ def replay_csv_netcdf(args: argparse.Namespace, af: Airframe, out, block_bytes: 
             last["truth"] = 1.0
         counts["rows"] += log.rows
         counts["rejected_rows"] += int((~accepted(traj.status)).sum())
+        rejections.update(count_rejections(traj.status, rejections))
         if args.plot is not None:
             kept.append((log.time_s, wind, log.true_wind))
         return traj
 
-    chunks = (c.log for c in iter_log(str(args.log), required_columns(af), block_bytes or BLOCK_BYTES))
+    chunks = (c.log for c in iter_log(str(args.log), required_columns(af), block_bytes or BLOCK_BYTES,
+                                      bounds=TRUTH_BOUNDS))  # true wind bounded as replay_stream and fit bound it
     stream_csv_netcdf(out.stage(args.output), Source(af, str(args.airframe), str(args.log), args.backend), chunks,
                       step, lambda geo: warn_without_position("replay", str(args.log), geo))
     scored = last["truth"] is not None
@@ -87,4 +91,5 @@ def replay_csv_netcdf(args: argparse.Namespace, af: Airframe, out, block_bytes: 
         truth = None if kept[0][2] is None else np.concatenate([k[2] for k in kept])
         replay_plot(np.concatenate([k[0] for k in kept]), np.concatenate([k[1] for k in kept]), truth,
                     f"{af.name}: wind estimated over {os.path.basename(args.log)}", str(out.stage(args.plot)))
-    return CsvReplay(scorer.result() if scored else counts, scored, tuple(checks.findings()))
+    return CsvReplay({**(scorer.result() if scored else counts), "rejections": rejections}, scored,
+                     tuple(checks.findings()))

@@ -83,7 +83,10 @@ def run(args: argparse.Namespace, entry: Callable[[list[str]], int]) -> int:
     elif result.scored:
         print(text_report(metrics))
     else:
-        print(f"rows {metrics['rows']}, rejected {metrics['rejected_rows']} (no true wind in the log to score against)")
+        from dobwind.replay.rejections import breakdown
+
+        print(f"rows {metrics['rows']}, rejected {metrics['rejected_rows']}{breakdown(metrics.get('rejections', {}))} "
+              "(no true wind in the log to score against)")
     for finding in [] if args.json else result.findings:
         print(f"  note: plausibility ({finding.check}): {finding.message} (a streamed CSV log: not marked SUSPECT)")
     return 0
@@ -132,15 +135,15 @@ def _replay_csv_netcdf(args: argparse.Namespace, af):
         return replay_csv_netcdf(args, af, out)
 
 
-# Above this share of rejected rows a replay "succeeds" with next to no estimate: say so on stderr.
-MOSTLY_REJECTED = 0.9
-
-
 def _warn_mostly_rejected(log: str, metrics: dict, af: Any) -> None:
-    rows, rejected = int(metrics.get("rows", 0)), int(metrics.get("rejected_rows", 0))
-    if rows and rejected > MOSTLY_REJECTED * rows:
-        sys.stderr.write(f"dobwind replay: warning: {log}: {rejected} of {rows} rows rejected (see the status column; "
-                         f"a log slower than 1/limits.max_dt = {1 / af.limits.max_dt_s:g} Hz is rejected as BAD_DT)\n")
+    """One stderr line when one reason rejected most rows (with its likely cause: a swapped column) or when
+    most rows were rejected (dobwind/replay/rejections.py); the replay still succeeds."""
+    from dobwind.replay.rejections import rejection_warning
+
+    said = rejection_warning(log, int(metrics.get("rows", 0)), int(metrics.get("rejected_rows", 0)),
+                             metrics.get("rejections", {}), af.limits.max_dt_s)
+    if said:
+        sys.stderr.write(f"dobwind replay: warning: {said}\n")
 
 
 @contextlib.contextmanager

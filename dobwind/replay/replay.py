@@ -10,6 +10,7 @@ from typing import Callable, TextIO
 import numpy as np
 
 from dobwind.replay.backends import Runner, run_backend
+from dobwind.replay.rejections import breakdown, count_rejections
 from dobwind.io.csvchunks import BLOCK_BYTES
 from dobwind.io.logs import (TRUTH_BOUNDS, FlightLog, estimate_rows, estimate_writer, iter_log, read_log,
                           required_columns, step_inputs, write_estimates)
@@ -74,6 +75,7 @@ def replay_stream(af: Airframe, log_path: str, backend: str = "python", precisio
     kept: list[tuple[np.ndarray, ...]] = []
     previous_t: float | None = None
     truth = None
+    rejections: dict[str, int] = {}  # rows per rejection bit (dobwind/replay/rejections.py)
     estimated = False  # an accepted row was written: later rows keep the step's held estimate
     from dobwind.replay.plausibility import FlightSeries, StreamedChecks
 
@@ -91,6 +93,7 @@ def replay_stream(af: Airframe, log_path: str, backend: str = "python", precisio
             scorer.add(log.time_s, wind, truth, traj.status, log.columns.get("segment"))
         counts["rows"] += log.rows
         counts["rejected_rows"] += int((~accepted(traj.status)).sum())
+        rejections = count_rejections(traj.status, rejections)
         if writer is not None:
             writer.write(estimate_rows(log.time_s, traj.outputs, traj.status, estimated))
         estimated = estimated or bool(accepted(traj.status).any())
@@ -100,8 +103,8 @@ def replay_stream(af: Airframe, log_path: str, backend: str = "python", precisio
     if keep_series:
         series = WindSeries(np.concatenate([k[0] for k in kept]), np.concatenate([k[1] for k in kept]),
                             None if truth is None else np.concatenate([k[2] for k in kept]))
-    return Streamed(model, scorer.result() if truth is not None else counts, truth is not None, series,
-                    tuple(checks.findings()))
+    metrics = {**(scorer.result() if truth is not None else counts), "rejections": rejections}
+    return Streamed(model, metrics, truth is not None, series, tuple(checks.findings()))
 
 
 def replay_ulog(af: Airframe, path: str, backend: str = "python", precision: Precision = Precision.SINGLE,
@@ -228,7 +231,8 @@ def autopilot_wind_lines(px4: dict | None) -> list[str]:
 
 
 def text_report(metrics: dict) -> str:
-    lines = [f"rows {metrics['rows']}, scored {metrics['scored_rows']}, rejected {metrics['rejected_rows']}"]
+    lines = [f"rows {metrics['rows']}, scored {metrics['scored_rows']}, rejected {metrics['rejected_rows']}"
+             + breakdown(metrics.get("rejections", {}))]
     if "per_sample" in metrics:
         p = metrics["per_sample"]
         direction = ("n/a" if p["direction_mean"] is None else f"{p['direction_mean']:.2f} / {p['direction_max']:.2f} deg")
