@@ -433,3 +433,30 @@ def test_arducopters_density_step_in_the_throttle_is_undone(tmp_path):
     said = [n for n in inspect_log(path).notes if "air-density compensation" in n]  # inspect says it too
     assert len(said) == 1 and f"to {ratio[after][0]:.3f} at" in said[0], said
 
+
+
+def test_replay_and_inspect_walk_a_dataflash_log_once(tmp_path, monkeypatch):
+    """load_messages walked the file's messages (dfwalk), then damage() and truncation() read and walked it
+    again for their notes (60 ms of a 3.5 MB log each time). The first walk now gives the notes: one read
+    of the file for replay and for inspect, and the same notes as the separate calls give, on a whole, a cut
+    and a damaged log."""
+    import dobwind.io.dataflash as df
+    from dobwind.inspect.inspect_dataflash import inspect_dataflash
+    from tests.test_logfuzz import _retyped
+
+    af, cols = _flight()
+    whole = _bin(tmp_path / "whole.bin", af, cols)
+    cut = _write_bytes(tmp_path / "cut.bin", whole.read_bytes()[: len(whole.read_bytes()) * 2 // 3 + 7])
+    damaged = _write_bytes(tmp_path / "damaged.bin", _retyped(whole.read_bytes(), 0.25, 7)[0])
+    for path, truncated, hurt in ((whole, False, False), (cut, True, False), (damaged, False, True)):
+        _, said = df.read_messages(str(path))
+        assert said == df.FileNotes(df.truncation(str(path)), df.damage(str(path)))
+        assert (said.truncated is not None, said.damaged is not None) == (truncated, hurt)
+    reads = []
+    real = df._read
+    monkeypatch.setattr(df, "_read", lambda path: reads.append(path) or real(path))
+    flight = df.read_dataflash(str(cut), af, rate_hz=50.0)
+    assert reads == [str(cut)] and any("truncated" in w for w in flight.warnings)
+    reads.clear()
+    summary = inspect_dataflash(str(damaged))
+    assert reads == [str(damaged)] and any("damaged" in n for n in summary.notes)

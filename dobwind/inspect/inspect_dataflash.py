@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from dobwind.io.dataflash import (AP_WIND, ATTITUDE, EV_GROUND, IMU, LAYOUT_FORMATS, VELOCITY, WANTED, density_step,
-                                  damage, ground_events, in_one_layout, load_messages, pick_stream, truncation)
+                                  ground_events, in_one_layout, pick_stream, read_messages)
 from dobwind.core.errors import InputError
 from dobwind.io.aplayout import logged_name
 from dobwind.io.quietfd import quiet_fds
@@ -196,7 +196,7 @@ def _density_step(msgs: dict, baro: list[dict]) -> list[str]:
 def inspect_dataflash(path: str) -> LogSummary:
     notes: list[str] = []
     with quiet_fds():  # pymavlink's compiled indexer prints a line per bad byte, to fd 2 itself
-        loaded = load_messages(path, WANTED + LAYOUT_FORMATS + ("PARM", "RCOU", "MSG", "BARO"))
+        loaded, said = read_messages(path, WANTED + LAYOUT_FORMATS + ("PARM", "RCOU", "MSG", "BARO"))
     msgs = in_one_layout(loaded, notes)
     baro = msgs.pop("BARO")
     params_all = _parameters(msgs.pop("PARM"))
@@ -217,7 +217,7 @@ def inspect_dataflash(path: str) -> LogSummary:
                 if "FRAME_CLASS" in params else "ArduPilot (no FRAME_CLASS)") + (f", firmware {banner}" if banner else "")
     vehicle = Vehicle(rotors, rotor_source, airframe, rpm_ok, rpm_note, hover, hover_source, rpm_median, rpm_max,
                       ardupilot_not_multirotor(banner, params_all))
-    notes += [said for said in (truncation(path), damage(path), span.note()) if said] + _density_step(msgs, baro)
+    notes += [n for n in (said.truncated, said.damaged, span.note()) if n] + _density_step(msgs, baro)
     if "SIM_WIND_SPD" in params:
         notes.append(f"SITL wind: {params['SIM_WIND_SPD']:g} m/s from {params.get('SIM_WIND_DIR', 0):g} deg"
                      + (f", below {params.get('SIM_WIND_T_ALT', 0):g} m scaled by sqrt(height / SIM_WIND_T_ALT)"

@@ -21,8 +21,11 @@ FMT_LENGTH = 89
 
 @dataclass(frozen=True)
 class Undeclared:
-    """Good headers of types no FMT declared before them: (byte offset, type) of each."""
+    """Good headers of types no FMT declared before them: (byte offset, type) of each; and whether the file
+    ends inside a message that follows only well-formed ones (the cut end of a crash log or a short copy:
+    a file with a bad byte before its end is damaged there, not cut)."""
     headers: tuple[tuple[int, int], ...]
+    ends_inside: bool = False
 
     def note(self, size: int) -> str | None:
         if not self.headers:
@@ -34,16 +37,20 @@ class Undeclared:
 
 def undeclared_headers(path: str, blob: bytes) -> Undeclared:
     """Walk ``blob`` as DFReader does, but past an undeclared type as past a bad header. A type declared
-    shorter than its own 3-byte header would stall DFReader for ever (a corrupt FMT): refused here."""
-    lengths, pos, size, found = {FMT_TYPE: FMT_LENGTH}, 0, len(blob), []
+    shorter than its own 3-byte header would stall DFReader for ever (a corrupt FMT): refused here. The
+    same walk says whether the file ends inside a message (``ends_inside``): as long as every message so far
+    was well formed (``clean``), it is the walk a reader stepping by the declared lengths makes."""
+    lengths, pos, size, found, clean = {FMT_TYPE: FMT_LENGTH}, 0, len(blob), [], True
     while pos + 3 <= size:
         if blob[pos:pos + 2] != DATAFLASH_MAGIC:
+            clean = False
             pos = blob.find(DATAFLASH_MAGIC, pos + 1)
             if pos < 0:
                 break
             continue
         kind = blob[pos + 2]
         if kind not in lengths:
+            clean = False
             found.append((pos, kind))
             pos += 1
             continue
@@ -54,7 +61,7 @@ def undeclared_headers(path: str, blob: bytes) -> Undeclared:
         if kind == FMT_TYPE and pos + 5 <= size:
             lengths[blob[pos + 3]] = blob[pos + 4]
         pos += lengths[kind]
-    return Undeclared(tuple(found))
+    return Undeclared(tuple(found), clean and pos != size)  # past the end, or 1-2 bytes of a header left
 
 
 def readable(blob: bytes, undeclared: Undeclared) -> bytes:
