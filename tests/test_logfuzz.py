@@ -434,3 +434,45 @@ def test_a_log_rejected_for_mixed_reasons_keeps_the_general_line():
     assert mixed is not None and "95 of 100 rows rejected" in mixed and "likely cause" not in mixed
     one = rejection_warning("f.csv", 100, 60, {"BAD_DT": 51, "NONFINITE": 9}, 0.05)
     assert one is not None and "51 of 100 rows (51 %) rejected as BAD_DT" in one and "20 Hz" in one
+
+
+def _damaged_ulog(tmp_path: Path, how: str) -> tuple[Path, Path]:
+    """A ULog flight and a copy damaged mid-file: ``short`` sets a data message's length to 1 (pyulog's parse
+    ends there on a struct.error, without a word), ``long`` one's to its size + 7 (pyulog skips it as of no
+    size its format defines), ``garbage`` overwrites 4 KiB with 0xff (no message starts there)."""
+    from tests.test_ulog import _flight, _ulog
+
+    _, cols = _flight()
+    clean = _ulog(tmp_path / "clean.ulg", cols, landed_until=1.0)
+    blob = bytearray(clean.read_bytes())
+    at, size, _ = [m for m in _ulog_messages(bytes(blob)) if m[2] == "D"][len(blob) // 200]
+    if how == "garbage":
+        blob[at:at + 4096] = b"\xff" * 4096
+    else:
+        struct.pack_into("<H", blob, at, 1 if how == "short" else size + 7)
+    damaged = tmp_path / f"{how}.ulg"
+    damaged.write_bytes(bytes(blob))
+    return clean, damaged
+
+
+@pytest.mark.parametrize("how, said", [("short", "the parse stopped at byte"), ("long", "1 data message(s) of a size"),
+                                       ("garbage", "bytes that start no message")])
+def test_what_pyulog_drops_without_a_word_is_said(tmp_path, capsys, how, said):
+    """The campaign's silent losses: a data message's length set to 1 ended pyulog's parse half-way through
+    an octo's log (half its messages and airborne time gone), a length of 65535 or a 4 KiB block of 0xff
+    skipped hundreds of messages; inspect and replay said nothing (pyulog only sets its corruption flag).
+    inspect now notes it; replay warns on stderr when the parse stopped (the rest is not read), and notes
+    skipped messages. The undamaged log says nothing of the kind."""
+    import json
+
+    clean, damaged = _damaged_ulog(tmp_path, how)
+    notes = {}
+    for log in (clean, damaged):
+        assert main(["inspect", str(log), "--json"]) == 0
+        notes[log] = [n for n in json.loads(capsys.readouterr().out)["notes"] if n.startswith("damaged:")]
+    assert notes[clean] == [] and len(notes[damaged]) == 1 and said in notes[damaged][0], notes
+    assert main(["replay", str(M300), str(damaged), "-o", str(tmp_path / "e.csv")]) == 0
+    done = capsys.readouterr()
+    assert said in (done.err if how == "short" else done.out), (done.out, done.err)
+    if how == "short":
+        assert f"{damaged}: damaged: the parse stopped" in done.err and "s readable)" in done.err

@@ -520,7 +520,7 @@ def test_only_the_topics_read_are_parsed_and_the_flight_is_the_same(tmp_path, mo
 
     monkeypatch.setattr(pyulog, "ULog", spy)
     filtered = ulog.read_ulog(str(path), af)
-    monkeypatch.setattr(ulog.open_ulog, "__defaults__", (None,))  # every topic
+    monkeypatch.setattr(ulog.open_ulog_noted, "__defaults__", (None,))  # every topic
     whole = ulog.read_ulog(str(path), af)
     assert "sensor_gyro" in parsed[1] and "sensor_gyro" not in parsed[0]
     assert parsed[1] - parsed[0] == {"sensor_gyro"}

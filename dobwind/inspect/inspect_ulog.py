@@ -13,7 +13,7 @@ from dobwind.core.errors import InputError
 from dobwind.inspect.loginspect import (AutopilotWind, LogSummary, Role, Vehicle, bulk_span, inside, intervals,
                                 stream_stats, total, wind_activity)
 from dobwind.io.ulogformat import damaged_formats
-from dobwind.io.ulog import PX4_WIND_TOPICS, TOPICS_READ, collective_source, open_ulog, truncation
+from dobwind.io.ulog import PX4_WIND_TOPICS, TOPICS_READ, collective_source, open_ulog_noted, truncation
 from dobwind.io.px4layout import (BATTERY_SCALE_PARAM, NOT_COLLECTIVE, THRUST_SOURCES, ThrustSource, battery_scale_note,
                                   older_layout)
 from dobwind.io.resample import in_time_order
@@ -204,7 +204,7 @@ def _damaged(path: str, ulog, topics: dict, roles: tuple[Role, ...]) -> tuple[tu
 
 
 def inspect_ulog(path: str) -> LogSummary:
-    ulog, complaint = open_ulog(path, TOPICS_READ + EXTRA_TOPICS)
+    ulog, complaint, damage = open_ulog_noted(path, TOPICS_READ + EXTRA_TOPICS)
     topics = _topics(ulog)
     params = {k: float(ulog.initial_parameters[k]) for k in PARAMETERS
               if k in ulog.initial_parameters and np.isfinite(float(ulog.initial_parameters[k]))}
@@ -224,7 +224,8 @@ def inspect_ulog(path: str) -> LogSummary:
     autostart = f"PX4 SYS_AUTOSTART {int(params['SYS_AUTOSTART'])}" if "SYS_AUTOSTART" in params else "PX4 (no SYS_AUTOSTART)"
     vehicle = Vehicle(rotors, rotor_source, autostart, rpm_ok, rpm_note, hover, hover_source, rpm_median, rpm_max,
                       px4_not_multirotor(params))
-    notes = [n for n in (complaint and f"pyulog: {complaint}", truncation(path), span.note(),
+    notes = [n for n in (complaint and f"pyulog: {complaint}", truncation(path), damage.stopped, damage.skipped,
+                         span.note(),
                          _acceleration_note(topics, spans)) if n] + damaged
     streams = tuple(stream_stats(name, d["t"]) for name, d in sorted(topics.items()))
     return LogSummary(path, "ulog", "PX4", start, end, total(spans) if spans or "unknown" not in airborne_source else None,

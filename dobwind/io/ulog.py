@@ -32,7 +32,7 @@ from dobwind.io.bridge import blanked, bridge, largest_silences
 from dobwind.io.resample import (ROTOR_MAX_GAP_S, AutopilotFlight, blank, bracketing, count_note, hold, in_time_order,
                               interp, quaternions, source_gaps, topic_tolerances, truncated_note, uniform_clock,
                               wind_active)
-from dobwind.io.ulogformat import damaged_formats
+from dobwind.io.ulogformat import Damage, damaged_formats, silent_damage
 from dobwind.io.px4layout import NOT_COLLECTIVE, THRUST_SOURCES, ThrustSource, battery_scale_note, older_layout
 from dobwind.model.signals import log_signals
 
@@ -72,6 +72,12 @@ class _BudgetedFile:
             raise _NoProgress
         return self._handle.read(n)
 
+    def close(self) -> None:
+        """pyulog closes the file when done: where it stopped tells a parse that ended early (struct.error
+        on a message too short for its fields ends pyulog's loop without a word) from one that read it all."""
+        self.stopped_at = self._handle.tell()
+        self._handle.close()
+
     def __getattr__(self, name: str):
         return getattr(self._handle, name)
 
@@ -83,6 +89,13 @@ EXTRA_READS = 1 << 16
 def open_ulog(path: str, topics: tuple[str, ...] | None = TOPICS_READ) -> tuple[object, str | None]:
     """pyulog's parse of ``path`` (only ``topics``; None: all) and its first complaint, if it printed
     one (pyulog prints to stdout, which must stay one JSON object under --json)."""
+    ulog, complaint, _ = open_ulog_noted(path, topics)
+    return ulog, complaint
+
+
+def open_ulog_noted(path: str, topics: tuple[str, ...] | None = TOPICS_READ) -> tuple[object, str | None, Damage]:
+    """open_ulog, with what pyulog lost without a word (ulogformat.py): a parse that stopped before the end,
+    data messages it skipped."""
     try:
         from pyulog import ULog
     except ImportError:  # pragma: no cover - the ulog extra is part of `make setup`
@@ -93,7 +106,8 @@ def open_ulog(path: str, topics: tuple[str, ...] | None = TOPICS_READ) -> tuple[
             size = os.fstat(handle.fileno()).st_size
             if size == 0:  # pyulog says only "Header too short"
                 raise InputError(path, None, "is empty (0 bytes): not a ULog file (an interrupted copy or download?)")
-            ulog = ULog(_BudgetedFile(handle, size), None if topics is None else list(topics))
+            budgeted = _BudgetedFile(handle, size)
+            ulog = ULog(budgeted, None if topics is None else list(topics))
     except InputError:
         raise
     except _NoProgress:
@@ -106,7 +120,9 @@ def open_ulog(path: str, topics: tuple[str, ...] | None = TOPICS_READ) -> tuple[
     except Exception as exc:  # pyulog raises many kinds on corrupt or truncated files
         raise InputError(path, None, f"not a readable ULog file ({type(exc).__name__}: {str(exc)[:80]})") from None
     complaints = [line.strip() for line in printed.getvalue().splitlines() if line.strip()]
-    return ulog, (complaints[0][:120] if complaints else None)
+    complaint = complaints[0][:120] if complaints else None
+    return ulog, complaint, silent_damage(path, getattr(budgeted, "stopped_at", size), size,
+                                          bool(getattr(ulog, "file_corruption", False)) and complaint is None)
 
 
 def _topic(ulog, name: str, fields: list[str], optional: tuple[str, ...] = ()) -> dict[str, np.ndarray] | None:
@@ -301,25 +317,26 @@ def _needs(af: Airframe) -> dict[str, tuple[list[str], str]]:
     return need
 
 
-def _multirotor_log(path: str) -> tuple[object, str | None]:
-    """open_ulog's parse, refused when the log is no multirotor's: a plane's log has every topic replay
+def _multirotor_log(path: str) -> tuple[object, str | None, Damage]:
+    """open_ulog_noted's parse, refused when the log is no multirotor's: a plane's log has every topic replay
     reads, and would be replayed as a copter's."""
-    ulog, complaint = open_ulog(path)
+    ulog, complaint, damage = open_ulog_noted(path)
     params = ulog.initial_parameters  # type: ignore[attr-defined]
     why = px4_not_multirotor({"MAV_TYPE": float(params["MAV_TYPE"])} if "MAV_TYPE" in params else {})
     if why:
         raise InputError(path, "vehicle", f"{why}; {MULTIROTORS_ONLY}")
-    return ulog, complaint
+    return ulog, complaint, damage
 
 
 def read_ulog(path: str, af: Airframe, rate_hz: float | None = None, bridge_gaps: bool = False) -> UlogFlight:
-    ulog, complaint = _multirotor_log(path)
+    ulog, complaint, damage = _multirotor_log(path)
     need = _needs(af)
     topics = {name: _topic(ulog, name, fields, ("esc_count", "esc_online_flags") if name == "esc_status" else ())
               for name, (fields, _) in need.items()}
     thrust_src = collective_source(ulog) if af.thrust.source == "collective" else None
     _refuse_missing(path, ulog, need, topics, af.thrust.source == "collective" and thrust_src is None)
-    notes = [] if complaint is None else [f"pyulog: {complaint} (the parse went on past it)"]
+    notes = ([] if complaint is None else [f"pyulog: {complaint} (the parse went on past it)"]) + \
+        ([damage.skipped] if damage.skipped else [])
     if thrust_src:
         notes += [n for n in (battery_scale_note(thrust_src[0], ulog.initial_parameters),) if n]
     cut = truncation(path)
@@ -351,7 +368,7 @@ def read_ulog(path: str, af: Airframe, rate_hz: float | None = None, bridge_gaps
         esc = f"esc_status: {ROTOR_MAX_GAP_S:g} s; " if "esc_status" in tolerances else ""
         notes.append(count_note(gappy, f"with a topic gap (longer than max_dt {max_gap:g} s or, for a slow topic, "
                                        f"than its own tolerance; {esc}by topic: {culprits})", "NO_DATA"))
-    warnings = (f"{path}: {cut} ({clock[-1] - clock[0]:.2f} s readable)",) if cut else ()
+    warnings = tuple(f"{path}: {said} ({clock[-1] - clock[0]:.2f} s readable)" for said in (cut, damage.stopped) if said)
     bridged = None
     if bridge_gaps:
         bridged, note = bridge(af, tolerances, clock, gappy, landed | (no_data & ~gappy),

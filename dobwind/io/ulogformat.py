@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 BASE_SIZES = {"int8_t": 1, "uint8_t": 1, "int16_t": 2, "uint16_t": 2, "int32_t": 4, "uint32_t": 4,
               "int64_t": 8, "uint64_t": 8, "float": 4, "double": 8, "bool": 1, "char": 1}
 HEADER_BYTES = 16
+MESSAGE_TYPES = set(b"FIMPQARDLCSOB")  # the ULog message types pyulog reads
 MAX_NESTING = 16       # PX4's deepest nesting is 2 or 3; deeper is a format naming itself
 MAX_ARRAY = 0xFFFF     # pyulog's own bound on an array size
 
@@ -24,13 +25,35 @@ class _Damaged(Exception):
     pass
 
 
+@dataclass(frozen=True)
+class Damage:
+    """What pyulog lost without a word: the parse stopped before the end (``stopped``), data messages it
+    skipped (``skipped``); each a note, or None."""
+    stopped: str | None = None
+    skipped: str | None = None
+
+
+def silent_damage(path: str, stopped_at: int, size: int, corrupt: bool) -> Damage:
+    """``stopped_at``: where pyulog's parse ended; ``corrupt``: it found the file corrupt and said nothing."""
+    stopped = None
+    if stopped_at < size:
+        stopped = (f"damaged: the parse stopped at byte {stopped_at:,} of {size:,} (a message too short for its "
+                   f"own fields: a damaged length or type); the rest ({100 * (size - stopped_at) / size:.0f} % of "
+                   "the file) is not read")
+    return Damage(stopped, skipped_data(path) if corrupt else None)
+
+
 @dataclass
 class _Walk:
     """What the file declares: format text by name (the last one wins, as in pyulog), the subscription
-    ids per topic name, and the payload sizes of the data messages per subscription id."""
+    ids per topic name, the payload sizes of the data messages per subscription id (size -> count), and
+    the first offset of each (id, size)."""
     formats: dict[str, str] = field(default_factory=dict)
     subscribed: dict[str, set[int]] = field(default_factory=dict)
     sizes: dict[int, dict[int, int]] = field(default_factory=dict)
+    first: dict[tuple[int, int], int] = field(default_factory=dict)
+    unreadable: int = 0               # bytes stepped over one at a time: no message starts there
+    first_unreadable: int = 1 << 62
 
 
 def _text(raw: bytes) -> str:
@@ -38,22 +61,31 @@ def _text(raw: bytes) -> str:
 
 
 def _walk(blob: bytes) -> _Walk:
+    """The messages as pyulog steps through them: by their size, but past a header of no ULog type with a
+    size of 0 or above 10000 (or a type 0) one byte at a time (pyulog's _check_packet_corruption)."""
     out, pos, end = _Walk(), HEADER_BYTES, len(blob)
     while pos + 3 <= end:
         size, kind = struct.unpack_from("<HB", blob, pos)
+        if kind not in MESSAGE_TYPES and (kind == 0 or size == 0 or size > 10000):
+            out.unreadable += 1
+            out.first_unreadable = min(out.first_unreadable, pos)
+            pos += 1
+            continue
         payload = blob[pos + 3:pos + 3 + size]
-        pos += 3 + size
+        at, pos = pos, pos + 3 + size
         if len(payload) < size:
             break
         if kind == ord("F"):
-            name, _, body = _text(payload).partition(":")
-            out.formats[name] = body
+            parts = _text(payload).split(":")  # as pyulog splits it: a stray ':' cuts the field list there
+            out.formats[parts[0]] = parts[1] if len(parts) > 1 else ""
         elif kind == ord("A") and size > 3:
             msg_id = struct.unpack_from("<H", payload, 1)[0]
             out.subscribed.setdefault(_text(payload[3:]).rstrip("\x00"), set()).add(msg_id)
         elif kind == ord("D") and size >= 2:
-            per = out.sizes.setdefault(struct.unpack_from("<H", payload)[0], {})
+            msg_id = struct.unpack_from("<H", payload)[0]
+            per = out.sizes.setdefault(msg_id, {})
             per[size - 2] = per.get(size - 2, 0) + 1
+            out.first.setdefault((msg_id, size - 2), at)
     return out
 
 
@@ -93,22 +125,29 @@ def _size(name: str, formats: dict[str, str], depth: int = 0) -> int:
     return total
 
 
-def _reason(name: str, walk: _Walk) -> str | None:
+def _accepted_sizes(name: str, walk: _Walk) -> tuple[int, int]:
+    """The payload sizes pyulog takes for topic ``name``: its format's, down to without the trailing
+    padding fields; raises _Damaged when the format cannot be built."""
     if name not in walk.formats:
-        return "no format definition for it in the log, which subscribes to it (a damaged format message)"
-    try:
-        fields = _fields(name, walk.formats)
-        full = _size(name, walk.formats)
-    except _Damaged as exc:
-        return str(exc)
+        raise _Damaged("no format definition for it in the log, which subscribes to it (a damaged format message)")
+    fields = _fields(name, walk.formats)
+    full = _size(name, walk.formats)
     if not any(f[2] == "timestamp" for f in fields):
-        return "no timestamp field"
-    # pyulog also takes a message without the trailing padding fields
+        raise _Damaged("no timestamp field")
     padding = 0
     for base, count, fname in reversed(fields):
         if not fname.startswith("_padding") or base not in BASE_SIZES:
             break
         padding += BASE_SIZES[base] * max(count, 1)
+    return full - padding, full
+
+
+def _reason(name: str, walk: _Walk) -> str | None:
+    try:
+        least, full = _accepted_sizes(name, walk)
+    except _Damaged as exc:
+        return str(exc)
+    padding = full - least
     seen: dict[int, int] = {}
     for msg_id in walk.subscribed[name]:
         for size, n in walk.sizes.get(msg_id, {}).items():
@@ -134,3 +173,34 @@ def damaged_formats(path: str, names=None) -> dict[str, str]:
             if why:
                 out[name] = why
     return out
+
+
+def skipped_data(path: str) -> str | None:
+    """The note on data messages pyulog skipped without a word: of a size their topic's format does not
+    define (a damaged length or format: one length of 65535 swallows the 64 KiB after it), or of an id no
+    topic subscribes to with a readable format. None when there are none."""
+    try:
+        with open(path, "rb") as handle:
+            blob = handle.read()
+    except OSError:
+        return None
+    walk = _walk(blob)
+    accepted: dict[int, tuple[int, int] | None] = {}
+    for name, ids in walk.subscribed.items():
+        try:
+            sizes: tuple[int, int] | None = _accepted_sizes(name, walk)
+        except _Damaged:
+            sizes = None
+        accepted.update({msg_id: sizes for msg_id in ids})
+    bad = [(walk.first[(msg_id, size)], n, size) for msg_id, per in walk.sizes.items() for size, n in per.items()
+           if accepted.get(msg_id) is None or not accepted[msg_id][0] <= size <= accepted[msg_id][1]]
+    said = []
+    if bad:
+        count, spanned = sum(n for _, n, _ in bad), sum(n * (size + 5) for _, n, size in bad)
+        said.append(f"{count} data message(s) of a size no format in the log defines for them, or of no readable "
+                    f"topic (the first at byte {min(b[0] for b in bad):,}), skipped with the {spanned:,} bytes they "
+                    f"span ({100 * spanned / max(len(blob), 1):.2g} % of the file)")
+    if walk.unreadable:
+        said.append(f"{walk.unreadable:,} bytes that start no message (the first at byte {walk.first_unreadable:,}), "
+                    "skipped with the messages they overwrote")
+    return "damaged: " + "; ".join(said) if said else None
