@@ -476,3 +476,41 @@ def test_what_pyulog_drops_without_a_word_is_said(tmp_path, capsys, how, said):
     assert said in (done.err if how == "short" else done.out), (done.out, done.err)
     if how == "short":
         assert f"{damaged}: damaged: the parse stopped" in done.err and "s readable)" in done.err
+
+
+def test_pyulog_takes_data_without_the_trailing_padding_only(tmp_path):
+    """ulogformat's rule for the size pyulog takes: the format's without its trailing padding fields, no
+    more (a format whose field before the padding was dropped still fitted a size range up to the padded
+    size, and a vehicle_attitude pyulog had dropped was called "missing"). Checked on pyulog itself: data
+    written with the padding is dropped, and the walk names the topic as damaged."""
+    from dobwind.io.ulog import open_ulog
+    from dobwind.io.ulogformat import damaged_formats
+    from tests.ulog_writer import Topic, write_ulog
+
+    fields = [("uint64_t", "timestamp"), ("float", "x"), ("uint8_t", "reset"), ("uint8_t[3]", "_padding0")]
+    rows = [{"timestamp": 1_000_000 + 10_000 * k, "x": float(k)} for k in range(50)]
+    padded = write_ulog(tmp_path / "padded.ulg", [Topic("vehicle_attitude", fields, rows)])
+    ulog, _ = open_ulog(str(padded))
+    assert not [d for d in ulog.data_list if d.name == "vehicle_attitude"]
+    why = damaged_formats(str(padded), ["vehicle_attitude"])["vehicle_attitude"]
+    assert "defines 13 bytes a message" in why and "50 messages of 16 bytes" in why
+    plain = write_ulog(tmp_path / "plain.ulg", [Topic("vehicle_attitude", fields[:3], rows)])
+    assert damaged_formats(str(plain), ["vehicle_attitude"]) == {}
+
+
+def test_a_topic_missing_from_a_damaged_ulog_says_the_file_is_damaged(tmp_path, capsys):
+    """A flipped subscription id (the campaign's ulog-a-dup-id, a flip in the definitions) leaves topics out
+    of pyulog's parse while it prints one "corrupt" line: replay said only "missing from the log". The line
+    now says the file is damaged, with pyulog's words."""
+    from tests.test_ulog import _flight, _ulog
+
+    _, cols = _flight()
+    blob = bytearray(_ulog(tmp_path / "clean.ulg", cols, landed_until=1.0).read_bytes())
+    at = next(o for o, _, kind in _ulog_messages(bytes(blob)) if kind == "A" and blob[o + 6:o + 22] == b"vehicle_attitude")
+    struct.pack_into("<H", blob, at + 4, 77)  # its data messages keep id 1: no subscription names them
+    log = tmp_path / "damaged.ulg"
+    log.write_bytes(bytes(blob))
+    assert main(["replay", str(M300), str(log), "-o", str(tmp_path / "e.csv")]) == 2
+    err = [e for e in capsys.readouterr().err.strip().splitlines() if "warning:" not in e]
+    assert len(err) == 1 and str(log) in err[0] and "topic vehicle_attitude" in err[0], err
+    assert "missing from the log; the file is damaged (pyulog: " in err[0] and "no subscription found" in err[0]

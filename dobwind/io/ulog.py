@@ -291,15 +291,19 @@ def _refuse_damaged(path: str, names: list[str] | None) -> None:
                          "can be read")
 
 
-def _refuse_missing(path: str, ulog, need: dict, topics: dict, no_collective: bool) -> None:
-    """One line naming every needed topic (or field) the log lacks, exit 2; a damaged definition first."""
+def _refuse_missing(path: str, ulog, need: dict, topics: dict, no_collective: bool, complaint: str | None) -> None:
+    """One line naming every needed topic (or field) the log lacks, exit 2; a damaged definition first. In a
+    file pyulog found corrupt, the line says so: the topics may be in the damaged part."""
     _refuse_damaged(path, [name for name, data in topics.items() if data is None]
                     + ([s.topic for s in THRUST_SOURCES] if no_collective else []))
     missing = [_missing(ulog, name, need[name][0], need[name][1]) for name, data in topics.items() if data is None]
     if no_collective:
         missing.append(_no_collective(ulog))
     if missing:
-        raise InputError(path, "topic" + ("s " if len(missing) > 1 else " ") + ", ".join(missing), "missing from the log")
+        damaged = (f"; the file is damaged (pyulog: {complaint or 'corrupt messages skipped'}): they may be in its "
+                   "damaged part") if getattr(ulog, "file_corruption", False) else ""
+        raise InputError(path, "topic" + ("s " if len(missing) > 1 else " ") + ", ".join(missing),
+                         "missing from the log" + damaged)
 
 
 def _needs(af: Airframe) -> dict[str, tuple[list[str], str]]:
@@ -334,7 +338,7 @@ def read_ulog(path: str, af: Airframe, rate_hz: float | None = None, bridge_gaps
     topics = {name: _topic(ulog, name, fields, ("esc_count", "esc_online_flags") if name == "esc_status" else ())
               for name, (fields, _) in need.items()}
     thrust_src = collective_source(ulog) if af.thrust.source == "collective" else None
-    _refuse_missing(path, ulog, need, topics, af.thrust.source == "collective" and thrust_src is None)
+    _refuse_missing(path, ulog, need, topics, af.thrust.source == "collective" and thrust_src is None, complaint)
     notes = ([] if complaint is None else [f"pyulog: {complaint} (the parse went on past it)"]) + \
         ([damage.skipped] if damage.skipped else [])
     if thrust_src:

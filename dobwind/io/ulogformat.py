@@ -125,9 +125,10 @@ def _size(name: str, formats: dict[str, str], depth: int = 0) -> int:
     return total
 
 
-def _accepted_sizes(name: str, walk: _Walk) -> tuple[int, int]:
-    """The payload sizes pyulog takes for topic ``name``: its format's, down to without the trailing
-    padding fields; raises _Damaged when the format cannot be built."""
+def _accepted_size(name: str, walk: _Walk) -> int:
+    """The payload size pyulog takes for topic ``name``: its format's without the trailing padding fields
+    (pyulog drops them, and its bounds, the numpy item size and max_data_size, are then both that size);
+    raises _Damaged when the format cannot be built."""
     if name not in walk.formats:
         raise _Damaged("no format definition for it in the log, which subscribes to it (a damaged format message)")
     fields = _fields(name, walk.formats)
@@ -139,22 +140,21 @@ def _accepted_sizes(name: str, walk: _Walk) -> tuple[int, int]:
         if not fname.startswith("_padding") or base not in BASE_SIZES:
             break
         padding += BASE_SIZES[base] * max(count, 1)
-    return full - padding, full
+    return full - padding
 
 
 def _reason(name: str, walk: _Walk) -> str | None:
     try:
-        least, full = _accepted_sizes(name, walk)
+        want = _accepted_size(name, walk)
     except _Damaged as exc:
         return str(exc)
-    padding = full - least
     seen: dict[int, int] = {}
     for msg_id in walk.subscribed[name]:
         for size, n in walk.sizes.get(msg_id, {}).items():
             seen[size] = seen.get(size, 0) + n
-    if seen and not any(full - padding <= size <= full for size in seen):
+    if seen and want not in seen:
         held = ", ".join(f"{n} message{'s' * (n != 1)} of {size}" for size, n in sorted(seen.items()))
-        return f"it defines {full} bytes a message, its data messages hold other sizes ({held} bytes)"
+        return f"it defines {want} bytes a message, its data messages hold other sizes ({held} bytes)"
     return None
 
 
@@ -185,15 +185,15 @@ def skipped_data(path: str) -> str | None:
     except OSError:
         return None
     walk = _walk(blob)
-    accepted: dict[int, tuple[int, int] | None] = {}
+    accepted: dict[int, int | None] = {}
     for name, ids in walk.subscribed.items():
         try:
-            sizes: tuple[int, int] | None = _accepted_sizes(name, walk)
+            want: int | None = _accepted_size(name, walk)
         except _Damaged:
-            sizes = None
-        accepted.update({msg_id: sizes for msg_id in ids})
+            want = None
+        accepted.update({msg_id: want for msg_id in ids})
     bad = [(walk.first[(msg_id, size)], n, size) for msg_id, per in walk.sizes.items() for size, n in per.items()
-           if accepted.get(msg_id) is None or not accepted[msg_id][0] <= size <= accepted[msg_id][1]]
+           if accepted.get(msg_id) != size]
     said = []
     if bad:
         count, spanned = sum(n for _, n, _ in bad), sum(n * (size + 5) for _, n, size in bad)
