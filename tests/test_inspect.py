@@ -559,3 +559,27 @@ def test_an_empty_log_says_it_is_empty(tmp_path, capsys, name, kind):
         assert main(argv) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and f"{log}: is empty (0 bytes): not a {kind}" in err, err
+
+
+@pytest.mark.parametrize("params, says", [
+    ({}, "EK3 drag fusion unknown (no EK3_DRAG_*"),                       # EKF2-era log: nothing to read
+    ({"EK3_DRAG_BCOEF_X": 0.0, "EK3_DRAG_MCOEF": 0.0}, "EK3 drag fusion is off"),
+    ({"EK3_DRAG_BCOEF_X": 0.0, "EK3_DRAG_MCOEF": 0.2}, "EK3 drag fusion is on"),
+])
+def test_ardupilot_drag_fusion_is_off_only_when_its_parameters_say_so(params, says):
+    from dobwind.inspect.inspect_dataflash import _ap_wind
+    reason = _ap_wind({}, params).reason
+    assert says in reason and ("unknown" in reason) == (not params)
+
+
+@pytest.mark.parametrize("params, says", [
+    ({}, "EKF2 drag fusion unknown (no EKF2_AID_MASK or EKF2_DRAG_CTRL"),
+    ({"EKF2_AID_MASK": 1}, "EKF2 drag fusion is off"),
+    ({"EKF2_DRAG_CTRL": 0}, "EKF2 drag fusion is off"),
+    ({"EKF2_AID_MASK": 32}, "EKF2 drag fusion is on"),
+])
+def test_px4_drag_fusion_is_off_only_when_its_parameters_say_so(params, says):
+    from dobwind.inspect.inspect_ulog import _px4_wind
+    from dobwind.inspect.loginspect import Role
+    reason = _px4_wind({}, Role("autopilot_wind", None), params).reason
+    assert says in reason and ("unknown" in reason) == (not params)

@@ -3,6 +3,7 @@ and summarise its estimator (inputs, state size, step cost)."""
 from __future__ import annotations
 
 import argparse
+import math
 from typing import Any
 
 from dobwind.cli.common import AIRFRAME_HELP, JSON_HELP, Command, print_json
@@ -24,11 +25,14 @@ def run(args: argparse.Namespace) -> int:
     from dobwind.model.stability import require_stable
     from dobwind.model.airframe import load_airframe
     from dobwind.model.step import build_step
+    from dobwind.cli.generate import warn_law_scale
+    from dobwind.model.lawscale import airflow_at_share
 
     af = load_airframe(args.airframe)
     require_stable(af, "generate would refuse it", args.airframe)
     model = build_step(af)
     _refuse_what_generate_refuses(af, model, args.airframe, selftest=not args.no_selftest)
+    warn_law_scale(af, args.airframe, "check")
     summary = {
         "name": af.name,
         "mass_kg": af.mass_kg,
@@ -39,6 +43,8 @@ def run(args: argparse.Namespace) -> int:
         "inputs": list(model.inputs.element_names()),
         "state_size": model.state.size,
         "step_instructions": model.step.n_instructions(),
+        # model/lawscale.py: the fastest airflow the law reads at a tenth of the weight (m/s)
+        "law_airflow_at_tenth_weight_mps": _finite_or_none(float(airflow_at_share(af).max())),
     }
     if args.json:
         print_json(summary)
@@ -46,6 +52,10 @@ def run(args: argparse.Namespace) -> int:
         for key, value in summary.items():
             print(f"{key:18s} {value}")
     return 0
+
+
+def _finite_or_none(value: float) -> float | None:
+    return round(value, 3) if math.isfinite(value) else None  # JSON has no NaN or infinity
 
 
 def _refuse_what_generate_refuses(af: Any, model: Any, source: str, selftest: bool = True) -> None:

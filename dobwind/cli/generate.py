@@ -6,6 +6,7 @@ import argparse
 import sys
 from functools import partial
 from pathlib import Path
+from typing import Any
 
 from dobwind.model.kinds import PRECISIONS, Precision
 from dobwind.cli.common import AIRFRAME_HELP, Command
@@ -48,6 +49,7 @@ def run(args: argparse.Namespace) -> int:
                             gate=gate)
     for path in files:
         print(path)
+    warn_law_scale(af, args.airframe, "generate")
     if args.target == "px4" and log_signals(af).rotor_speeds and af.thrust.rotors > PX4_ESC_REPORTS:
         sys.stderr.write(f"dobwind generate: warning: {args.airframe}: thrust.rotors = {af.thrust.rotors}, but PX4's "
                          f"esc_status holds {PX4_ESC_REPORTS} ESC reports (EscStatus.msg CONNECTED_ESC_MAX): the "
@@ -57,6 +59,16 @@ def run(args: argparse.Namespace) -> int:
 
 # EscStatus.msg's CONNECTED_ESC_MAX: the ESC reports one esc_status message holds (PX4 msg/EscStatus.msg).
 PX4_ESC_REPORTS = 8
+
+
+def warn_law_scale(af: Any, source: str, command: str) -> None:
+    """One stderr line when the force-air law reads an absurd airflow at a small force (model/lawscale.py):
+    a warning, since the step flags such winds EXTRAPOLATED when flown; the airframe is still written."""
+    from dobwind.model.lawscale import law_scale_problem
+
+    problem = law_scale_problem(af)
+    if problem is not None:
+        sys.stderr.write(f"dobwind {command}: warning: {source}: {problem}\n")
 
 
 def selftest_gate(name: str, folder: Path, command: str = "generate") -> None:

@@ -15,8 +15,8 @@ from dobwind.core.errors import InputError
 from dobwind.io.aplayout import logged_name
 from dobwind.io.quietfd import quiet_fds
 from dobwind.io.vehiclekind import ardupilot_not_multirotor, firmware
-from dobwind.inspect.loginspect import (AutopilotWind, LogSummary, Role, Vehicle, bulk_span, inside, intervals,
-                                stream_stats, total, wind_activity)
+from dobwind.inspect.loginspect import (AutopilotWind, LogSummary, Role, Vehicle, bulk_span, drag_fusion_reason,
+                                inside, intervals, stream_stats, total, wind_activity)
 
 PARAMETERS = ("MOT_THST_HOVER", "FRAME_CLASS", "FRAME_TYPE", "EK3_DRAG_BCOEF_X", "EK3_DRAG_BCOEF_Y",
               "EK3_DRAG_MCOEF", "SIM_WIND_SPD", "SIM_WIND_DIR", "SIM_WIND_TURB", "SIM_WIND_T", "SIM_WIND_T_ALT")
@@ -177,8 +177,9 @@ def _hover(msgs: dict, params: dict, spans) -> tuple[float | None, str]:
 
 
 def _ap_wind(msgs: dict, params: dict) -> AutopilotWind:
-    drag = params.get("EK3_DRAG_BCOEF_X", 0) > 0 or params.get("EK3_DRAG_BCOEF_Y", 0) > 0 or params.get("EK3_DRAG_MCOEF", 0) > 0
-    why = "EK3 drag fusion is on" if drag else "EK3 drag fusion is off (EK3_DRAG_BCOEF_X/Y and EK3_DRAG_MCOEF 0)"
+    keys = ("EK3_DRAG_BCOEF_X", "EK3_DRAG_BCOEF_Y", "EK3_DRAG_MCOEF")
+    why = drag_fusion_reason("EK3", any(params.get(k, 0) > 0 for k in keys), any(k in params for k in keys),
+                             "EK3_DRAG_BCOEF_X/Y and EK3_DRAG_MCOEF 0", "EK3_DRAG_*")
     found = pick_stream(msgs, AP_WIND, ["VWN", "VWE"])
     if found is None:
         return wind_activity(None, None, None, None, why)

@@ -10,8 +10,8 @@ from dataclasses import replace
 import numpy as np
 
 from dobwind.core.errors import InputError
-from dobwind.inspect.loginspect import (AutopilotWind, LogSummary, Role, Vehicle, bulk_span, inside, intervals,
-                                stream_stats, total, wind_activity)
+from dobwind.inspect.loginspect import (AutopilotWind, LogSummary, Role, Vehicle, bulk_span, drag_fusion_reason,
+                                inside, intervals, stream_stats, total, wind_activity)
 from dobwind.io.ulogformat import damaged_formats
 from dobwind.io.ulog import PX4_WIND_TOPICS, TOPICS_READ, collective_source, open_ulog_noted, truncation
 from dobwind.io.px4layout import (BATTERY_SCALE_PARAM, NOT_COLLECTIVE, THRUST_SOURCES, ThrustSource, battery_scale_note,
@@ -159,8 +159,9 @@ def _hover(topics: dict, params: dict, spans) -> tuple[float | None, str]:
 
 
 def _px4_wind(topics: dict, wind_role: Role, params: dict) -> AutopilotWind:
-    drag = (int(params.get("EKF2_AID_MASK", 0)) & EKF2_AID_MASK_DRAG) or params.get("EKF2_DRAG_CTRL", 0) > 0
-    why = "EKF2 drag fusion is on" if drag else "EKF2 drag fusion is off (EKF2_AID_MASK bit 5 / EKF2_DRAG_CTRL)"
+    drag = bool(int(params.get("EKF2_AID_MASK", 0)) & EKF2_AID_MASK_DRAG) or params.get("EKF2_DRAG_CTRL", 0) > 0
+    why = drag_fusion_reason("EKF2", drag, "EKF2_AID_MASK" in params or "EKF2_DRAG_CTRL" in params,
+                             "EKF2_AID_MASK bit 5 / EKF2_DRAG_CTRL", "EKF2_AID_MASK or EKF2_DRAG_CTRL")
     if wind_role.source is None:
         return wind_activity(None, None, None, None, why)
     name = wind_role.stream

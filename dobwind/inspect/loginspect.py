@@ -215,6 +215,17 @@ def total(spans: tuple[tuple[float, float], ...]) -> float:
     return float(sum(b - a for a, b in spans))
 
 
+def drag_fusion_reason(filter_name: str, on: bool, configured: bool, off_because: str, names: str) -> str:
+    """What the parameters say of the autopilot filter's drag fusion. A log without any of the parameters
+    (older firmware, another filter, parameters not logged) says nothing, and "off" would claim what was
+    not read."""
+    if on:
+        return f"{filter_name} drag fusion is on"
+    if configured:
+        return f"{filter_name} drag fusion is off ({off_because})"
+    return f"{filter_name} drag fusion unknown (no {names} in the log's parameters)"
+
+
 def wind_activity(source: str | None, t: np.ndarray | None, north: np.ndarray | None, east: np.ndarray | None,
                   why: str = "") -> AutopilotWind:
     """An autopilot's wind estimate is active when it is logged and not identically zero: PX4 and
