@@ -883,9 +883,9 @@ def choose_drag_law(samples: DragSamples, prefer: Prefer) -> DragChoice:
     sets within 2 % of the best score tie, and the smallest wins (horizontally: the one ``prefer``
     picks; the fit passes holdcv.prefer_on_holds). A law that does not increase everywhere on the
     calibrated range and beyond (law_decreasing) is never chosen: its set is dropped and the choice made
-    again among the others (an isotropic law with a positive coefficient always passes). Then each
-    group of OPTIONAL_GROUPS in turn (the four-fold harmonics, then the per-axis pair): when it helps
-    the chosen set (_group_helps), the horizontal set is chosen again with it in every candidate."""
+    again among the others (an isotropic law with a positive coefficient always passes). Then the
+    optional term groups (the four-fold harmonics, the per-axis pair): when one helps the chosen set,
+    the horizontal set is chosen again with it in every candidate (_with_optional_groups)."""
     vertical_full = VERTICAL_SETS[-1]
     folds, top = fold_splits(samples), top_split(samples)  # the same splits for every candidate
     candidates = BODY_HORIZONTAL_SETS if samples.frame == DragFrame.BODY else HORIZONTAL_SETS
@@ -895,18 +895,9 @@ def choose_drag_law(samples: DragSamples, prefer: Prefer) -> DragChoice:
     identified = tuple(h for h in candidates if coverage.allows(h))
     limited = coverage if len(identified) < len(candidates) else None
     candidates = identified
-    horizontal, theta, where, score, dropped = _choose_horizontal(samples, candidates, folds, top, prefer)
-    added: tuple[str, ...] = ()
-    for group in OPTIONAL_GROUPS:
-        if where is not None or not coverage.allows(group) or not _group_helps(samples, horizontal, group, score, folds, top):
-            continue
-        wider = tuple(h + added + group for h in candidates if "q0" in h)
-        found = _choose_horizontal(samples, wider, folds, top, prefer)
-        # An increasing law with the group that still buys the 2 %: the set tried first may have been
-        # dropped for decreasing, and the next one need not beat the set without it.
-        if found[2] is None and found[3] <= FOURFOLD_GAIN * score:
-            horizontal, theta, score, dropped = found[0], found[1], found[3], dropped + found[4]
-            added += group
+    chosen = _choose_horizontal(samples, candidates, folds, top, prefer)
+    where = chosen[2]
+    horizontal, theta, dropped = _with_optional_groups(samples, candidates, chosen, coverage, folds, top, prefer)
     scored_v = []
     for v in VERTICAL_SETS:
         scored_v.append((_ranked(grouped_cv(samples, drag_fit_predict(horizontal + v + ALWAYS), folds)[1]), v))
@@ -969,17 +960,47 @@ FOURFOLD_GAIN = 0.98
 OPTIONAL_GROUPS = (FOURFOLD_KEYS, PER_AXIS_KEYS)
 
 
-def _group_helps(samples: DragSamples, horizontal: tuple[str, ...], group: tuple[str, ...], score: float,
-                 folds: tuple[Split, ...], top: Split | None) -> bool:
-    """The terms ``group`` lower the chosen set's score by 2 %. Tested on the chosen set first, as one
-    grouped CV: most vehicles' drag follows the airflow and stops here. When they do help, the set is
-    chosen again with them (choose_drag_law): a per-axis (four-fold) misfit dominates every set's score
-    without them and hides what the other terms are worth (a front/back term cut a per-axis vehicle's
-    hold-level error from 0.10 to 0.03 m/s, which the choice without the harmonics could not see)."""
+def _with_optional_groups(samples: DragSamples, candidates: tuple[tuple[str, ...], ...],
+                          chosen: tuple[tuple[str, ...], np.ndarray, str | None, float, tuple[str, ...]],
+                          coverage: DirectionCoverage, folds: tuple[Split, ...], top: Split | None,
+                          prefer: Prefer) -> tuple[tuple[str, ...], np.ndarray, tuple[str, ...]]:
+    """The chosen horizontal set (_choose_horizontal's answer) with the OPTIONAL_GROUPS that buy the 2 %:
+    (set, coefficients, sets dropped). Each group the directions identify is scored on the chosen set
+    (_group_score); the one that lowers it most is tried first, so that of two groups that both hold
+    per-axis drag the closer one is taken (the four-fold pair holds a 6:1 body's force too, but less
+    well, and the per-axis pair then no longer buys 2 % on top of it). A group that helps makes the set
+    be chosen again with it in every candidate; the next group is then scored on that law."""
+    horizontal, theta, where, score, dropped = chosen
+    if where is not None:
+        return horizontal, theta, dropped
+    groups = [g for g in OPTIONAL_GROUPS if coverage.allows(g)]
+    first = {g: _group_score(samples, horizontal, g, folds, top) for g in groups}
+    added: tuple[str, ...] = ()
+    for group in sorted(groups, key=first.__getitem__):
+        trial = first[group] if not added else _group_score(samples, horizontal, group, folds, top)
+        if trial > FOURFOLD_GAIN * score:
+            continue
+        found = _choose_horizontal(samples, tuple(h + added + group for h in candidates if "q0" in h), folds, top, prefer)
+        # An increasing law with the group that still buys the 2 %: the set tried first may have been
+        # dropped for decreasing, and the next one need not beat the set without it.
+        if found[2] is None and found[3] <= FOURFOLD_GAIN * score:
+            horizontal, theta, score, dropped = found[0], found[1], found[3], dropped + found[4]
+            added += group
+    return horizontal, theta, dropped
+
+
+def _group_score(samples: DragSamples, horizontal: tuple[str, ...], group: tuple[str, ...],
+                 folds: tuple[Split, ...], top: Split | None) -> float:
+    """The chosen set's score with the terms ``group`` added, as one grouped CV (inf without q0: the
+    groups refine the quadratic drag). Most vehicles' drag follows the airflow and stops here. When a
+    group helps, the set is chosen again with it (_with_optional_groups): a per-axis misfit dominates
+    every set's score without it and hides what the other terms are worth (a front/back term cut a
+    per-axis vehicle's hold-level error from 0.10 to 0.03 m/s, which the choice without the harmonics
+    could not see)."""
     if "q0" not in horizontal:
-        return False
+        return math.inf
     fit_predict = drag_fit_predict(horizontal + group + VERTICAL_SETS[-1] + ALWAYS)
-    return combined(grouped_cv(samples, fit_predict, folds)[0], top_error(fit_predict, top)) <= FOURFOLD_GAIN * score
+    return _ranked(combined(grouped_cv(samples, fit_predict, folds)[0], top_error(fit_predict, top)))
 
 
 # law_decreasing checks the fitted law up to this multiple of the fastest sample's horizontal airflow:
