@@ -966,8 +966,8 @@ def _with_optional_groups(samples: DragSamples, candidates: tuple[tuple[str, ...
                           prefer: Prefer) -> tuple[tuple[str, ...], np.ndarray, tuple[str, ...]]:
     """The chosen horizontal set (_choose_horizontal's answer) with the OPTIONAL_GROUPS that buy the 2 %:
     (set, coefficients, sets dropped). Each group the directions identify is scored on the chosen set
-    (_group_score); the one that lowers it most is tried first, so that of two groups that both hold
-    per-axis drag the closer one is taken (the four-fold pair holds a 6:1 body's force too, but less
+    (_group_score); the one that lowers it most is tried first, so that of two groups that both
+    hold per-axis drag the closer one is taken (the four-fold pair holds a 6:1 body's force too, but less
     well, and the per-axis pair then no longer buys 2 % on top of it). A group that helps makes the set
     be chosen again with it in every candidate; the next group is then scored on that law."""
     horizontal, theta, where, score, dropped = chosen
