@@ -126,7 +126,7 @@ SLOW: dict[str, tuple[str, ...]] = {
     "test_peraxis.py": (
         "test_generated_c_with_the_pair_matches_the_reference",
         "test_the_fit_adds_the_pair_for_a_six_to_one_body",
-        "test_the_fit_prefers_the_pair_to_the_harmonics_for_per_axis_drag",
+        "test_near_equal_axes_keep_the_harmonics",
     ),
     "test_pipeline.py": (
         "test_accuracy_on_the_projects_simulator",  # the module's fit's last reader in test-fast (4 s)

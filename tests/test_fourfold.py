@@ -166,10 +166,7 @@ def _median_error(samples: dragfit.DragSamples, theta: np.ndarray) -> float:
     return float(np.median(np.hypot(error[:, 0], error[:, 1])))
 
 
-def test_the_fit_adds_the_harmonics_for_per_axis_drag(monkeypatch):
-    # the harmonics alone: with the per-axis pair offered too, the fit takes the pair for this drag, its
-    # own form (tests/test_peraxis.py)
-    monkeypatch.setattr(dragfit, "OPTIONAL_GROUPS", (forceair.FOURFOLD_KEYS,))
+def test_the_fit_adds_the_harmonics_for_per_axis_drag():
     def per_axis(vx, vy, vz):
         fx, fy = _per_axis(vx, vy, 1.3, 0.08)
         return fx + 0.2 * vx, fy + 0.2 * vy, 0.2 * vz + 0.1 * np.abs(vz) * vz
@@ -187,13 +184,11 @@ def test_the_fit_leaves_them_out_for_drag_along_the_airflow():
     assert not set(forceair.FOURFOLD_KEYS) & set(choice.active)
 
 
-def test_with_the_harmonics_the_set_is_chosen_again(monkeypatch):
+def test_with_the_harmonics_the_set_is_chosen_again():
     """Per-axis drag 6 % weaker from behind than ahead (the simulator's [shape] cos1): without the
     harmonics the four-fold misfit hides what the front/back term q1c is worth, so a choice made then,
     with the harmonics added afterwards, leaves q1c out. Chosen again with them, the law has it; the
-    per-sample scores tie (within 0.2 %), and the held-out hold means decide (holdcv.prefer_on_holds).
-    The harmonics alone, as in the test above."""
-    monkeypatch.setattr(dragfit, "OPTIONAL_GROUPS", (forceair.FOURFOLD_KEYS,))
+    per-sample scores tie (within 0.2 %), and the held-out hold means decide (holdcv.prefer_on_holds)."""
     def per_axis_front_back(vx, vy, vz):
         gain = 1.0 - 0.06 * vx / np.maximum(np.hypot(vx, vy), 1e-9)
         fx, fy = _per_axis(vx, vy, 1.3, 0.08)

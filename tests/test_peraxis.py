@@ -185,9 +185,12 @@ def _median_direction_error(samples: dragfit.DragSamples, theta: np.ndarray) -> 
 
 
 def test_the_fit_adds_the_pair_for_a_six_to_one_body():
+    """Side drag 6 times the frontal, linear (0.02 / 0.08) and quadratic (0.025 / 0.15) per axis, as the
+    benchmark's per-axis bodies (benchmarks/anisovehicles): the pair is added, and the law reads the
+    direction far better than the same set without it (median 1.6 against 11.7 deg above 3 m/s)."""
     def body(vx, vy, vz):
         fx, fy = _per_axis(vx, vy, 0.025, 0.15)
-        return fx + 0.1 * vx, fy + 0.1 * vy, 0.2 * vz + 0.1 * np.abs(vz) * vz
+        return fx + 0.02 * vx, fy + 0.08 * vy, 0.2 * vz + 0.1 * np.abs(vz) * vz
     samples = hold_samples(body, 0.05, seed=5)
     choice = dragfit.choose_drag_law(samples, holdcv.prefer_on_holds)
     assert set(forceair.PER_AXIS_KEYS) <= set(choice.active)
@@ -196,26 +199,20 @@ def test_the_fit_adds_the_pair_for_a_six_to_one_body():
         samples, dragfit.robust_fit(samples, without))
 
 
-def test_the_fit_prefers_the_pair_to_the_harmonics_for_per_axis_drag(monkeypatch):
-    """Per-axis drag of near-equal axes (1.3:1, tests/test_fourfold.py's): both groups help; the pair,
-    the drag's own form, helps more and is taken first, and the harmonics then add nothing. It reads
-    the airflow at least as well as the harmonics alone did (median 0.115 against 0.122 m/s)."""
+def test_near_equal_axes_keep_the_harmonics(monkeypatch):
+    """Per-axis drag of near-equal axes (1.3:1, tests/test_fourfold.py's): the four-fold harmonics are
+    tried first and hold it, and the pair then buys less than 2 % on top, so the law is the one it was
+    before the pair existed (the benchmark family's figures unchanged). Offered the pair alone, the fit
+    would take it (the drag's own form)."""
     def per_axis(vx, vy, vz):
         fx, fy = _per_axis(vx, vy, 0.08, 0.104)
         return fx + 0.2 * vx, fy + 0.2 * vy, 0.2 * vz + 0.1 * np.abs(vz) * vz
     samples = hold_samples(per_axis, 0.05, seed=5)
     choice = dragfit.choose_drag_law(samples, holdcv.prefer_on_holds)
-    assert set(forceair.PER_AXIS_KEYS) <= set(choice.active) and not set(forceair.FOURFOLD_KEYS) & set(choice.active)
-    monkeypatch.setattr(dragfit, "OPTIONAL_GROUPS", (forceair.FOURFOLD_KEYS,))
-    harmonics = dragfit.choose_drag_law(samples, holdcv.prefer_on_holds)
-    assert set(forceair.FOURFOLD_KEYS) <= set(harmonics.active)
-    assert _median_error(samples, choice.theta) <= _median_error(samples, harmonics.theta)
-
-
-def _median_error(samples: dragfit.DragSamples, theta: np.ndarray) -> float:
-    """Median horizontal airflow error (m/s) over the samples (as tests/test_fourfold.py measures it)."""
-    error = dragfit.predicted_airflow(samples, theta) - samples.airflow
-    return float(np.median(np.hypot(error[:, 0], error[:, 1])))
+    assert set(forceair.FOURFOLD_KEYS) <= set(choice.active) and not set(forceair.PER_AXIS_KEYS) & set(choice.active)
+    monkeypatch.setattr(dragfit, "OPTIONAL_GROUPS", (forceair.PER_AXIS_KEYS,))
+    alone = dragfit.choose_drag_law(samples, holdcv.prefer_on_holds)
+    assert set(forceair.PER_AXIS_KEYS) <= set(alone.active)
 
 
 def test_the_fit_leaves_the_pair_out_for_drag_along_the_airflow():

@@ -965,20 +965,19 @@ def _with_optional_groups(samples: DragSamples, candidates: tuple[tuple[str, ...
                           coverage: DirectionCoverage, folds: tuple[Split, ...], top: Split | None,
                           prefer: Prefer) -> tuple[tuple[str, ...], np.ndarray, tuple[str, ...]]:
     """The chosen horizontal set (_choose_horizontal's answer) with the OPTIONAL_GROUPS that buy the 2 %:
-    (set, coefficients, sets dropped). Each group the directions identify is scored on the chosen set
-    (_group_score); the one that lowers it most is tried first, so that of two groups that both
-    hold per-axis drag the closer one is taken (the four-fold pair holds a 6:1 body's force too, but less
-    well, and the per-axis pair then no longer buys 2 % on top of it). A group that helps makes the set
-    be chosen again with it in every candidate; the next group is then scored on that law."""
+    (set, coefficients, sets dropped). The groups are tried in their order, each scored on the law the
+    one before left (_group_score); one that helps makes the set be chosen again with it in every
+    candidate. The four-fold harmonics come first, as before the pair existed, so a law they hold well
+    (per-axis drag of near-equal axes) keeps them and its figures, and the pair is added only where it
+    still buys 2 % on top: a body whose axes differ 4-6 times, where the harmonics alone decrease or
+    miss 13-14 deg (docs/calibration.md; trying the group that helps most first was measured there
+    too and changed two benchmark vehicles for the worse in places)."""
     horizontal, theta, where, score, dropped = chosen
     if where is not None:
         return horizontal, theta, dropped
-    groups = [g for g in OPTIONAL_GROUPS if coverage.allows(g)]
-    first = {g: _group_score(samples, horizontal, g, folds, top) for g in groups}
     added: tuple[str, ...] = ()
-    for group in sorted(groups, key=first.__getitem__):
-        trial = first[group] if not added else _group_score(samples, horizontal, group, folds, top)
-        if trial > FOURFOLD_GAIN * score:
+    for group in OPTIONAL_GROUPS:
+        if not coverage.allows(group) or _group_score(samples, horizontal, group, folds, top) > FOURFOLD_GAIN * score:
             continue
         found = _choose_horizontal(samples, tuple(h + added + group for h in candidates if "q0" in h), folds, top, prefer)
         # An increasing law with the group that still buys the 2 %: the set tried first may have been
