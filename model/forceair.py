@@ -122,7 +122,8 @@ class DragLaw:
     lr: float = 0.0          # body frame only: N per m/s at hover thrust, times sqrt(u_f / (m g))
     frame: DragFrame = DragFrame.HEADING  # HEADING: the law of the level heading-frame airflow; BODY: of the
     #                          body-frame airflow at the real attitude (tilt included)
-    exponent: float = 2.0    # p: the quadratic terms q0, q2c, q2s, q1c, q4c, q4s grow as s^p (1.5 to 2.5)
+    exponent: float = 2.0    # p: the quadratic terms q0, q2c, q2s, q1c, q4c, q4s grow as s^p, qax, qay as
+    #                          |a_x|^p, |a_y|^p (1.5 to 2.5)
     q4c: float = 0.0         # the four-fold harmonics (last: positional construction stays as it was)
     q4s: float = 0.0
     qax: float = 0.0         # the per-axis pair (PER_AXIS_KEYS), N/(m/s)^p
