@@ -21,7 +21,8 @@ from dobwind.simulate.vehicle import body_force, load_vehicle
 
 SETS = (("l0", "q0"), ("l0", "q0", "l2c", "q2c", "l2s", "q2s"), ("l0", "q0", "l2c", "q2c", "l2s", "q2s", "q1c"),
         ("l0", "q0", "l2c", "q2c", "l2s", "q2s", "q4c", "q4s"),
-        ("l0", "q0", "l2c", "q2c", "l2s", "q2s", "q1c", "q4c", "q4s"))
+        ("l0", "q0", "l2c", "q2c", "l2s", "q2s", "q1c", "q4c", "q4s"), ("l0", "q0", "qax", "qay"),
+        ("l0", "q0", "l2c", "q2c", "l2s", "q2s", "qax", "qay"), ("l0", "q0", "l2c", "q2c", "l2s", "q2s", "q1c", "qax", "qay"))
 SCORED_FROM_MPS = 2.0   # below it a direction error is a small distance
 CHECKED_UP_TO_MPS = 12.0
 

@@ -6,7 +6,9 @@ fit needs). Every in-plane term is a scalar times the airflow a_xy or times a_xy
 
     F_xy = P a_xy + Q (-a_y, a_x),    F_z = R a_z + i1 s_h + i2 s_h^2,    R = lz + qz s
 
-with P and Q scalars of the airflow (docs/model.md has the law):
+with P and Q scalars of the airflow (docs/model.md has the law), plus the per-axis pair (qax |a_x|^(p-1) a_x,
+qay |a_y|^(p-1) a_y), which is added as it is (each component depends on its own airflow component only, so
+its Jacobian is diagonal):
 
     P = l0 + lr rotor + q0 g + (l2c + q2c g) cos 2theta + q1c k a_x + q4c g cos 4theta
     Q = (l2s + q2s g) sin 2theta + q4s g sin 4theta,      g = s^(p-1), k = s^(p-2)
@@ -23,6 +25,9 @@ difference Jacobian). Works on SX only; the coefficient fields of ``law`` are fl
 from __future__ import annotations
 
 import casadi as ca
+
+# Smoothing of |a_x| in the per-axis terms of an exponent other than 2 (m/s): far below any airflow read.
+PER_AXIS_EPS_MPS = 1e-6
 
 
 def _present(value) -> bool:
@@ -77,9 +82,28 @@ def body_law_scalars(law, a: ca.SX, rotor: ca.SX, eps: float) -> tuple[ca.SX, ca
     return _sum(p_terms), _sum(q_terms), _sum(fz_terms)
 
 
-def body_law_value(p: ca.SX, q: ca.SX, fz: ca.SX, a: ca.SX) -> ca.SX:
-    """The law's body-frame force from its scalars."""
-    return ca.vertcat(p * a[0] - q * a[1], p * a[1] + q * a[0], fz)
+def axis_power(x, exponent):
+    """|x|^(p-1), the per-axis terms' factor: |x| itself for p = 2 (no power in the step's C); for another
+    p smoothed by PER_AXIS_EPS_MPS, (x^2 + eps^2)^((p-1)/2), whose derivative stays finite at x = 0 where
+    |x|^(p-2) would not (the Newton step's Jacobian). SX or NumPy."""
+    if _is_two(exponent):
+        return abs(x)
+    return (x * x + PER_AXIS_EPS_MPS ** 2) ** ((exponent - 1.0) / 2.0)
+
+
+def per_axis_force(law, a: ca.SX) -> tuple[ca.SX, ca.SX] | None:
+    """The per-axis pair's in-plane force at the airflow ``a``, or None when the law has no such term."""
+    if not (_present(law.qax) or _present(law.qay)):
+        return None
+    return law.qax * axis_power(a[0], law.exponent) * a[0], law.qay * axis_power(a[1], law.exponent) * a[1]
+
+
+def body_law_value(p: ca.SX, q: ca.SX, fz: ca.SX, a: ca.SX, axis: tuple[ca.SX, ca.SX] | None = None) -> ca.SX:
+    """The law's body-frame force from its scalars (and the per-axis pair's force, when it has one)."""
+    fx, fy = p * a[0] - q * a[1], p * a[1] + q * a[0]
+    if axis is not None:
+        fx, fy = fx + axis[0], fy + axis[1]
+    return ca.vertcat(fx, fy, fz)
 
 
 def body_law_and_jacobian(law, a: ca.SX, rotor: ca.SX, eps: float) -> tuple[ca.SX, ca.SX]:
@@ -91,5 +115,8 @@ def body_law_and_jacobian(law, a: ca.SX, rotor: ca.SX, eps: float) -> tuple[ca.S
     jy = [ay * gp[j] + ax * gq[j] for j in range(3)]
     jx[0], jx[1] = p + jx[0], jx[1] - q
     jy[0], jy[1] = q + jy[0], p + jy[1]
+    axis = per_axis_force(law, a)
+    if axis is not None:  # a diagonal block: each component's derivative along its own axis
+        jx[0], jy[1] = jx[0] + ca.jacobian(axis[0], ax), jy[1] + ca.jacobian(axis[1], ay)
     jacobian = ca.vertcat(ca.horzcat(*jx), ca.horzcat(*jy), gz.T)
-    return body_law_value(p, q, fz, a), jacobian
+    return body_law_value(p, q, fz, a, axis), jacobian

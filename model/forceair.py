@@ -22,7 +22,12 @@ Two families map the observed external force (heading frame c, offset removed) t
   drag): even with equal coefficients its force leans up to 12 deg off the airflow at 30 and 60 deg,
   which the 2theta terms cannot hold (they vanish there by symmetry); with the 4theta pair the airflow
   is read within 1 deg at 60 deg and 3.5 deg next to the axes, at a body-y / body-x ratio up to 1.5
-  (tests/test_fourfold.py). Per-axis LINEAR drag (PX4's EKF2_BCOEF_X/_Y, EKF2_MCOEF) is the case
+  (tests/test_fourfold.py). A body whose axes differ more (side drag 4-6x the frontal) has a series that
+  does not stop at 4theta; the per-axis pair holds it directly, one more force
+
+      + (qax |v_x|^(p-1) v_x, qay |v_y|^(p-1) v_y)       (heading frame; the body frame's a_x, a_y alike)
+
+  (tests/test_peraxis.py). Per-axis LINEAR drag (PX4's EKF2_BCOEF_X/_Y, EKF2_MCOEF) is the case
   l2s = -l2c, q2s = -q2c; a
   drag MAGNITUDE that depends on direction is l2s = q2s = 0. i1, i2: the vertical force that horizontal
   airflow causes (rotors in edgewise flow make more thrust). The horizontal law is inverted by a fixed
@@ -48,7 +53,7 @@ from typing import TYPE_CHECKING
 import casadi as ca
 import numpy as np
 
-from dobwind.model.dragform import body_law_and_jacobian, body_law_scalars, body_law_value
+from dobwind.model.dragform import axis_power, body_law_and_jacobian, body_law_scalars, body_law_value, per_axis_force
 from dobwind.model.numeric import bisect_increasing
 from dobwind.model.sxvector import VectorFunction
 from dobwind.model.terms import Term, polynomial_expr, term_expr
@@ -68,9 +73,15 @@ DRAG_NEWTON_STEPS = 3
 # law is strictly increasing, so this only guards zero force on a zero law.
 _DENOMINATOR_FLOOR = 1e-9
 
-HORIZONTAL_DRAG_KEYS = ("l0", "q0", "l2c", "q2c", "q1c", "l2s", "q2s", "q4c", "q4s")
+HORIZONTAL_DRAG_KEYS = ("l0", "q0", "l2c", "q2c", "q1c", "l2s", "q2s", "q4c", "q4s", "qax", "qay")
 # The four-fold harmonics: written to the airframe file, and given symbols, only when a law has them.
 FOURFOLD_KEYS = ("q4c", "q4s")
+# The per-axis pair: drag that each axis of the law's frame makes on its own airflow component, c_x
+# |a_x|^(p-1) a_x along x and c_y |a_y|^(p-1) a_y along y (flat sides, PX4 EKF2's and ArduPilot SITL's
+# per-axis drag). Its Fourier series in the airflow direction does not stop at 4 theta: a 4-6:1 per-axis
+# body leaves 14 deg that no truncation of the harmonics above holds while still increasing
+# (benchmarks/lawreach.py). Written and given symbols only when a law has it, like the four-fold pair.
+PER_AXIS_KEYS = ("qax", "qay")
 VERTICAL_DRAG_KEYS = ("lz", "qz", "i1", "i2")
 # The body-frame law's one extra coefficient: rotor (momentum) drag, which grows with rotor speed.
 ROTOR_DRAG_KEY = "lr"
@@ -88,6 +99,10 @@ EXPONENT_RANGE = (1.5, 2.5)
 # One more Newton step when the law has the four-fold harmonics: the isotropic start is then up to
 # about 12 deg and 15 % off (tests/test_fourfold.py measures the convergence).
 FOURFOLD_EXTRA_STEPS = 1
+# One more Newton step when the law has the per-axis pair: it starts from each axis solved alone (exact
+# for pure per-axis drag), and a fitted law that mixes the pair with the harmonics is then up to 4 mm/s
+# off after three steps, 2e-6 m/s after four (tests/test_peraxis.py).
+PER_AXIS_EXTRA_STEPS = 1
 
 
 @dataclass(frozen=True)
@@ -107,9 +122,12 @@ class DragLaw:
     lr: float = 0.0          # body frame only: N per m/s at hover thrust, times sqrt(u_f / (m g))
     frame: DragFrame = DragFrame.HEADING  # HEADING: the law of the level heading-frame airflow; BODY: of the
     #                          body-frame airflow at the real attitude (tilt included)
-    exponent: float = 2.0    # p: the quadratic terms q0, q2c, q2s, q1c, q4c, q4s grow as s^p (1.5 to 2.5)
+    exponent: float = 2.0    # p: the quadratic terms q0, q2c, q2s, q1c, q4c, q4s grow as s^p, qax, qay as
+    #                          |a_x|^p, |a_y|^p (1.5 to 2.5)
     q4c: float = 0.0         # the four-fold harmonics (last: positional construction stays as it was)
     q4s: float = 0.0
+    qax: float = 0.0         # the per-axis pair (PER_AXIS_KEYS), N/(m/s)^p
+    qay: float = 0.0
 
     def keys(self) -> tuple[str, ...]:
         extra = (ROTOR_DRAG_KEY,) if self.frame == DragFrame.BODY else ()
@@ -117,7 +135,8 @@ class DragLaw:
 
     def as_dict(self) -> dict[str, float | str]:
         values: dict[str, float | str] = {k: getattr(self, k) for k in self.keys()
-                                          if k not in FOURFOLD_KEYS or _fourfold(self)}
+                                          if (k not in FOURFOLD_KEYS or _fourfold(self))
+                                          and (k not in PER_AXIS_KEYS or _per_axis(self))}
         if self.frame != DragFrame.HEADING:
             values["frame"] = self.frame
         if isinstance(self.exponent, ca.SX) or self.exponent != 2.0:
@@ -127,7 +146,7 @@ class DragLaw:
     def newton_steps(self, steps: int) -> int:
         """``steps`` for a quadratic law; more when the exponent is another (or a symbol)."""
         extra = (0 if _quadratic(self) else EXPONENT_EXTRA_STEPS) + (FOURFOLD_EXTRA_STEPS if _fourfold(self) else 0)
-        return steps + extra
+        return steps + extra + (PER_AXIS_EXTRA_STEPS if _per_axis(self) else 0)
 
 
 def _quadratic(law: DragLaw) -> bool:
@@ -137,6 +156,11 @@ def _quadratic(law: DragLaw) -> bool:
 def _fourfold(law: DragLaw) -> bool:
     """The law has a four-fold harmonic (a symbol counts: the symbolic variant with them)."""
     return any(isinstance(getattr(law, k), ca.SX) or getattr(law, k) != 0.0 for k in FOURFOLD_KEYS)
+
+
+def _per_axis(law: DragLaw) -> bool:
+    """The law has a per-axis term (a symbol counts, as in _fourfold)."""
+    return any(isinstance(getattr(law, k), ca.SX) or getattr(law, k) != 0.0 for k in PER_AXIS_KEYS)
 
 
 def _is_two(exponent) -> bool:
@@ -162,24 +186,24 @@ def _front_back(x, y, s, exponent):
     return k * x * x, k * x * y
 
 
-def symbolic_law(frame: DragFrame, quadratic: bool = True, fourfold: bool = False) -> DragLaw:
+def symbolic_law(frame: DragFrame, quadratic: bool = True, fourfold: bool = False, per_axis: bool = False) -> DragLaw:
     """A law whose coefficients are SX symbols named by their keys: the NumPy inversions below are built
     once on it and take the coefficients as inputs, instead of rebuilding the expression per law.
     ``quadratic``: exponent 2, the step's very expression; else the exponent is a symbol too.
     ``fourfold``: the q4c, q4s terms are symbols; else they are absent (exact zeros), as in the step
-    of a law without them."""
-    symbols: dict = {k: ca.SX.sym(k) for k in _symbolic_keys(frame, fourfold)}
+    of a law without them. ``per_axis``: the same for qax, qay."""
+    symbols: dict = {k: ca.SX.sym(k) for k in _symbolic_keys(frame, fourfold, per_axis)}
     return DragLaw(**symbols, frame=frame, exponent=2.0 if quadratic else ca.SX.sym("exponent"))
 
 
-def _symbolic_keys(frame: DragFrame, fourfold: bool) -> tuple[str, ...]:
-    keys = DragLaw(0.0, 0.0, frame=frame).keys()
-    return keys if fourfold else tuple(k for k in keys if k not in FOURFOLD_KEYS)
+def _symbolic_keys(frame: DragFrame, fourfold: bool, per_axis: bool = False) -> tuple[str, ...]:
+    absent = (() if fourfold else FOURFOLD_KEYS) + (() if per_axis else PER_AXIS_KEYS)
+    return tuple(k for k in DragLaw(0.0, 0.0, frame=frame).keys() if k not in absent)
 
 
-def _variant(law: DragLaw) -> tuple[bool, bool]:
-    """Which symbolic inversion stands for ``law``: (quadratic, fourfold)."""
-    return _quadratic(law), _fourfold(law)
+def _variant(law: DragLaw) -> tuple[bool, bool, bool]:
+    """Which symbolic inversion stands for ``law``: (quadratic, fourfold, per_axis)."""
+    return _quadratic(law), _fourfold(law), _per_axis(law)
 
 
 def _used(law: DragLaw, keys: tuple[str, ...]) -> list[str]:
@@ -253,6 +277,7 @@ def horizontal_drag_basis(vx, vy, s, exponent=2.0):
         "q1c": _front_back(vx, vy, s, exponent),
         "l2s": (-sin2 * vy, sin2 * vx), "q2s": (-g * sin2 * vy, g * sin2 * vx),
         "q4c": (g * cos4 * vx, g * cos4 * vy), "q4s": (-g * sin4 * vy, g * sin4 * vx),
+        "qax": (axis_power(vx, exponent) * vx, 0 * vx), "qay": (0 * vy, axis_power(vy, exponent) * vy),
     }
 
 
@@ -287,14 +312,29 @@ def _newton_step(law: DragLaw, vx: ca.SX, vy: ca.SX, m: ca.SX, n: ca.SX) -> tupl
     return vx - inv_det * (j22 * rx - j12 * ry), vy - inv_det * (j11 * ry - j21 * rx)
 
 
+def _root(lin, quad, force):
+    """The airflow of the law (lin + quad |v|) v = force, in the cancellation-free form of the quadratic's
+    root, v = 2 force / (lin + sqrt(lin^2 + 4 quad |force|)) (``force`` >= 0 or a component: odd in it)."""
+    return 2 * force / ca.fmax(lin + ca.sqrt(lin * lin + 4 * quad * ca.fabs(force)), _DENOMINATOR_FLOOR)
+
+
+def _planar_start(law: DragLaw, fx: ca.SX, fy: ca.SX, lin: ca.SX) -> tuple[ca.SX, ca.SX]:
+    """Where the in-plane Newton steps start. The isotropic law (lin + q0 s) s = |F| solved along the
+    force, (fx, fy) s / |F| without dividing by |F|; exact for a law along the airflow. A law with the
+    per-axis pair: each axis's law solved alone on its own force component (lin +- l2c, and every
+    quadratic term's value along that axis), exact for pure per-axis drag, where the isotropic start
+    leaves the inversion metres per second off after three more steps (tests/test_peraxis.py)."""
+    if _per_axis(law):
+        return (_root(ca.fmax(lin + law.l2c, 0), ca.fmax(law.q0 + law.q2c + law.q4c + law.qax, 0), fx),
+                _root(ca.fmax(lin - law.l2c, 0), ca.fmax(law.q0 - law.q2c + law.q4c + law.qay, 0), fy))
+    fh = ca.sqrt(fx * fx + fy * fy)
+    scale = 2 / ca.fmax(lin + ca.sqrt(lin * lin + 4 * law.q0 * fh), _DENOMINATOR_FLOOR)
+    return scale * fx, scale * fy
+
+
 def drag_airflow(law: DragLaw, m: ca.SX, n: ca.SX, fz: ca.SX):
     """The drag law inverted: airflow (x, y, z), heading frame, from the heading-frame force."""
-    lin, quad = law.l0, law.q0
-    fh = horizontal_force(m, n)
-    # Isotropic law (lin + quad s) s = fh, solved in the cancellation-free form of the quadratic's root,
-    # s = 2 fh / (lin + sqrt(lin^2 + 4 quad fh)), along the force: (m, n) s / fh without dividing by fh.
-    scale = 2 / ca.fmax(lin + ca.sqrt(lin * lin + 4 * quad * fh), _DENOMINATOR_FLOOR)
-    vx, vy = scale * m, scale * n
+    vx, vy = _planar_start(law, m, n, law.l0)
     for _ in range(law.newton_steps(DRAG_NEWTON_STEPS)):
         vx, vy = _newton_step(law, vx, vy, m, n)
     s = ca.sqrt(vx * vx + vy * vy)
@@ -305,16 +345,16 @@ def drag_airflow(law: DragLaw, m: ca.SX, n: ca.SX, fz: ca.SX):
 
 
 @functools.lru_cache(maxsize=None)
-def _heading_inversion(quadratic: bool, fourfold: bool) -> VectorFunction:
+def _heading_inversion(quadratic: bool, fourfold: bool, per_axis: bool = False) -> VectorFunction:
     """``drag_airflow`` on the symbolic law, built once: (m, n, fz, coefficients) -> airflow."""
-    law, sm, sn, sz = symbolic_law(DragFrame.HEADING, quadratic, fourfold), ca.SX.sym("m"), ca.SX.sym("n"), ca.SX.sym("fz")
+    law, sm, sn, sz = symbolic_law(DragFrame.HEADING, quadratic, fourfold, per_axis), ca.SX.sym("m"), ca.SX.sym("n"), ca.SX.sym("fz")
     return VectorFunction(ca.Function("drag_airflow", [sm, sn, sz, ca.vertcat(*_symbols(law))],
                                       [ca.vertcat(*drag_airflow(law, sm, sn, sz))]))
 
 
 def _coefficients(law: DragLaw, frame: DragFrame) -> np.ndarray:
     """The law's coefficients in the order of ``symbolic_law(frame, *_variant(law))``'s symbols."""
-    keys = _symbolic_keys(frame, _fourfold(law))
+    keys = _symbolic_keys(frame, _fourfold(law), _per_axis(law))
     return np.array([float(getattr(law, k)) for k in keys] + ([] if _quadratic(law) else [float(law.exponent)]))
 
 
@@ -337,6 +377,7 @@ def body_drag_basis(ax, ay, az, rotor, eps: float = 0.0, exponent=2.0) -> dict[s
         F_xy = [l0 + lr rotor + q0 s^(p-1) + (l2c + q2c s^(p-1)) cos 2theta] a_xy + q1c s^(p-2) a_x a_xy
                + (l2s + q2s s^(p-1)) sin 2theta (-a_y, a_x)
                + q4c s^(p-1) cos 4theta a_xy + q4s s^(p-1) sin 4theta (-a_y, a_x)
+               + (qax |a_x|^(p-1) a_x, qay |a_y|^(p-1) a_y)
         F_z  = lz a_z + qz s a_z + i1 s_h + i2 s_h^2
     """
     sh2 = ax * ax + ay * ay + eps * eps
@@ -353,6 +394,7 @@ def body_drag_basis(ax, ay, az, rotor, eps: float = 0.0, exponent=2.0) -> dict[s
         "q1c": (*_front_back(ax, ay, s, exponent), zero),
         "l2s": (-sin2 * ay, sin2 * ax, zero), "q2s": (-g * sin2 * ay, g * sin2 * ax, zero),
         "q4c": (g * cos4 * ax, g * cos4 * ay, zero), "q4s": (-g * sin4 * ay, g * sin4 * ax, zero),
+        "qax": (axis_power(ax, exponent) * ax, zero, zero), "qay": (zero, axis_power(ay, exponent) * ay, zero),
         "lr": (rotor * ax, rotor * ay, zero),
         "lz": (zero, zero, az), "qz": (zero, zero, s * az), "i1": (zero, zero, sh), "i2": (zero, zero, sh2),
     }
@@ -374,7 +416,7 @@ def body_law_at(law: DragLaw, a: ca.SX, rotor: ca.SX) -> ca.SX:
     smoothing): the chord's and the start rule's residuals, and what the step's tracked airflow explains
     (model/airstate.py)."""
     sa, sr = ca.SX.sym("a", 3), ca.SX.sym("rotor")
-    value = body_law_value(*body_law_scalars(law, sa, sr, DRAG_SPEED_EPS_MPS), sa)  # regrouped (dragform.py)
+    value = body_law_value(*body_law_scalars(law, sa, sr, DRAG_SPEED_EPS_MPS), sa, per_axis_force(law, sa))  # regrouped (dragform.py)
     coefficients = _symbols(law)
     return ca.Function("body_drag_value", [sa, sr, *coefficients], [value])(a, rotor, *coefficients)
 
@@ -412,10 +454,7 @@ def _body_newton_chord(law: DragLaw, a: ca.SX, rotor: ca.SX, force_b: ca.SX) -> 
 def _body_isotropic_start(law: DragLaw, f_b: ca.SX, rotor: ca.SX) -> ca.SX:
     """Each axis's isotropic law solved alone (the in-plane pair along its force), as in the heading
     frame: the body-frame airflow Newton starts from when nothing better is known."""
-    lin = law.l0 + law.lr * rotor
-    fh = ca.sqrt(f_b[0] * f_b[0] + f_b[1] * f_b[1])
-    scale = 2 / ca.fmax(lin + ca.sqrt(lin * lin + 4 * law.q0 * fh), _DENOMINATOR_FLOOR)
-    ax, ay = scale * f_b[0], scale * f_b[1]
+    ax, ay = _planar_start(law, f_b[0], f_b[1], law.l0 + law.lr * rotor)
     sh = ca.sqrt(ax * ax + ay * ay)
     rz = f_b[2] - law.i1 * sh - law.i2 * sh * sh
     az = 2 * rz / ca.fmax(law.lz + ca.sqrt(law.lz * law.lz + 4 * law.qz * ca.fabs(rz)), _DENOMINATOR_FLOOR)
@@ -470,9 +509,9 @@ def body_drag_airflow_tracking(law: DragLaw, force_ned: ca.SX, rot: ca.SX, rotor
 
 
 @functools.lru_cache(maxsize=None)
-def _body_inversion(quadratic: bool, fourfold: bool) -> VectorFunction:
+def _body_inversion(quadratic: bool, fourfold: bool, per_axis: bool = False) -> VectorFunction:
     """``body_drag_airflow`` on the symbolic law, built once: (force, rot, rotor, coefficients) -> airflow."""
-    law, sf, sr, sq = symbolic_law(DragFrame.BODY, quadratic, fourfold), ca.SX.sym("f", 3), ca.SX.sym("rot", 9), ca.SX.sym("rotor")
+    law, sf, sr, sq = symbolic_law(DragFrame.BODY, quadratic, fourfold, per_axis), ca.SX.sym("f", 3), ca.SX.sym("rot", 9), ca.SX.sym("rotor")
     return VectorFunction(ca.Function("body_drag_airflow", [sf, sr, sq, ca.vertcat(*_symbols(law))],
                                       [body_drag_airflow(law, sf, ca.reshape(sr, 3, 3), sq)]))
 
@@ -525,16 +564,16 @@ LAW_CHECK_SPEEDS = 48
 LAW_CHECK_MIN_MPS = 0.01
 # The terms that grow as s^p (the bluff-body drag): the linear part is the law without them, and the
 # fit rescales their columns for another exponent (dragfit.with_exponent).
-QUADRATIC_KEYS = ("q0", "q2c", "q2s", "q1c") + FOURFOLD_KEYS
+QUADRATIC_KEYS = ("q0", "q2c", "q2s", "q1c") + FOURFOLD_KEYS + PER_AXIS_KEYS
 
 
 @functools.lru_cache(maxsize=None)
-def _law_slope(frame: DragFrame, quadratic: bool, fourfold: bool) -> VectorFunction:
+def _law_slope(frame: DragFrame, quadratic: bool, fourfold: bool, per_axis: bool = False) -> VectorFunction:
     """The horizontal block of the forward law's Jacobian, d(F_x, F_y)/d(a_x, a_y), at level airflow, on
     symbolic coefficients: (airflow, rotor, coefficients) -> 2 x 2 (column-major), smoothed as in Newton.
     At a_z = 0 the body frame's 3 x 3 Jacobian is block-triangular, so this block is what the horizontal
     terms decide; the vertical law (lz, qz >= 0) is checked apart (fitfamily)."""
-    law, a, rotor = symbolic_law(frame, quadratic, fourfold), ca.SX.sym("a", 2), ca.SX.sym("rotor")
+    law, a, rotor = symbolic_law(frame, quadratic, fourfold, per_axis), ca.SX.sym("a", 2), ca.SX.sym("rotor")
     if frame == DragFrame.BODY:
         force = ca.vertcat(*body_drag_force(law, a[0], a[1], 0 * a[0], rotor, DRAG_SPEED_EPS_MPS)[:2])
     else:

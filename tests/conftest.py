@@ -123,6 +123,11 @@ SLOW: dict[str, tuple[str, ...]] = {
         "test_a_signal_mid_write_leaves_the_previous_output",
         "test_the_next_run_removes_what_a_killed_run_left_and_nothing_else",
     ),
+    "test_peraxis.py": (
+        "test_generated_c_with_the_pair_matches_the_reference",
+        "test_the_fit_adds_the_pair_for_a_six_to_one_body",
+        "test_near_equal_axes_keep_the_harmonics",
+    ),
     "test_pipeline.py": (
         "test_accuracy_on_the_projects_simulator",  # the module's fit's last reader in test-fast (4 s)
         "test_fit_recovers_the_thrust_scale_and_a_good_model",
@@ -317,6 +322,7 @@ MODULE_SECONDS: dict[str, float] = {
     "test_real_data.py": 36,
     "test_ulog.py": 14,
     "test_fourfold.py": 13,
+    "test_peraxis.py": 21,   # alone, serial, under a load of 4 (2026-12-06; branch axisdrag)
     "test_hardening.py": 13,
     "test_cformat.py": 12,
     "test_dataflash.py": 10,

@@ -231,7 +231,7 @@ def test_hold_windows_pair_up_between_laws():
 def test_rescaled_columns_are_the_exponents_own_in_steady_airflow(frame):
     """Settled in a hold, H passes the regressor unchanged, so with_exponent's q columns must equal the
     law's own basis at that exponent: horizontal speed in the heading frame, the whole airspeed (with
-    the vertical airflow) in the body frame."""
+    the vertical airflow) in the body frame; the per-axis pair, its own airflow component."""
     samples = _samples(_law(2.0), frame=frame)
     shifted = dragfit.with_exponent(samples, 1.7)
     steady = samples.hold_age_s > 10.0
@@ -242,11 +242,11 @@ def test_rescaled_columns_are_the_exponents_own_in_steady_airflow(frame):
         a = np.einsum("nji,nj->ni", rot, np.column_stack([c * air[:, 0] - s * air[:, 1], s * air[:, 0] + c * air[:, 1],
                                                           air[:, 2]]))
         units = body_drag_basis(a[:, 0], a[:, 1], a[:, 2], np.ones(len(a)), 0.0, 1.7)
-        expected = {k: np.einsum("nij,nj->ni", rot, np.column_stack(units[k])) for k in ("q0", "q2c", "q2s", "q1c", "q4c", "q4s", "l0")}
+        expected = {k: np.einsum("nij,nj->ni", rot, np.column_stack(units[k])) for k in ("q0", "q2c", "q2s", "q1c", "q4c", "q4s", "qax", "qay", "l0")}
     else:
         units = horizontal_drag_basis(air[:, 0], air[:, 1], np.hypot(air[:, 0], air[:, 1]), 1.7)
         expected = {k: np.column_stack([c * fx - s * fy, s * fx + c * fy, np.zeros_like(fx)])
-                    for k, (fx, fy) in units.items() if k in ("q0", "q2c", "q2s", "q1c", "q4c", "q4s", "l0")}
+                    for k, (fx, fy) in units.items() if k in ("q0", "q2c", "q2s", "q1c", "q4c", "q4s", "qax", "qay", "l0")}
     for key, value in expected.items():  # l0: a linear term, left as it was
         got = shifted.columns[steady][:, :, samples.parameters.index(key)]
         np.testing.assert_allclose(got, value, rtol=1e-6, atol=1e-9, err_msg=key)

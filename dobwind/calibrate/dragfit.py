@@ -33,7 +33,7 @@ from dobwind.calibrate.directionshape import DirectionShape
 from dobwind.model.airframe import Airframe
 from dobwind.model.attitude import rotation_matrices
 from dobwind.model.discretization import first_order
-from dobwind.model.forceair import (FOURFOLD_KEYS, HORIZONTAL_DRAG_KEYS, QUADRATIC_KEYS, ROTOR_DRAG_KEY,
+from dobwind.model.forceair import (FOURFOLD_KEYS, HORIZONTAL_DRAG_KEYS, PER_AXIS_KEYS, QUADRATIC_KEYS, ROTOR_DRAG_KEY,
                                     VERTICAL_DRAG_KEYS, DragLaw, along_force_scale, body_drag_airflow_numpy,
                                     body_drag_basis, drag_airflow_numpy, heading_force, heading_to_ned,
                                     horizontal_drag_basis, law_decreasing, term_matrix)
@@ -83,7 +83,7 @@ ALWAYS = ("ox", "oy", "kappa")
 # the back, each with at least DIRECTION_MIN_SHARE of the samples above DIRECTION_MIN_SPEED_MPS.
 DIRECTION_MIN_SPEED_MPS = 1.0   # below it the airflow's direction is noise
 DIRECTION_MIN_SHARE = 0.05
-AXIAL_HARMONICS = ("l2c", "l2s", "q2c", "q2s", "q4c", "q4s")
+AXIAL_HARMONICS = ("l2c", "l2s", "q2c", "q2s", "q4c", "q4s", "qax", "qay")  # the per-axis pair has 2theta parts
 FORE_AFT_HARMONICS = ("q1c",)
 
 
@@ -691,13 +691,24 @@ def with_exponent(samples: DragSamples, exponent: float) -> DragSamples:
     exponent instead would double the fit's time."""
     if exponent == samples.exponent:
         return samples
-    air = samples.airflow
-    speed = np.linalg.norm(air, axis=1) if samples.frame == DragFrame.BODY else np.hypot(air[:, 0], air[:, 1])
-    factor = np.maximum(speed, 1e-9) ** (exponent - samples.exponent)
     columns = samples.columns.copy()
-    for key in QUADRATIC_KEYS:   # the columns whose terms grow as s^p
-        columns[:, :, samples.parameters.index(key)] *= factor[:, None]
+    for key, speed in _growth_speeds(samples).items():   # the columns whose terms grow as s^p
+        columns[:, :, samples.parameters.index(key)] *= (np.maximum(speed, 1e-9) ** (exponent - samples.exponent))[:, None]
     return dataclasses.replace(samples, columns=columns, exponent=exponent)
+
+
+def _growth_speeds(samples: DragSamples) -> dict[str, np.ndarray]:
+    """The speed each s^p term grows with: the law's speed (horizontal in the heading frame, 3-D in the
+    body frame); the per-axis pair's, the airflow's own component along its axis (|a_x|^(p-1) a_x)."""
+    air = samples.airflow
+    if samples.frame == DragFrame.BODY and samples.rotation is not None:
+        north, east = heading_to_ned(air[:, 0], air[:, 1], samples.cos_yaw, samples.sin_yaw)
+        axes = np.einsum("nji,nj->ni", samples.rotation, np.column_stack([north, east, air[:, 2]]))  # R^T v
+        speed = np.linalg.norm(air, axis=1)
+    else:
+        axes, speed = air, np.hypot(air[:, 0], air[:, 1])
+    along = {"qax": np.abs(axes[:, 0]), "qay": np.abs(axes[:, 1])}
+    return {key: along.get(key, speed) for key in QUADRATIC_KEYS}
 
 
 def heading_forces(samples: DragSamples, theta: np.ndarray) -> np.ndarray:
@@ -872,9 +883,9 @@ def choose_drag_law(samples: DragSamples, prefer: Prefer) -> DragChoice:
     sets within 2 % of the best score tie, and the smallest wins (horizontally: the one ``prefer``
     picks; the fit passes holdcv.prefer_on_holds). A law that does not increase everywhere on the
     calibrated range and beyond (law_decreasing) is never chosen: its set is dropped and the choice made
-    again among the others (an isotropic law with a positive coefficient always passes). When the
-    four-fold harmonics help the chosen set (_fourfold_helps), the horizontal set is chosen again with
-    them in every candidate."""
+    again among the others (an isotropic law with a positive coefficient always passes). Then the
+    optional term groups (the four-fold harmonics, the per-axis pair): when one helps the chosen set,
+    the horizontal set is chosen again with it in every candidate (_with_optional_groups)."""
     vertical_full = VERTICAL_SETS[-1]
     folds, top = fold_splits(samples), top_split(samples)  # the same splits for every candidate
     candidates = BODY_HORIZONTAL_SETS if samples.frame == DragFrame.BODY else HORIZONTAL_SETS
@@ -884,14 +895,9 @@ def choose_drag_law(samples: DragSamples, prefer: Prefer) -> DragChoice:
     identified = tuple(h for h in candidates if coverage.allows(h))
     limited = coverage if len(identified) < len(candidates) else None
     candidates = identified
-    horizontal, theta, where, score, dropped = _choose_horizontal(samples, candidates, folds, top, prefer)
-    if where is None and coverage.allows(FOURFOLD_KEYS) and _fourfold_helps(samples, horizontal, score, folds, top):
-        wider = tuple(h + FOURFOLD_KEYS for h in candidates if "q0" in h)
-        found = _choose_horizontal(samples, wider, folds, top, prefer)
-        # An increasing law with the harmonics that still buys the 2 %: the set tried first may have been
-        # dropped for decreasing, and the next one need not beat the set without them.
-        if found[2] is None and found[3] <= FOURFOLD_GAIN * score:
-            horizontal, theta, dropped = found[0], found[1], dropped + found[4]
+    chosen = _choose_horizontal(samples, candidates, folds, top, prefer)
+    where = chosen[2]
+    horizontal, theta, dropped = _with_optional_groups(samples, candidates, chosen, coverage, folds, top, prefer)
     scored_v = []
     for v in VERTICAL_SETS:
         scored_v.append((_ranked(grouped_cv(samples, drag_fit_predict(horizontal + v + ALWAYS), folds)[1]), v))
@@ -945,21 +951,55 @@ def _choose_horizontal(samples: DragSamples, candidates: tuple[tuple[str, ...], 
         scored = [(s, h) for s, h in scored if h != horizontal]
 
 
-# The four-fold harmonics must lower the chosen set's score by this share to be added (the parsimony rule).
+# The four-fold harmonics, and the per-axis pair, must each lower the chosen set's score by this share to
+# be added (the parsimony rule).
 FOURFOLD_GAIN = 0.98
+# The optional term groups, tried in this order after the set is chosen, each on the law the one before
+# left: the four-fold harmonics (per-axis drag of near-equal axes), then the per-axis pair (per-axis drag
+# of unequal axes, whose series in the airflow direction the harmonics truncate: docs/calibration.md).
+OPTIONAL_GROUPS = (FOURFOLD_KEYS, PER_AXIS_KEYS)
 
 
-def _fourfold_helps(samples: DragSamples, horizontal: tuple[str, ...], score: float,
-                    folds: tuple[Split, ...], top: Split | None) -> bool:
-    """q4c and q4s lower the chosen set's score by 2 %. Tested on the chosen set first, as one grouped CV:
-    most vehicles' drag follows the airflow and stops here. When they do help, the set is chosen again
-    with them (choose_drag_law): a per-axis (four-fold) misfit dominates every set's score without them
-    and hides what the other terms are worth (a front/back term cut a per-axis vehicle's hold-level error
-    from 0.10 to 0.03 m/s, which the choice without the harmonics could not see)."""
+def _with_optional_groups(samples: DragSamples, candidates: tuple[tuple[str, ...], ...],
+                          chosen: tuple[tuple[str, ...], np.ndarray, str | None, float, tuple[str, ...]],
+                          coverage: DirectionCoverage, folds: tuple[Split, ...], top: Split | None,
+                          prefer: Prefer) -> tuple[tuple[str, ...], np.ndarray, tuple[str, ...]]:
+    """The chosen horizontal set (_choose_horizontal's answer) with the OPTIONAL_GROUPS that buy the 2 %:
+    (set, coefficients, sets dropped). The groups are tried in their order, each scored on the law the
+    one before left (_group_score); one that helps makes the set be chosen again with it in every
+    candidate. The four-fold harmonics come first, as before the pair existed, so a law they hold well
+    (per-axis drag of near-equal axes) keeps them and its figures, and the pair is added only where it
+    still buys 2 % on top: a body whose axes differ 4-6 times, where the harmonics alone decrease or
+    miss 13-14 deg (docs/calibration.md; trying the group that helps most first was measured there
+    too and changed two benchmark vehicles for the worse in places)."""
+    horizontal, theta, where, score, dropped = chosen
+    if where is not None:
+        return horizontal, theta, dropped
+    added: tuple[str, ...] = ()
+    for group in OPTIONAL_GROUPS:
+        if not coverage.allows(group) or _group_score(samples, horizontal, group, folds, top) > FOURFOLD_GAIN * score:
+            continue
+        found = _choose_horizontal(samples, tuple(h + added + group for h in candidates if "q0" in h), folds, top, prefer)
+        # An increasing law with the group that still buys the 2 %: the set tried first may have been
+        # dropped for decreasing, and the next one need not beat the set without it.
+        if found[2] is None and found[3] <= FOURFOLD_GAIN * score:
+            horizontal, theta, score, dropped = found[0], found[1], found[3], dropped + found[4]
+            added += group
+    return horizontal, theta, dropped
+
+
+def _group_score(samples: DragSamples, horizontal: tuple[str, ...], group: tuple[str, ...],
+                 folds: tuple[Split, ...], top: Split | None) -> float:
+    """The chosen set's score with the terms ``group`` added, as one grouped CV (inf without q0: the
+    groups refine the quadratic drag). Most vehicles' drag follows the airflow and stops here. When a
+    group helps, the set is chosen again with it (_with_optional_groups): a per-axis misfit dominates
+    every set's score without it and hides what the other terms are worth (a front/back term cut a
+    per-axis vehicle's hold-level error from 0.10 to 0.03 m/s, which the choice without the harmonics
+    could not see)."""
     if "q0" not in horizontal:
-        return False
-    fit_predict = drag_fit_predict(horizontal + FOURFOLD_KEYS + VERTICAL_SETS[-1] + ALWAYS)
-    return combined(grouped_cv(samples, fit_predict, folds)[0], top_error(fit_predict, top)) <= FOURFOLD_GAIN * score
+        return math.inf
+    fit_predict = drag_fit_predict(horizontal + group + VERTICAL_SETS[-1] + ALWAYS)
+    return _ranked(combined(grouped_cv(samples, fit_predict, folds)[0], top_error(fit_predict, top)))
 
 
 # law_decreasing checks the fitted law up to this multiple of the fastest sample's horizontal airflow:

@@ -288,8 +288,9 @@ def direction_tail_deg(check: LogCheck, share: float, min_speed_mps: float) -> f
 def direction_tail_warnings(logs: list[LogCheck], limits: Thresholds) -> list[str]:
     """A warning per log whose direction errors at speed have a tail over limits.direction_tail_deg. The
     refusal judges the MEAN (direction_fails): a law that is right along the body axes and 15-20 deg off
-    between them (a drag law whose harmonics cannot follow a strongly per-axis body) averages under the
-    limit, and its user would fly it unwarned."""
+    between them (a drag law whose terms cannot follow the body's drag there: before the per-axis pair,
+    the strongly per-axis bodies of benchmarks/anisovehicles) averages under the limit, and its user
+    would fly it unwarned."""
     warnings = []
     for check in logs:
         tail = direction_tail_deg(check, limits.direction_tail_share, limits.direction_tail_speed_mps)
@@ -299,8 +300,8 @@ def direction_tail_warnings(logs: list[LogCheck], limits: Thresholds) -> list[st
                             f"{limits.direction_tail_speed_mps:g} m/s or faster (warned above "
                             f"{limits.direction_tail_deg:g} deg; the worst {check.direction_max_deg or tail:.1f} deg): the "
                             f"law misreads some airflow directions, which the mean limit does not refuse (a body "
-                            f"whose drag differs strongly by axis: docs/calibration.md); expect wind directions "
-                            f"that far off")
+                            f"whose drag varies with the airflow direction in a way the law's terms do not "
+                            f"follow: docs/calibration.md); expect wind directions that far off")
     return warnings
 
 
