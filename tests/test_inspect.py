@@ -583,3 +583,33 @@ def test_px4_drag_fusion_is_off_only_when_its_parameters_say_so(params, says):
     from dobwind.inspect.loginspect import Role
     reason = _px4_wind({}, Role("autopilot_wind", None), params).reason
     assert says in reason and ("unknown" in reason) == (not params)
+
+
+def _two_flights_rows(pause_s: float):
+    """A DataFlash log of two flights, the board not rebooted: ArduPilot (LOG_DISARMED 0) logs nothing while
+    disarmed and goes on in the same file at the next arming, so the pooled streams pause for pause_s."""
+    from tests.test_dataflash import _flight, _rows
+
+    af, cols = _flight()
+    first = _rows(af, cols) + [("EV", {"TimeUS": 1_000_000 + int(cols["t"][-1] * 1e6) + 1, "Id": 11})]
+    shift = int((cols["t"][-1] + pause_s) * 1e6)
+    second = [(name, {**row, "TimeUS": row["TimeUS"] + shift}) for name, row in first]
+    return first + second, float(cols["t"][-1])
+
+
+def test_two_flights_a_long_pause_apart_both_count(tmp_path, capsys):
+    """bulk_span took a pause of more than 60 s with no sample for a broken clock and kept only the larger
+    run: the second of two flights two minutes apart (ArduPilot's disarmed pause) was dropped from the span
+    and the airborne time, and a note called the clock damaged. A run of samples that lasts is a flight."""
+    import json
+
+    from tests.dataflash_writer import write_dataflash
+    from tests.test_dataflash import MESSAGES
+
+    rows, flight_s = _two_flights_rows(120.0)
+    log = write_dataflash(tmp_path / "two.bin", MESSAGES, rows)
+    assert main(["inspect", str(log), "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)
+    assert got["outside_span"] == 0 and not any("outside the span" in n for n in got["notes"]), got["notes"]
+    assert got["duration_s"] == pytest.approx(2 * flight_s + 120.0, abs=0.01)
+    assert got["airborne_s"] == pytest.approx(2 * flight_s, abs=0.05)

@@ -22,10 +22,13 @@ ROLES = ("velocity", "acceleration", "specific_force", "attitude", "rpm", "thrus
          "heading", "ground", "autopilot_wind")
 # Roles without which replay refuses the log whatever the airframe says.
 ESSENTIAL_ROLES = ("velocity", "attitude")
-# No flight log falls silent on every stream at once for this long: a longer gap between consecutive
-# samples (all streams pooled) is a broken clock (a flipped bit in a timestamp, a jump), and the span
-# reported is the bulk's, the run of samples between such gaps that holds the most of them.
+# A gap of more than this between consecutive samples (all streams pooled) splits a log into runs. A
+# run that lasts less than SPAN_MIN_RUN_S beyond such a gap is a broken clock (a flipped bit in one
+# timestamp reads 2.3e12 s) and is left out of the span; a run that lasts is a flight: ArduPilot
+# (LOG_DISARMED 0) logs nothing while disarmed and goes on in the same file at the next arming, so two
+# flights minutes apart are two runs, and both are the log's.
 SPAN_GAP_S = 60.0
+SPAN_MIN_RUN_S = 1.0
 
 
 @dataclass(frozen=True)
@@ -187,16 +190,22 @@ class Span:
 
 
 def bulk_span(t: np.ndarray) -> Span:
-    """The span of the largest run of samples (sorted, all streams pooled) with no gap above SPAN_GAP_S:
-    one wild timestamp (2.3e12 s from a flipped bit) no longer sets the end. Non-finite stamps are ignored."""
+    """The span from the first to the last run of samples (sorted, all streams pooled, split at gaps above
+    SPAN_GAP_S) that lasts SPAN_MIN_RUN_S or more, else the run with the most samples: one wild timestamp
+    (2.3e12 s from a flipped bit) no longer sets the end, a second flight still does. Non-finite stamps
+    are ignored."""
     t = np.sort(np.asarray(t, dtype=float))
     t = t[np.isfinite(t)]
     if len(t) == 0:
         return Span(float("nan"), float("nan"))
-    cuts = np.flatnonzero(np.diff(t) > SPAN_GAP_S) + 1
-    bounds = np.r_[0, cuts, len(t)]
-    k = int(np.argmax(np.diff(bounds)))  # the first of the largest runs
-    lo, hi = int(bounds[k]), int(bounds[k + 1])
+    bounds = np.r_[0, np.flatnonzero(np.diff(t) > SPAN_GAP_S) + 1, len(t)]
+    first, last = bounds[:-1], bounds[1:] - 1  # each run's first and last sample
+    lasting = np.flatnonzero(t[last] - t[first] >= SPAN_MIN_RUN_S)
+    if len(lasting):
+        lo, hi = int(first[lasting[0]]), int(last[lasting[-1]]) + 1
+    else:
+        k = int(np.argmax(last - first))  # the first of the runs with the most samples
+        lo, hi = int(first[k]), int(last[k]) + 1
     rest = np.r_[t[:lo], t[hi:]]
     return Span(float(t[lo]), float(t[hi - 1]), len(rest),
                 (float(rest.min()), float(rest.max())) if len(rest) else None, len(t))
