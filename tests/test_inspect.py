@@ -613,3 +613,23 @@ def test_two_flights_a_long_pause_apart_both_count(tmp_path, capsys):
     assert got["outside_span"] == 0 and not any("outside the span" in n for n in got["notes"]), got["notes"]
     assert got["duration_s"] == pytest.approx(2 * flight_s + 120.0, abs=0.01)
     assert got["airborne_s"] == pytest.approx(2 * flight_s, abs=0.05)
+
+
+def test_the_span_keeps_runs_that_last_and_drops_stray_stamps():
+    """Closed forms on bulk_span: two 10 s runs at 10 Hz 120 s apart are one span of 140 s; two stamps with
+    the same high bit flipped, 5 s apart (a run of two lasting 5 s), a lone one before, and a burst of a
+    dozen within 0.11 s are outside it."""
+    from dobwind.inspect.loginspect import bulk_span
+
+    a = np.arange(100) * 0.1
+    b = 130.0 + np.arange(100) * 0.1
+    both = bulk_span(np.r_[a, b])
+    assert (both.start_s, both.end_s, both.outside) == (0.0, b[-1], 0)
+    wild = 2.0 ** 61 * 1e-6
+    stray = bulk_span(np.r_[-500.0, a, b, wild + 3.0, wild + 8.0])
+    assert (stray.start_s, stray.end_s, stray.outside, stray.samples) == (0.0, b[-1], 3, 203)
+    assert stray.outside_s == (-500.0, wild + 8.0)
+    burst = bulk_span(np.r_[a, b, -1e9 + np.arange(12) * 0.01])  # a buffer of 12 stamps in 0.11 s, all wild
+    assert (burst.start_s, burst.end_s, burst.outside) == (0.0, b[-1], 12)
+    tiny = bulk_span(np.r_[0.0, 0.1, 0.2, wild])  # no run lasts: the largest is the span
+    assert (tiny.start_s, tiny.end_s, tiny.outside) == (0.0, 0.2, 1)

@@ -23,12 +23,14 @@ ROLES = ("velocity", "acceleration", "specific_force", "attitude", "rpm", "thrus
 # Roles without which replay refuses the log whatever the airframe says.
 ESSENTIAL_ROLES = ("velocity", "attitude")
 # A gap of more than this between consecutive samples (all streams pooled) splits a log into runs. A
-# run that lasts less than SPAN_MIN_RUN_S beyond such a gap is a broken clock (a flipped bit in one
-# timestamp reads 2.3e12 s) and is left out of the span; a run that lasts is a flight: ArduPilot
+# run beyond such a gap that lasts less than SPAN_MIN_RUN_S or holds fewer than SPAN_MIN_RUN_SAMPLES is a
+# broken clock (a flipped bit in a timestamp reads 2.3e12 s; the same bit flipped in two messages seconds
+# apart makes a run of two) and is left out of the span; a run that lasts is a flight: ArduPilot
 # (LOG_DISARMED 0) logs nothing while disarmed and goes on in the same file at the next arming, so two
 # flights minutes apart are two runs, and both are the log's.
 SPAN_GAP_S = 60.0
 SPAN_MIN_RUN_S = 1.0
+SPAN_MIN_RUN_SAMPLES = 10
 
 
 @dataclass(frozen=True)
@@ -191,16 +193,16 @@ class Span:
 
 def bulk_span(t: np.ndarray) -> Span:
     """The span from the first to the last run of samples (sorted, all streams pooled, split at gaps above
-    SPAN_GAP_S) that lasts SPAN_MIN_RUN_S or more, else the run with the most samples: one wild timestamp
-    (2.3e12 s from a flipped bit) no longer sets the end, a second flight still does. Non-finite stamps
-    are ignored."""
+    SPAN_GAP_S) that lasts SPAN_MIN_RUN_S and holds SPAN_MIN_RUN_SAMPLES, else the run with the most
+    samples: one wild timestamp (2.3e12 s from a flipped bit) no longer sets the end, a second flight
+    still does. Non-finite stamps are ignored."""
     t = np.sort(np.asarray(t, dtype=float))
     t = t[np.isfinite(t)]
     if len(t) == 0:
         return Span(float("nan"), float("nan"))
     bounds = np.r_[0, np.flatnonzero(np.diff(t) > SPAN_GAP_S) + 1, len(t)]
     first, last = bounds[:-1], bounds[1:] - 1  # each run's first and last sample
-    lasting = np.flatnonzero(t[last] - t[first] >= SPAN_MIN_RUN_S)
+    lasting = np.flatnonzero((t[last] - t[first] >= SPAN_MIN_RUN_S) & (last - first + 1 >= SPAN_MIN_RUN_SAMPLES))
     if len(lasting):
         lo, hi = int(first[lasting[0]]), int(last[lasting[-1]]) + 1
     else:
