@@ -633,3 +633,23 @@ def test_the_span_keeps_runs_that_last_and_drops_stray_stamps():
     assert (burst.start_s, burst.end_s, burst.outside) == (0.0, b[-1], 12)
     tiny = bulk_span(np.r_[0.0, 0.1, 0.2, wild])  # no run lasts: the largest is the span
     assert (tiny.start_s, tiny.end_s, tiny.outside) == (0.0, 0.2, 1)
+
+
+def test_a_clock_in_other_units_is_no_damaged_clock(tmp_path, capsys):
+    """A CSV whose t is in microseconds (100 Hz rows 10000 "s" apart) has no run of samples at all: bulk_span
+    took its first row for the span (0 .. 0 s) and called the other 99.9 % a damaged clock. With no run
+    that lasts and none holding most of the samples, the span is the samples' whole range, nothing outside."""
+    import json
+
+    from dobwind.inspect.loginspect import bulk_span
+
+    t = np.arange(800) * 1e4
+    whole = bulk_span(t)
+    assert (whole.start_s, whole.end_s, whole.outside) == (0.0, t[-1], 0)
+    lines = ["t,vel_n,vel_e,vel_d,q_w,q_x,q_y,q_z"] + [f"{x:g},0,0,0,1,0,0,0" for x in t]
+    log = tmp_path / "us.csv"
+    log.write_text("\n".join(lines) + "\n")
+    assert main(["inspect", str(log), "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)
+    assert got["outside_span"] == 0 and got["duration_s"] == t[-1], got
+    assert not any("damaged clock" in n for n in got["notes"]), got["notes"]

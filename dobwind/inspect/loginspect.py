@@ -193,9 +193,10 @@ class Span:
 
 def bulk_span(t: np.ndarray) -> Span:
     """The span from the first to the last run of samples (sorted, all streams pooled, split at gaps above
-    SPAN_GAP_S) that lasts SPAN_MIN_RUN_S and holds SPAN_MIN_RUN_SAMPLES, else the run with the most
-    samples: one wild timestamp (2.3e12 s from a flipped bit) no longer sets the end, a second flight
-    still does. Non-finite stamps are ignored."""
+    SPAN_GAP_S) that lasts SPAN_MIN_RUN_S and holds SPAN_MIN_RUN_SAMPLES, else the run that holds most of
+    the samples, else all of them (no run to trust: a clock in other units is not a damaged one): one wild
+    timestamp (2.3e12 s from a flipped bit) no longer sets the end, a second flight still does. Non-finite
+    stamps are ignored."""
     t = np.sort(np.asarray(t, dtype=float))
     t = t[np.isfinite(t)]
     if len(t) == 0:
@@ -205,9 +206,9 @@ def bulk_span(t: np.ndarray) -> Span:
     lasting = np.flatnonzero((t[last] - t[first] >= SPAN_MIN_RUN_S) & (last - first + 1 >= SPAN_MIN_RUN_SAMPLES))
     if len(lasting):
         lo, hi = int(first[lasting[0]]), int(last[lasting[-1]]) + 1
-    else:
-        k = int(np.argmax(last - first))  # the first of the runs with the most samples
-        lo, hi = int(first[k]), int(last[k]) + 1
+    else:  # a short log: the run with most of the samples; none (t in us: every row a run of one): all
+        k = int(np.argmax(last - first))
+        lo, hi = (int(first[k]), int(last[k]) + 1) if 2 * (last[k] - first[k] + 1) > len(t) else (0, len(t))
     rest = np.r_[t[:lo], t[hi:]]
     return Span(float(t[lo]), float(t[hi - 1]), len(rest),
                 (float(rest.min()), float(rest.max())) if len(rest) else None, len(t))
