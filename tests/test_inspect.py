@@ -583,3 +583,73 @@ def test_px4_drag_fusion_is_off_only_when_its_parameters_say_so(params, says):
     from dobwind.inspect.loginspect import Role
     reason = _px4_wind({}, Role("autopilot_wind", None), params).reason
     assert says in reason and ("unknown" in reason) == (not params)
+
+
+def _two_flights_rows(pause_s: float):
+    """A DataFlash log of two flights, the board not rebooted: ArduPilot (LOG_DISARMED 0) logs nothing while
+    disarmed and goes on in the same file at the next arming, so the pooled streams pause for pause_s."""
+    from tests.test_dataflash import _flight, _rows
+
+    af, cols = _flight()
+    first = _rows(af, cols) + [("EV", {"TimeUS": 1_000_000 + int(cols["t"][-1] * 1e6) + 1, "Id": 11})]
+    shift = int((cols["t"][-1] + pause_s) * 1e6)
+    second = [(name, {**row, "TimeUS": row["TimeUS"] + shift}) for name, row in first]
+    return first + second, float(cols["t"][-1])
+
+
+def test_two_flights_a_long_pause_apart_both_count(tmp_path, capsys):
+    """bulk_span took a pause of more than 60 s with no sample for a broken clock and kept only the larger
+    run: the second of two flights two minutes apart (ArduPilot's disarmed pause) was dropped from the span
+    and the airborne time, and a note called the clock damaged. A run of samples that lasts is a flight."""
+    import json
+
+    from tests.dataflash_writer import write_dataflash
+    from tests.test_dataflash import MESSAGES
+
+    rows, flight_s = _two_flights_rows(120.0)
+    log = write_dataflash(tmp_path / "two.bin", MESSAGES, rows)
+    assert main(["inspect", str(log), "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)
+    assert got["outside_span"] == 0 and not any("outside the span" in n for n in got["notes"]), got["notes"]
+    assert got["duration_s"] == pytest.approx(2 * flight_s + 120.0, abs=0.01)
+    assert got["airborne_s"] == pytest.approx(2 * flight_s, abs=0.05)
+
+
+def test_the_span_keeps_runs_that_last_and_drops_stray_stamps():
+    """Closed forms on bulk_span: two 10 s runs at 10 Hz 120 s apart are one span of 140 s; two stamps with
+    the same high bit flipped, 5 s apart (a run of two lasting 5 s), a lone one before, and a burst of a
+    dozen within 0.11 s are outside it."""
+    from dobwind.inspect.loginspect import bulk_span
+
+    a = np.arange(100) * 0.1
+    b = 130.0 + np.arange(100) * 0.1
+    both = bulk_span(np.r_[a, b])
+    assert (both.start_s, both.end_s, both.outside) == (0.0, b[-1], 0)
+    wild = 2.0 ** 61 * 1e-6
+    stray = bulk_span(np.r_[-500.0, a, b, wild + 3.0, wild + 8.0])
+    assert (stray.start_s, stray.end_s, stray.outside, stray.samples) == (0.0, b[-1], 3, 203)
+    assert stray.outside_s == (-500.0, wild + 8.0)
+    burst = bulk_span(np.r_[a, b, -1e9 + np.arange(12) * 0.01])  # a buffer of 12 stamps in 0.11 s, all wild
+    assert (burst.start_s, burst.end_s, burst.outside) == (0.0, b[-1], 12)
+    tiny = bulk_span(np.r_[0.0, 0.1, 0.2, wild])  # no run lasts: the largest is the span
+    assert (tiny.start_s, tiny.end_s, tiny.outside) == (0.0, 0.2, 1)
+
+
+def test_a_clock_in_other_units_is_no_damaged_clock(tmp_path, capsys):
+    """A CSV whose t is in microseconds (100 Hz rows 10000 "s" apart) has no run of samples at all: bulk_span
+    took its first row for the span (0 .. 0 s) and called the other 99.9 % a damaged clock. With no run
+    that lasts and none holding most of the samples, the span is the samples' whole range, nothing outside."""
+    import json
+
+    from dobwind.inspect.loginspect import bulk_span
+
+    t = np.arange(800) * 1e4
+    whole = bulk_span(t)
+    assert (whole.start_s, whole.end_s, whole.outside) == (0.0, t[-1], 0)
+    lines = ["t,vel_n,vel_e,vel_d,q_w,q_x,q_y,q_z"] + [f"{x:g},0,0,0,1,0,0,0" for x in t]
+    log = tmp_path / "us.csv"
+    log.write_text("\n".join(lines) + "\n")
+    assert main(["inspect", str(log), "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)
+    assert got["outside_span"] == 0 and got["duration_s"] == t[-1], got
+    assert not any("damaged clock" in n for n in got["notes"]), got["notes"]

@@ -22,10 +22,15 @@ ROLES = ("velocity", "acceleration", "specific_force", "attitude", "rpm", "thrus
          "heading", "ground", "autopilot_wind")
 # Roles without which replay refuses the log whatever the airframe says.
 ESSENTIAL_ROLES = ("velocity", "attitude")
-# No flight log falls silent on every stream at once for this long: a longer gap between consecutive
-# samples (all streams pooled) is a broken clock (a flipped bit in a timestamp, a jump), and the span
-# reported is the bulk's, the run of samples between such gaps that holds the most of them.
+# A gap of more than this between consecutive samples (all streams pooled) splits a log into runs. A
+# run beyond such a gap that lasts less than SPAN_MIN_RUN_S or holds fewer than SPAN_MIN_RUN_SAMPLES is a
+# broken clock (a flipped bit in a timestamp reads 2.3e12 s; the same bit flipped in two messages seconds
+# apart makes a run of two) and is left out of the span; a run that lasts is a flight: ArduPilot
+# (LOG_DISARMED 0) logs nothing while disarmed and goes on in the same file at the next arming, so two
+# flights minutes apart are two runs, and both are the log's.
 SPAN_GAP_S = 60.0
+SPAN_MIN_RUN_S = 1.0
+SPAN_MIN_RUN_SAMPLES = 10
 
 
 @dataclass(frozen=True)
@@ -187,16 +192,23 @@ class Span:
 
 
 def bulk_span(t: np.ndarray) -> Span:
-    """The span of the largest run of samples (sorted, all streams pooled) with no gap above SPAN_GAP_S:
-    one wild timestamp (2.3e12 s from a flipped bit) no longer sets the end. Non-finite stamps are ignored."""
+    """The span from the first to the last run of samples (sorted, all streams pooled, split at gaps above
+    SPAN_GAP_S) that lasts SPAN_MIN_RUN_S and holds SPAN_MIN_RUN_SAMPLES, else the run that holds most of
+    the samples, else all of them (no run to trust: a clock in other units is not a damaged one): one wild
+    timestamp (2.3e12 s from a flipped bit) no longer sets the end, a second flight still does. Non-finite
+    stamps are ignored."""
     t = np.sort(np.asarray(t, dtype=float))
     t = t[np.isfinite(t)]
     if len(t) == 0:
         return Span(float("nan"), float("nan"))
-    cuts = np.flatnonzero(np.diff(t) > SPAN_GAP_S) + 1
-    bounds = np.r_[0, cuts, len(t)]
-    k = int(np.argmax(np.diff(bounds)))  # the first of the largest runs
-    lo, hi = int(bounds[k]), int(bounds[k + 1])
+    bounds = np.r_[0, np.flatnonzero(np.diff(t) > SPAN_GAP_S) + 1, len(t)]
+    first, last = bounds[:-1], bounds[1:] - 1  # each run's first and last sample
+    lasting = np.flatnonzero((t[last] - t[first] >= SPAN_MIN_RUN_S) & (last - first + 1 >= SPAN_MIN_RUN_SAMPLES))
+    if len(lasting):
+        lo, hi = int(first[lasting[0]]), int(last[lasting[-1]]) + 1
+    else:  # a short log: the run with most of the samples; none (t in us: every row a run of one): all
+        k = int(np.argmax(last - first))
+        lo, hi = (int(first[k]), int(last[k]) + 1) if 2 * (last[k] - first[k] + 1) > len(t) else (0, len(t))
     rest = np.r_[t[:lo], t[hi:]]
     return Span(float(t[lo]), float(t[hi - 1]), len(rest),
                 (float(rest.min()), float(rest.max())) if len(rest) else None, len(t))
