@@ -45,10 +45,12 @@ def airflow_at_share(af: "Airframe", limits: LawScaleLimits = LawScaleLimits()) 
     return np.hypot(air[:, 0], air[:, 1])
 
 
-def law_scale_problem(af: "Airframe", limits: LawScaleLimits = LawScaleLimits()) -> str | None:
+def law_scale_problem(af: "Airframe", limits: LawScaleLimits = LawScaleLimits(),
+                      speed: np.ndarray | None = None) -> str | None:
     """One line saying the law reads an absurd airflow at a small force, or None. A non-finite reading
-    (a law that cannot be inverted there) counts as absurd."""
-    speed = airflow_at_share(af, limits)
+    (a law that cannot be inverted there) counts as absurd. ``speed``: airflow_at_share's reading when the
+    caller already has it."""
+    speed = airflow_at_share(af, limits) if speed is None else speed
     worst = float(np.max(np.where(np.isfinite(speed), speed, np.inf)))
     if worst <= limits.max_airflow_mps:
         return None

@@ -32,7 +32,8 @@ def run(args: argparse.Namespace) -> int:
     require_stable(af, "generate would refuse it", args.airframe)
     model = build_step(af)
     _refuse_what_generate_refuses(af, model, args.airframe, selftest=not args.no_selftest)
-    warn_law_scale(af, args.airframe, "check")
+    law_speed = airflow_at_share(af)
+    warn_law_scale(af, args.airframe, "check", law_speed)
     summary = {
         "name": af.name,
         "mass_kg": af.mass_kg,
@@ -44,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
         "state_size": model.state.size,
         "step_instructions": model.step.n_instructions(),
         # model/lawscale.py: the fastest airflow the law reads at a tenth of the weight (m/s)
-        "law_airflow_at_tenth_weight_mps": _finite_or_none(float(airflow_at_share(af).max())),
+        "law_airflow_at_tenth_weight_mps": _finite_or_none(float(law_speed.max())),
     }
     if args.json:
         print_json(summary)
