@@ -387,6 +387,16 @@ def test_a_refusal_about_many_logs_names_them_shortly():
     assert naming_logs(["a.csv", "b.csv"], "too short") == "a.csv, b.csv: too short"
     assert naming_logs([f"{k}.csv" for k in range(5)], "x") == "0.csv, 1.csv and 3 more logs: x"
     assert naming_logs(["a.csv", "b.csv"], "b.csv: no usable sample") == "b.csv: no usable sample"
+    assert naming_logs(["a.csv"], "a.csv, row 3: bad") == "a.csv, row 3: bad"
+    assert naming_logs(["x/a.csv"], "too short (x/a.csv).") == "too short (x/a.csv)."
+
+
+def test_a_log_named_only_inside_another_name_is_not_named():
+    """'a.csv' inside 'data.csv', 'a.csv.gz' or 'x/a.csv' is another file: the refusal must still name the log."""
+    from dobwind.cli.fit import naming_logs
+
+    for message in ("data.csv has no rows", "a.csv.gz is compressed", "x/a.csv: empty", "a.csv-old: empty"):
+        assert naming_logs(["a.csv"], message) == f"a.csv: {message}", message
 
 
 def _swapped_csv(tmp_path: Path, a: str, b: str) -> tuple[Path, int]:

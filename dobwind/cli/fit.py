@@ -3,6 +3,7 @@ self-checked, and written only when the self-check passes (or with --force)."""
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 
 from dobwind.cli.common import AIRFRAME_HELP, JSON_HELP, Command, print_json
@@ -77,11 +78,18 @@ def naming_logs(logs: list[str], message: str) -> str:
     """A refusal (exit 1) as one line that names the logs it is about (../shared/spec/INTERFACES.md: the line
     names the file): the fit's own reasons ("no airborne row of the logs is accepted", "only 0 usable
     samples") are about the logs as a whole and did not name them. A message that names a log (the one at
-    fault: "b.csv: contributed no usable sample") is kept."""
-    if any(log in message for log in logs):
+    fault: "b.csv: contributed no usable sample") is kept; a log's path counts as named only as a whole name,
+    not inside a longer one ("a.csv" is not named by "data.csv")."""
+    if any(_names(message, log) for log in logs):
         return message
     names = ", ".join(logs) if len(logs) <= 3 else f"{', '.join(logs[:2])} and {len(logs) - 2} more logs"
     return f"{names}: {message}"
+
+
+def _names(message: str, log: str) -> bool:
+    """Whether the message holds the path `log` not joined to more of a path or a name on either side."""
+    edge = r"[\w./\\-]"
+    return re.search(rf"(?<!{edge}){re.escape(log)}(?!\w|[/\\-]|\.\w)", message) is not None
 
 
 def _run(args: argparse.Namespace) -> int:
