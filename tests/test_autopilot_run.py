@@ -138,3 +138,8 @@ def test_ardupilot_library_gives_no_wind_before_its_first_estimate(tmp_path):
     clock (no step has run: the output is the constructor's zeros, which read as a trusted calm)."""
     _check_only_trusted_wind_reaches_the_autopilot(fly_ardupilot(_airframe("m300 (rpm, NED acceleration)"),
                                                                  tmp_path, ground_s=0.0))
+
+
+@pytest.mark.parametrize("variant", AIRFRAMES)
+def test_ardupilot_library_logs_nothing_on_the_ground_and_settles_after_take_off(tmp_path, variant):
+    _check_ground_then_hover(fly_ardupilot(_airframe(variant), tmp_path))
