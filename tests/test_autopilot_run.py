@@ -24,6 +24,7 @@ from tests.helpers import M300, airframe_dict
 from tests.test_autopilot_targets import STANDINS, msg_header
 
 SETTLING = 0x40
+NONFINITE = 0x01
 DT_S = 0.01
 GROUND_S = 6.0   # longer than the m300's settling time (3.5 s): a run on the ground would be trusted by then
 AIR_S = 8.0
@@ -70,7 +71,7 @@ def _build_step(folder: Path, out: Path) -> Path:
     return out
 
 
-def fly_px4(af: Airframe, tmp_path: Path) -> list[Message]:
+def fly_px4(af: Airframe, tmp_path: Path, fault: tuple[str, ...] = ()) -> list[Message]:
     folder = tmp_path / "gen" / "px4"
     write_files(generate_code(af, "single", target="px4").files, tmp_path / "gen")
     topics = tmp_path / "msg" / "uORB" / "topics"
@@ -81,7 +82,7 @@ def fly_px4(af: Airframe, tmp_path: Path) -> list[Message]:
          f"-I{STANDINS / 'px4'}", str(STANDINS / "run" / "px4_run.cpp"), str(_build_step(folder, tmp_path / "step.o")),
          "-lm", "-o", str(exe)])
     rotors = af.thrust.rotors if af.thrust.source == "rpm" else 0
-    return _parse(run([str(exe), str(DT_S), str(GROUND_S), str(AIR_S), repr(hover_rpm(af)), str(rotors)]).stdout)
+    return _parse(run([str(exe), str(DT_S), str(GROUND_S), str(AIR_S), repr(hover_rpm(af)), str(rotors), *fault]).stdout)
 
 
 def fly_ardupilot(af: Airframe, tmp_path: Path, ground_s: float = GROUND_S) -> list[Message]:
@@ -131,6 +132,32 @@ def _airframe(variant: str) -> Airframe:
 @pytest.mark.parametrize("variant", AIRFRAMES)
 def test_px4_module_publishes_nothing_on_the_ground_and_settles_after_take_off(tmp_path, variant):
     _check_ground_then_hover(fly_px4(_airframe(variant), tmp_path))
+
+
+# The replay of a PX4 log reads an ESC report older than this as no data (dobwind/io/resample.py); the module
+# must read its esc_status alike, or the onboard wind and `replay --px4-wind` of the same flight differ.
+ESC_MAX_AGE_S = 0.75
+
+
+@pytest.mark.parametrize("fault", ["stop", "offline", "zero"])
+def test_px4_module_rejects_rotor_speeds_replay_reads_as_no_data(tmp_path, fault):
+    """From FAULT_S on, ESC 1's telemetry fails: esc_status stops (the module would hold its last report for
+    ever), says ESC 1 is offline (esc_online_flags), or reads 0 rpm for it in flight. As replay reads such rows
+    (dobwind/io/ulog.py esc_missing), the module's samples are then rejected (NONFINITE: a NaN rpm) and the
+    standard wind topic gets nothing; before, it is the settled hover. A stop is held for ESC_MAX_AGE_S."""
+    from dobwind.io.resample import ROTOR_MAX_GAP_S
+
+    assert ESC_MAX_AGE_S == ROTOR_MAX_GAP_S
+    fault_s = GROUND_S + AIR_S - 2.0
+    messages = fly_px4(_airframe("m300 (rpm, NED acceleration)"), tmp_path, (repr(fault_s), fault))
+    grace = ESC_MAX_AGE_S if fault == "stop" else 0.0
+    before = [m for m in messages if m.time_s <= fault_s]
+    after = [m for m in messages if m.time_s > fault_s + grace + DT_S / 2]
+    assert before and before[-1].kind == "W" and before[-2].status == 0  # settled before the fault
+    assert after and all(m.kind == "D" and m.status & NONFINITE for m in after), after[:3]
+    if fault == "stop":  # the held report is used while it is recent
+        held = [m for m in messages if fault_s < m.time_s <= fault_s + grace - DT_S / 2]
+        assert held and all(m.status == 0 for m in held if m.kind == "D")
 
 
 def test_ardupilot_library_gives_no_wind_before_its_first_estimate(tmp_path):

@@ -3,10 +3,12 @@
 // the module publishes), a clock, the module's parameters. One translation unit: the module's source is
 // included below, then the fakes' definitions, then a flight (tests/test_autopilot_run.py builds it).
 //
-// Usage: px4_run DT_S GROUND_S AIR_S HOVER_RPM ROTORS
+// Usage: px4_run DT_S GROUND_S AIR_S HOVER_RPM ROTORS [FAULT_S stop|offline|zero]
 // At 1 / DT_S Hz, level and at rest in still air: GROUND_S seconds on the ground (the land detector says
 // landed, the rotors stopped, no thrust), then AIR_S seconds of hover (airborne, the rotors at HOVER_RPM, or
-// the thrust setpoint at the hover throttle). Prints a line per message the module publishes:
+// the thrust setpoint at the hover throttle). From FAULT_S on, ESC 1's telemetry fails: esc_status is no
+// longer published (stop), or says ESC 1 is offline (offline), or reads 0 rpm for it (zero).
+// Prints a line per message the module publishes:
 //   D <time us> <status> <wind_n> <wind_e> <wind_d>    dob_wind
 //   W <time us> <windspeed_north> <windspeed_east>     the standard wind topic
 #include "DobWind.cpp"
@@ -132,8 +134,8 @@ void px4_module_usage_stub(const char *) {}
 
 int main(int argc, char *argv[])
 {
-	if (argc != 6) {
-		std::fprintf(stderr, "usage: px4_run DT_S GROUND_S AIR_S HOVER_RPM ROTORS\n");
+	if (argc != 6 && argc != 8) {
+		std::fprintf(stderr, "usage: px4_run DT_S GROUND_S AIR_S HOVER_RPM ROTORS [FAULT_S stop|offline|zero]\n");
 		return 2;
 	}
 	const double dt = std::atof(argv[1]);
@@ -141,6 +143,8 @@ int main(int argc, char *argv[])
 	const double air_s = std::atof(argv[3]);
 	const float hover_rpm = static_cast<float>(std::atof(argv[4]));
 	const int rotors = std::atoi(argv[5]);
+	const double fault_s = argc == 8 ? std::atof(argv[6]) : 1e300;
+	const char *fault = argc == 8 ? argv[7] : "";
 	const long steps = static_cast<long>((ground_s + air_s) / dt + 0.5);
 	DobWind module;
 	module.init();
@@ -157,13 +161,23 @@ int main(int argc, char *argv[])
 		attitude.timestamp = attitude.timestamp_sample = now_us;
 		attitude.q[0] = 1.f;
 		publish(ORB_ID(vehicle_attitude), attitude);
+		const bool failed = k * dt > fault_s;
 		esc_status_s esc{};
 		esc.timestamp = now_us;
 		esc.esc_count = static_cast<uint8_t>(rotors);
+		esc.esc_online_flags = static_cast<uint8_t>((1u << rotors) - 1u);
 		for (int i = 0; i < rotors && i < 8; i++) {
 			esc.esc[i].esc_rpm = landed ? 0 : static_cast<int32_t>(hover_rpm + 0.5f);
 		}
-		publish(ORB_ID(esc_status), esc);
+		if (failed && std::strcmp(fault, "offline") == 0) {
+			esc.esc_online_flags &= static_cast<uint8_t>(~1u);
+		}
+		if (failed && std::strcmp(fault, "zero") == 0) {
+			esc.esc[0].esc_rpm = 0;
+		}
+		if (!(failed && std::strcmp(fault, "stop") == 0)) {
+			publish(ORB_ID(esc_status), esc);
+		}
 		vehicle_thrust_setpoint_s thrust{};
 		thrust.timestamp = now_us;
 		thrust.xyz[2] = landed ? 0.f : -0.5f; // MPC_THR_HOVER (0.5 above): the weight
