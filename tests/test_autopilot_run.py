@@ -85,14 +85,14 @@ def fly_px4(af: Airframe, tmp_path: Path, fault: tuple[str, ...] = ()) -> list[M
     return _parse(run([str(exe), str(DT_S), str(GROUND_S), str(AIR_S), repr(hover_rpm(af)), str(rotors), *fault]).stdout)
 
 
-def fly_ardupilot(af: Airframe, tmp_path: Path, ground_s: float = GROUND_S) -> list[Message]:
+def fly_ardupilot(af: Airframe, tmp_path: Path, ground_s: float = GROUND_S, fault: tuple[str, ...] = ()) -> list[Message]:
     folder = tmp_path / "gen" / "AP_DOBWind"
     write_files(generate_code(af, "single", target="ardupilot").files, tmp_path / "gen")
     exe = tmp_path / "ardupilot_run"
     run(["g++", "-std=gnu++11", "-O1", f"-I{folder}", f"-I{folder.parent}", f"-I{STANDINS / 'ardupilot'}",
          str(STANDINS / "run" / "ardupilot_run.cpp"), str(_build_step(folder, tmp_path / "step.o")), "-lm", "-o", str(exe)])
     rotors = af.thrust.rotors if af.thrust.source == "rpm" else 0
-    return _parse(run([str(exe), str(DT_S), str(ground_s), str(AIR_S), repr(hover_rpm(af)), str(rotors)]).stdout)
+    return _parse(run([str(exe), str(DT_S), str(ground_s), str(AIR_S), repr(hover_rpm(af)), str(rotors), *fault]).stdout)
 
 
 def _check_only_trusted_wind_reaches_the_autopilot(messages: list[Message]) -> None:
@@ -170,3 +170,15 @@ def test_ardupilot_library_gives_no_wind_before_its_first_estimate(tmp_path):
 @pytest.mark.parametrize("variant", AIRFRAMES)
 def test_ardupilot_library_logs_nothing_on_the_ground_and_settles_after_take_off(tmp_path, variant):
     _check_ground_then_hover(fly_ardupilot(_airframe(variant), tmp_path))
+
+
+def test_ardupilot_library_rejects_a_rotor_reading_0_rpm_in_flight(tmp_path):
+    """As replay reads a DataFlash log (dobwind/io/dataflash.py: an ESC at 0 rpm while airborne is no data), a
+    rotor whose telemetry reads 0 rpm in flight goes in as NaN: rejected (NONFINITE), no wind from
+    get_wind_NED(). (A stale report ArduPilot's get_rpm() itself refuses.)"""
+    fault_s = GROUND_S + AIR_S - 2.0
+    messages = fly_ardupilot(_airframe("m300 (rpm, NED acceleration)"), tmp_path, fault=(repr(fault_s), "zero"))
+    before = [m for m in messages if m.time_s <= fault_s]
+    after = [m for m in messages if m.time_s > fault_s + DT_S / 2]
+    assert before and before[-1].kind == "W" and before[-2].status == 0  # settled before the fault
+    assert after and all(m.kind == "D" and m.status & NONFINITE for m in after), after[:3]

@@ -3,11 +3,11 @@
 // parameters and logger. One translation unit: the library's source is included below, then the fakes'
 // definitions, then a flight (tests/test_autopilot_run.py builds it with the step compiled as C).
 //
-// Usage: ardupilot_run DT_S GROUND_S AIR_S HOVER_RPM ROTORS
+// Usage: ardupilot_run DT_S GROUND_S AIR_S HOVER_RPM ROTORS [FAULT_S zero]
 // At 1 / DT_S Hz, level and at rest in still air: GROUND_S seconds on the ground (the vehicle's land
 // detector says not flying, the rotors stopped, no throttle), then AIR_S seconds of hover (likely flying,
 // the rotors at HOVER_RPM, or the throttle at the hover throttle); update() is called once per sample with
-// yaw_ref 0. Prints a line per DOBW packet the library logs and per sample get_wind_NED() gives:
+// yaw_ref 0. From FAULT_S on, ESC 1's telemetry reads 0 rpm (zero). Prints a line per DOBW packet the library logs and per sample get_wind_NED() gives:
 //   D <time us> <status> <wind_n> <wind_e> <wind_d>
 //   W <time us> <wind_n> <wind_e> <wind_d>
 #include "AP_DOBWind.cpp"
@@ -24,6 +24,7 @@ namespace
 uint64_t now_us = 0;
 bool flying = false;
 float rotor_rpm = 0.0f;
+bool esc1_zero = false;
 int rotor_count = 0;
 float throttle = 0.0f;
 const Vector3f accel_ef(0.0f, 0.0f, -GRAVITY_MSS); // at rest: the specific force is -g, up
@@ -56,7 +57,7 @@ bool AP_AHRS::get_likely_flying(void) const { return flying; }
 AP_AHRS &AP::ahrs() { return ahrs_instance; }
 bool AP_ESC_Telem::get_rpm(uint8_t esc_index, float &rpm) const
 {
-    rpm = rotor_rpm;
+    rpm = esc_index == 0 && esc1_zero ? 0.0f : rotor_rpm;
     return esc_index < rotor_count;
 }
 AP_ESC_Telem &AP::esc_telem() { return esc_telem_instance; }
@@ -92,8 +93,8 @@ AP_Logger &AP::logger() { return logger_instance; }
 
 int main(int argc, char *argv[])
 {
-    if (argc != 6) {
-        std::fprintf(stderr, "usage: ardupilot_run DT_S GROUND_S AIR_S HOVER_RPM ROTORS\n");
+    if (argc != 6 && argc != 8) {
+        std::fprintf(stderr, "usage: ardupilot_run DT_S GROUND_S AIR_S HOVER_RPM ROTORS [FAULT_S zero]\n");
         return 2;
     }
     const double dt = std::atof(argv[1]);
@@ -101,6 +102,7 @@ int main(int argc, char *argv[])
     const double air_s = std::atof(argv[3]);
     const float hover_rpm = static_cast<float>(std::atof(argv[4]));
     rotor_count = std::atoi(argv[5]);
+    const double fault_s = argc == 8 ? std::atof(argv[6]) : 1e300;
     const long steps = static_cast<long>((ground_s + air_s) / dt + 0.5);
     AP_DOBWind library;
 
@@ -108,6 +110,7 @@ int main(int argc, char *argv[])
         now_us = static_cast<uint64_t>(k * dt * 1e6 + 0.5);
         flying = k * dt > ground_s;
         rotor_rpm = flying ? hover_rpm : 0.0f;
+        esc1_zero = k * dt > fault_s;
         throttle = flying ? 0.5f : 0.0f; // the hover throttle (0.5 above): the weight
         library.update(0.0f);
         Vector3f wind;
