@@ -411,13 +411,21 @@ def _uncertainty(reader: TableReader) -> Uncertainty:
     return Uncertainty(speeds, columns[0], columns[1], noise[0], noise[1])
 
 
+# The spec's [a-z][a-z0-9_]* (../shared/spec/INTERFACES.md) without a run of underscores or a trailing one:
+# "<name>_step" is a CasADi Function name, which may not hold "__" (a name ending in "_" gives one), and
+# C++ reserves every identifier holding "__" (the generated header is included from C++).
+NAME_PATTERN = r"[a-z][a-z0-9]*(?:_[a-z0-9]+)*"
+
+
 def _name(top: TableReader) -> str:
     name = top.string("name")
     if len(name) > NAME_MAX_CHARS:
         raise top.fail("name", f"has {len(name)} characters; at most {NAME_MAX_CHARS} (it prefixes C symbols and file names)")
-    if not re.fullmatch(r"[a-z][a-z0-9_]*", name):
-        raise top.fail("name", f"must match [a-z][a-z0-9_]* (it prefixes C symbols), got {_short(name)}")
+    if not re.fullmatch(NAME_PATTERN, name):
+        raise top.fail("name", "must match [a-z][a-z0-9_]* with no '__' and no trailing '_' (it prefixes C "
+                       f"symbols: <name>_wind_step), got {_short(name)}")
     return name
+
 
 
 def _observer(obs: TableReader) -> Observer:

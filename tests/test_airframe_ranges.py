@@ -157,6 +157,27 @@ def test_a_long_name_is_reported_in_one_short_line(tmp_path, capsys):
     assert len(_one_line(capsys)) < 300
 
 
+@pytest.mark.parametrize("name", ["quad__esc", "quad_", "m300___x", "a_"])
+def test_a_name_with_a_run_of_underscores_or_a_trailing_one_is_refused_by_key(name, tmp_path, capsys):
+    """"<name>_step" is the CasADi Function's name, which may not hold "__": such names passed the loader and
+    then crashed check and generate with a CasADi RuntimeError traceback."""
+    path = _write(tmp_path, airframe_dict(name=name))
+    for command in (["check", str(path), "--no-selftest"], ["generate", str(path), "-o", str(tmp_path / "c")]):
+        assert main(command) == 2
+        assert f"{path}: name:" in _one_line(capsys)
+    assert not (tmp_path / "c").exists()
+
+
+@pytest.mark.parametrize("output, name", [("quad--esc_.toml", "quad_esc"), ("My Quad (v2).toml", "my_quad_v2"),
+                                          ("2-rotor.toml", "a_2_rotor"), (f"{'abc_' * 30}.toml", ("abc_" * 16)[:-1])])
+def test_init_names_an_airframe_from_its_file_with_single_underscores(output, name):
+    from dobwind.inspect.initframe import _name
+    from dobwind.model.ranges import NAME_MAX_CHARS
+
+    assert _name(None, output) == name and len(name) <= NAME_MAX_CHARS
+    parse_airframe(dumps(airframe_dict(name=name)), "<t>")  # a name the loader takes
+
+
 @pytest.mark.parametrize("case,changes", CORNERS, ids=[c[0] for c in CORNERS])
 def test_a_corner_of_the_ranges_checks_generates_compiling_c_and_analyses(case, changes, tmp_path, capsys, shared_renders):
     path = _write(tmp_path, airframe_dict(**changes))

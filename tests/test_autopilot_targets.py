@@ -93,10 +93,27 @@ def test_px4_module_compiles_with_px4_flags(tmp_path, variant):
 @pytest.mark.parametrize("variant", VARIANTS)
 def test_ardupilot_library_compiles_with_ardupilot_flags(tmp_path, variant):
     folder = _generated(_airframe(variant), "ardupilot", tmp_path / "gen") / "AP_DOBWind"
-    includes = [folder, STANDINS / "ardupilot"]
+    includes = [folder, folder.parent, STANDINS / "ardupilot"]  # folder.parent: ArduPilot's libraries/
     for toolchain in _toolchains():
         for source in ("AP_DOBWind.cpp", next(folder.glob("*_wind_step.cpp")).name):
             _compile_cxx(toolchain, FLAG_SETS["ardupilot"].cxx, folder / source, includes, tmp_path / f"{source}.o")
+
+
+def test_the_dataflash_message_joins_ardupilots_log_table(tmp_path):
+    """As docs/ardupilot.md says to add it: AP_Logger/LogStructure.h includes the library's LogStructure.h
+    before its LogMessages enum (as it does every library's), lists LOG_IDS_FROM_DOBWIND in the enum, and a
+    vehicle's table takes LOG_STRUCTURE_FROM_DOBWIND. A LOG_DOBW_MSG macro in the library's header would
+    replace the enumerator by a number there and stop the build."""
+    folder = _generated(_airframe("m300 (rpm, NED acceleration)"), "ardupilot", tmp_path / "gen") / "AP_DOBWind"
+    vehicle = tmp_path / "Log.cpp"
+    vehicle.write_text(
+        "#include <AP_Logger/LogStructure.h>\n"
+        "static_assert(LOG_DOBW_MSG > LOG_FORMAT_MSG && LOG_DOBW_MSG < _LOG_LAST_MSG_, \"an id of the enum\");\n"
+        "extern const struct LogStructure log_structure[];\n"
+        "const struct LogStructure log_structure[] = {\n    LOG_STRUCTURE_FROM_DOBWIND\n};\n")
+    for toolchain in _toolchains():
+        _compile_cxx(toolchain, FLAG_SETS["ardupilot"].cxx, vehicle, [folder.parent, STANDINS / "ardupilot"],
+                     tmp_path / "Log.o")
 
 
 def test_a_module_that_drifts_from_its_message_fails_to_compile(tmp_path):

@@ -12,7 +12,8 @@ def add(command: Command) -> None:
     p.add_argument("log", help="flight log: PX4 ULog (.ulg), ArduPilot DataFlash (.bin), ROS 2 bag or CSV")
     p.add_argument("--mass", type=float, required=True, help="the vehicle's take-off mass, kg (required)")
     p.add_argument("-o", "--output", required=True, help="the airframe TOML to write (required; never the log)")
-    p.add_argument("--name", default=None, help="airframe name, [a-z][a-z0-9_]* (default: from the output file name)")
+    p.add_argument("--name", default=None, help="airframe name, [a-z][a-z0-9_]* with no '__' and no trailing '_' (default: from "
+                   "the output file name)")
     p.add_argument("--json", action="store_true", help=JSON_HELP)
     p.set_defaults(func=run)
 

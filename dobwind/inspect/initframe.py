@@ -140,9 +140,11 @@ def _acceleration(s: LogSummary) -> str:
 def _name(name: str | None, output: str) -> str:
     if name is not None:
         return name  # parse_airframe checks it, naming --name below
-    stem = re.sub(r"[^a-z0-9_]", "_", Path(output).stem.lower()).strip("_") or "airframe"
+    # One underscore for each run of other characters, none at the ends (model/airframe.py NAME_PATTERN):
+    # "quad--esc_.toml" is quad_esc, not quad__esc, which no step can be built for.
+    stem = re.sub(r"[^a-z0-9]+", "_", Path(output).stem.lower()).strip("_") or "airframe"
     stem = stem if stem[0].isalpha() else f"a_{stem}"
-    return stem[:NAME_MAX_CHARS]
+    return stem[:NAME_MAX_CHARS].rstrip("_")
 
 
 def _document(s: LogSummary, mass: float, name: str, gain: float,
