@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from dobwind.model.forceair import airframe_airflow
+from dobwind.model.forceair import airframe_airflow, law_decreasing
 from dobwind.model.plausibility import MAX_WIND_MPS
 
 if TYPE_CHECKING:
@@ -29,6 +29,13 @@ class LawScaleLimits:
     force_share_of_weight: float = 0.1   # the horizontal force the law is read at, as a share of m g
     max_airflow_mps: float = MAX_WIND_MPS  # beyond it at that force: a law for another vehicle
     directions: int = 8                  # evenly spaced airflow directions, from the nose
+    # a drag law must increase over the airflows this share of the weight reaches (about the force a
+    # multirotor at its tilt limit leans into) ...
+    envelope_share_of_weight: float = 0.5
+    # ... or, for a calibrated [envelope], up to this multiple of its airflow_h_max only: beyond it the
+    # step flags every wind EXTRAPOLATED (`fit` checks its own laws a little further, to 1.5 times its
+    # samples' fastest airflow on a grid: dobwind/calibrate/dragfit.py, LAW_CHECK_SPEED_SHARE)
+    calibrated_speed_share: float = 1.0
 
 
 def airflow_at_share(af: "Airframe", limits: LawScaleLimits = LawScaleLimits()) -> np.ndarray:
@@ -59,3 +66,27 @@ def law_scale_problem(af: "Airframe", limits: LawScaleLimits = LawScaleLimits(),
             f"{limits.force_share_of_weight * weight_n:.3g} N ({limits.force_share_of_weight:g} of the weight of "
             f"mass = {af.mass_kg:g} kg), beyond the {limits.max_airflow_mps:g} m/s no multirotor flies in: a law "
             "calibrated on another vehicle, or a mass in other units?")
+
+
+def law_fold_problem(af: "Airframe", limits: LawScaleLimits = LawScaleLimits()) -> str | None:
+    """One line saying the drag law stops increasing inside the airflows it is trusted on, or None. Where
+    the law folds, two airflows give one force and the step's Newton inversion can read a far faster air
+    (model/forceair.py law_decreasing); `fit` never writes a law that folds inside its calibration, so
+    such a law comes from a hand edit or a mistyped coefficient. Checked up to the airflow the law reads at
+    ``envelope_share_of_weight`` of the weight (never beyond ``max_airflow_mps``; a law that never reaches
+    that force is checked to it), and with an [envelope] not past ``calibrated_speed_share`` of its
+    airflow_h_max."""
+    if af.drag is None:
+        return None
+    reach = airflow_at_share(af, LawScaleLimits(limits.envelope_share_of_weight, limits.max_airflow_mps,
+                                                limits.directions))
+    checked = float(np.max(np.where(np.isfinite(reach), np.minimum(reach, limits.max_airflow_mps),
+                                    limits.max_airflow_mps)))
+    if af.envelope is not None:
+        checked = min(checked, limits.calibrated_speed_share * af.envelope.airflow_h_max_mps)
+    where = law_decreasing(af.drag, checked)
+    if where is None:
+        return None
+    return (f"force_air.drag: the law stops increasing at {where}, inside the {checked:.3g} m/s it is checked to: "
+            "one force is two airflows there and the step may read the faster (a hand-edited or mistyped "
+            "coefficient?)")

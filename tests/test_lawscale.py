@@ -96,3 +96,74 @@ def test_check_json_gives_the_reading(tmp_path, capsys):
     assert main(["check", str(path), "--no-selftest", "--json"]) == 0
     import json
     assert json.loads(capsys.readouterr().out)["law_airflow_at_tenth_weight_mps"] == pytest.approx(30.0, abs=1e-3)
+
+
+def _drag(tmp_path: Path, law: str, name: str = "d") -> Path:
+    """m300 (8 kg: half the weight is 39.2 N) with a heading-frame drag law."""
+    path = tmp_path / f"{name}.toml"
+    path.write_text(M300.split("[force_air.horizontal]")[0] + (
+        '[force_air]\nmodel = "drag"\nvertical_law = "zero-wind"\n\n[force_air.drag]\n'
+        f"{law}\nlz = 0.3\nqz = 0.0\n\n[filter]\nspeeds = [0.0, 3.0, 10.0]\ncutoffs = [0.2, 0.35, 0.5]\n"))
+    return path
+
+
+@pytest.mark.parametrize("qay, folds", [(-0.02, True), (-0.004, False)])
+def test_a_drag_law_that_folds_inside_the_envelope_is_warned_about(tmp_path, qay, folds):
+    """With l0 = 1 and the per-axis qay alone, the y force vy + qay |vy| vy peaks at |vy| = 1 / (2 |qay|) with
+    1 / (4 |qay|) N, and x and y are independent: the law folds where |vy| = s |sin theta| passes it. At
+    qay = -0.02: 25 m/s and 12.5 N, short of half the weight (39.2 N), so the law is checked to 50 m/s and
+    folds at 25; at -0.004 the peak is at 125 m/s, half the weight is read at 48.7 m/s, and the law
+    increases over all it is checked on."""
+    from dobwind.model.lawscale import law_fold_problem
+
+    af = load_airframe(str(_drag(tmp_path, f"l0 = 1.0\nq0 = 0.0\nqay = {qay!r}")))
+    problem = law_fold_problem(af)
+    assert (problem is not None) == folds
+    if folds:
+        found = re.search(r"at ([0-9.]+) deg from x at ([0-9.]+) m/s", problem.replace("stops increasing ", ""))
+        assert found is not None, problem
+        across = float(found.group(2)) * abs(math.sin(math.radians(float(found.group(1)))))
+        assert 25.0 <= across <= 25.0 * 1.1, problem  # |vy| at the first checked airflow at or past the peak
+        assert problem.startswith("force_air.drag:") and "inside the 50 m/s it is checked to" in problem
+
+
+def test_the_fold_is_checked_only_up_to_the_envelope(tmp_path):
+    """l0 = 2, qay = -0.025 folds along y at 40 m/s, 40 N, and reads half the weight (39.2 N) there at
+    (2 - sqrt(4 - 0.1 * 39.2)) / 0.05 = 34.3 m/s: not warned. At 0.6 of the weight (47.1 N > 40 N) the law
+    never reaches the force along y, is checked to 50 m/s, and folds at 40."""
+    from dobwind.model.lawscale import law_fold_problem
+
+    af = load_airframe(str(_drag(tmp_path, "l0 = 2.0\nq0 = 0.0\nqay = -0.025")))
+    weight = 0.5 * 8.0 * G
+    reach = airflow_at_share(af, LawScaleLimits(force_share_of_weight=0.5))
+    assert reach[2] == pytest.approx((2.0 - math.sqrt(4.0 - 0.1 * weight)) / 0.05, rel=1e-4)  # 90 deg from x
+    assert law_fold_problem(af) is None
+    assert law_fold_problem(af, LawScaleLimits(envelope_share_of_weight=0.6)) is not None
+
+
+def test_check_warns_of_a_folding_law_and_still_succeeds(tmp_path, capsys):
+    path = _drag(tmp_path, "l0 = 1.0\nq0 = 0.0\nqay = -0.02")
+    assert main(["check", str(path), "--no-selftest"]) == 0
+    lines = [e for e in capsys.readouterr().err.splitlines() if "stops increasing" in e]
+    assert len(lines) == 1 and str(path) in lines[0] and lines[0].startswith("dobwind check: warning:")
+
+
+@pytest.mark.parametrize("name", ["m300.toml", "nf_quad.toml"])
+def test_shipped_airframes_do_not_fold(name):
+    from dobwind.model.lawscale import law_fold_problem
+    assert law_fold_problem(load_airframe(str(ROOT / "airframes" / name))) is None
+
+
+@pytest.mark.parametrize("airflow_h_max, folds", [(20.0, False), (30.0, True)])
+def test_a_calibrated_envelope_bounds_the_fold_check(tmp_path, airflow_h_max, folds):
+    """The law above folds at |vy| = 25 m/s; with an [envelope] it is checked to its airflow_h_max only
+    (the step flags every wind beyond EXTRAPOLATED): 20 m/s misses the fold, 30 m/s holds it."""
+    from dobwind.model.lawscale import law_fold_problem
+
+    path = _drag(tmp_path, "l0 = 1.0\nq0 = 0.0\nqay = -0.02")
+    path.write_text(path.read_text() + f"\n[envelope]\nforce_h_max = 20.0\nforce_z = [-40.0, 40.0]\n"
+                                       f"airflow_h_max = {airflow_h_max!r}\n")
+    problem = law_fold_problem(load_airframe(str(path)))
+    assert (problem is not None) == folds
+    if folds:
+        assert f"inside the {airflow_h_max:g} m/s" in problem

@@ -62,14 +62,15 @@ PX4_ESC_REPORTS = 8
 
 
 def warn_law_scale(af: Any, source: str, command: str, speed: Any = None) -> None:
-    """One stderr line when the force-air law reads an absurd airflow at a small force (model/lawscale.py):
+    """One stderr line when the force-air law reads an absurd airflow at a small force, and one when a drag
+    law stops increasing inside its vehicle's envelope (model/lawscale.py):
     a warning, since the step flags such winds EXTRAPOLATED when flown; the airframe is still written.
     ``speed``: the law's reading (airflow_at_share) when the caller already has it."""
-    from dobwind.model.lawscale import law_scale_problem
+    from dobwind.model.lawscale import law_fold_problem, law_scale_problem
 
-    problem = law_scale_problem(af, speed=speed)
-    if problem is not None:
-        sys.stderr.write(f"dobwind {command}: warning: {source}: {problem}\n")
+    for problem in (law_scale_problem(af, speed=speed), law_fold_problem(af)):
+        if problem is not None:
+            sys.stderr.write(f"dobwind {command}: warning: {source}: {problem}\n")
 
 
 def selftest_gate(name: str, folder: Path, command: str = "generate") -> None:
