@@ -236,3 +236,20 @@ def ds_start_iso(path):
     xr = pytest.importorskip("xarray")
     with xr.open_dataset(path) as ds:
         return ds.attrs["time_coverage_start"]
+
+
+def test_the_printed_table_says_dash_where_a_bin_has_no_number():
+    """A bin of one sample has no spread, calm samples no direction, an empty bin nothing: the printed
+    table says '-' there (docs/atmospheric.md), never 'nan'."""
+    from dobwind.cli.profile import _text
+
+    heights = np.array([1.0, 12.0, 13.0, 31.0])
+    wind = _wind_from([3.0, 0.2, 0.3, 4.0], [90.0, 90.0, 270.0, 180.0])
+    stats = table(bin_sums(_samples(heights, wind), 10.0), 10.0)
+    text = _text(stats, [])
+    assert "nan" not in text.lower()
+    # columns: bottom, "..", top, n, speed, std, from, spread, up, sigma_h
+    rows = {line.split()[0]: line.split() for line in text.splitlines()[1:]}
+    assert rows["0"][3:8] == ["1", "3.00", "-", "90", "-"]  # one sample: speed and direction, no spreads
+    assert rows["10"][7] == "-"                              # calm samples: no direction spread
+    assert rows["20"][3:10] == ["0", "-", "-", "-", "-", "-", "-"]  # an empty bin

@@ -123,9 +123,10 @@ def kept_rows(allow: list[str] | None) -> str:
 def _text(stats: dict[str, np.ndarray], done: list[Done], kept: str = "trusted rows") -> str:
     rows = []
     for k in range(len(stats["count"])):
+        # An empty bin, a bin of one sample (no spread) or of calm samples (no direction) prints '-', not nan.
         rows.append([f"{stats['height_bottom_m'][k]:g} .. {stats['height_top_m'][k]:g}", str(stats["count"][k]),
-                     f"{stats['speed_mean_mps'][k]:.2f}", f"{stats['speed_std_mps'][k]:.2f}",
-                     f"{stats['direction_from_deg'][k]:.0f}", f"{stats['direction_spread_deg'][k]:.0f}",
+                     _or_dash(stats['speed_mean_mps'][k]), _or_dash(stats['speed_std_mps'][k]),
+                     _or_dash(stats['direction_from_deg'][k], 0), _or_dash(stats['direction_spread_deg'][k], 0),
                      _signed_or_dash(stats['up_mean_mps'][k]), _or_dash(stats['sigma_h_mps'][k])])
     flights = [f"{r.log}: {r.value[1]} {kept}" + "".join(f"; {n}" for n in r.value[2]) if r.value is not None
                else f"{r.log}: failed" for r in done]
@@ -133,9 +134,9 @@ def _text(stats: dict[str, np.ndarray], done: list[Done], kept: str = "trusted r
     return "\n".join([format_table(header, rows), *flights])
 
 
-def _or_dash(value: float) -> str:
+def _or_dash(value: float, digits: int = 2) -> str:
     """NaN (no sample, an unknown sigma, no vertical wind) as '-', not as a number."""
-    return f"{value:.2f}" if np.isfinite(value) else "-"
+    return f"{value:.{digits}f}" if np.isfinite(value) else "-"
 
 
 def _signed_or_dash(value: float) -> str:
