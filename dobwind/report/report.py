@@ -111,6 +111,11 @@ COMPARISON_ROWS = {
     "mean_speed_difference_mps": ("mean speed difference (ours - theirs)", "m/s"),
     "mean_wind_ours_ne_mps": ("our mean wind (north, east)", "m/s"),
     "mean_wind_theirs_ne_mps": ("the autopilot's mean wind (north, east)", "m/s"),
+    "mean_wind_ours_speed_mps": ("speed of our mean wind", "m/s"),
+    "mean_wind_ours_from_deg": ("direction our mean wind blows from, clockwise from north", "deg"),
+    "mean_wind_theirs_speed_mps": ("speed of the autopilot's mean wind", "m/s"),
+    "mean_wind_theirs_from_deg": ("direction the autopilot's mean wind blows from, clockwise from north", "deg"),
+    "direction_difference_deg": ("ours - theirs, wrapped to [-180, 180)", "deg"),
     "variance_north_m2s2": ("the autopilot's own variance, north", "m²/s²"),
     "variance_east_m2s2": ("the autopilot's own variance, east", "m²/s²"),
     "sigma_h_mps": ("the autopilot's own horizontal 1-sigma", "m/s"),
@@ -147,6 +152,8 @@ def comparison_rows(comparison: dict[str, Any]) -> list[tuple[str, str, str, str
     """(what, JSON key, value, unit) for each figure the comparison holds, in COMPARISON_ROWS' order;
     numbers to 3 decimals (a raw float's 16 digits claim a precision the estimate does not have)."""
     def fmt(key: str, value: Any) -> str:
+        if value is None:  # a mean wind too weak to have a direction
+            return "-"
         if key == "active_share":
             return f"{100 * value:.1f}"
         if isinstance(value, (list, tuple)):
