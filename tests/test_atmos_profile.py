@@ -253,3 +253,25 @@ def test_the_printed_table_says_dash_where_a_bin_has_no_number():
     assert rows["0"][3:8] == ["1", "3.00", "-", "90", "-"]  # one sample: speed and direction, no spreads
     assert rows["10"][7] == "-"                              # calm samples: no direction spread
     assert rows["20"][3:10] == ["0", "-", "-", "-", "-", "-", "-"]  # an empty bin
+
+
+def test_a_log_that_never_flew_is_named_as_such_not_sent_to_allow(tmp_path, capsys):
+    """A pre-arm log gives no row because it never flew: --allow cannot admit LANDED, so the refusal must
+    say what is missing (a flight), not point at --allow."""
+    _, cols = atmos_logs.flight(hold_s=1.0)
+    log = atmos_logs.write_log(tmp_path / "ground.bin", cols, airborne=False)
+    assert main(["profile", str(M300), str(log), "-o", str(tmp_path / "p.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "ground.bin: never airborne (every row LANDED)" in err and "--allow admits" not in err
+    assert not (tmp_path / "p.csv").exists()
+
+
+def test_why_no_row_names_the_flags_that_kept_the_rows_out():
+    from dobwind.atmos.profile import why_no_row
+    from dobwind.model.status import STATUS_LANDED
+
+    settling, uncal = 1 << 6, 1 << 10
+    status = np.array([STATUS_LANDED] * 3 + [settling] * 2 + [settling | uncal] * 5 + [1 << 1])
+    text = why_no_row(status, np.zeros(len(status), bool))
+    assert "none of its 7 accepted airborne rows is trusted (SETTLING|UNCALIBRATED 5, SETTLING 2)" in text
+    assert "never airborne" in why_no_row(np.full(4, STATUS_LANDED), np.zeros(4, bool))

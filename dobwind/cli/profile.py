@@ -78,9 +78,9 @@ def run(args: argparse.Namespace) -> int:
         return max(r.code for r in done)  # each log's reason is on stderr already: nothing written
     if not stats:
         where = ", ".join(logs[:3]) + (" ..." if len(logs) > 3 else "")
-        why = (f"{args.airframe} is an uncalibrated prior, so every estimate carries UNCALIBRATED: calibrate it "
-               "with `dobwind fit`, or --allow uncalibrated for a rough profile" if af.uncalibrated
-               else "--allow admits quality-flagged rows")
+        prior = (f"{args.airframe} is an uncalibrated prior, so every estimate carries UNCALIBRATED: calibrate it "
+                 "with `dobwind fit`, or --allow uncalibrated for a rough profile" if af.uncalibrated else "")
+        why = "; ".join([prior] * bool(prior) + _reasons(good)) or "--allow admits quality-flagged rows"
         raise InputError(where, None, f"no trusted estimate with a height in any log: nothing written ({why})")
     span = coverage([r.value[3] for r in good])
     with OutputFiles(targets) as out:
@@ -100,6 +100,11 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(_text(stats, done, kept_rows(args.allow)))
     return max(r.code for r in done)
+
+
+def _reasons(good: list[Done]) -> list[str]:
+    """Each log's own reason for giving no row (atmos/profile.py why_no_row), named by the log."""
+    return [f"{Path(r.log).name}: {n.removeprefix('no row: ')}" for r in good for n in r.value[2] if n.startswith("no row: ")]
 
 
 def _as_json(stats: dict[str, np.ndarray], done: list[Done], args: argparse.Namespace) -> dict:
