@@ -293,3 +293,15 @@ def test_a_zero_wind_vertical_law_writes_no_upward_air_velocity(tmp_path):
         assert "zero-wind" in flat.attrs["vertical_note"]
         np.testing.assert_allclose(flat["eastward_wind"].values, fitted["eastward_wind"].values, rtol=1e-4, atol=1e-4)
     cf_check(tmp_path / "flat.nc")
+
+
+def test_every_row_coordinate_is_named_on_the_variables_not_in_a_global_attribute(replayed):
+    """CF has no global "coordinates" attribute: log_time, a coordinate of the rows beside UTC time, is
+    named in each variable's own list, so a reader that is not xarray finds it too."""
+    import netCDF4
+
+    folder, _ = replayed
+    with netCDF4.Dataset(folder / "f.nc") as nc:
+        assert "coordinates" not in nc.ncattrs()
+        for name in ("eastward_wind", "wind_speed", "status"):
+            assert nc[name].getncattr("coordinates").split() == ["time", "log_time", "lat", "lon", "alt", "height"]

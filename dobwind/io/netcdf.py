@@ -131,9 +131,12 @@ def estimate_dataset(cols: dict[str, np.ndarray], t_log: np.ndarray, pos: RowPos
     if pos is not None:
         ds.attrs["featureType"] = "trajectory"
         ds["trajectory"] = ((), Path(src.log_path).name, {"cf_role": "trajectory_id", "long_name": "flight log"})
+        # Every coordinate of the rows, log_time too: one left out of every variable's list is written by
+        # xarray as a global "coordinates" attribute, which CF does not have (cfchecks: "non-standard").
+        rows = dim if dim == "log_time" else f"{dim} log_time"
         for var in ds.data_vars:
             if ds[var].dims == (dim,):
-                ds[var].attrs["coordinates"] = f"{dim} lat lon alt height"
+                ds[var].attrs["coordinates"] = f"{rows} lat lon alt height"
     return ds
 
 
