@@ -305,3 +305,15 @@ def test_every_row_coordinate_is_named_on_the_variables_not_in_a_global_attribut
         assert "coordinates" not in nc.ncattrs()
         for name in ("eastward_wind", "wind_speed", "status"):
             assert nc[name].getncattr("coordinates").split() == ["time", "log_time", "lat", "lon", "alt", "height"]
+
+
+def test_the_trajectory_name_is_a_char_array_that_reads_back_as_the_log_name(replayed):
+    """CF's classic text form (a char array), which every CF checker and NetCDF-3 era reader takes; xarray
+    still decodes it to the log's name."""
+    import netCDF4
+
+    folder, _ = replayed
+    with netCDF4.Dataset(folder / "f.nc") as nc:
+        assert nc["trajectory"].dtype == np.dtype("S1") and nc["trajectory"].getncattr("cf_role") == "trajectory_id"
+    with xr.open_dataset(folder / "f.nc") as ds:
+        assert str(ds["trajectory"].values) == "f.bin"

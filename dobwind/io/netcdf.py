@@ -163,6 +163,10 @@ def dataset_encoding(ds) -> dict[str, dict]:
             enc[name] = {"_FillValue": None if name in plain else np.nan}
         elif name == "status":
             enc[name] = {"_FillValue": None}
+        elif var.dtype.kind in "UO":
+            # Text as a char array, not NetCDF-4's variable-length string: CF's classic form, which every
+            # reader takes (cfchecks 4.1.0 refuses the vlen string: "vlen types not supported").
+            enc[name] = {"dtype": "S1"}
         if var.ndim:
             enc.setdefault(name, {})["zlib"] = True
     return enc
