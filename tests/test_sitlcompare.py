@@ -272,3 +272,21 @@ def test_replay_prints_every_accepted_row_when_few_are_trusted():
     wind = np.vstack([_steady(9, 5.0, 0.0), _steady(1, 6.0, 0.0)])
     status = np.array([0] * 9 + [extrapolated])
     assert len(sitl_line(sitl_summary(sitl, clock, wind, status)[0])) == 1
+
+
+def test_an_unestimated_vertical_wind_is_no_agreement_with_the_simulator(sitl_log, tmp_path, capsys):
+    """An airframe whose vertical law is the zero-wind fallback publishes 0 by construction: its mean
+    vertical wind is null in --json and left out of the report's table, not a 0.000 m/s beside the
+    simulator's 0.000 that reads as agreement."""
+    _, path, _, log, _ = sitl_log
+    text = Path(path).read_text()
+    flat = tmp_path / "flat.toml"
+    flat.write_text(text.replace("[force_air.horizontal]", '[force_air]\nvertical_law = "zero-wind"\n\n[force_air.horizontal]'))
+    assert load_airframe(str(flat)).vertical_law == VERTICAL_FALLBACK
+    block = _replay_json(capsys, flat, log)["sitl_wind"]
+    assert block["mean_up_mps"] is None and block["accepted_rows"]["mean_up_mps"] is None
+    assert block["true_mean_up_mps"] == pytest.approx(0.0, abs=1e-9) and block["mean_speed_mps"] > 0
+    assert _replay_json(capsys, path, log)["sitl_wind"]["mean_up_mps"] is not None  # a fitted law keeps it
+    page = tmp_path / "r.html"
+    assert main(["report", str(flat), log, "-o", str(page)]) == 0
+    assert "<code>mean_up_mps</code>" not in page.read_text() and "<code>true_mean_up_mps</code>" in page.read_text()

@@ -169,9 +169,11 @@ def autopilot_summary(name: str, log_path: str, backend: str, model: StepModel, 
     if flight.px4_wind is not None:
         summary["px4"] = compare_with_px4(log.time_s, wind, valid, flight.px4_wind, flight.autopilot_wind_variance)
     if flight.sitl is not None:  # an ArduPilot SITL log: the wind its simulator was told to blow
+        from dobwind.model.airframe import VERTICAL_FALLBACK
         from dobwind.replay.sitlcompare import sitl_summary
 
-        summary["sitl_wind"] = sitl_summary(flight.sitl, log.time_s + flight.t0_s, wind, traj.status)[0]
+        summary["sitl_wind"] = sitl_summary(flight.sitl, log.time_s + flight.t0_s, wind, traj.status,
+                                            model.airframe.vertical_law != VERTICAL_FALLBACK)[0]
     return summary
 
 

@@ -251,9 +251,10 @@ def _autopilot_flight(af: Airframe, log_path: str, name: str, backend: str, prec
     t = log.time_s + ap.t0_s
     sitl, truth = None, None
     if ap.sitl is not None:  # an ArduPilot SITL log: the wind its simulator was told to blow
+        from dobwind.model.airframe import VERTICAL_FALLBACK
         from dobwind.replay.sitlcompare import sitl_summary
 
-        sitl, truth = sitl_summary(ap.sitl, t, wind, traj.status)
+        sitl, truth = sitl_summary(ap.sitl, t, wind, traj.status, af.vertical_law != VERTICAL_FALLBACK)
     flight = Flight(name, log.rows, float(log.time_s[-1] - log.time_s[0]), t, np.where(valid[:, None], wind, np.nan),
                     traj.status, truth, reference, tuple(ap.notes), band, SITL_LABEL, sitl)
     return flight, None, comparison
