@@ -317,3 +317,25 @@ def test_the_trajectory_name_is_a_char_array_that_reads_back_as_the_log_name(rep
         assert nc["trajectory"].dtype == np.dtype("S1") and nc["trajectory"].getncattr("cf_role") == "trajectory_id"
     with xr.open_dataset(folder / "f.nc") as ds:
         assert str(ds["trajectory"].values) == "f.bin"
+
+
+def test_a_csv_replay_figure_draws_no_vertical_wind_for_the_zero_wind_law(tmp_path, monkeypatch):
+    """The CSV paths (estimate CSV and streamed NetCDF) draw the same as the autopilot path: no vertical
+    line for an airframe whose vertical wind is 0 by construction."""
+    import dobwind.io.plots as plots
+    from dobwind.io.logs import write_csv
+
+    drawn = []
+    monkeypatch.setattr(plots, "replay_plot", lambda *a, **k: drawn.append(np.asarray(a[1])))
+    frame = tmp_path / "flat.toml"
+    frame.write_text(M300.read_text().replace("[force_air.horizontal]",
+                                              '[force_air]\nvertical_law = "zero-wind"\n\n[force_air.horizontal]'))
+    _, cols = atmos_logs.flight(hold_s=1.0)
+    names = [k for k in cols if k != "segment"]
+    log = tmp_path / "f.csv"
+    write_csv(log, names, np.column_stack([cols[n] for n in names]), ["%.17g"] * len(names))
+    for out in ("e.csv", "e.nc"):
+        assert main(["replay", str(frame), str(log), "-o", str(tmp_path / out), "--plot", str(tmp_path / "w.png")]) == 0
+    assert len(drawn) == 2
+    for wind in drawn:
+        assert np.all(np.isnan(wind[:, 2])) and np.isfinite(wind[:, :2]).any()

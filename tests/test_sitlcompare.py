@@ -290,3 +290,28 @@ def test_an_unestimated_vertical_wind_is_no_agreement_with_the_simulator(sitl_lo
     page = tmp_path / "r.html"
     assert main(["report", str(flat), log, "-o", str(page)]) == 0
     assert "<code>mean_up_mps</code>" not in page.read_text() and "<code>true_mean_up_mps</code>" in page.read_text()
+
+
+def test_figures_draw_no_vertical_wind_for_an_airframe_that_does_not_estimate_it(sitl_log, tmp_path, monkeypatch):
+    """replay --plot and report: the zero-wind fallback's vertical 0 is no measured calm, so dobwind's
+    vertical column reaches the figure as NaN (docs/figures.md: no vertical line), the horizontal intact."""
+    import dobwind.io.plots as plots
+
+    drawn, draw = [], plots.replay_plot
+
+    def spy(*a, **k):
+        drawn.append(np.asarray(a[1]))
+        return draw(*a, **k)  # the report embeds the file it draws
+
+    monkeypatch.setattr(plots, "replay_plot", spy)
+    _, path, _, log, _ = sitl_log
+    flat = tmp_path / "flat.toml"
+    flat.write_text(Path(path).read_text().replace("[force_air.horizontal]",
+                                                   '[force_air]\nvertical_law = "zero-wind"\n\n[force_air.horizontal]'))
+    assert main(["replay", str(flat), log, "--plot", str(tmp_path / "w.png")]) == 0
+    assert main(["report", str(flat), log, "-o", str(tmp_path / "r.html")]) == 0
+    assert main(["replay", str(path), log, "--plot", str(tmp_path / "v.png")]) == 0
+    flat_replay, flat_report, fitted = drawn[0], drawn[1], drawn[-1]
+    for wind in (flat_replay, flat_report):
+        assert np.all(np.isnan(wind[:, 2])) and np.isfinite(wind[:, :2]).any()
+    assert np.isfinite(fitted[:, 2]).any()  # a fitted vertical law is drawn

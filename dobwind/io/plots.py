@@ -39,6 +39,17 @@ class Series:
     is_truth: bool = False  # the reference the others are judged by (the log's or the simulator's true wind)
 
 
+def published(wind: np.ndarray, vertical_law: str) -> np.ndarray:
+    """dobwind's wind as a figure should draw it: an airframe whose vertical law is the zero-wind fallback
+    publishes a vertical wind of 0 by construction, which drawn would read as a measured calm, so its
+    vertical column becomes NaN (no vertical line), as the NetCDF leaves upward_air_velocity out."""
+    from dobwind.model.airframe import VERTICAL_FALLBACK
+
+    if vertical_law != VERTICAL_FALLBACK:
+        return wind
+    return np.column_stack([np.asarray(wind)[:, :2], np.full(len(wind), np.nan)])
+
+
 def save(fig, path: str | Path) -> None:
     """PNG through a temporary (removed on any failure), whatever the name's extension."""
     from dobwind.io.atomic import write_file_atomically

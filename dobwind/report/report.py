@@ -194,12 +194,13 @@ def analysis_summary(report: dict[str, Any]) -> dict[str, Any]:
 def build_figures(af: Airframe, flight: Flight, work: Path) -> tuple[list[Figure], dict[str, Any]]:
     """The replay figure and the analysis figures, drawn into ``work`` and read back as base64."""
     from dobwind.analysis.report import analyze, write_plots
-    from dobwind.io.plots import replay_plot
+    from dobwind.io.plots import published, replay_plot
 
     others = [flight.reference] if flight.reference is not None else []
     replay_png = work / "replay.png"
     what = flight.truth_label if flight.truth is not None else (flight.reference[0] if flight.reference else "no reference")
-    replay_plot(flight.time_s, flight.wind, flight.truth, f"{af.name}: estimated wind over {flight.log_name}",
+    replay_plot(flight.time_s, published(flight.wind, af.vertical_law), flight.truth,
+                f"{af.name}: estimated wind over {flight.log_name}",
                 str(replay_png), others, status=flight.status, band=flight.band, truth_label=flight.truth_label)
     figures = [_png(replay_png, f"Estimated wind against {what}: horizontal speed, direction (from), vertical (up), on "
                                 "the log's own clock; grey: no estimate, amber: estimated but not trusted")]
