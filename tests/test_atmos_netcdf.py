@@ -339,3 +339,17 @@ def test_a_csv_replay_figure_draws_no_vertical_wind_for_the_zero_wind_law(tmp_pa
     assert len(drawn) == 2
     for wind in drawn:
         assert np.all(np.isnan(wind[:, 2])) and np.isfinite(wind[:, :2]).any()
+
+
+def test_the_file_says_each_row_is_a_filters_output_with_its_time_constants(replayed):
+    """A meteorologist compares rows with a mast's block means: the file says what averaging the rows carry,
+    from the airframe's own low-pass schedule (time constant 1 / (2 pi f) of each cutoff)."""
+    from dobwind.model.airframe import load_airframe
+
+    folder, _ = replayed
+    af = load_airframe(M300)
+    with xr.open_dataset(folder / "f.nc") as ds:
+        text = ds.attrs["dobwind_time_response"]
+    assert "not a block mean" in text and f"at {1.0 / af.observer.sample_time_s:g} Hz" in text
+    for speed, cutoff in zip(af.filter.speeds_mps, af.filter.cutoffs_hz):
+        assert f"{cutoff:g} Hz at {speed:g} m/s (time constant {1.0 / (2.0 * np.pi * cutoff):.2f} s)" in text

@@ -59,6 +59,17 @@ def calibration_text(af: Airframe) -> str:
     return "; ".join(parts)
 
 
+def time_response_text(af: Airframe) -> str:
+    """How much of the past each estimate averages (an attribute a meteorologist needs to compare rows with
+    a mast's 1 s or 10 min means): the output of causal filters, not a block mean."""
+    steps = ", ".join(f"{c:g} Hz at {v:g} m/s (time constant {1.0 / (2.0 * np.pi * c):.2f} s)"
+                      for v, c in zip(af.filter.speeds_mps, af.filter.cutoffs_hz))
+    return (f"each row is the output of causal filters at {1.0 / af.observer.sample_time_s:g} Hz, not a block "
+            f"mean: the disturbance observer, then a first-order low-pass whose cutoff follows the estimated "
+            f"horizontal wind speed ({steps}, linear between, held outside): neighbouring rows are correlated "
+            "and the estimate lags the wind (`dobwind analyze AIRFRAME` gives the bandwidth and the ramp lag)")
+
+
 def global_attrs(src: Source, geo: Geo, title: str) -> dict[str, str]:
     af = src.airframe
     return {"Conventions": cfnames.CONVENTIONS, "title": title,
@@ -69,7 +80,7 @@ def global_attrs(src: Source, geo: Geo, title: str) -> dict[str, str]:
             "dobwind_version": _version(), "dobwind_airframe": af.name,
             "dobwind_airframe_file": Path(src.airframe_path).name, "dobwind_airframe_sha256": af.content_sha256,
             "dobwind_calibration": calibration_text(af), "dobwind_log": Path(src.log_path).name,
-            "time_source": geo.time_source}
+            "dobwind_time_response": time_response_text(af), "time_source": geo.time_source}
 
 
 def row_dimension(geo: Geo) -> str:
