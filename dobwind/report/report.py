@@ -8,6 +8,7 @@ no network (in the spirit of PX4 Flight Review, which needs both)."""
 from __future__ import annotations
 
 import base64
+import sys
 import tempfile
 from dataclasses import dataclass
 from datetime import datetime, timezone
@@ -46,6 +47,9 @@ class Flight:
     band: tuple | None = None   # (label, time, low, high): the autopilot's own 1-sigma around its speed
     truth_label: str = "true wind"  # the truth's name (an ArduPilot SITL log's: the simulator's wind)
     sitl: dict | None = None    # dobwind against the simulator's wind (replay/sitlcompare.py), SITL logs only
+    # What the reader warns of (a file cut inside a message, a log that never flew): replay says it on
+    # stderr; the page says it first among the notes, and `report` on stderr too.
+    warnings: tuple[str, ...] = ()
 
 
 def _png(path: Path, caption: str) -> Figure:
@@ -177,7 +181,8 @@ def render(af: Airframe, airframe_path: str, flight: Flight, metrics: dict[str, 
     return template.render(
         title=f"{af.name}: wind estimate over {flight.log_name}", version=package_version(),
         created=datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"), airframe_path=airframe_path,
-        airframe=airframe_rows(af), flight=flight, accepted=int(valid.sum()), notes=flight.notes,
+        airframe=airframe_rows(af), flight=flight, accepted=int(valid.sum()),
+        notes=tuple(f"warning: {w}" for w in flight.warnings) + flight.notes,
         errors=error_rows(metrics) if metrics else [], metrics=metrics, comparison=comparison,
         comparison_rows=comparison_rows(comparison) if comparison else [],
         sitl=flight.sitl, sitl_rows=figure_rows(flight.sitl, SITL_ROWS) if flight.sitl else [],
@@ -257,7 +262,7 @@ def _autopilot_flight(af: Airframe, log_path: str, name: str, backend: str, prec
 
         sitl, truth = sitl_summary(ap.sitl, t, wind, traj.status, af.vertical_law != VERTICAL_FALLBACK)
     flight = Flight(name, log.rows, float(log.time_s[-1] - log.time_s[0]), t, np.where(valid[:, None], wind, np.nan),
-                    traj.status, truth, reference, tuple(ap.notes), band, SITL_LABEL, sitl)
+                    traj.status, truth, reference, tuple(ap.notes), band, SITL_LABEL, sitl, tuple(ap.warnings))
     return flight, None, comparison
 
 
@@ -268,6 +273,8 @@ def flight_report(af: Airframe, airframe_path: str, log_path: str, backend: str 
     with scratch() as work:
         figures, analysis = build_figures(af, flight, Path(work))
     page = render(af, airframe_path, flight, metrics, comparison, figures, analysis)
+    for warning in flight.warnings:
+        sys.stderr.write(f"dobwind report: warning: {warning}\n")
     if metrics and "per_sample" in metrics:
         summary = f"speed error mean {metrics['per_sample']['speed_mean']:.3f} m/s over {metrics['scored_rows']} samples"
     elif flight.sitl and flight.sitl.get("compared_rows"):
