@@ -33,7 +33,7 @@ def test_two_flights_from_different_grounds_each_from_its_own():
     up = np.where(flight1, 10.0, 0.0) + np.where(flight2, 4.0, 0.0)
     pos = on_rows(_track(t, ground + up), t, landed)
     np.testing.assert_allclose(pos.height_m[~landed], up[~landed], atol=1e-9)
-    assert pos.height_source == "altitude above the ground before take-off"
+    assert pos.height_source == "test track altitude above the ground before take-off"
 
 
 def test_the_estimators_up_position_follows_the_same_rule():
@@ -50,3 +50,21 @@ def test_without_landed_rows_it_is_above_the_first_position():
     pos = on_rows(_track(t, 100.0 + t), t, np.zeros(len(t), bool))
     np.testing.assert_allclose(pos.height_m, t)
     assert "first position" in pos.height_source
+
+
+def test_the_ground_before_take_off_comes_before_a_home_that_is_not_on_it():
+    """PX4 re-homed the x500 field log during its climb-out, 1.7 m above the ground it took off from: above
+    home, the whole flight read 1.7 m low and the landing -2 m. The ground before the take-off is the
+    take-off point; home serves where the log has no ground before the flight."""
+    t = np.arange(0.0, 30.0, 0.5)
+    landed = (t < 5.0) | (t >= 25.0)
+    up = np.where(landed, 0.0, 8.0)
+    ground = 184.1
+    home = np.where(t < 6.0, ground, ground + 1.7)
+    track = Track(t, np.full_like(t, 47.0), np.full_like(t, 8.0), ground + up, "vehicle_global_position", home)
+    pos = on_rows(track, t, landed)
+    np.testing.assert_allclose(pos.height_m, up, atol=1e-9)
+    assert pos.height_source == "vehicle_global_position altitude above the ground before take-off"
+    airborne_from_start = on_rows(track, t, t >= 25.0)  # no ground before: home, as it is then
+    np.testing.assert_allclose(airborne_from_start.height_m[t < 25.0], (ground + up - home)[t < 25.0], atol=1e-9)
+    assert "above home" in airborne_from_start.height_source

@@ -219,21 +219,20 @@ def _near_sample(t_src: np.ndarray, t: np.ndarray) -> np.ndarray:
 
 def on_rows(track: Track, t: np.ndarray, landed: np.ndarray | None = None) -> RowPosition:
     """The track interpolated onto the estimate rows ``t`` (the log's own clock), with the height above
-    the take-off point: above the log's home where it records one, else above the ground each flight
-    stood on (``landed``: before its take-off, or where it landed when the log begins in the air), else
-    above the track's first altitude."""
+    the take-off point (_ground_altitude: the ground each flight stood on before its take-off, else the
+    log's home, else where it landed, else the track's first altitude)."""
     ok = _near_sample(track.t_s, t)
     lat = np.where(ok, np.interp(t, track.t_s, track.lat_deg), np.nan)
     lon_unwrapped = np.unwrap(track.lon_deg, period=360.0)  # a flight across the antimeridian stays continuous
     lon = (np.interp(t, track.t_s, lon_unwrapped) + 180.0) % 360.0 - 180.0
     lon = np.where(ok, lon, np.nan)
     alt = np.where(ok, np.interp(t, track.t_s, track.alt_m), np.nan)
+    home = None
     if track.home_alt_m is not None:
         before = np.clip(np.searchsorted(track.t_s, t, side="right") - 1, 0, len(track.t_s) - 1)
         home = track.home_alt_m[before]  # held: a new home is a step, not a ramp
-        return RowPosition(lat, lon, alt, alt - home, f"{track.source} altitude above home")
-    ground, how = _ground_altitude(alt, landed, t)
-    return RowPosition(lat, lon, alt, alt - ground, how)
+    ground, how = _ground_altitude(alt, landed, t, home)
+    return RowPosition(lat, lon, alt, alt - ground, f"{track.source} {how}")
 
 
 def local_height_on_rows(local: LocalHeight, t: np.ndarray, landed: np.ndarray | None = None) -> tuple[np.ndarray, str]:
@@ -251,35 +250,46 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(bounds[:-1].tolist(), bounds[1:].tolist()))
 
 
-def _ground_altitude(alt: np.ndarray, landed: np.ndarray | None, t: np.ndarray) -> tuple[np.ndarray, str]:
+def _ground_altitude(alt: np.ndarray, landed: np.ndarray | None, t: np.ndarray,
+                     home: np.ndarray | None = None) -> tuple[np.ndarray, str]:
     """Per row, the altitude of the ground its flight took off from, and how it was found. Each flight (a
     run of airborne rows) is measured from the ground just before it (the median over the last GROUND_S
-    of the landed rows there), or, when the log begins in the air, from the ground just after it landed:
-    the altitude of the first airborne sample is no take-off point (a real PX4 log that began 6 m up read
-    -6 m "above take-off" at its landing). Landed rows are measured from their own ground (median).
-    Without any landed row with an altitude: above the first position."""
+    of the landed rows there); else from the log's home (per row, ``home``); else, when the log begins in
+    the air, from the ground just after it landed; else from the first position. The ground comes first
+    because a home need not be on it: PX4 re-homed the x500 field log during its climb-out, 1.7 m above
+    the ground it took off from, and its flight read -2 m at the landing. And the first position is no
+    take-off point: the drag-fusion PX4 log began 6 m up and read -6 m at its landing. Landed rows are
+    measured from their own ground (median), or home."""
     finite = np.isfinite(alt)
     first = float(alt[np.flatnonzero(finite)[0]]) if finite.any() else float("nan")
-    fallback = (np.full(len(alt), first),
-                "altitude above the log's first position (no take-off in the log)" if finite.any() else "no altitude")
-    if landed is None or not landed.any():
-        return fallback
-    runs = _runs(np.asarray(landed, bool))
-    ground, after = np.full(len(alt), np.nan), False
+    runs = _runs(np.asarray(landed, bool)) if landed is not None and landed.any() else [(0, len(alt))]
+    ground, used = np.full(len(alt), np.nan), set()
     for k, (a, b) in enumerate(runs):
-        if landed[a]:
-            ground[a:b] = _median(alt[a:b])
-            continue
-        prev = _median(alt[runs[k - 1][0]:a][t[runs[k - 1][0]:a] >= t[a - 1] - GROUND_S]) if k else np.nan
-        nxt = _median(alt[b:runs[k + 1][1]][t[b:runs[k + 1][1]] <= t[b] + GROUND_S]) if k + 1 < len(runs) else np.nan
-        ground[a:b] = prev if np.isfinite(prev) else nxt
-        after = after or (not np.isfinite(prev) and np.isfinite(nxt))
-    if np.isnan(ground).all():
-        return fallback
-    ground = np.where(np.isnan(ground), first, ground)  # a stretch with no ground on either side
-    if after:
-        return ground, "altitude above the ground where it landed (the log begins in the air)"
-    return ground, "altitude above the ground before take-off"
+        on_ground = landed is not None and bool(landed[a])
+        prev = nxt = float("nan")
+        if on_ground:
+            prev = _median(alt[a:b])
+        elif landed is not None and landed.any():
+            prev = _median(alt[runs[k - 1][0]:a][t[runs[k - 1][0]:a] >= t[a - 1] - GROUND_S]) if k else np.nan
+            nxt = _median(alt[b:runs[k + 1][1]][t[b:runs[k + 1][1]] <= t[b] + GROUND_S]) if k + 1 < len(runs) else np.nan
+        for name, level in (("before", prev), ("home", home[a:b] if home is not None else np.nan),
+                            ("after", nxt), ("first", first)):
+            if np.all(np.isfinite(level)):
+                ground[a:b] = level
+                used.add(name if not on_ground else "before")
+                break
+    return ground, _ground_text(used, finite.any())
+
+
+def _ground_text(used: set[str], any_altitude: bool) -> str:
+    if not any_altitude:
+        return "no altitude"
+    for name, text in (("first", "altitude above the log's first position (no take-off in the log)"),
+                       ("after", "altitude above the ground where it landed (the log begins in the air)"),
+                       ("home", "altitude above home (no ground before the take-off in the log)")):
+        if name in used:
+            return text
+    return "altitude above the ground before take-off"
 
 
 def _median(values: np.ndarray) -> float:
