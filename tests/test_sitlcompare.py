@@ -315,3 +315,21 @@ def test_figures_draw_no_vertical_wind_for_an_airframe_that_does_not_estimate_it
     for wind in (flat_replay, flat_report):
         assert np.all(np.isnan(wind[:, 2])) and np.isfinite(wind[:, :2]).any()
     assert np.isfinite(fitted[:, 2]).any()  # a fitted vertical law is drawn
+
+
+def test_an_autopilot_logs_figures_say_their_time_axis_is_the_logs_own_clock(sitl_log, tmp_path, monkeypatch):
+    """PX4's and ArduPilot's clocks count from boot: a bare "time (s)" invites reading them as UTC."""
+    import dobwind.io.plots as plots
+
+    labels, save = [], plots.save
+
+    def spy(fig, path):
+        labels.append(fig.axes[-1].get_xlabel())
+        return save(fig, path)
+
+    monkeypatch.setattr(plots, "save", spy)
+    _, path, _, log, _ = sitl_log
+    assert main(["replay", str(path), log, "--plot", str(tmp_path / "w.png")]) == 0
+    assert main(["report", str(path), log, "-o", str(tmp_path / "r.html")]) == 0
+    assert labels[0] == plots.LOG_CLOCK_LABEL and plots.LOG_CLOCK_LABEL in labels[1:]
+    assert "not UTC" in plots.LOG_CLOCK_LABEL

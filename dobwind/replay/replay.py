@@ -180,12 +180,13 @@ def autopilot_summary(name: str, log_path: str, backend: str, model: StepModel, 
 def autopilot_plot(path: str, title: str, flight, wind: np.ndarray, status: np.ndarray) -> None:
     """replay --plot for an autopilot log: on the log's own clock, status shading, the autopilot's wind
     only where it is active."""
-    from dobwind.io.plots import replay_plot
+    from dobwind.io.plots import LOG_CLOCK_LABEL, replay_plot
 
     ref, band = reference_lines(flight)
     clock = flight.log.time_s + flight.t0_s
     replay_plot(clock, np.where(accepted(status)[:, None], wind, np.nan), sitl_truth(flight), title, path,
-                [] if ref is None else [ref], status=status, band=band, truth_label=SITL_LABEL)
+                [] if ref is None else [ref], status=status, band=band, truth_label=SITL_LABEL,
+                time_label=LOG_CLOCK_LABEL)
 
 
 SITL_LABEL = "simulator wind (SIM_WIND_*)"

@@ -50,6 +50,7 @@ class Flight:
     # What the reader warns of (a file cut inside a message, a log that never flew): replay says it on
     # stderr; the page says it first among the notes, and `report` on stderr too.
     warnings: tuple[str, ...] = ()
+    time_label: str = "time (s)"  # an autopilot log's: its own clock, which is no UTC (io/plots.py LOG_CLOCK_LABEL)
 
 
 def _png(path: Path, caption: str) -> Figure:
@@ -206,7 +207,8 @@ def build_figures(af: Airframe, flight: Flight, work: Path) -> tuple[list[Figure
     what = flight.truth_label if flight.truth is not None else (flight.reference[0] if flight.reference else "no reference")
     replay_plot(flight.time_s, published(flight.wind, af.vertical_law), flight.truth,
                 f"{af.name}: estimated wind over {flight.log_name}",
-                str(replay_png), others, status=flight.status, band=flight.band, truth_label=flight.truth_label)
+                str(replay_png), others, status=flight.status, band=flight.band, truth_label=flight.truth_label,
+                time_label=flight.time_label)
     figures = [_png(replay_png, f"Estimated wind against {what}: horizontal speed, direction (from), vertical (up), on "
                                 "the log's own clock; grey: no estimate, amber: estimated but not trusted")]
     report, systems = analyze(af, ANALYSIS_FREQUENCIES_HZ)
@@ -243,6 +245,7 @@ def load_flight(af: Airframe, log_path: str, backend: str, precision: Precision)
 def _autopilot_flight(af: Airframe, log_path: str, name: str, backend: str, precision: Precision) -> tuple[Flight, None, dict | None]:
     """Any autopilot log (ULog, DataFlash, ROS 2 bag) on its own clock (seconds since boot, TimeUS,
     the bag's clock), the autopilot's wind only where it is active, and the comparison with it."""
+    from dobwind.io.plots import LOG_CLOCK_LABEL
     from dobwind.replay.replay import SITL_LABEL, reference_lines, replay_ulog
     from dobwind.io.ulog import compare_with_px4
 
@@ -262,7 +265,8 @@ def _autopilot_flight(af: Airframe, log_path: str, name: str, backend: str, prec
 
         sitl, truth = sitl_summary(ap.sitl, t, wind, traj.status, af.vertical_law != VERTICAL_FALLBACK)
     flight = Flight(name, log.rows, float(log.time_s[-1] - log.time_s[0]), t, np.where(valid[:, None], wind, np.nan),
-                    traj.status, truth, reference, tuple(ap.notes), band, SITL_LABEL, sitl, tuple(ap.warnings))
+                    traj.status, truth, reference, tuple(ap.notes), band, SITL_LABEL, sitl, tuple(ap.warnings),
+                    LOG_CLOCK_LABEL)
     return flight, None, comparison
 
 
