@@ -275,3 +275,12 @@ def test_why_no_row_names_the_flags_that_kept_the_rows_out():
     text = why_no_row(status, np.zeros(len(status), bool))
     assert "none of its 7 accepted airborne rows is trusted (SETTLING|UNCALIBRATED 5, SETTLING 2)" in text
     assert "never airborne" in why_no_row(np.full(4, STATUS_LANDED), np.zeros(4, bool))
+
+
+def test_why_no_row_under_allow_names_what_was_allowed():
+    from dobwind.atmos.profile import why_no_row
+
+    uncal, suspect = 1 << 10, 1 << 13
+    status = np.full(6, uncal | suspect)
+    text = why_no_row(status, np.zeros(6, bool), allow=uncal)
+    assert "none of its 6 accepted airborne rows is trusted or flagged only as --allow admits (UNCALIBRATED|SUSPECT 6)" in text
