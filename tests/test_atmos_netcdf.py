@@ -353,3 +353,13 @@ def test_the_file_says_each_row_is_a_filters_output_with_its_time_constants(repl
     assert "not a block mean" in text and f"at {1.0 / af.observer.sample_time_s:g} Hz" in text
     for speed, cutoff in zip(af.filter.speeds_mps, af.filter.cutoffs_hz):
         assert f"{cutoff:g} Hz at {speed:g} m/s (time constant {1.0 / (2.0 * np.pi * cutoff):.2f} s)" in text
+
+
+def test_log_time_does_not_promise_time_since_boot():
+    """A SITL's clock may count from 1970 and a ROS 2 bag keeps its recorder's: log_time says it is the log's
+    own stamps and not UTC, rather than "time since the autopilot booted" for every log."""
+    from dobwind.io.netcdf import _coords
+    from dobwind.io.position import Geo
+
+    name = _coords(np.array([1.71e9, 1.71e9 + 0.1]), Geo(None, None, "none"))["log_time"][2]["long_name"]
+    assert "own clock" in name and "not corrected to UTC" in name and "since the autopilot booted" not in name

@@ -92,8 +92,10 @@ def _coords(t_log: np.ndarray, geo: Geo) -> dict[str, tuple]:
     reference date there is no CF time coordinate at all (a coordinate named time in plain seconds is an
     error to CF checkers): the rows' dimension is then ``log_time``, and every variable runs along it."""
     dim = row_dimension(geo)
-    coords = {"log_time": (dim, t_log, {"long_name": "the log's own clock (time since the autopilot booted)",
-                                        "units": "s"})}
+    # "Since boot" is what PX4 and ArduPilot flight controllers stamp, but a SITL may count from 1970 (PX4's
+    # sample_px4_events.ulg starts at 1.71e9 s) and a ROS 2 bag keeps its recorder's clock: say what it is not.
+    coords = {"log_time": (dim, t_log, {"long_name": "the log's own clock, as it stamps its rows (a flight "
+                                        "controller's: time since boot); not corrected to UTC", "units": "s"})}
     if geo.utc_offset_s is not None:
         coords["time"] = ("time", t_log + geo.utc_offset_s,
                           {"standard_name": "time", "long_name": "time (UTC)", "axis": "T",
