@@ -50,10 +50,12 @@ def track(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray
 EKF_ORIGIN_BELOW_HOME_M = 3.0  # XKF1.PD is relative to the EKF origin, which need not be the take-off point
 
 
-def write_log(path: Path, cols: dict, position: bool = True, gps_time: bool = True, local: bool = True) -> Path:
+def write_log(path: Path, cols: dict, position: bool = True, gps_time: bool = True, local: bool = True,
+              airborne: bool = True) -> Path:
     """position: POS and GPS carry a fix; gps_time: GPS has week and milliseconds; local: XKF1.PD is
-    logged (NaN otherwise)."""
-    rows = [("EV", {"TimeUS": BOOT_US, "Id": 10}), ("EV", {"TimeUS": BOOT_US, "Id": 28})]
+    logged (NaN otherwise); airborne: ArduPilot's NOT_LANDED event at the start (else LAND_COMPLETE: a
+    log that never flew)."""
+    rows = [("EV", {"TimeUS": BOOT_US, "Id": 10}), ("EV", {"TimeUS": BOOT_US, "Id": 28 if airborne else 18})]
     for k, t in enumerate(cols["t"]):
         us = BOOT_US + int(round(t * 1e6))
         pd = -(EKF_ORIGIN_BELOW_HOME_M + track(t)[3]) if local else float("nan")

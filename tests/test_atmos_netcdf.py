@@ -293,3 +293,73 @@ def test_a_zero_wind_vertical_law_writes_no_upward_air_velocity(tmp_path):
         assert "zero-wind" in flat.attrs["vertical_note"]
         np.testing.assert_allclose(flat["eastward_wind"].values, fitted["eastward_wind"].values, rtol=1e-4, atol=1e-4)
     cf_check(tmp_path / "flat.nc")
+
+
+def test_every_row_coordinate_is_named_on_the_variables_not_in_a_global_attribute(replayed):
+    """CF has no global "coordinates" attribute: log_time, a coordinate of the rows beside UTC time, is
+    named in each variable's own list, so a reader that is not xarray finds it too."""
+    import netCDF4
+
+    folder, _ = replayed
+    with netCDF4.Dataset(folder / "f.nc") as nc:
+        assert "coordinates" not in nc.ncattrs()
+        for name in ("eastward_wind", "wind_speed", "status"):
+            assert nc[name].getncattr("coordinates").split() == ["time", "log_time", "lat", "lon", "alt", "height"]
+
+
+def test_the_trajectory_name_is_a_char_array_that_reads_back_as_the_log_name(replayed):
+    """CF's classic text form (a char array), which every CF checker and NetCDF-3 era reader takes; xarray
+    still decodes it to the log's name."""
+    import netCDF4
+
+    folder, _ = replayed
+    with netCDF4.Dataset(folder / "f.nc") as nc:
+        assert nc["trajectory"].dtype == np.dtype("S1") and nc["trajectory"].getncattr("cf_role") == "trajectory_id"
+    with xr.open_dataset(folder / "f.nc") as ds:
+        assert str(ds["trajectory"].values) == "f.bin"
+
+
+def test_a_csv_replay_figure_draws_no_vertical_wind_for_the_zero_wind_law(tmp_path, monkeypatch):
+    """The CSV paths (estimate CSV and streamed NetCDF) draw the same as the autopilot path: no vertical
+    line for an airframe whose vertical wind is 0 by construction."""
+    import dobwind.io.plots as plots
+    from dobwind.io.logs import write_csv
+
+    drawn = []
+    monkeypatch.setattr(plots, "replay_plot", lambda *a, **k: drawn.append(np.asarray(a[1])))
+    frame = tmp_path / "flat.toml"
+    frame.write_text(M300.read_text().replace("[force_air.horizontal]",
+                                              '[force_air]\nvertical_law = "zero-wind"\n\n[force_air.horizontal]'))
+    _, cols = atmos_logs.flight(hold_s=1.0)
+    names = [k for k in cols if k != "segment"]
+    log = tmp_path / "f.csv"
+    write_csv(log, names, np.column_stack([cols[n] for n in names]), ["%.17g"] * len(names))
+    for out in ("e.csv", "e.nc"):
+        assert main(["replay", str(frame), str(log), "-o", str(tmp_path / out), "--plot", str(tmp_path / "w.png")]) == 0
+    assert len(drawn) == 2
+    for wind in drawn:
+        assert np.all(np.isnan(wind[:, 2])) and np.isfinite(wind[:, :2]).any()
+
+
+def test_the_file_says_each_row_is_a_filters_output_with_its_time_constants(replayed):
+    """A meteorologist compares rows with a mast's block means: the file says what averaging the rows carry,
+    from the airframe's own low-pass schedule (time constant 1 / (2 pi f) of each cutoff)."""
+    from dobwind.model.airframe import load_airframe
+
+    folder, _ = replayed
+    af = load_airframe(M300)
+    with xr.open_dataset(folder / "f.nc") as ds:
+        text = ds.attrs["dobwind_time_response"]
+    assert "not a block mean" in text and f"at {1.0 / af.observer.sample_time_s:g} Hz" in text
+    for speed, cutoff in zip(af.filter.speeds_mps, af.filter.cutoffs_hz):
+        assert f"{cutoff:g} Hz at {speed:g} m/s (time constant {1.0 / (2.0 * np.pi * cutoff):.2f} s)" in text
+
+
+def test_log_time_does_not_promise_time_since_boot():
+    """A SITL's clock may count from 1970 and a ROS 2 bag keeps its recorder's: log_time says it is the log's
+    own stamps and not UTC, rather than "time since the autopilot booted" for every log."""
+    from dobwind.io.netcdf import _coords
+    from dobwind.io.position import Geo
+
+    name = _coords(np.array([1.71e9, 1.71e9 + 0.1]), Geo(None, None, "none"))["log_time"][2]["long_name"]
+    assert "own clock" in name and "not corrected to UTC" in name and "since the autopilot booted" not in name

@@ -236,3 +236,51 @@ def ds_start_iso(path):
     xr = pytest.importorskip("xarray")
     with xr.open_dataset(path) as ds:
         return ds.attrs["time_coverage_start"]
+
+
+def test_the_printed_table_says_dash_where_a_bin_has_no_number():
+    """A bin of one sample has no spread, calm samples no direction, an empty bin nothing: the printed
+    table says '-' there (docs/atmospheric.md), never 'nan'."""
+    from dobwind.cli.profile import _text
+
+    heights = np.array([1.0, 12.0, 13.0, 31.0])
+    wind = _wind_from([3.0, 0.2, 0.3, 4.0], [90.0, 90.0, 270.0, 180.0])
+    stats = table(bin_sums(_samples(heights, wind), 10.0), 10.0)
+    text = _text(stats, [])
+    assert "nan" not in text.lower()
+    # columns: bottom, "..", top, n, speed, std, from, spread, up, sigma_h
+    rows = {line.split()[0]: line.split() for line in text.splitlines()[1:]}
+    assert rows["0"][3:8] == ["1", "3.00", "-", "90", "-"]  # one sample: speed and direction, no spreads
+    assert rows["10"][7] == "-"                              # calm samples: no direction spread
+    assert rows["20"][3:10] == ["0", "-", "-", "-", "-", "-", "-"]  # an empty bin
+
+
+def test_a_log_that_never_flew_is_named_as_such_not_sent_to_allow(tmp_path, capsys):
+    """A pre-arm log gives no row because it never flew: --allow cannot admit LANDED, so the refusal must
+    say what is missing (a flight), not point at --allow."""
+    _, cols = atmos_logs.flight(hold_s=1.0)
+    log = atmos_logs.write_log(tmp_path / "ground.bin", cols, airborne=False)
+    assert main(["profile", str(M300), str(log), "-o", str(tmp_path / "p.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "ground.bin: never airborne (every row LANDED)" in err and "--allow admits" not in err
+    assert not (tmp_path / "p.csv").exists()
+
+
+def test_why_no_row_names_the_flags_that_kept_the_rows_out():
+    from dobwind.atmos.profile import why_no_row
+    from dobwind.model.status import STATUS_LANDED
+
+    settling, uncal = 1 << 6, 1 << 10
+    status = np.array([STATUS_LANDED] * 3 + [settling] * 2 + [settling | uncal] * 5 + [1 << 1])
+    text = why_no_row(status, np.zeros(len(status), bool))
+    assert "none of its 7 accepted airborne rows is trusted (SETTLING|UNCALIBRATED 5, SETTLING 2)" in text
+    assert "never airborne" in why_no_row(np.full(4, STATUS_LANDED), np.zeros(4, bool))
+
+
+def test_why_no_row_under_allow_names_what_was_allowed():
+    from dobwind.atmos.profile import why_no_row
+
+    uncal, suspect = 1 << 10, 1 << 13
+    status = np.full(6, uncal | suspect)
+    text = why_no_row(status, np.zeros(6, bool), allow=uncal)
+    assert "none of its 6 accepted airborne rows is trusted or flagged only as --allow admits (UNCALIBRATED|SUSPECT 6)" in text

@@ -272,3 +272,64 @@ def test_replay_prints_every_accepted_row_when_few_are_trusted():
     wind = np.vstack([_steady(9, 5.0, 0.0), _steady(1, 6.0, 0.0)])
     status = np.array([0] * 9 + [extrapolated])
     assert len(sitl_line(sitl_summary(sitl, clock, wind, status)[0])) == 1
+
+
+def test_an_unestimated_vertical_wind_is_no_agreement_with_the_simulator(sitl_log, tmp_path, capsys):
+    """An airframe whose vertical law is the zero-wind fallback publishes 0 by construction: its mean
+    vertical wind is null in --json and left out of the report's table, not a 0.000 m/s beside the
+    simulator's 0.000 that reads as agreement."""
+    _, path, _, log, _ = sitl_log
+    text = Path(path).read_text()
+    flat = tmp_path / "flat.toml"
+    flat.write_text(text.replace("[force_air.horizontal]", '[force_air]\nvertical_law = "zero-wind"\n\n[force_air.horizontal]'))
+    assert load_airframe(str(flat)).vertical_law == VERTICAL_FALLBACK
+    block = _replay_json(capsys, flat, log)["sitl_wind"]
+    assert block["mean_up_mps"] is None and block["accepted_rows"]["mean_up_mps"] is None
+    assert block["true_mean_up_mps"] == pytest.approx(0.0, abs=1e-9) and block["mean_speed_mps"] > 0
+    assert _replay_json(capsys, path, log)["sitl_wind"]["mean_up_mps"] is not None  # a fitted law keeps it
+    page = tmp_path / "r.html"
+    assert main(["report", str(flat), log, "-o", str(page)]) == 0
+    assert "<code>mean_up_mps</code>" not in page.read_text() and "<code>true_mean_up_mps</code>" in page.read_text()
+
+
+def test_figures_draw_no_vertical_wind_for_an_airframe_that_does_not_estimate_it(sitl_log, tmp_path, monkeypatch):
+    """replay --plot and report: the zero-wind fallback's vertical 0 is no measured calm, so dobwind's
+    vertical column reaches the figure as NaN (docs/figures.md: no vertical line), the horizontal intact."""
+    import dobwind.io.plots as plots
+
+    drawn, draw = [], plots.replay_plot
+
+    def spy(*a, **k):
+        drawn.append(np.asarray(a[1]))
+        return draw(*a, **k)  # the report embeds the file it draws
+
+    monkeypatch.setattr(plots, "replay_plot", spy)
+    _, path, _, log, _ = sitl_log
+    flat = tmp_path / "flat.toml"
+    flat.write_text(Path(path).read_text().replace("[force_air.horizontal]",
+                                                   '[force_air]\nvertical_law = "zero-wind"\n\n[force_air.horizontal]'))
+    assert main(["replay", str(flat), log, "--plot", str(tmp_path / "w.png")]) == 0
+    assert main(["report", str(flat), log, "-o", str(tmp_path / "r.html")]) == 0
+    assert main(["replay", str(path), log, "--plot", str(tmp_path / "v.png")]) == 0
+    flat_replay, flat_report, fitted = drawn[0], drawn[1], drawn[-1]
+    for wind in (flat_replay, flat_report):
+        assert np.all(np.isnan(wind[:, 2])) and np.isfinite(wind[:, :2]).any()
+    assert np.isfinite(fitted[:, 2]).any()  # a fitted vertical law is drawn
+
+
+def test_an_autopilot_logs_figures_say_their_time_axis_is_the_logs_own_clock(sitl_log, tmp_path, monkeypatch):
+    """PX4's and ArduPilot's clocks count from boot: a bare "time (s)" invites reading them as UTC."""
+    import dobwind.io.plots as plots
+
+    labels, save = [], plots.save
+
+    def spy(fig, path):
+        labels.append(fig.axes[-1].get_xlabel())
+        return save(fig, path)
+
+    monkeypatch.setattr(plots, "save", spy)
+    _, path, _, log, _ = sitl_log
+    assert main(["replay", str(path), log, "--plot", str(tmp_path / "w.png")]) == 0
+    assert main(["report", str(path), log, "-o", str(tmp_path / "r.html")]) == 0
+    assert labels[0] == plots.LOG_CLOCK_LABEL and plots.LOG_CLOCK_LABEL in labels[1:]
+    assert "not UTC" in plots.LOG_CLOCK_LABEL

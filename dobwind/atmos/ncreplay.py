@@ -86,10 +86,11 @@ def replay_csv_netcdf(args: argparse.Namespace, af: Airframe, out, block_bytes: 
                       step, lambda geo: warn_without_position("replay", str(args.log), geo))
     scored = last["truth"] is not None
     if args.plot is not None:
-        from dobwind.io.plots import replay_plot
+        from dobwind.io.plots import published, replay_plot
 
         truth = None if kept[0][2] is None else np.concatenate([k[2] for k in kept])
-        replay_plot(np.concatenate([k[0] for k in kept]), np.concatenate([k[1] for k in kept]), truth,
+        wind = published(np.concatenate([k[1] for k in kept]), af.vertical_law)
+        replay_plot(np.concatenate([k[0] for k in kept]), wind, truth,
                     f"{af.name}: wind estimated over {os.path.basename(args.log)}", str(out.stage(args.plot)))
     return CsvReplay({**(scorer.result() if scored else counts), "rejections": rejections}, scored,
                      tuple(checks.findings()))

@@ -158,6 +158,8 @@ def flight_samples(af: Airframe, path: str, backend: str = "python", precision: 
     else:
         raise InputError(path, None, "no global or local position in the log: a profile needs the height of each row")
     keep = (np.asarray(traj.status).astype(np.int64) & ~allow) == 0
+    if not (keep & np.isfinite(height)).any():
+        notes.append(why_no_row(np.asarray(traj.status).astype(np.int64), keep, allow))
     out = traj.outputs
     kept_t = t[keep & np.isfinite(height)]
     utc = (float(kept_t[0] + geo.utc_offset_s), float(kept_t[-1] + geo.utc_offset_s)) \
@@ -170,6 +172,25 @@ def flight_samples(af: Airframe, path: str, backend: str = "python", precision: 
     return Samples(height[keep], wind,
                    out[keep][:, model.outputs.slice("wind_sigma_h")][:, 0],
                    out[keep][:, model.outputs.slice("wind_sigma_up")][:, 0], tuple(notes), utc)
+
+
+def why_no_row(status: np.ndarray, keep: np.ndarray, allow: int = 0) -> str:
+    """Why a flight gave the profile no row, in words that say what to fly or allow next time: a log that
+    never flew is no rejected estimate, and no --allow can admit it."""
+    from dobwind.model.status import STATUS_LANDED, accepted, describe
+
+    if not len(status) or np.all(status & STATUS_LANDED):
+        return "no row: never airborne (every row LANDED): the log of a flight is needed"
+    ok = accepted(status)
+    if not ok.any():
+        return "no row: no airborne row was accepted by the estimator (see `dobwind replay` for the rejections)"
+    if keep.any():
+        return "no row: the kept rows have no height (no position near them)"
+    values, counts = np.unique(status[ok], return_counts=True)
+    flags = ", ".join(f"{describe(int(v))} {int(c)}" for v, c in sorted(zip(values, counts), key=lambda x: -x[1]))
+    kept = "trusted" + (" or flagged only as --allow admits" if allow else "")
+    return (f"no row: none of its {int(ok.sum())} accepted airborne rows is {kept} ({flags}); a longer flight "
+            "settles, a calibrated airframe is not UNCALIBRATED, --allow FLAG admits a quality flag")
 
 
 def _integrated_height(t: np.ndarray, vel_d: np.ndarray) -> np.ndarray:

@@ -78,9 +78,9 @@ def run(args: argparse.Namespace) -> int:
         return max(r.code for r in done)  # each log's reason is on stderr already: nothing written
     if not stats:
         where = ", ".join(logs[:3]) + (" ..." if len(logs) > 3 else "")
-        why = (f"{args.airframe} is an uncalibrated prior, so every estimate carries UNCALIBRATED: calibrate it "
-               "with `dobwind fit`, or --allow uncalibrated for a rough profile" if af.uncalibrated
-               else "--allow admits quality-flagged rows")
+        prior = (f"{args.airframe} is an uncalibrated prior, so every estimate carries UNCALIBRATED: calibrate it "
+                 "with `dobwind fit`, or --allow uncalibrated for a rough profile" if af.uncalibrated else "")
+        why = "; ".join([prior] * bool(prior) + _reasons(good)) or "--allow admits quality-flagged rows"
         raise InputError(where, None, f"no trusted estimate with a height in any log: nothing written ({why})")
     span = coverage([r.value[3] for r in good])
     with OutputFiles(targets) as out:
@@ -100,6 +100,11 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(_text(stats, done, kept_rows(args.allow)))
     return max(r.code for r in done)
+
+
+def _reasons(good: list[Done]) -> list[str]:
+    """Each log's own reason for giving no row (atmos/profile.py why_no_row), named by the log."""
+    return [f"{Path(r.log).name}: {n.removeprefix('no row: ')}" for r in good for n in r.value[2] if n.startswith("no row: ")]
 
 
 def _as_json(stats: dict[str, np.ndarray], done: list[Done], args: argparse.Namespace) -> dict:
@@ -123,9 +128,10 @@ def kept_rows(allow: list[str] | None) -> str:
 def _text(stats: dict[str, np.ndarray], done: list[Done], kept: str = "trusted rows") -> str:
     rows = []
     for k in range(len(stats["count"])):
+        # An empty bin, a bin of one sample (no spread) or of calm samples (no direction) prints '-', not nan.
         rows.append([f"{stats['height_bottom_m'][k]:g} .. {stats['height_top_m'][k]:g}", str(stats["count"][k]),
-                     f"{stats['speed_mean_mps'][k]:.2f}", f"{stats['speed_std_mps'][k]:.2f}",
-                     f"{stats['direction_from_deg'][k]:.0f}", f"{stats['direction_spread_deg'][k]:.0f}",
+                     _or_dash(stats['speed_mean_mps'][k]), _or_dash(stats['speed_std_mps'][k]),
+                     _or_dash(stats['direction_from_deg'][k], 0), _or_dash(stats['direction_spread_deg'][k], 0),
                      _signed_or_dash(stats['up_mean_mps'][k]), _or_dash(stats['sigma_h_mps'][k])])
     flights = [f"{r.log}: {r.value[1]} {kept}" + "".join(f"; {n}" for n in r.value[2]) if r.value is not None
                else f"{r.log}: failed" for r in done]
@@ -133,9 +139,9 @@ def _text(stats: dict[str, np.ndarray], done: list[Done], kept: str = "trusted r
     return "\n".join([format_table(header, rows), *flights])
 
 
-def _or_dash(value: float) -> str:
+def _or_dash(value: float, digits: int = 2) -> str:
     """NaN (no sample, an unknown sigma, no vertical wind) as '-', not as a number."""
-    return f"{value:.2f}" if np.isfinite(value) else "-"
+    return f"{value:.{digits}f}" if np.isfinite(value) else "-"
 
 
 def _signed_or_dash(value: float) -> str:

@@ -113,10 +113,10 @@ def _replay_csv(args: argparse.Namespace, af):
             result = replay_stream(af, args.log, args.backend, args.precision, handle,
                                    keep_series=args.plot is not None, progress=progress)
         if args.plot is not None:
-            from dobwind.io.plots import replay_plot
+            from dobwind.io.plots import published, replay_plot
 
             series = result.series
-            replay_plot(series.t, series.wind, series.truth,
+            replay_plot(series.t, published(series.wind, af.vertical_law), series.truth,
                         f"{af.name}: wind estimated over {os.path.basename(args.log)}", str(out.stage(args.plot)))
     return result
 
@@ -192,10 +192,11 @@ def _replay_ulog(args: argparse.Namespace, af) -> int:
             sigma = traj.outputs[:, model.outputs.slice("wind_sigma_h")][:, 0]
             write_px4_wind(out.stage(args.px4_wind), px4_wind_rows(flight, wind, sigma, traj.status, valid))
         if args.plot is not None:
+            from dobwind.io.plots import published
             from dobwind.replay.replay import autopilot_plot
 
             autopilot_plot(str(out.stage(args.plot)), f"{af.name}: wind estimated over {os.path.basename(args.log)}",
-                           flight, wind, traj.status)
+                           flight, published(wind, af.vertical_law), traj.status)
     if args.json:
         print_json(summary)
         return 0

@@ -3,11 +3,32 @@
 sitting in loginspect made an import cycle."""
 from __future__ import annotations
 
+from dataclasses import replace
+
+from dobwind.core.errors import InputError
 from dobwind.inspect.loginspect import LogSummary
 
 
 def inspect_log(path: str) -> LogSummary:
-    return _inspect(path).with_rpm_usability()
+    summary = _inspect(path).with_rpm_usability()
+    return replace(summary, position=_position(path, summary.format))
+
+
+def _position(path: str, kind: str) -> dict:
+    """Where replay's NetCDF and profile would take position, height and UTC from (dobwind/io/position.py),
+    so a meteorologist learns before the campaign, not after it, whether the logs carry UTC and a position."""
+    from dobwind.io.position import read_geo
+
+    if kind == "csv":
+        return {"position": "the lat, lon, alt columns where the log has them (else the height integrated from vel_d)",
+                "utc": None, "time_source": "no UTC in CSV logs: time is the log's own t column"}
+    try:
+        geo = read_geo(path)
+    except InputError as exc:
+        return {"position": None, "utc": None, "time_source": f"not read: {exc}"}
+    where = (geo.track.source if geo.track is not None
+             else f"none (heights from {geo.local.source})" if geo.local is not None else None)
+    return {"position": where, "utc": geo.utc_offset_s is not None, "time_source": geo.time_source}
 
 
 def _inspect(path: str) -> LogSummary:

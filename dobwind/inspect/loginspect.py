@@ -98,6 +98,9 @@ class LogSummary:
     # earliest and latest of them: a damaged clock's, not part of the span.
     outside_span: int = 0
     outside_span_s: tuple[float, float] | None = None
+    # Where replay's NetCDF and profile take position and UTC from (anylog._position): position (a topic,
+    # or None), utc (bool or None), time_source (the sentence the NetCDF's attribute carries).
+    position: dict[str, Any] | None = None
 
     @property
     def duration_s(self) -> float:
@@ -285,6 +288,9 @@ def text_report(s: LogSummary) -> str:
     lines.append(f"  autopilot wind: {'ACTIVE' if w.active else 'inactive'}"
                  + (f" from {w.source}" if w.source else "") + f": {w.reason}"
                  + (f"; mean {w.mean_speed_mps:.2f} m/s" if w.mean_speed_mps is not None else ""))
+    if s.position is not None:
+        lines.append(f"  position and UTC (replay -o .nc, profile): position {s.position['position'] or 'none'}; "
+                     + ("UTC from " if s.position["utc"] else "") + s.position["time_source"])
     if s.parameters:
         lines.append("  parameters: " + ", ".join(f"{k} {v:g}" for k, v in s.parameters.items()))
     missing = s.missing()

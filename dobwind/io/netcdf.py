@@ -59,6 +59,17 @@ def calibration_text(af: Airframe) -> str:
     return "; ".join(parts)
 
 
+def time_response_text(af: Airframe) -> str:
+    """How much of the past each estimate averages (an attribute a meteorologist needs to compare rows with
+    a mast's 1 s or 10 min means): the output of causal filters, not a block mean."""
+    steps = ", ".join(f"{c:g} Hz at {v:g} m/s (time constant {1.0 / (2.0 * np.pi * c):.2f} s)"
+                      for v, c in zip(af.filter.speeds_mps, af.filter.cutoffs_hz))
+    return (f"each row is the output of causal filters at {1.0 / af.observer.sample_time_s:g} Hz, not a block "
+            f"mean: the disturbance observer, then a first-order low-pass whose cutoff follows the estimated "
+            f"horizontal wind speed ({steps}, linear between, held outside): neighbouring rows are correlated "
+            "and the estimate lags the wind (`dobwind analyze AIRFRAME` gives the bandwidth and the ramp lag)")
+
+
 def global_attrs(src: Source, geo: Geo, title: str) -> dict[str, str]:
     af = src.airframe
     return {"Conventions": cfnames.CONVENTIONS, "title": title,
@@ -69,7 +80,7 @@ def global_attrs(src: Source, geo: Geo, title: str) -> dict[str, str]:
             "dobwind_version": _version(), "dobwind_airframe": af.name,
             "dobwind_airframe_file": Path(src.airframe_path).name, "dobwind_airframe_sha256": af.content_sha256,
             "dobwind_calibration": calibration_text(af), "dobwind_log": Path(src.log_path).name,
-            "time_source": geo.time_source}
+            "dobwind_time_response": time_response_text(af), "time_source": geo.time_source}
 
 
 def row_dimension(geo: Geo) -> str:
@@ -81,8 +92,10 @@ def _coords(t_log: np.ndarray, geo: Geo) -> dict[str, tuple]:
     reference date there is no CF time coordinate at all (a coordinate named time in plain seconds is an
     error to CF checkers): the rows' dimension is then ``log_time``, and every variable runs along it."""
     dim = row_dimension(geo)
-    coords = {"log_time": (dim, t_log, {"long_name": "the log's own clock (time since the autopilot booted)",
-                                        "units": "s"})}
+    # "Since boot" is what PX4 and ArduPilot flight controllers stamp, but a SITL may count from 1970 (PX4's
+    # sample_px4_events.ulg starts at 1.71e9 s) and a ROS 2 bag keeps its recorder's clock: say what it is not.
+    coords = {"log_time": (dim, t_log, {"long_name": "the log's own clock, as it stamps its rows (a flight "
+                                        "controller's: time since boot); not corrected to UTC", "units": "s"})}
     if geo.utc_offset_s is not None:
         coords["time"] = ("time", t_log + geo.utc_offset_s,
                           {"standard_name": "time", "long_name": "time (UTC)", "axis": "T",
@@ -131,9 +144,12 @@ def estimate_dataset(cols: dict[str, np.ndarray], t_log: np.ndarray, pos: RowPos
     if pos is not None:
         ds.attrs["featureType"] = "trajectory"
         ds["trajectory"] = ((), Path(src.log_path).name, {"cf_role": "trajectory_id", "long_name": "flight log"})
+        # Every coordinate of the rows, log_time too: one left out of every variable's list is written by
+        # xarray as a global "coordinates" attribute, which CF does not have (cfchecks: "non-standard").
+        rows = dim if dim == "log_time" else f"{dim} log_time"
         for var in ds.data_vars:
             if ds[var].dims == (dim,):
-                ds[var].attrs["coordinates"] = f"{dim} lat lon alt height"
+                ds[var].attrs["coordinates"] = f"{rows} lat lon alt height"
     return ds
 
 
@@ -160,6 +176,10 @@ def dataset_encoding(ds) -> dict[str, dict]:
             enc[name] = {"_FillValue": None if name in plain else np.nan}
         elif name == "status":
             enc[name] = {"_FillValue": None}
+        elif var.dtype.kind in "UO":
+            # Text as a char array, not NetCDF-4's variable-length string: CF's classic form, which every
+            # reader takes (cfchecks 4.1.0 refuses the vlen string: "vlen types not supported").
+            enc[name] = {"dtype": "S1"}
         if var.ndim:
             enc.setdefault(name, {})["zlib"] = True
     return enc

@@ -39,6 +39,22 @@ class Series:
     is_truth: bool = False  # the reference the others are judged by (the log's or the simulator's true wind)
 
 
+# An autopilot log's time axis: PX4's and ArduPilot's clocks count from boot (a SITL may count from 1970),
+# so a reader must not take the numbers for UTC; the NetCDF output has UTC where the log has GPS time.
+LOG_CLOCK_LABEL = "time on the log's own clock (s; not UTC)"
+
+
+def published(wind: np.ndarray, vertical_law: str) -> np.ndarray:
+    """dobwind's wind as a figure should draw it: an airframe whose vertical law is the zero-wind fallback
+    publishes a vertical wind of 0 by construction, which drawn would read as a measured calm, so its
+    vertical column becomes NaN (no vertical line), as the NetCDF leaves upward_air_velocity out."""
+    from dobwind.model.airframe import VERTICAL_FALLBACK
+
+    if vertical_law != VERTICAL_FALLBACK:
+        return wind
+    return np.column_stack([np.asarray(wind)[:, :2], np.full(len(wind), np.nan)])
+
+
 def save(fig, path: str | Path) -> None:
     """PNG through a temporary (removed on any failure), whatever the name's extension."""
     from dobwind.io.atomic import write_file_atomically
@@ -159,12 +175,14 @@ def _vertical_panel(ax, series: list[Series]) -> None:
 
 def replay_plot(t: np.ndarray, wind: np.ndarray, truth: np.ndarray | None, title: str, path: str,
                 others: list[tuple[str, np.ndarray, np.ndarray]] = (), status: np.ndarray | None = None,
-                band: tuple[str, np.ndarray, np.ndarray, np.ndarray] | None = None, truth_label: str = "true wind") -> None:
+                band: tuple[str, np.ndarray, np.ndarray, np.ndarray] | None = None, truth_label: str = "true wind",
+                time_label: str = "time (s)") -> None:
     """Speed, direction (from) and vertical wind (up) over time; truth and other estimates if given.
     ``others``: (label, time, wind NED) for other estimators; a NaN vertical column means "no vertical".
     ``status``: per row of t, shades the rows without an estimate (grey) and the untrusted ones (amber).
     ``band``: (label, t, low, high) drawn behind the speed panel (an autopilot's own 1-sigma).
-    ``truth_label``: the truth's name in the legend (an ArduPilot SITL log's: the simulator's wind)."""
+    ``truth_label``: the truth's name in the legend (an ArduPilot SITL log's: the simulator's wind).
+    ``time_label``: the x axis (an autopilot log's: LOG_CLOCK_LABEL, which is no UTC)."""
     series = _series(t, wind, truth, list(others), truth_label)
     directions = _directions(series)
     if directions:
@@ -180,7 +198,7 @@ def replay_plot(t: np.ndarray, wind: np.ndarray, truth: np.ndarray | None, title
     if status is not None:
         for i, ax in enumerate(axes):
             _shade_status(ax, t, status, legend=i == 0)
-    axes[-1].set_xlabel("time (s)")
+    axes[-1].set_xlabel(time_label)
     axes[0].set_title(title)
     for ax in axes:
         ax.grid(True, alpha=0.3)

@@ -31,6 +31,10 @@ ARDUPILOT_3D_FIX = 3
 MAX_POSITION_GAP_S = 2.0
 # PX4 sets time_utc_usec to 0 until the receiver knows the time; anything before 2001 is not a fix.
 MIN_UTC_S = 978307200.0
+# The ground a flight stands on: the landed rows this close before its take-off (or after its landing).
+# A few seconds: enough samples for GPS noise to average, short enough that a vehicle carried to another
+# spot between two flights in one log is measured from where it took off.
+GROUND_S = 5.0
 
 
 @dataclass(frozen=True)
@@ -215,38 +219,79 @@ def _near_sample(t_src: np.ndarray, t: np.ndarray) -> np.ndarray:
 
 def on_rows(track: Track, t: np.ndarray, landed: np.ndarray | None = None) -> RowPosition:
     """The track interpolated onto the estimate rows ``t`` (the log's own clock), with the height above
-    the take-off point: above the log's home where it records one, else above the altitude where the
-    vehicle stood before its first airborne row (``landed``), else above the track's first altitude."""
+    the take-off point (_ground_altitude: the ground each flight stood on before its take-off, else the
+    log's home, else where it landed, else the track's first altitude)."""
     ok = _near_sample(track.t_s, t)
     lat = np.where(ok, np.interp(t, track.t_s, track.lat_deg), np.nan)
     lon_unwrapped = np.unwrap(track.lon_deg, period=360.0)  # a flight across the antimeridian stays continuous
     lon = (np.interp(t, track.t_s, lon_unwrapped) + 180.0) % 360.0 - 180.0
     lon = np.where(ok, lon, np.nan)
     alt = np.where(ok, np.interp(t, track.t_s, track.alt_m), np.nan)
+    home = None
     if track.home_alt_m is not None:
         before = np.clip(np.searchsorted(track.t_s, t, side="right") - 1, 0, len(track.t_s) - 1)
         home = track.home_alt_m[before]  # held: a new home is a step, not a ramp
-        return RowPosition(lat, lon, alt, alt - home, f"{track.source} altitude above home")
-    ground = _takeoff_altitude(alt, landed)
-    return RowPosition(lat, lon, alt, alt - ground[0], ground[1])
+    ground, how = _ground_altitude(alt, landed, t, home)
+    return RowPosition(lat, lon, alt, alt - ground, f"{track.source} {how}")
 
 
 def local_height_on_rows(local: LocalHeight, t: np.ndarray, landed: np.ndarray | None = None) -> tuple[np.ndarray, str]:
     """Height above take-off from the estimator's up position, when the log has no global position."""
     ok = _near_sample(local.t_s, t)
     up = np.where(ok, np.interp(t, local.t_s, local.up_m), np.nan)
-    ground, how = _takeoff_altitude(up, landed)
+    ground, how = _ground_altitude(up, landed, t)
     return up - ground, f"{local.source} (no global position): {how.replace('altitude', 'up position')}"
 
 
-def _takeoff_altitude(alt: np.ndarray, landed: np.ndarray | None) -> tuple[float, str]:
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """[start, stop) of each run of equal values in ``mask``."""
+    edges = np.flatnonzero(np.diff(mask.astype(np.int8))) + 1
+    bounds = np.r_[0, edges, len(mask)]
+    return list(zip(bounds[:-1].tolist(), bounds[1:].tolist()))
+
+
+def _ground_altitude(alt: np.ndarray, landed: np.ndarray | None, t: np.ndarray,
+                     home: np.ndarray | None = None) -> tuple[np.ndarray, str]:
+    """Per row, the altitude of the ground its flight took off from, and how it was found. Each flight (a
+    run of airborne rows) is measured from the ground just before it (the median over the last GROUND_S
+    of the landed rows there); else from the log's home (per row, ``home``); else, when the log begins in
+    the air, from the ground just after it landed; else from the first position. The ground comes first
+    because a home need not be on it: PX4 re-homed the x500 field log during its climb-out, 1.7 m above
+    the ground it took off from, and its flight read -2 m at the landing. And the first position is no
+    take-off point: the drag-fusion PX4 log began 6 m up and read -6 m at its landing. Landed rows are
+    measured from their own ground (median), or home."""
     finite = np.isfinite(alt)
-    if landed is not None and landed.any():
-        airborne = np.flatnonzero(~landed)
-        first = airborne[0] if airborne.size else len(alt)
-        before = finite[:first] & landed[:first]
-        if before.any():
-            return float(np.median(alt[:first][before])), "altitude above the ground before take-off"
-    if not finite.any():
-        return float("nan"), "no altitude"
-    return float(alt[np.flatnonzero(finite)[0]]), "altitude above the log's first position (no take-off in the log)"
+    first = float(alt[np.flatnonzero(finite)[0]]) if finite.any() else float("nan")
+    runs = _runs(np.asarray(landed, bool)) if landed is not None and landed.any() else [(0, len(alt))]
+    ground, used = np.full(len(alt), np.nan), set()
+    for k, (a, b) in enumerate(runs):
+        on_ground = landed is not None and bool(landed[a])
+        prev = nxt = float("nan")
+        if on_ground:
+            prev = _median(alt[a:b])
+        elif landed is not None and landed.any():
+            prev = _median(alt[runs[k - 1][0]:a][t[runs[k - 1][0]:a] >= t[a - 1] - GROUND_S]) if k else np.nan
+            nxt = _median(alt[b:runs[k + 1][1]][t[b:runs[k + 1][1]] <= t[b] + GROUND_S]) if k + 1 < len(runs) else np.nan
+        for name, level in (("before", prev), ("home", home[a:b] if home is not None else np.nan),
+                            ("after", nxt), ("first", first)):
+            if np.all(np.isfinite(level)):
+                ground[a:b] = level
+                used.add(name if not on_ground else "before")
+                break
+    return ground, _ground_text(used, finite.any())
+
+
+def _ground_text(used: set[str], any_altitude: bool) -> str:
+    if not any_altitude:
+        return "no altitude"
+    for name, text in (("first", "altitude above the log's first position (no take-off in the log)"),
+                       ("after", "altitude above the ground where it landed (the log begins in the air)"),
+                       ("home", "altitude above home (no ground before the take-off in the log)")):
+        if name in used:
+            return text
+    return "altitude above the ground before take-off"
+
+
+def _median(values: np.ndarray) -> float:
+    values = values[np.isfinite(values)]
+    return float(np.median(values)) if values.size else float("nan")

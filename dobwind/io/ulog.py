@@ -430,6 +430,23 @@ def _columns(af: Airframe, topics: dict, thrust_src, hover_topic, hover_param, y
     return cols
 
 
+def _mean_directions(ours: np.ndarray, theirs: np.ndarray) -> dict:
+    """Speed and direction (FROM, clockwise from north: the meteorological convention, which both winds are
+    turned into from their north and east velocities of the air) of each mean wind, and how far apart the
+    directions are, so a reader sees at once whether the autopilot and dobwind agree on where the wind
+    comes from. A mean below 0.1 m/s has no direction (None)."""
+    from dobwind.model.forceair import wind_from_deg
+
+    out: dict = {}
+    for who, rows in (("ours", ours), ("theirs", theirs)):
+        n, e = rows.mean(axis=0)
+        out[f"mean_wind_{who}_speed_mps"] = float(np.hypot(n, e))
+        out[f"mean_wind_{who}_from_deg"] = float(wind_from_deg(n, e)) if np.hypot(n, e) >= 0.1 else None
+    a, b = out["mean_wind_ours_from_deg"], out["mean_wind_theirs_from_deg"]
+    out["direction_difference_deg"] = None if a is None or b is None else float((a - b + 180.0) % 360.0 - 180.0)
+    return out
+
+
 def compare_with_px4(t: np.ndarray, wind: np.ndarray, valid: np.ndarray, px4: tuple[str, np.ndarray, np.ndarray],
                      variance: np.ndarray | None = None) -> dict:
     """Differences between our horizontal wind and the autopilot's, over our valid rows where the
@@ -452,7 +469,7 @@ def compare_with_px4(t: np.ndarray, wind: np.ndarray, valid: np.ndarray, px4: tu
                mean_difference_ne_mps=[float(v) for v in diff.mean(axis=0)],
                mean_speed_difference_mps=float(np.mean(np.linalg.norm(ours, axis=1) - np.linalg.norm(theirs, axis=1))),
                mean_wind_ours_ne_mps=[float(v) for v in ours.mean(axis=0)],
-               mean_wind_theirs_ne_mps=[float(v) for v in theirs.mean(axis=0)])
+               mean_wind_theirs_ne_mps=[float(v) for v in theirs.mean(axis=0)], **_mean_directions(ours, theirs))
     if variance is not None:
         var = np.column_stack([np.interp(t[inside], tp, variance[:, i]) for i in range(2)])
         out.update(variance_north_m2s2=float(np.mean(var[:, 0])), variance_east_m2s2=float(np.mean(var[:, 1])),

@@ -169,21 +169,24 @@ def autopilot_summary(name: str, log_path: str, backend: str, model: StepModel, 
     if flight.px4_wind is not None:
         summary["px4"] = compare_with_px4(log.time_s, wind, valid, flight.px4_wind, flight.autopilot_wind_variance)
     if flight.sitl is not None:  # an ArduPilot SITL log: the wind its simulator was told to blow
+        from dobwind.model.airframe import VERTICAL_FALLBACK
         from dobwind.replay.sitlcompare import sitl_summary
 
-        summary["sitl_wind"] = sitl_summary(flight.sitl, log.time_s + flight.t0_s, wind, traj.status)[0]
+        summary["sitl_wind"] = sitl_summary(flight.sitl, log.time_s + flight.t0_s, wind, traj.status,
+                                            model.airframe.vertical_law != VERTICAL_FALLBACK)[0]
     return summary
 
 
 def autopilot_plot(path: str, title: str, flight, wind: np.ndarray, status: np.ndarray) -> None:
     """replay --plot for an autopilot log: on the log's own clock, status shading, the autopilot's wind
     only where it is active."""
-    from dobwind.io.plots import replay_plot
+    from dobwind.io.plots import LOG_CLOCK_LABEL, replay_plot
 
     ref, band = reference_lines(flight)
     clock = flight.log.time_s + flight.t0_s
     replay_plot(clock, np.where(accepted(status)[:, None], wind, np.nan), sitl_truth(flight), title, path,
-                [] if ref is None else [ref], status=status, band=band, truth_label=SITL_LABEL)
+                [] if ref is None else [ref], status=status, band=band, truth_label=SITL_LABEL,
+                time_label=LOG_CLOCK_LABEL)
 
 
 SITL_LABEL = "simulator wind (SIM_WIND_*)"
@@ -224,10 +227,20 @@ def autopilot_wind_lines(px4: dict | None) -> list[str]:
     lines = [f"{label}: mean vector difference {px4['mean_vector_difference_mps']:.2f} m/s (difference of the means "
              f"{px4['difference_of_means_mps']:.2f} m/s), mean speed difference (ours - theirs) "
              f"{px4['mean_speed_difference_mps']:+.2f} m/s over {px4['overlap_rows']} instants"]
+    if "mean_wind_ours_speed_mps" in px4:
+        lines.append(f"  mean wind: ours {_speed_from(px4, 'ours')}, theirs {_speed_from(px4, 'theirs')}"
+                     + ("" if px4["direction_difference_deg"] is None
+                        else f"; direction {px4['direction_difference_deg']:+.0f} deg"))
     if "sigma_h_mps" in px4:
         lines.append(f"  its own variances there: north {px4['variance_north_m2s2']:.3g}, east {px4['variance_east_m2s2']:.3g} "
                      f"m²/s² (horizontal 1-sigma {px4['sigma_h_mps']:.2f} m/s)")
     return lines
+
+
+def _speed_from(px4: dict, who: str) -> str:
+    """'S m/s from D deg' of one mean wind of compare_with_px4's dict (no direction below 0.1 m/s)."""
+    speed, from_deg = px4[f"mean_wind_{who}_speed_mps"], px4[f"mean_wind_{who}_from_deg"]
+    return f"{speed:.2f} m/s" + ("" if from_deg is None else f" from {from_deg:.0f} deg")
 
 
 def text_report(metrics: dict) -> str:

@@ -44,14 +44,24 @@ def _figures(ours: np.ndarray, true: np.ndarray) -> dict:
     out.update(mean_speed_mps=speed, true_mean_speed_mps=true_speed, speed_difference_mps=speed - true_speed,
                from_deg=from_ours, true_from_deg=from_true, direction_difference_deg=float(wrap_deg(from_ours - from_true)),
                mean_vector_error_mps=float(np.mean(np.hypot(*(ours[:, :2] - true[:, :2]).T))),
-               mean_up_mps=float(-mean_ours[2]) + 0.0, true_mean_up_mps=float(-mean_true[2]) + 0.0)  # no "-0.0"
+               mean_up_mps=_up(mean_ours[2]), true_mean_up_mps=_up(mean_true[2]))
     return out
 
 
-def sitl_summary(sitl: SitlLog, clock_s: np.ndarray, wind: np.ndarray, status: np.ndarray) -> tuple[dict, np.ndarray]:
+def _up(mean_down: float) -> float | None:
+    """A mean down wind as up, positive; None where it is not estimated (NaN: see sitl_summary)."""
+    return float(-mean_down) + 0.0 if np.isfinite(mean_down) else None  # + 0.0: no "-0.0"
+
+
+def sitl_summary(sitl: SitlLog, clock_s: np.ndarray, wind: np.ndarray, status: np.ndarray,
+                 vertical_estimated: bool = True) -> tuple[dict, np.ndarray]:
     """(`sitl_wind` of replay's JSON, the simulator's wind on every row, NED): the parameters at the end
-    of the log, where the altitude came from, and the comparison."""
+    of the log, where the altitude came from, and the comparison. ``vertical_estimated`` False (an airframe
+    whose vertical law is the zero-wind fallback): the step's vertical wind is 0 by construction, not a
+    measurement, so dobwind's mean vertical wind is null rather than a 0 that "agrees" with the simulator."""
     truth = sitl_wind_ned(sitl, clock_s)
+    if not vertical_estimated:
+        wind = np.column_stack([wind[:, :2], np.full(len(wind), np.nan)])
     # The log holds the parameters as float32: their shortest float32 text (0.01, not 0.009999999776).
     parameters = {name: float(str(np.float32(value))) for name, value in sitl.final_parameters().items()}
     block = {"source": SOURCE, "parameters": parameters, "altitude_source": sitl.altitude_source,

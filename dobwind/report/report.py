@@ -8,6 +8,7 @@ no network (in the spirit of PX4 Flight Review, which needs both)."""
 from __future__ import annotations
 
 import base64
+import sys
 import tempfile
 from dataclasses import dataclass
 from datetime import datetime, timezone
@@ -46,6 +47,10 @@ class Flight:
     band: tuple | None = None   # (label, time, low, high): the autopilot's own 1-sigma around its speed
     truth_label: str = "true wind"  # the truth's name (an ArduPilot SITL log's: the simulator's wind)
     sitl: dict | None = None    # dobwind against the simulator's wind (replay/sitlcompare.py), SITL logs only
+    # What the reader warns of (a file cut inside a message, a log that never flew): replay says it on
+    # stderr; the page says it first among the notes, and `report` on stderr too.
+    warnings: tuple[str, ...] = ()
+    time_label: str = "time (s)"  # an autopilot log's: its own clock, which is no UTC (io/plots.py LOG_CLOCK_LABEL)
 
 
 def _png(path: Path, caption: str) -> Figure:
@@ -111,6 +116,11 @@ COMPARISON_ROWS = {
     "mean_speed_difference_mps": ("mean speed difference (ours - theirs)", "m/s"),
     "mean_wind_ours_ne_mps": ("our mean wind (north, east)", "m/s"),
     "mean_wind_theirs_ne_mps": ("the autopilot's mean wind (north, east)", "m/s"),
+    "mean_wind_ours_speed_mps": ("speed of our mean wind", "m/s"),
+    "mean_wind_ours_from_deg": ("direction our mean wind blows from, clockwise from north", "deg"),
+    "mean_wind_theirs_speed_mps": ("speed of the autopilot's mean wind", "m/s"),
+    "mean_wind_theirs_from_deg": ("direction the autopilot's mean wind blows from, clockwise from north", "deg"),
+    "direction_difference_deg": ("ours - theirs, wrapped to [-180, 180)", "deg"),
     "variance_north_m2s2": ("the autopilot's own variance, north", "m²/s²"),
     "variance_east_m2s2": ("the autopilot's own variance, east", "m²/s²"),
     "sigma_h_mps": ("the autopilot's own horizontal 1-sigma", "m/s"),
@@ -147,6 +157,8 @@ def comparison_rows(comparison: dict[str, Any]) -> list[tuple[str, str, str, str
     """(what, JSON key, value, unit) for each figure the comparison holds, in COMPARISON_ROWS' order;
     numbers to 3 decimals (a raw float's 16 digits claim a precision the estimate does not have)."""
     def fmt(key: str, value: Any) -> str:
+        if value is None:  # a mean wind too weak to have a direction
+            return "-"
         if key == "active_share":
             return f"{100 * value:.1f}"
         if isinstance(value, (list, tuple)):
@@ -170,7 +182,8 @@ def render(af: Airframe, airframe_path: str, flight: Flight, metrics: dict[str, 
     return template.render(
         title=f"{af.name}: wind estimate over {flight.log_name}", version=package_version(),
         created=datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"), airframe_path=airframe_path,
-        airframe=airframe_rows(af), flight=flight, accepted=int(valid.sum()), notes=flight.notes,
+        airframe=airframe_rows(af), flight=flight, accepted=int(valid.sum()),
+        notes=tuple(f"warning: {w}" for w in flight.warnings) + flight.notes,
         errors=error_rows(metrics) if metrics else [], metrics=metrics, comparison=comparison,
         comparison_rows=comparison_rows(comparison) if comparison else [],
         sitl=flight.sitl, sitl_rows=figure_rows(flight.sitl, SITL_ROWS) if flight.sitl else [],
@@ -187,13 +200,15 @@ def analysis_summary(report: dict[str, Any]) -> dict[str, Any]:
 def build_figures(af: Airframe, flight: Flight, work: Path) -> tuple[list[Figure], dict[str, Any]]:
     """The replay figure and the analysis figures, drawn into ``work`` and read back as base64."""
     from dobwind.analysis.report import analyze, write_plots
-    from dobwind.io.plots import replay_plot
+    from dobwind.io.plots import published, replay_plot
 
     others = [flight.reference] if flight.reference is not None else []
     replay_png = work / "replay.png"
     what = flight.truth_label if flight.truth is not None else (flight.reference[0] if flight.reference else "no reference")
-    replay_plot(flight.time_s, flight.wind, flight.truth, f"{af.name}: estimated wind over {flight.log_name}",
-                str(replay_png), others, status=flight.status, band=flight.band, truth_label=flight.truth_label)
+    replay_plot(flight.time_s, published(flight.wind, af.vertical_law), flight.truth,
+                f"{af.name}: estimated wind over {flight.log_name}",
+                str(replay_png), others, status=flight.status, band=flight.band, truth_label=flight.truth_label,
+                time_label=flight.time_label)
     figures = [_png(replay_png, f"Estimated wind against {what}: horizontal speed, direction (from), vertical (up), on "
                                 "the log's own clock; grey: no estimate, amber: estimated but not trusted")]
     report, systems = analyze(af, ANALYSIS_FREQUENCIES_HZ)
@@ -230,6 +245,7 @@ def load_flight(af: Airframe, log_path: str, backend: str, precision: Precision)
 def _autopilot_flight(af: Airframe, log_path: str, name: str, backend: str, precision: Precision) -> tuple[Flight, None, dict | None]:
     """Any autopilot log (ULog, DataFlash, ROS 2 bag) on its own clock (seconds since boot, TimeUS,
     the bag's clock), the autopilot's wind only where it is active, and the comparison with it."""
+    from dobwind.io.plots import LOG_CLOCK_LABEL
     from dobwind.replay.replay import SITL_LABEL, reference_lines, replay_ulog
     from dobwind.io.ulog import compare_with_px4
 
@@ -244,11 +260,13 @@ def _autopilot_flight(af: Airframe, log_path: str, name: str, backend: str, prec
     t = log.time_s + ap.t0_s
     sitl, truth = None, None
     if ap.sitl is not None:  # an ArduPilot SITL log: the wind its simulator was told to blow
+        from dobwind.model.airframe import VERTICAL_FALLBACK
         from dobwind.replay.sitlcompare import sitl_summary
 
-        sitl, truth = sitl_summary(ap.sitl, t, wind, traj.status)
+        sitl, truth = sitl_summary(ap.sitl, t, wind, traj.status, af.vertical_law != VERTICAL_FALLBACK)
     flight = Flight(name, log.rows, float(log.time_s[-1] - log.time_s[0]), t, np.where(valid[:, None], wind, np.nan),
-                    traj.status, truth, reference, tuple(ap.notes), band, SITL_LABEL, sitl)
+                    traj.status, truth, reference, tuple(ap.notes), band, SITL_LABEL, sitl, tuple(ap.warnings),
+                    LOG_CLOCK_LABEL)
     return flight, None, comparison
 
 
@@ -259,6 +277,8 @@ def flight_report(af: Airframe, airframe_path: str, log_path: str, backend: str 
     with scratch() as work:
         figures, analysis = build_figures(af, flight, Path(work))
     page = render(af, airframe_path, flight, metrics, comparison, figures, analysis)
+    for warning in flight.warnings:
+        sys.stderr.write(f"dobwind report: warning: {warning}\n")
     if metrics and "per_sample" in metrics:
         summary = f"speed error mean {metrics['per_sample']['speed_mean']:.3f} m/s over {metrics['scored_rows']} samples"
     elif flight.sitl and flight.sitl.get("compared_rows"):
