@@ -103,6 +103,8 @@ def reference_cases(model: StepModel, states: np.ndarray, inputs: np.ndarray) ->
 def folder_precision(c_dir: Path, name: str) -> str:
     """The precision a generated folder was written in, from its header's first comment line."""
     header = c_dir / f"{name}_wind.h"
+    if not c_dir.is_dir():
+        raise InputError(str(c_dir), None, "no such folder" if not c_dir.exists() else "not a folder")
     for needed in (header, c_dir / f"{name}_wind.c", c_dir / f"{name}_wind_selftest.c"):
         if not needed.is_file():
             raise InputError(str(c_dir), None, f"no {needed.name}: not generated C for the airframe {name!r}")

@@ -57,3 +57,8 @@ def test_verify_refuses_a_folder_without_the_airframes_c(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and str(tmp_path) in err and "m300_wind.h" in err
     assert main(["verify", str(M300), "--c-dir", str(tmp_path / "x"), "--precision", "double"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{tmp_path / 'x'}: no such folder" in err
+    (tmp_path / "f").write_text("")
+    assert main(["verify", str(M300), "--c-dir", str(tmp_path / "f")]) == 2
+    assert f"{tmp_path / 'f'}: not a folder" in capsys.readouterr().err
