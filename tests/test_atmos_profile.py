@@ -248,11 +248,12 @@ def test_the_printed_table_says_dash_where_a_bin_has_no_number():
     stats = table(bin_sums(_samples(heights, wind), 10.0), 10.0)
     text = _text(stats, [])
     assert "nan" not in text.lower()
-    # columns: bottom, "..", top, n, speed, std, from, spread, up, sigma_h
+    # columns: bottom, "..", top, n, time, N_eff, speed, std, SE, from, spread, up, sigma_h, why no mean
     rows = {line.split()[0]: line.split() for line in text.splitlines()[1:]}
-    assert rows["0"][3:8] == ["1", "3.00", "-", "90", "-"]  # one sample: speed and direction, no spreads
-    assert rows["10"][7] == "-"                              # calm samples: no direction spread
-    assert rows["20"][3:10] == ["0", "-", "-", "-", "-", "-", "-"]  # an empty bin
+    # one sample without a clock: no time, no neighbour (no N_eff), speed and direction, no spreads, no SE
+    assert rows["0"][3:11] == ["1", "-", "-", "3.00", "-", "-", "90", "-"]
+    assert rows["10"][10] == "-"                              # calm samples: no direction spread
+    assert rows["20"][3:] == ["0", "0.0", "0.0"] + ["-"] * 7 + ["empty"]  # an empty bin says so
 
 
 def test_a_log_that_never_flew_is_named_as_such_not_sent_to_allow(tmp_path, capsys):

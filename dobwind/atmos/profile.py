@@ -36,7 +36,7 @@ MIN_SPEED_FOR_DIRECTION_MPS = 0.5
 # The per-bin sums, in this order.
 SUMS = ("count", "north", "east", "up", "up2", "n_up", "speed", "speed2", "cos", "sin", "n_dir",
         "sigma_h", "n_sigma_h", "sigma_up", "n_sigma_up", "seconds",
-        *(f"speed_{name}" for name in binstats.LAG_SUMS), *(f"up_{name}" for name in binstats.LAG_SUMS))
+        *(f"speed_{name}" for name in binstats.SERIES_SUMS), *(f"up_{name}" for name in binstats.SERIES_SUMS))
 _I = {name: k for k, name in enumerate(SUMS)}
 # What a bin under the minimum still reports (how much data it has); every other statistic is NaN there.
 ALWAYS_REPORTED = ("height_bottom_m", "height_top_m", "height_m", "count", "seconds", "n_eff", "up_n_eff",
@@ -75,17 +75,19 @@ def bin_sums(samples: Samples, bin_m: float) -> dict[int, np.ndarray]:
     columns = np.column_stack([np.ones_like(h), w[:, 0], w[:, 1], up, up * up, has_up, speed, speed * speed,
                                cos_from, sin_from, strong, np.where(known_h, sh, 0.0), known_h,
                                np.where(known_up, su, 0.0), known_up, np.full(len(h), binstats.sampling_step(t)),
-                               *_lag_columns(k, t, speed, np.where(has_up, up, np.nan)).T])
+                               *_series_columns(k, t, h - (k + 0.5) * bin_m, speed, np.where(has_up, up, np.nan)).T])
     keys, inverse = np.unique(k, return_inverse=True)
     sums = np.zeros((len(keys), len(SUMS)))
     np.add.at(sums, inverse, columns)
     return {int(key): sums[i] for i, key in enumerate(keys)}
 
 
-def _lag_columns(bins: np.ndarray, t: np.ndarray | None, speed: np.ndarray, up: np.ndarray) -> np.ndarray:
-    """The rows' contributions to the lag sums of the speed and of the vertical wind (NaN: no vertical)."""
+def _series_columns(bins: np.ndarray, t: np.ndarray | None, centred_h: np.ndarray, speed: np.ndarray,
+                    up: np.ndarray) -> np.ndarray:
+    """The rows' contributions to the series sums of the speed and of the vertical wind (NaN: no vertical)."""
     pair = binstats.neighbours(bins, t)
-    return np.column_stack([binstats.lag_columns(speed, pair), binstats.lag_columns(up, pair)])
+    return np.column_stack([binstats.series_columns(speed, centred_h, pair),
+                            binstats.series_columns(up, centred_h, pair)])
 
 
 def combine(parts: list[dict[int, np.ndarray]]) -> dict[int, np.ndarray]:
@@ -133,23 +135,24 @@ def table(total: dict[int, np.ndarray], bin_m: float, min_seconds: float = 0.0) 
         "up_mean_mps": mean_up, "up_std_mps": _std(s[:, _I["up2"]], s[:, _I["up"]], s[:, _I["n_up"]]),
         "sigma_h_mps": sigma_h, "sigma_up_mps": sigma_up,
     }
-    stats.update(_trust(s, stats))
+    stats.update(_trust(s))
     return _apply_minimum(stats, min_seconds)
 
 
-def _lags(s: np.ndarray, name: str) -> np.ndarray:
-    return s[:, [_I[f"{name}_{lag}"] for lag in binstats.LAG_SUMS]]
+def _series(s: np.ndarray, name: str) -> np.ndarray:
+    return s[:, [_I[f"{name}_{column}"] for column in binstats.SERIES_SUMS]]
 
 
-def _trust(s: np.ndarray, stats: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+def _trust(s: np.ndarray) -> dict[str, np.ndarray]:
     """The bin's time (s), effective sample counts and the standard errors of its means."""
-    n, n_up = s[:, _I["count"]], s[:, _I["n_up"]]
-    r = binstats.lag1_correlation(_lags(s, "speed"), s[:, _I["speed"]], s[:, _I["speed2"]], n)
-    r_up = binstats.lag1_correlation(_lags(s, "up"), s[:, _I["up"]], s[:, _I["up2"]], n_up)
-    n_eff, up_n_eff = binstats.effective_count(n, r), binstats.effective_count(n_up, r_up)
-    return {"seconds": s[:, _I["seconds"]], "n_eff": n_eff, "up_n_eff": up_n_eff,
-            "speed_se_mps": binstats.standard_error(stats["speed_std_mps"], n_eff),
-            "up_se_mps": binstats.standard_error(stats["up_std_mps"], up_n_eff)}
+    out = {"seconds": s[:, _I["seconds"]]}
+    for name, prefix in (("speed", ""), ("up", "up_")):
+        series = _series(s, name)
+        std, r = binstats.residual_scatter(series)
+        n_eff = binstats.effective_count(series[:, 0], r)
+        out[f"{prefix}n_eff"] = n_eff
+        out[f"{name}_se_mps"] = binstats.standard_error(std, n_eff)
+    return out
 
 
 def _apply_minimum(stats: dict[str, np.ndarray], min_seconds: float) -> dict[str, np.ndarray]:
