@@ -233,7 +233,7 @@ def _write_netcdf(path: Path, stats: dict[str, np.ndarray], args: argparse.Names
 WHERE = "over the rows of every flight inside the height cell"
 MEAN = f"height: time: mean ({WHERE})"
 SPREAD = f"height: time: standard_deviation (sample standard deviation, {WHERE})"
-NO_UTC = "; no UTC in the logs, so no time coordinate: the mean is over the time the flights spent there too"
+NO_UTC = "; no UTC in the logs, so no time coordinate, and the mean is over the time the flights spent there too"
 TIME_ATTRS = {"standard_name": "time", "units": "seconds since 1970-01-01 00:00:00", "calendar": "standard",
               "long_name": "middle of the UTC span of the trusted rows (time_coverage_start to time_coverage_end); "
                            "each bin is a mean over its own rows' times within it"}
