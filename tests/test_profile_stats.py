@@ -53,13 +53,40 @@ def test_white_noise_gives_sigma_over_root_n_and_the_row_sigma_does_not_average_
         assert stats["sigma_h_mps"][0] == pytest.approx(0.4)  # the model's sigma: the same at any n
 
 
+def test_the_sums_give_what_a_direct_fit_gives_even_a_kilometre_up():
+    """The additive sums against numpy on the rows themselves: the straight line's residual scatter (n - 2
+    degrees of freedom) and the lag-1 autocorrelation of the residuals, in a 5 m bin at 1000 m."""
+    from dobwind.atmos import binstats
+
+    rng = np.random.default_rng(9)
+    n = 300
+    height = 1000.0 + np.sort(rng.uniform(0.5, 4.0, n))
+    x = 7.0 - 0.4 * height / 1000.0 + 0.05 * height + _ar1(rng, n, 0.7, 0.01)
+    stats = table(bin_sums(_series(x, height), 5.0), 5.0)
+    k = int(np.flatnonzero(stats["count"])[0])
+    line = np.polyval(np.polyfit(height, x, 1), height)
+    e = x - line
+    r = np.mean(e[:-1] * e[1:]) / np.mean(e * e)
+    assert stats["n_eff"][k] == pytest.approx(n * (1 - r) / (1 + r), rel=1e-7)
+    assert stats["speed_se_mps"][k] == pytest.approx(np.sqrt(np.sum(e * e) / (n - 2) / (n * (1 - r) / (1 + r))),
+                                                     rel=1e-7)
+    std, r_sums = binstats.residual_scatter(np.sum(binstats.series_columns(x, height - 1002.5, binstats.neighbours(
+        np.zeros(n), np.arange(n) * STEP)), axis=0)[None, :])
+    assert r_sums[0] == pytest.approx(r, rel=1e-7) and std[0] == pytest.approx(np.sqrt(np.sum(e * e) / (n - 2)))
+
+
 def test_an_ar1_series_gives_its_known_effective_count():
+    """Through a shear across the upper half of the bin (the straight line in height comes out first)."""
     rng = np.random.default_rng(5)
     n, phi = 60_000, 0.9
-    x = 6.0 + _ar1(rng, n, phi, 0.1)
-    stats = table(bin_sums(_series(x, np.linspace(0.0, 9.99, n)), 10.0), 10.0)
+    height = np.linspace(5.0, 9.99, n)
+    x = 6.0 + 0.3 * height + _ar1(rng, n, phi, 0.1)
+    stats = table(bin_sums(_series(x, height), 10.0), 10.0)
     # lag-1 r estimated to about sqrt((1 - phi^2) / n) = 0.002, i.e. N_eff to about 2 %
     assert stats["n_eff"][0] == pytest.approx(n * (1 - phi) / (1 + phi), rel=0.08)
+    # An anticorrelated series (phi < 0) would be worth more than n samples: no credit is given for it.
+    anti = table(bin_sums(_series(6.0 + _ar1(rng, 2000, -0.5, 0.1), np.linspace(0.0, 9.99, 2000)), 10.0), 10.0)
+    assert anti["n_eff"][0] == 2000
 
 
 def test_the_standard_error_matches_the_scatter_of_independent_bin_means():
@@ -88,8 +115,8 @@ def test_separate_passes_and_the_shear_across_a_bin_are_not_noise():
     sheared = table(bin_sums(_series(4.0 + 0.2 * height, height), 10.0), 10.0)
     assert sheared["speed_std_mps"][0] > 0.5 and sheared["speed_se_mps"][0] < 1e-6
     rng = np.random.default_rng(3)
-    up = _series(6.0 + rng.normal(0, 0.2, n), height)
-    down = _series(6.0 + rng.normal(0, 0.2, n), height[::-1])
+    up = _series(6.0 + _ar1(rng, n, 0.5, 0.2), height)
+    down = _series(6.5 + _ar1(rng, n, 0.5, 0.2), height[::-1])
     later = Samples(down.height_m, down.wind_ned, down.sigma_h, down.sigma_up, (), None, down.time_s + 1000.0)
     joined = Samples(*(np.concatenate([a, b]) for a, b in ((up.height_m, later.height_m), (up.wind_ned, later.wind_ned),
                                                           (up.sigma_h, later.sigma_h), (up.sigma_up, later.sigma_up))),
