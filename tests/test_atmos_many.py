@@ -90,6 +90,8 @@ def test_an_empty_folder_and_plot_with_several_logs_are_refused(logs, tmp_path, 
     (["profile", "{af}", "{log}", "-o", "{out}.csv", "--allow", "tilt"], "not a quality flag"),
     (["profile", "{af}", "{log}", "-o", "{out}.csv", "--bin", "0"], "--bin"),
     (["profile", "{af}", "{log}", "-o", "{out}.csv", "--jobs", "0"], "--jobs"),
+    (["profile", "{af}", "{log}", "-o", "{out}.csv", "--min-seconds", "-1"], "--min-seconds"),
+    (["profile", "{af}", "{log}", "-o", "{out}.csv", "--min-seconds", "nan"], "--min-seconds"),
     (["replay", "{af}", "{log}", "{log}", "-o", "{out}.csv"], "not a folder"),
     (["replay", "{af}", "{log}", "{missing}", "--jobs", "1"], "cannot read"),
 ])

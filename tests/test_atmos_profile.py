@@ -216,8 +216,13 @@ def test_profilecheck_law_and_verdict(two_flights, capsys):
     np.testing.assert_allclose(law(np.array([0.0, 15.0, 60.0, 90.0]), 10.0, 60.0, 0.5), [0.0, 5.0, 10.0, 10.0])
     _, logs, _ = two_flights
     args = [str(M300), str(logs[0]), "--min-height", "0", "--from-deg", "0"]
+    generous = ["--max-speed-error", "100", "--max-direction-error", "180"]
+    # The synthetic flight spends under the default 10 s in every bin: no bin has a mean to check.
+    assert check(args + generous) == 1
+    assert "under --min-seconds: no mean" in capsys.readouterr().out
+    args += ["--min-seconds", "0"]
     assert check(args) == 1  # a 10 m/s square-root law is not this flight's wind
-    assert check(args + ["--max-speed-error", "100", "--max-direction-error", "180"]) == 0
+    assert check(args + generous) == 0
     assert "PASS" in capsys.readouterr().out
 
 
@@ -248,11 +253,12 @@ def test_the_printed_table_says_dash_where_a_bin_has_no_number():
     stats = table(bin_sums(_samples(heights, wind), 10.0), 10.0)
     text = _text(stats, [])
     assert "nan" not in text.lower()
-    # columns: bottom, "..", top, n, speed, std, from, spread, up, sigma_h
+    # columns: bottom, "..", top, n, time, N_eff, speed, std, SE, from, spread, up, sigma_h, why no mean
     rows = {line.split()[0]: line.split() for line in text.splitlines()[1:]}
-    assert rows["0"][3:8] == ["1", "3.00", "-", "90", "-"]  # one sample: speed and direction, no spreads
-    assert rows["10"][7] == "-"                              # calm samples: no direction spread
-    assert rows["20"][3:10] == ["0", "-", "-", "-", "-", "-", "-"]  # an empty bin
+    # one sample without a clock: no time, no neighbour (no N_eff), speed and direction, no spreads, no SE
+    assert rows["0"][3:11] == ["1", "-", "-", "3.00", "-", "-", "90", "-"]
+    assert rows["10"][10] == "-"                              # calm samples: no direction spread
+    assert rows["20"][3:] == ["0", "0.0", "0.0"] + ["-"] * 7 + ["empty"]  # an empty bin says so
 
 
 def test_a_log_that_never_flew_is_named_as_such_not_sent_to_allow(tmp_path, capsys):

@@ -39,9 +39,10 @@ def test_profile_of_a_zero_wind_vertical_law_prints_no_vertical_wind(two_flights
     fallback.write_text(text.replace("[force_air.horizontal]", '[force_air]\nvertical_law = "zero-wind"\n\n'
                                      "[force_air.horizontal]", 1))
     out_fitted, out_zero = tmp_path / "fitted.csv", tmp_path / "zero.csv"
-    assert main(["profile", str(M300), str(logs[0]), "-o", str(out_fitted), "--jobs", "1"]) == 0
+    # --min-seconds 0: the synthetic flight spends less than the default 10 s in each bin
+    assert main(["profile", str(M300), str(logs[0]), "-o", str(out_fitted), "--jobs", "1", "--min-seconds", "0"]) == 0
     capsys.readouterr()
-    assert main(["profile", str(fallback), str(logs[0]), "-o", str(out_zero), "--jobs", "1"]) == 0
+    assert main(["profile", str(fallback), str(logs[0]), "-o", str(out_zero), "--jobs", "1", "--min-seconds", "0"]) == 0
     printed = capsys.readouterr().out
     fitted, zero = _read(out_fitted), _read(out_zero)
     assert np.isfinite(fitted["up_mean_mps"][fitted["count"] > 0]).all()

@@ -3,8 +3,10 @@
 Per bin: the mean horizontal speed and its spread (sample standard deviation), the direction of the
 VECTOR mean (the mean of angles would put a northerly wind, 350 and 10 deg, at 180 deg) and the
 circular spread of the sample directions, the mean vertical wind and its spread, the mean calibrated
-1-sigma of the estimates, and the sample count. Only trusted rows (status 0, or quality flags the
-user allows) enter. Each flight is reduced to additive per-bin sums, so flights combine exactly
+1-sigma of the estimates, and the sample count; and how far each mean can be trusted: the time the
+flights spent in the bin, the effective number of independent samples and the standard error of the mean
+(atmos/binstats.py). A bin with less data than a minimum gives no mean. Only trusted rows (status 0, or
+quality flags the user allows) enter. Each flight is reduced to additive per-bin sums, so flights combine exactly
 whatever order the workers finish in.
 """
 from __future__ import annotations
@@ -14,6 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from dobwind.atmos import binstats
 from dobwind.core.errors import InputError
 from dobwind.core.options import Bound
 from dobwind.model.kinds import Precision
@@ -22,13 +25,22 @@ if TYPE_CHECKING:  # the model (CasADi) loads only when a profile runs, not with
     from dobwind.model.airframe import Airframe
 
 BIN = Bound(0.1, 1000.0, "m")  # --bin: finer than GPS altitude is noise, coarser than 1 km is no profile
+# --min-seconds: the data a bin needs for a mean. The default 10 s holds 12 or more time constants of the
+# estimator's low-pass (0.8 s at its lowest cutoff, 0.2 Hz): at least about 6 independent samples even in
+# perfectly steady air, so the scatter can say something about the error of the mean. 0: no minimum.
+MIN_SECONDS = Bound(0.0, 3600.0, "s")
+DEFAULT_MIN_SECONDS = 10.0
 
 # Below this horizontal speed a sample's direction is noise and does not enter the direction spread.
 MIN_SPEED_FOR_DIRECTION_MPS = 0.5
 # The per-bin sums, in this order.
 SUMS = ("count", "north", "east", "up", "up2", "n_up", "speed", "speed2", "cos", "sin", "n_dir",
-        "sigma_h", "n_sigma_h", "sigma_up", "n_sigma_up")
+        "sigma_h", "n_sigma_h", "sigma_up", "n_sigma_up", "seconds",
+        *(f"speed_{name}" for name in binstats.SERIES_SUMS), *(f"up_{name}" for name in binstats.SERIES_SUMS))
 _I = {name: k for k, name in enumerate(SUMS)}
+# What a bin under the minimum still reports (how much data it has); every other statistic is NaN there.
+ALWAYS_REPORTED = ("height_bottom_m", "height_top_m", "height_m", "count", "seconds", "n_eff", "up_n_eff",
+                   "below_minimum")
 
 
 @dataclass(frozen=True)
@@ -40,6 +52,7 @@ class Samples:
     sigma_up: np.ndarray
     notes: tuple[str, ...] = ()
     utc_s: tuple[float, float] | None = None  # Unix seconds of the first and last kept row, with GPS time
+    time_s: np.ndarray | None = None  # the rows' clock (s): their time in a bin and which rows are neighbours
 
 
 def bin_sums(samples: Samples, bin_m: float) -> dict[int, np.ndarray]:
@@ -48,6 +61,7 @@ def bin_sums(samples: Samples, bin_m: float) -> dict[int, np.ndarray]:
     # horizontal statistics and leaves it out of the vertical ones.
     ok = np.isfinite(samples.height_m) & np.all(np.isfinite(samples.wind_ned[:, :2]), axis=1)
     h, w = samples.height_m[ok], samples.wind_ned[ok]
+    t = None if samples.time_s is None else np.asarray(samples.time_s, float)[ok]
     sh, su = samples.sigma_h[ok], samples.sigma_up[ok]
     k = np.floor(h / bin_m).astype(np.int64)
     speed = np.hypot(w[:, 0], w[:, 1])
@@ -60,11 +74,20 @@ def bin_sums(samples: Samples, bin_m: float) -> dict[int, np.ndarray]:
     up = np.where(has_up, -w[:, 2], 0.0)
     columns = np.column_stack([np.ones_like(h), w[:, 0], w[:, 1], up, up * up, has_up, speed, speed * speed,
                                cos_from, sin_from, strong, np.where(known_h, sh, 0.0), known_h,
-                               np.where(known_up, su, 0.0), known_up])
+                               np.where(known_up, su, 0.0), known_up, np.full(len(h), binstats.sampling_step(t)),
+                               *_series_columns(k, t, h - (k + 0.5) * bin_m, speed, np.where(has_up, up, np.nan)).T])
     keys, inverse = np.unique(k, return_inverse=True)
     sums = np.zeros((len(keys), len(SUMS)))
     np.add.at(sums, inverse, columns)
     return {int(key): sums[i] for i, key in enumerate(keys)}
+
+
+def _series_columns(bins: np.ndarray, t: np.ndarray | None, centred_h: np.ndarray, speed: np.ndarray,
+                    up: np.ndarray) -> np.ndarray:
+    """The rows' contributions to the series sums of the speed and of the vertical wind (NaN: no vertical)."""
+    pair = binstats.neighbours(bins, t)
+    return np.column_stack([binstats.series_columns(speed, centred_h, pair),
+                            binstats.series_columns(up, centred_h, pair)])
 
 
 def combine(parts: list[dict[int, np.ndarray]]) -> dict[int, np.ndarray]:
@@ -82,8 +105,10 @@ def _std(s2: np.ndarray, s1: np.ndarray, n: np.ndarray) -> np.ndarray:
     return np.where(n > 1, np.sqrt(np.maximum(var, 0.0)), np.nan)
 
 
-def table(total: dict[int, np.ndarray], bin_m: float) -> dict[str, np.ndarray]:
-    """Per-bin statistics, every bin from the lowest to the highest with samples (empty ones: count 0)."""
+def table(total: dict[int, np.ndarray], bin_m: float, min_seconds: float = 0.0) -> dict[str, np.ndarray]:
+    """Per-bin statistics, every bin from the lowest to the highest with samples (empty ones: count 0).
+    A bin with less than min_seconds of data (or an unknown time, when a minimum is asked) reports only
+    ALWAYS_REPORTED, with below_minimum True; its means, spreads and errors are NaN."""
     from dobwind.model.forceair import wind_from_deg
 
     if not total:
@@ -98,7 +123,7 @@ def table(total: dict[int, np.ndarray], bin_m: float) -> dict[str, np.ndarray]:
         spread = np.degrees(np.sqrt(-2.0 * np.log(np.clip(resultant, 1e-12, 1.0))))
         sigma_h = s[:, _I["sigma_h"]] / s[:, _I["n_sigma_h"]]
         sigma_up = s[:, _I["sigma_up"]] / s[:, _I["n_sigma_up"]]
-    return {
+    stats = {
         "height_bottom_m": keys * bin_m, "height_top_m": (keys + 1) * bin_m, "height_m": (keys + 0.5) * bin_m,
         "count": n.astype(np.int64),
         "speed_mean_mps": np.where(n > 0, s[:, _I["speed"]] / np.maximum(n, 1), np.nan),
@@ -110,6 +135,33 @@ def table(total: dict[int, np.ndarray], bin_m: float) -> dict[str, np.ndarray]:
         "up_mean_mps": mean_up, "up_std_mps": _std(s[:, _I["up2"]], s[:, _I["up"]], s[:, _I["n_up"]]),
         "sigma_h_mps": sigma_h, "sigma_up_mps": sigma_up,
     }
+    stats.update(_trust(s))
+    return _apply_minimum(stats, min_seconds)
+
+
+def _series(s: np.ndarray, name: str) -> np.ndarray:
+    return s[:, [_I[f"{name}_{column}"] for column in binstats.SERIES_SUMS]]
+
+
+def _trust(s: np.ndarray) -> dict[str, np.ndarray]:
+    """The bin's time (s), effective sample counts and the standard errors of its means."""
+    out = {"seconds": s[:, _I["seconds"]]}
+    for name, prefix in (("speed", ""), ("up", "up_")):
+        series = _series(s, name)
+        std, r = binstats.residual_scatter(series)
+        n_eff = binstats.effective_count(series[:, 0], r)
+        out[f"{prefix}n_eff"] = n_eff
+        out[f"{name}_se_mps"] = binstats.standard_error(std, n_eff)
+    return out
+
+
+def _apply_minimum(stats: dict[str, np.ndarray], min_seconds: float) -> dict[str, np.ndarray]:
+    """NaN every statistic of a bin under the minimum (a NaN time fails any minimum above 0)."""
+    with np.errstate(invalid="ignore"):
+        below = (stats["count"] == 0) | ((min_seconds > 0) & ~(stats["seconds"] >= min_seconds))
+    stats["below_minimum"] = below
+    return {key: value if key in ALWAYS_REPORTED else np.where(below, np.nan, value)
+            for key, value in stats.items()}
 
 
 def allowed_mask(names: list[str]) -> int:
@@ -171,7 +223,7 @@ def flight_samples(af: Airframe, path: str, backend: str = "python", precision: 
         notes.append(f'vertical wind: none (force_air.vertical_law = "{VERTICAL_FALLBACK}": not identified)')
     return Samples(height[keep], wind,
                    out[keep][:, model.outputs.slice("wind_sigma_h")][:, 0],
-                   out[keep][:, model.outputs.slice("wind_sigma_up")][:, 0], tuple(notes), utc)
+                   out[keep][:, model.outputs.slice("wind_sigma_up")][:, 0], tuple(notes), utc, np.asarray(t)[keep])
 
 
 def why_no_row(status: np.ndarray, keep: np.ndarray, allow: int = 0) -> str:
