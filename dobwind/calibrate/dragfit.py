@@ -34,7 +34,7 @@ from dobwind.calibrate.zerooffset import pinned_system, zero_airflow_offset
 from dobwind.model.airframe import Airframe
 from dobwind.model.attitude import rotation_matrices
 from dobwind.model.discretization import first_order
-from dobwind.model.forceair import (FOURFOLD_KEYS, HORIZONTAL_DRAG_KEYS, PER_AXIS_KEYS, QUADRATIC_KEYS, ROTOR_DRAG_KEY,
+from dobwind.model.forceair import (FOURFOLD_KEYS, FRONT_BACK_AXIS_KEYS, HORIZONTAL_DRAG_KEYS, PER_AXIS_KEYS, QUADRATIC_KEYS, ROTOR_DRAG_KEY,
                                     VERTICAL_DRAG_KEYS, DragLaw, along_force_scale, body_drag_airflow_numpy,
                                     body_drag_basis, drag_airflow_numpy, heading_force, heading_to_ned,
                                     horizontal_drag_basis, law_decreasing, term_matrix)
@@ -85,7 +85,7 @@ ALWAYS = ("ox", "oy", "kappa")
 DIRECTION_MIN_SPEED_MPS = 1.0   # below it the airflow's direction is noise
 DIRECTION_MIN_SHARE = 0.05
 AXIAL_HARMONICS = ("l2c", "l2s", "q2c", "q2s", "q4c", "q4s", "qax", "qay")  # the per-axis pair has 2theta parts
-FORE_AFT_HARMONICS = ("q1c",)
+FORE_AFT_HARMONICS = ("q1c",) + FRONT_BACK_AXIS_KEYS  # the per-axis front/back pair: both
 
 
 @dataclass(frozen=True)
@@ -725,7 +725,8 @@ def _growth_speeds(samples: DragSamples) -> dict[str, np.ndarray]:
         speed = np.linalg.norm(air, axis=1)
     else:
         axes, speed = air, np.hypot(air[:, 0], air[:, 1])
-    along = {"qax": np.abs(axes[:, 0]), "qay": np.abs(axes[:, 1])}
+    along = {"qax": np.abs(axes[:, 0]), "qay": np.abs(axes[:, 1]),   # cos theta, the front/back pair's other
+             "qax1c": np.abs(axes[:, 0]), "qay1c": np.abs(axes[:, 1])}  # factor, does not grow
     return {key: along.get(key, speed) for key in QUADRATIC_KEYS}
 
 
@@ -969,13 +970,14 @@ def _choose_horizontal(samples: DragSamples, candidates: tuple[tuple[str, ...], 
         scored = [(s, h) for s, h in scored if h != horizontal]
 
 
-# The four-fold harmonics, and the per-axis pair, must each lower the chosen set's score by this share to
+# The four-fold harmonics, the per-axis pair and its front/back pair must each lower the chosen set's score by this share to
 # be added (the parsimony rule).
 FOURFOLD_GAIN = 0.98
 # The optional term groups, tried in this order after the set is chosen, each on the law the one before
 # left: the four-fold harmonics (per-axis drag of near-equal axes), then the per-axis pair (per-axis drag
-# of unequal axes, whose series in the airflow direction the harmonics truncate: docs/calibration.md).
-OPTIONAL_GROUPS = (FOURFOLD_KEYS, PER_AXIS_KEYS)
+# of unequal axes, whose series in the airflow direction the harmonics truncate: docs/calibration.md),
+# then its front/back pair (per-axis drag that differs front from back, which q1c cannot follow).
+OPTIONAL_GROUPS = (FOURFOLD_KEYS, PER_AXIS_KEYS, FRONT_BACK_AXIS_KEYS)
 
 
 def _with_optional_groups(samples: DragSamples, candidates: tuple[tuple[str, ...], ...],
