@@ -115,8 +115,10 @@ FOURFOLD_EXTRA_STEPS = 1
 # off after three steps, 2e-6 m/s after four (tests/test_peraxis.py).
 PER_AXIS_EXTRA_STEPS = 1
 # A law with the front/back pair takes the same start and the same one step more (with or without qax,
-# qay): the start then holds its value on the axes only, and the steps still converge to the speed
-# smoothing's 1e-7 m/s at cos1 = +-0.5 mixed with the harmonics (tests/test_frontback.py).
+# qay), and one more again: the start then holds its value on the axes only, and a fitted law that mixes
+# both pairs with the harmonics was 1e-4 m/s off after four steps, 2e-6 m/s after five
+# (tests/test_frontback.py).
+FRONT_BACK_EXTRA_STEPS = 1
 
 
 @dataclass(frozen=True)
@@ -163,6 +165,7 @@ class DragLaw:
     def newton_steps(self, steps: int) -> int:
         """``steps`` for a quadratic law; more when the exponent is another (or a symbol)."""
         extra = (0 if _quadratic(self) else EXPONENT_EXTRA_STEPS) + (FOURFOLD_EXTRA_STEPS if _fourfold(self) else 0)
+        extra += FRONT_BACK_EXTRA_STEPS if _front_back_axis(self) else 0
         return steps + extra + (PER_AXIS_EXTRA_STEPS if _per_axis(self) or _front_back_axis(self) else 0)
 
 
