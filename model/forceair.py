@@ -32,9 +32,8 @@ Two families map the observed external force (heading frame c, offset removed) t
       + cos theta (qax1c |v_x|^(p-1) v_x, qay1c |v_y|^(p-1) v_y)
 
   for a per-axis body whose drag differs front from back (a simulator's cos1 shape on per-axis drag, which
-  q1c, drag along the airflow times cos theta, cannot follow; tests/test_frontback.py). Per-axis LINEAR drag (PX4's EKF2_BCOEF_X/_Y, EKF2_MCOEF) is the case
-  l2s = -l2c, q2s = -q2c; a
-  drag MAGNITUDE that depends on direction is l2s = q2s = 0. i1, i2: the vertical force that horizontal
+  q1c, drag along the airflow times cos theta, cannot follow; tests/test_frontback.py). Per-axis LINEAR
+  drag (PX4's EKF2_BCOEF_X/_Y, EKF2_MCOEF) is the case l2s = -l2c, q2s = -q2c; a drag MAGNITUDE that depends on direction is l2s = q2s = 0. i1, i2: the vertical force that horizontal
   airflow causes (rotors in edgewise flow make more thrust). The horizontal law is inverted by a fixed
   number of Newton steps from the isotropic closed form; the vertical one in closed form given s. Both
   are branch-free.
@@ -354,13 +353,11 @@ def _planar_start(law: DragLaw, fx: ca.SX, fy: ca.SX, lin: ca.SX) -> tuple[ca.SX
     leaves the inversion metres per second off after three more steps (tests/test_peraxis.py). With the
     front/back pair too, the x axis's law has q1c + qax1c times the sign of its force (cos theta = +-1 on
     it); on the y axis cos theta is 0."""
-    if _front_back_axis(law):
-        sign_x = fx / ca.fmax(ca.fabs(fx), _DENOMINATOR_FLOOR)  # 0 at zero force, where the root is 0 anyway
-        return (_root(ca.fmax(lin + law.l2c, 0),
-                      ca.fmax(law.q0 + law.q2c + law.q4c + law.qax + (law.q1c + law.qax1c) * sign_x, 0), fx),
-                _root(ca.fmax(lin - law.l2c, 0), ca.fmax(law.q0 - law.q2c + law.q4c + law.qay, 0), fy))
-    if _per_axis(law):
-        return (_root(ca.fmax(lin + law.l2c, 0), ca.fmax(law.q0 + law.q2c + law.q4c + law.qax, 0), fx),
+    if _per_axis(law) or _front_back_axis(law):
+        quadratic_x = law.q0 + law.q2c + law.q4c + law.qax
+        if _front_back_axis(law):  # the sign is 0 at zero force, where the root is 0 anyway
+            quadratic_x = quadratic_x + (law.q1c + law.qax1c) * (fx / ca.fmax(ca.fabs(fx), _DENOMINATOR_FLOOR))
+        return (_root(ca.fmax(lin + law.l2c, 0), ca.fmax(quadratic_x, 0), fx),
                 _root(ca.fmax(lin - law.l2c, 0), ca.fmax(law.q0 - law.q2c + law.q4c + law.qay, 0), fy))
     fh = ca.sqrt(fx * fx + fy * fy)
     scale = 2 / ca.fmax(lin + ca.sqrt(lin * lin + 4 * law.q0 * fh), _DENOMINATOR_FLOOR)

@@ -34,10 +34,10 @@ from dobwind.calibrate.zerooffset import pinned_system, zero_airflow_offset
 from dobwind.model.airframe import Airframe
 from dobwind.model.attitude import rotation_matrices
 from dobwind.model.discretization import first_order
-from dobwind.model.forceair import (FOURFOLD_KEYS, FRONT_BACK_AXIS_KEYS, HORIZONTAL_DRAG_KEYS, PER_AXIS_KEYS, QUADRATIC_KEYS, ROTOR_DRAG_KEY,
-                                    VERTICAL_DRAG_KEYS, DragLaw, along_force_scale, body_drag_airflow_numpy,
-                                    body_drag_basis, drag_airflow_numpy, heading_force, heading_to_ned,
-                                    horizontal_drag_basis, law_decreasing, term_matrix)
+from dobwind.model.forceair import (FOURFOLD_KEYS, FRONT_BACK_AXIS_KEYS, HORIZONTAL_DRAG_KEYS, PER_AXIS_KEYS,
+                                    QUADRATIC_KEYS, ROTOR_DRAG_KEY, VERTICAL_DRAG_KEYS, DragLaw, along_force_scale,
+                                    body_drag_airflow_numpy, body_drag_basis, drag_airflow_numpy, heading_force,
+                                    heading_to_ned, horizontal_drag_basis, law_decreasing, term_matrix)
 from dobwind.model.terms import Term
 from dobwind.model.kinds import DragFrame
 from dobwind.model.signals import log_signals
@@ -970,8 +970,8 @@ def _choose_horizontal(samples: DragSamples, candidates: tuple[tuple[str, ...], 
         scored = [(s, h) for s, h in scored if h != horizontal]
 
 
-# The four-fold harmonics, the per-axis pair and its front/back pair must each lower the chosen set's score by this share to
-# be added (the parsimony rule).
+# The four-fold harmonics, the per-axis pair and its front/back pair must each lower the chosen set's
+# score by this share to be added (the parsimony rule).
 FOURFOLD_GAIN = 0.98
 # The optional term groups, tried in this order after the set is chosen, each on the law the one before
 # left: the four-fold harmonics (per-axis drag of near-equal axes), then the per-axis pair (per-axis drag
