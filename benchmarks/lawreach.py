@@ -22,7 +22,8 @@ from dobwind.simulate.vehicle import body_force, load_vehicle
 SETS = (("l0", "q0"), ("l0", "q0", "l2c", "q2c", "l2s", "q2s"), ("l0", "q0", "l2c", "q2c", "l2s", "q2s", "q1c"),
         ("l0", "q0", "l2c", "q2c", "l2s", "q2s", "q4c", "q4s"),
         ("l0", "q0", "l2c", "q2c", "l2s", "q2s", "q1c", "q4c", "q4s"), ("l0", "q0", "qax", "qay"),
-        ("l0", "q0", "l2c", "q2c", "l2s", "q2s", "qax", "qay"), ("l0", "q0", "l2c", "q2c", "l2s", "q2s", "q1c", "qax", "qay"))
+        ("l0", "q0", "l2c", "q2c", "l2s", "q2s", "qax", "qay"), ("l0", "q0", "l2c", "q2c", "l2s", "q2s", "q1c", "qax", "qay"),
+        ("l0", "q0", "l2c", "q2c", "l2s", "q2s", "q1c", "qax", "qay", "qax1c", "qay1c"))
 SCORED_FROM_MPS = 2.0   # below it a direction error is a small distance
 CHECKED_UP_TO_MPS = 12.0
 
@@ -57,7 +58,7 @@ def reach_line(keys: tuple[str, ...], airflow: np.ndarray, theta: np.ndarray, sp
         rms = float(np.sqrt(np.mean(speed_error[scored] ** 2)))
     angle = np.where(np.isfinite(angle), angle, 180.0)[scored]
     where = forceair.law_decreasing(law, CHECKED_UP_TO_MPS)
-    return (f"  {'+'.join(keys):42s} force RMS {residual:.3f} N; direction mean {angle.mean():5.2f} max "
+    return (f"  {'+'.join(keys):54s} force RMS {residual:.3f} N; direction mean {angle.mean():5.2f} max "
             f"{angle.max():6.2f} deg; speed RMS {rms:.3f} m/s; " + ("increasing" if where is None else f"decreases at {where}"))
 
 

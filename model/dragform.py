@@ -8,10 +8,13 @@ fit needs). Every in-plane term is a scalar times the airflow a_xy or times a_xy
 
 with P and Q scalars of the airflow (docs/model.md has the law), plus the per-axis pair (qax |a_x|^(p-1) a_x,
 qay |a_y|^(p-1) a_y), which is added as it is (each component depends on its own airflow component only, so
-its Jacobian is diagonal):
+its Jacobian is diagonal), and its front/back pair, the same times cos theta = a_x / s_h (whose Jacobian
+is not: cos theta depends on a_y too):
 
     P = l0 + lr rotor + q0 g + (l2c + q2c g) cos 2theta + q1c k a_x + q4c g cos 4theta
     Q = (l2s + q2s g) sin 2theta + q4s g sin 4theta,      g = s^(p-1), k = s^(p-2)
+
+    (qax + qax1c a_x / s_h) |a_x|^(p-1) a_x,  (qay + qay1c a_x / s_h) |a_y|^(p-1) a_y
 
 The Jacobian then needs only the gradients of the three scalars P, Q and F_z (automatic
 differentiation of a scalar shares its parts; of the summed vector law it repeats them per coefficient
@@ -91,11 +94,20 @@ def axis_power(x, exponent):
     return (x * x + PER_AXIS_EPS_MPS ** 2) ** ((exponent - 1.0) / 2.0)
 
 
-def per_axis_force(law, a: ca.SX) -> tuple[ca.SX, ca.SX] | None:
-    """The per-axis pair's in-plane force at the airflow ``a``, or None when the law has no such term."""
-    if not (_present(law.qax) or _present(law.qay)):
-        return None
-    return law.qax * axis_power(a[0], law.exponent) * a[0], law.qay * axis_power(a[1], law.exponent) * a[1]
+def _front_back(law) -> bool:
+    return _present(law.qax1c) or _present(law.qay1c)
+
+
+def per_axis_force(law, a: ca.SX, eps: float = 0.0) -> tuple[ca.SX, ca.SX] | None:
+    """The per-axis pair's in-plane force at the airflow ``a`` (with its front/back pair, cos theta of the
+    in-plane speed smoothed by ``eps``), or None when the law has no such term."""
+    if not _front_back(law):
+        if not (_present(law.qax) or _present(law.qay)):
+            return None
+        return law.qax * axis_power(a[0], law.exponent) * a[0], law.qay * axis_power(a[1], law.exponent) * a[1]
+    cos1 = a[0] / ca.sqrt(a[0] * a[0] + a[1] * a[1] + eps * eps)
+    return ((law.qax + law.qax1c * cos1) * axis_power(a[0], law.exponent) * a[0],
+            (law.qay + law.qay1c * cos1) * axis_power(a[1], law.exponent) * a[1])
 
 
 def body_law_value(p: ca.SX, q: ca.SX, fz: ca.SX, a: ca.SX, axis: tuple[ca.SX, ca.SX] | None = None) -> ca.SX:
@@ -115,8 +127,12 @@ def body_law_and_jacobian(law, a: ca.SX, rotor: ca.SX, eps: float) -> tuple[ca.S
     jy = [ay * gp[j] + ax * gq[j] for j in range(3)]
     jx[0], jx[1] = p + jx[0], jx[1] - q
     jy[0], jy[1] = q + jy[0], p + jy[1]
-    axis = per_axis_force(law, a)
-    if axis is not None:  # a diagonal block: each component's derivative along its own axis
+    axis = per_axis_force(law, a, eps)
+    if axis is not None and _front_back(law):  # cos theta couples the axes: a full in-plane block
+        gx, gy = ca.gradient(axis[0], a), ca.gradient(axis[1], a)
+        jx = [jx[j] + gx[j] for j in range(3)]
+        jy = [jy[j] + gy[j] for j in range(3)]
+    elif axis is not None:  # a diagonal block: each component's derivative along its own axis
         jx[0], jy[1] = jx[0] + ca.jacobian(axis[0], ax), jy[1] + ca.jacobian(axis[1], ay)
     jacobian = ca.vertcat(ca.horzcat(*jx), ca.horzcat(*jy), gz.T)
     return body_law_value(p, q, fz, a, axis), jacobian

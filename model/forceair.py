@@ -27,9 +27,13 @@ Two families map the observed external force (heading frame c, offset removed) t
 
       + (qax |v_x|^(p-1) v_x, qay |v_y|^(p-1) v_y)       (heading frame; the body frame's a_x, a_y alike)
 
-  (tests/test_peraxis.py). Per-axis LINEAR drag (PX4's EKF2_BCOEF_X/_Y, EKF2_MCOEF) is the case
-  l2s = -l2c, q2s = -q2c; a
-  drag MAGNITUDE that depends on direction is l2s = q2s = 0. i1, i2: the vertical force that horizontal
+  (tests/test_peraxis.py), and its front/back pair, the same per-axis drag times cos theta = v_x / s:
+
+      + cos theta (qax1c |v_x|^(p-1) v_x, qay1c |v_y|^(p-1) v_y)
+
+  for a per-axis body whose drag differs front from back (a simulator's cos1 shape on per-axis drag, which
+  q1c, drag along the airflow times cos theta, cannot follow; tests/test_frontback.py). Per-axis LINEAR
+  drag (PX4's EKF2_BCOEF_X/_Y, EKF2_MCOEF) is the case l2s = -l2c, q2s = -q2c; a drag MAGNITUDE that depends on direction is l2s = q2s = 0. i1, i2: the vertical force that horizontal
   airflow causes (rotors in edgewise flow make more thrust). The horizontal law is inverted by a fixed
   number of Newton steps from the isotropic closed form; the vertical one in closed form given s. Both
   are branch-free.
@@ -73,7 +77,7 @@ DRAG_NEWTON_STEPS = 3
 # law is strictly increasing, so this only guards zero force on a zero law.
 _DENOMINATOR_FLOOR = 1e-9
 
-HORIZONTAL_DRAG_KEYS = ("l0", "q0", "l2c", "q2c", "q1c", "l2s", "q2s", "q4c", "q4s", "qax", "qay")
+HORIZONTAL_DRAG_KEYS = ("l0", "q0", "l2c", "q2c", "q1c", "l2s", "q2s", "q4c", "q4s", "qax", "qay", "qax1c", "qay1c")
 # The four-fold harmonics: written to the airframe file, and given symbols, only when a law has them.
 FOURFOLD_KEYS = ("q4c", "q4s")
 # The per-axis pair: drag that each axis of the law's frame makes on its own airflow component, c_x
@@ -82,6 +86,12 @@ FOURFOLD_KEYS = ("q4c", "q4s")
 # body leaves 14 deg that no truncation of the harmonics above holds while still increasing
 # (benchmarks/lawreach.py). Written and given symbols only when a law has it, like the four-fold pair.
 PER_AXIS_KEYS = ("qax", "qay")
+# The per-axis pair's front/back pair: the same per-axis drag times cos theta = a_x / s_h (s_h the in-plane
+# airflow speed), so that the drag of each axis may differ with the air from the front and from the back.
+# A per-axis body shaped front/back (benchmarks/anisovehicles/nv_longthin) leaves what neither q1c (drag
+# ALONG the airflow times cos theta) nor the pair can follow; fitted freely, the force offset took part of
+# it (dobwind/calibrate/zerooffset.py). Written and given symbols only when a law has it.
+FRONT_BACK_AXIS_KEYS = ("qax1c", "qay1c")
 VERTICAL_DRAG_KEYS = ("lz", "qz", "i1", "i2")
 # The body-frame law's one extra coefficient: rotor (momentum) drag, which grows with rotor speed.
 ROTOR_DRAG_KEY = "lr"
@@ -103,6 +113,11 @@ FOURFOLD_EXTRA_STEPS = 1
 # for pure per-axis drag), and a fitted law that mixes the pair with the harmonics is then up to 4 mm/s
 # off after three steps, 2e-6 m/s after four (tests/test_peraxis.py).
 PER_AXIS_EXTRA_STEPS = 1
+# A law with the front/back pair takes the same start and the same one step more (with or without qax,
+# qay), and one more again: the start then holds its value on the axes only, and a fitted law that mixes
+# both pairs with the harmonics was 1e-4 m/s off after four steps, 2e-6 m/s after five
+# (tests/test_frontback.py).
+FRONT_BACK_EXTRA_STEPS = 1
 
 
 @dataclass(frozen=True)
@@ -128,6 +143,8 @@ class DragLaw:
     q4s: float = 0.0
     qax: float = 0.0         # the per-axis pair (PER_AXIS_KEYS), N/(m/s)^p
     qay: float = 0.0
+    qax1c: float = 0.0       # the per-axis pair's front/back pair (FRONT_BACK_AXIS_KEYS), N/(m/s)^p
+    qay1c: float = 0.0
 
     def keys(self) -> tuple[str, ...]:
         extra = (ROTOR_DRAG_KEY,) if self.frame == DragFrame.BODY else ()
@@ -136,7 +153,8 @@ class DragLaw:
     def as_dict(self) -> dict[str, float | str]:
         values: dict[str, float | str] = {k: getattr(self, k) for k in self.keys()
                                           if (k not in FOURFOLD_KEYS or _fourfold(self))
-                                          and (k not in PER_AXIS_KEYS or _per_axis(self))}
+                                          and (k not in PER_AXIS_KEYS or _per_axis(self))
+                                          and (k not in FRONT_BACK_AXIS_KEYS or _front_back_axis(self))}
         if self.frame != DragFrame.HEADING:
             values["frame"] = self.frame
         if isinstance(self.exponent, ca.SX) or self.exponent != 2.0:
@@ -146,7 +164,8 @@ class DragLaw:
     def newton_steps(self, steps: int) -> int:
         """``steps`` for a quadratic law; more when the exponent is another (or a symbol)."""
         extra = (0 if _quadratic(self) else EXPONENT_EXTRA_STEPS) + (FOURFOLD_EXTRA_STEPS if _fourfold(self) else 0)
-        return steps + extra + (PER_AXIS_EXTRA_STEPS if _per_axis(self) else 0)
+        extra += FRONT_BACK_EXTRA_STEPS if _front_back_axis(self) else 0
+        return steps + extra + (PER_AXIS_EXTRA_STEPS if _per_axis(self) or _front_back_axis(self) else 0)
 
 
 def _quadratic(law: DragLaw) -> bool:
@@ -161,6 +180,11 @@ def _fourfold(law: DragLaw) -> bool:
 def _per_axis(law: DragLaw) -> bool:
     """The law has a per-axis term (a symbol counts, as in _fourfold)."""
     return any(isinstance(getattr(law, k), ca.SX) or getattr(law, k) != 0.0 for k in PER_AXIS_KEYS)
+
+
+def _front_back_axis(law: DragLaw) -> bool:
+    """The law has a term of the per-axis front/back pair (a symbol counts, as in _fourfold)."""
+    return any(isinstance(getattr(law, k), ca.SX) or getattr(law, k) != 0.0 for k in FRONT_BACK_AXIS_KEYS)
 
 
 def _is_two(exponent) -> bool:
@@ -186,24 +210,26 @@ def _front_back(x, y, s, exponent):
     return k * x * x, k * x * y
 
 
-def symbolic_law(frame: DragFrame, quadratic: bool = True, fourfold: bool = False, per_axis: bool = False) -> DragLaw:
+def symbolic_law(frame: DragFrame, quadratic: bool = True, fourfold: bool = False, per_axis: bool = False,
+                 front_back: bool = False) -> DragLaw:
     """A law whose coefficients are SX symbols named by their keys: the NumPy inversions below are built
     once on it and take the coefficients as inputs, instead of rebuilding the expression per law.
     ``quadratic``: exponent 2, the step's very expression; else the exponent is a symbol too.
     ``fourfold``: the q4c, q4s terms are symbols; else they are absent (exact zeros), as in the step
-    of a law without them. ``per_axis``: the same for qax, qay."""
-    symbols: dict = {k: ca.SX.sym(k) for k in _symbolic_keys(frame, fourfold, per_axis)}
+    of a law without them. ``per_axis``: the same for qax, qay; ``front_back`` for qax1c, qay1c."""
+    symbols: dict = {k: ca.SX.sym(k) for k in _symbolic_keys(frame, fourfold, per_axis, front_back)}
     return DragLaw(**symbols, frame=frame, exponent=2.0 if quadratic else ca.SX.sym("exponent"))
 
 
-def _symbolic_keys(frame: DragFrame, fourfold: bool, per_axis: bool = False) -> tuple[str, ...]:
-    absent = (() if fourfold else FOURFOLD_KEYS) + (() if per_axis else PER_AXIS_KEYS)
+def _symbolic_keys(frame: DragFrame, fourfold: bool, per_axis: bool = False, front_back: bool = False) -> tuple[str, ...]:
+    absent = (() if fourfold else FOURFOLD_KEYS) + (() if per_axis else PER_AXIS_KEYS) \
+        + (() if front_back else FRONT_BACK_AXIS_KEYS)
     return tuple(k for k in DragLaw(0.0, 0.0, frame=frame).keys() if k not in absent)
 
 
-def _variant(law: DragLaw) -> tuple[bool, bool, bool]:
-    """Which symbolic inversion stands for ``law``: (quadratic, fourfold, per_axis)."""
-    return _quadratic(law), _fourfold(law), _per_axis(law)
+def _variant(law: DragLaw) -> tuple[bool, bool, bool, bool]:
+    """Which symbolic inversion stands for ``law``: (quadratic, fourfold, per_axis, front_back)."""
+    return _quadratic(law), _fourfold(law), _per_axis(law), _front_back_axis(law)
 
 
 def _used(law: DragLaw, keys: tuple[str, ...]) -> list[str]:
@@ -278,6 +304,7 @@ def horizontal_drag_basis(vx, vy, s, exponent=2.0):
         "l2s": (-sin2 * vy, sin2 * vx), "q2s": (-g * sin2 * vy, g * sin2 * vx),
         "q4c": (g * cos4 * vx, g * cos4 * vy), "q4s": (-g * sin4 * vy, g * sin4 * vx),
         "qax": (axis_power(vx, exponent) * vx, 0 * vx), "qay": (0 * vy, axis_power(vy, exponent) * vy),
+        "qax1c": (vx / s * axis_power(vx, exponent) * vx, 0 * vx), "qay1c": (0 * vy, vx / s * axis_power(vy, exponent) * vy),
     }
 
 
@@ -323,9 +350,14 @@ def _planar_start(law: DragLaw, fx: ca.SX, fy: ca.SX, lin: ca.SX) -> tuple[ca.SX
     force, (fx, fy) s / |F| without dividing by |F|; exact for a law along the airflow. A law with the
     per-axis pair: each axis's law solved alone on its own force component (lin +- l2c, and every
     quadratic term's value along that axis), exact for pure per-axis drag, where the isotropic start
-    leaves the inversion metres per second off after three more steps (tests/test_peraxis.py)."""
-    if _per_axis(law):
-        return (_root(ca.fmax(lin + law.l2c, 0), ca.fmax(law.q0 + law.q2c + law.q4c + law.qax, 0), fx),
+    leaves the inversion metres per second off after three more steps (tests/test_peraxis.py). With the
+    front/back pair too, the x axis's law has q1c + qax1c times the sign of its force (cos theta = +-1 on
+    it); on the y axis cos theta is 0."""
+    if _per_axis(law) or _front_back_axis(law):
+        quadratic_x = law.q0 + law.q2c + law.q4c + law.qax
+        if _front_back_axis(law):  # the sign is 0 at zero force, where the root is 0 anyway
+            quadratic_x = quadratic_x + (law.q1c + law.qax1c) * (fx / ca.fmax(ca.fabs(fx), _DENOMINATOR_FLOOR))
+        return (_root(ca.fmax(lin + law.l2c, 0), ca.fmax(quadratic_x, 0), fx),
                 _root(ca.fmax(lin - law.l2c, 0), ca.fmax(law.q0 - law.q2c + law.q4c + law.qay, 0), fy))
     fh = ca.sqrt(fx * fx + fy * fy)
     scale = 2 / ca.fmax(lin + ca.sqrt(lin * lin + 4 * law.q0 * fh), _DENOMINATOR_FLOOR)
@@ -345,16 +377,16 @@ def drag_airflow(law: DragLaw, m: ca.SX, n: ca.SX, fz: ca.SX):
 
 
 @functools.lru_cache(maxsize=None)
-def _heading_inversion(quadratic: bool, fourfold: bool, per_axis: bool = False) -> VectorFunction:
+def _heading_inversion(quadratic: bool, fourfold: bool, per_axis: bool = False, front_back: bool = False) -> VectorFunction:
     """``drag_airflow`` on the symbolic law, built once: (m, n, fz, coefficients) -> airflow."""
-    law, sm, sn, sz = symbolic_law(DragFrame.HEADING, quadratic, fourfold, per_axis), ca.SX.sym("m"), ca.SX.sym("n"), ca.SX.sym("fz")
+    law, sm, sn, sz = symbolic_law(DragFrame.HEADING, quadratic, fourfold, per_axis, front_back), ca.SX.sym("m"), ca.SX.sym("n"), ca.SX.sym("fz")
     return VectorFunction(ca.Function("drag_airflow", [sm, sn, sz, ca.vertcat(*_symbols(law))],
                                       [ca.vertcat(*drag_airflow(law, sm, sn, sz))]))
 
 
 def _coefficients(law: DragLaw, frame: DragFrame) -> np.ndarray:
     """The law's coefficients in the order of ``symbolic_law(frame, *_variant(law))``'s symbols."""
-    keys = _symbolic_keys(frame, _fourfold(law), _per_axis(law))
+    keys = _symbolic_keys(frame, *_variant(law)[1:])
     return np.array([float(getattr(law, k)) for k in keys] + ([] if _quadratic(law) else [float(law.exponent)]))
 
 
@@ -377,7 +409,7 @@ def body_drag_basis(ax, ay, az, rotor, eps: float = 0.0, exponent=2.0) -> dict[s
         F_xy = [l0 + lr rotor + q0 s^(p-1) + (l2c + q2c s^(p-1)) cos 2theta] a_xy + q1c s^(p-2) a_x a_xy
                + (l2s + q2s s^(p-1)) sin 2theta (-a_y, a_x)
                + q4c s^(p-1) cos 4theta a_xy + q4s s^(p-1) sin 4theta (-a_y, a_x)
-               + (qax |a_x|^(p-1) a_x, qay |a_y|^(p-1) a_y)
+               + (qax |a_x|^(p-1) a_x, qay |a_y|^(p-1) a_y) + (a_x / s_h) (qax1c |a_x|^(p-1) a_x, qay1c |a_y|^(p-1) a_y)
         F_z  = lz a_z + qz s a_z + i1 s_h + i2 s_h^2
     """
     sh2 = ax * ax + ay * ay + eps * eps
@@ -395,6 +427,8 @@ def body_drag_basis(ax, ay, az, rotor, eps: float = 0.0, exponent=2.0) -> dict[s
         "l2s": (-sin2 * ay, sin2 * ax, zero), "q2s": (-g * sin2 * ay, g * sin2 * ax, zero),
         "q4c": (g * cos4 * ax, g * cos4 * ay, zero), "q4s": (-g * sin4 * ay, g * sin4 * ax, zero),
         "qax": (axis_power(ax, exponent) * ax, zero, zero), "qay": (zero, axis_power(ay, exponent) * ay, zero),
+        "qax1c": (ax / sh * axis_power(ax, exponent) * ax, zero, zero),
+        "qay1c": (zero, ax / sh * axis_power(ay, exponent) * ay, zero),
         "lr": (rotor * ax, rotor * ay, zero),
         "lz": (zero, zero, az), "qz": (zero, zero, s * az), "i1": (zero, zero, sh), "i2": (zero, zero, sh2),
     }
@@ -416,7 +450,7 @@ def body_law_at(law: DragLaw, a: ca.SX, rotor: ca.SX) -> ca.SX:
     smoothing): the chord's and the start rule's residuals, and what the step's tracked airflow explains
     (model/airstate.py)."""
     sa, sr = ca.SX.sym("a", 3), ca.SX.sym("rotor")
-    value = body_law_value(*body_law_scalars(law, sa, sr, DRAG_SPEED_EPS_MPS), sa, per_axis_force(law, sa))  # regrouped (dragform.py)
+    value = body_law_value(*body_law_scalars(law, sa, sr, DRAG_SPEED_EPS_MPS), sa, per_axis_force(law, sa, DRAG_SPEED_EPS_MPS))  # regrouped (dragform.py)
     coefficients = _symbols(law)
     return ca.Function("body_drag_value", [sa, sr, *coefficients], [value])(a, rotor, *coefficients)
 
@@ -509,9 +543,9 @@ def body_drag_airflow_tracking(law: DragLaw, force_ned: ca.SX, rot: ca.SX, rotor
 
 
 @functools.lru_cache(maxsize=None)
-def _body_inversion(quadratic: bool, fourfold: bool, per_axis: bool = False) -> VectorFunction:
+def _body_inversion(quadratic: bool, fourfold: bool, per_axis: bool = False, front_back: bool = False) -> VectorFunction:
     """``body_drag_airflow`` on the symbolic law, built once: (force, rot, rotor, coefficients) -> airflow."""
-    law, sf, sr, sq = symbolic_law(DragFrame.BODY, quadratic, fourfold, per_axis), ca.SX.sym("f", 3), ca.SX.sym("rot", 9), ca.SX.sym("rotor")
+    law, sf, sr, sq = symbolic_law(DragFrame.BODY, quadratic, fourfold, per_axis, front_back), ca.SX.sym("f", 3), ca.SX.sym("rot", 9), ca.SX.sym("rotor")
     return VectorFunction(ca.Function("body_drag_airflow", [sf, sr, sq, ca.vertcat(*_symbols(law))],
                                       [body_drag_airflow(law, sf, ca.reshape(sr, 3, 3), sq)]))
 
@@ -564,16 +598,17 @@ LAW_CHECK_SPEEDS = 48
 LAW_CHECK_MIN_MPS = 0.01
 # The terms that grow as s^p (the bluff-body drag): the linear part is the law without them, and the
 # fit rescales their columns for another exponent (dragfit.with_exponent).
-QUADRATIC_KEYS = ("q0", "q2c", "q2s", "q1c") + FOURFOLD_KEYS + PER_AXIS_KEYS
+QUADRATIC_KEYS = ("q0", "q2c", "q2s", "q1c") + FOURFOLD_KEYS + PER_AXIS_KEYS + FRONT_BACK_AXIS_KEYS
 
 
 @functools.lru_cache(maxsize=None)
-def _law_slope(frame: DragFrame, quadratic: bool, fourfold: bool, per_axis: bool = False) -> VectorFunction:
+def _law_slope(frame: DragFrame, quadratic: bool, fourfold: bool, per_axis: bool = False,
+               front_back: bool = False) -> VectorFunction:
     """The horizontal block of the forward law's Jacobian, d(F_x, F_y)/d(a_x, a_y), at level airflow, on
     symbolic coefficients: (airflow, rotor, coefficients) -> 2 x 2 (column-major), smoothed as in Newton.
     At a_z = 0 the body frame's 3 x 3 Jacobian is block-triangular, so this block is what the horizontal
     terms decide; the vertical law (lz, qz >= 0) is checked apart (fitfamily)."""
-    law, a, rotor = symbolic_law(frame, quadratic, fourfold, per_axis), ca.SX.sym("a", 2), ca.SX.sym("rotor")
+    law, a, rotor = symbolic_law(frame, quadratic, fourfold, per_axis, front_back), ca.SX.sym("a", 2), ca.SX.sym("rotor")
     if frame == DragFrame.BODY:
         force = ca.vertcat(*body_drag_force(law, a[0], a[1], 0 * a[0], rotor, DRAG_SPEED_EPS_MPS)[:2])
     else:

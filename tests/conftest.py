@@ -123,6 +123,11 @@ SLOW: dict[str, tuple[str, ...]] = {
         "test_a_signal_mid_write_leaves_the_previous_output",
         "test_the_next_run_removes_what_a_killed_run_left_and_nothing_else",
     ),
+    "test_frontback.py": (
+        "test_generated_c_with_the_pair_matches_the_reference",
+        "test_the_fit_adds_the_pair_for_a_front_back_per_axis_body",
+        "test_the_fit_leaves_the_pair_out_without_a_front_back_shape",
+    ),
     "test_peraxis.py": (
         "test_generated_c_with_the_pair_matches_the_reference",
         "test_the_fit_adds_the_pair_for_a_six_to_one_body",
@@ -323,6 +328,7 @@ MODULE_SECONDS: dict[str, float] = {
     "test_ulog.py": 14,
     "test_fourfold.py": 13,
     "test_peraxis.py": 21,   # alone, serial, under a load of 4 (2026-12-06; branch axisdrag)
+    "test_frontback.py": 55,  # alone, serial, beside two accuracy benchmarks (2026-12-07; branch frontback)
     "test_hardening.py": 13,
     "test_cformat.py": 12,
     "test_dataflash.py": 10,

@@ -20,6 +20,10 @@ LAWS = {
     "peraxis": DragLaw(0.1, 0.02, q2c=0.03, qax=-0.02, qay=0.12, lz=1.0, qz=0.2, lr=0.05, frame="body"),
     "peraxis-exponent": DragLaw(0.1, 0.02, qax=0.01, qay=0.1, lz=1.0, qz=0.2, frame="body", exponent=1.7),
     "peraxis-y": DragLaw(0.1, 0.0, qay=0.1, lz=1.0, frame="body"),
+    # the front/back pair: cos theta couples the axes (a full in-plane block, not a diagonal one)
+    "frontback": DragLaw(0.1, 0.02, q1c=0.01, qax=0.025, qay=0.15, qax1c=-0.005, qay1c=-0.03, lz=1.0, qz=0.2,
+                         lr=0.05, frame="body"),
+    "frontback-exponent": DragLaw(0.1, 0.02, qax1c=0.01, qay1c=-0.02, lz=1.0, qz=0.2, frame="body", exponent=1.7),
 }
 
 

@@ -30,13 +30,14 @@ from scipy.signal import lfilter, lfilter_zi
 
 from dobwind.calibrate import runmeans
 from dobwind.calibrate.directionshape import DirectionShape
+from dobwind.calibrate.zerooffset import pinned_system, zero_airflow_offset
 from dobwind.model.airframe import Airframe
 from dobwind.model.attitude import rotation_matrices
 from dobwind.model.discretization import first_order
-from dobwind.model.forceair import (FOURFOLD_KEYS, HORIZONTAL_DRAG_KEYS, PER_AXIS_KEYS, QUADRATIC_KEYS, ROTOR_DRAG_KEY,
-                                    VERTICAL_DRAG_KEYS, DragLaw, along_force_scale, body_drag_airflow_numpy,
-                                    body_drag_basis, drag_airflow_numpy, heading_force, heading_to_ned,
-                                    horizontal_drag_basis, law_decreasing, term_matrix)
+from dobwind.model.forceair import (FOURFOLD_KEYS, FRONT_BACK_AXIS_KEYS, HORIZONTAL_DRAG_KEYS, PER_AXIS_KEYS,
+                                    QUADRATIC_KEYS, ROTOR_DRAG_KEY, VERTICAL_DRAG_KEYS, DragLaw, along_force_scale,
+                                    body_drag_airflow_numpy, body_drag_basis, drag_airflow_numpy, heading_force,
+                                    heading_to_ned, horizontal_drag_basis, law_decreasing, term_matrix)
 from dobwind.model.terms import Term
 from dobwind.model.kinds import DragFrame
 from dobwind.model.signals import log_signals
@@ -84,7 +85,7 @@ ALWAYS = ("ox", "oy", "kappa")
 DIRECTION_MIN_SPEED_MPS = 1.0   # below it the airflow's direction is noise
 DIRECTION_MIN_SHARE = 0.05
 AXIAL_HARMONICS = ("l2c", "l2s", "q2c", "q2s", "q4c", "q4s", "qax", "qay")  # the per-axis pair has 2theta parts
-FORE_AFT_HARMONICS = ("q1c",)
+FORE_AFT_HARMONICS = ("q1c",) + FRONT_BACK_AXIS_KEYS  # the per-axis front/back pair: both
 
 
 @dataclass(frozen=True)
@@ -163,6 +164,9 @@ class DragSamples:
     anchor: bool = False
     # Direction harmonics tied to q0 (tie_to_q0): the shape the flight could not tell, from elsewhere.
     direction_shape: DirectionShape | None = None
+    # The heading-frame horizontal force offset measured at zero airflow (zerooffset.py), which every
+    # solve holds ox, oy at; None: no zero-airflow flight, the offset is fitted with the law.
+    offset_pin: tuple[float, float] | None = None
     # A CV split's samples (fold_splits, top_split): their parent's memo and the split's name. What is
     # computed from them is remembered with the parent, so it outlives the split objects, which are made
     # again for each CV rather than kept (keeping every split of every sample set tripled the fit's memory).
@@ -184,7 +188,11 @@ class DragSamples:
         return DragSamples(self.observed[keep], self.columns[keep], self.cos_yaw[keep], self.sin_yaw[keep],
                            self.airflow[keep], self.group[keep], self.log_index[keep], self.frame,
                            pick(self.rotation), pick(self.rotor), pick(self.hold), pick(self.hold_age_s),
-                           pick(self.interval_s), self.exponent, self.anchor, self.direction_shape)
+                           pick(self.interval_s), self.exponent, self.anchor, self.direction_shape,
+                           # A CV split measures it on its own samples, as it fits the law on them.
+                           zero_airflow_offset(self.observed[keep], self.cos_yaw[keep], self.sin_yaw[keep],
+                                               self.airflow[keep], pick(self.interval_s))
+                           if self.offset_pin is not None else None)
 
     def __len__(self) -> int:
         return len(self.observed)
@@ -477,9 +485,10 @@ def merge(parts: list[dict[str, np.ndarray]], frame: DragFrame = DragFrame.HEADI
     # Segment runs only when every log has them (holdcv falls back to fixed windows otherwise).
     holds = {k: np.concatenate([p[k] for p in parts]) for k in ("hold", "hold_age_s")} \
         if parts and all("hold" in p for p in parts) else {}
+    pin = zero_airflow_offset(cat["observed"], cat["cos_yaw"], cat["sin_yaw"], cat["airflow"], interval)
     return DragSamples(cat["observed"], cat["columns"], cat["cos_yaw"], cat["sin_yaw"], cat["airflow"],
                        np.concatenate(groups), logs, frame, body.get("rotation"), body.get("rotor"),
-                       holds.get("hold"), holds.get("hold_age_s"), interval)
+                       holds.get("hold"), holds.get("hold_age_s"), interval, offset_pin=pin)
 
 
 def _normal_equations(samples: DragSamples, weights: np.ndarray | None,
@@ -511,7 +520,16 @@ def _solve(samples: DragSamples, active: tuple[str, ...], weights: np.ndarray | 
     of an SVD of the whole (3N x P) system per set, which made the fit's cross-validation slow."""
     parameters = samples.parameters
     gram, rhs = _normal_equations(samples, weights, [parameters.index(p) for p in active])
-    return tied(samples, solve_normal(parameters, active, gram, rhs))
+    return solve_with_pin(samples, active, gram, rhs)
+
+
+def solve_with_pin(samples: DragSamples, active: tuple[str, ...], gram: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """solve_normal, then the tied harmonics; ox, oy held at the samples' offset_pin when they have one."""
+    if samples.offset_pin is None or "ox" not in active:
+        return tied(samples, solve_normal(samples.parameters, active, gram, rhs))
+    theta = solve_normal(samples.parameters, *pinned_system(active, gram, rhs, samples.offset_pin))
+    theta[samples.parameters.index("ox")], theta[samples.parameters.index("oy")] = samples.offset_pin
+    return tied(samples, theta)
 
 
 def solve_normal(parameters: tuple[str, ...], active: tuple[str, ...], gram: np.ndarray,
@@ -601,7 +619,7 @@ def anchored_theta(samples: DragSamples, active: tuple[str, ...],
                                _axis_scale(samples, start))
 
     def solve(gram: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-        return tied(samples, solve_normal(parameters, active, gram, rhs))
+        return solve_with_pin(samples, active, gram, rhs)
 
     return runmeans.anchored_fit(stats, solve, lambda theta: run_errors(samples, theta)[2])
 
@@ -707,7 +725,8 @@ def _growth_speeds(samples: DragSamples) -> dict[str, np.ndarray]:
         speed = np.linalg.norm(air, axis=1)
     else:
         axes, speed = air, np.hypot(air[:, 0], air[:, 1])
-    along = {"qax": np.abs(axes[:, 0]), "qay": np.abs(axes[:, 1])}
+    along = {"qax": np.abs(axes[:, 0]), "qay": np.abs(axes[:, 1]),   # cos theta, the front/back pair's other
+             "qax1c": np.abs(axes[:, 0]), "qay1c": np.abs(axes[:, 1])}  # factor, does not grow
     return {key: along.get(key, speed) for key in QUADRATIC_KEYS}
 
 
@@ -951,13 +970,14 @@ def _choose_horizontal(samples: DragSamples, candidates: tuple[tuple[str, ...], 
         scored = [(s, h) for s, h in scored if h != horizontal]
 
 
-# The four-fold harmonics, and the per-axis pair, must each lower the chosen set's score by this share to
-# be added (the parsimony rule).
+# The four-fold harmonics, the per-axis pair and its front/back pair must each lower the chosen set's
+# score by this share to be added (the parsimony rule).
 FOURFOLD_GAIN = 0.98
 # The optional term groups, tried in this order after the set is chosen, each on the law the one before
 # left: the four-fold harmonics (per-axis drag of near-equal axes), then the per-axis pair (per-axis drag
-# of unequal axes, whose series in the airflow direction the harmonics truncate: docs/calibration.md).
-OPTIONAL_GROUPS = (FOURFOLD_KEYS, PER_AXIS_KEYS)
+# of unequal axes, whose series in the airflow direction the harmonics truncate: docs/calibration.md),
+# then its front/back pair (per-axis drag that differs front from back, which q1c cannot follow).
+OPTIONAL_GROUPS = (FOURFOLD_KEYS, PER_AXIS_KEYS, FRONT_BACK_AXIS_KEYS)
 
 
 def _with_optional_groups(samples: DragSamples, candidates: tuple[tuple[str, ...], ...],

@@ -97,7 +97,7 @@ def _exponent_line(report: FitReport) -> list[str]:
 
 # The drag law's coefficients (docs/formats.md, [force_air]): printed once under the law so that no
 # figure of the report stands without its unit.
-DRAG_UNITS = ("l0, l2c, l2s, lr, lz, i1 in N/(m/s); q0, q2c, q2s, q1c, q4c, q4s, qax, qay in N/(m/s)^exponent; qz, i2 in "
+DRAG_UNITS = ("l0, l2c, l2s, lr, lz, i1 in N/(m/s); q0, q2c, q2s, q1c, q4c, q4s, qax, qay, qax1c, qay1c in N/(m/s)^exponent; qz, i2 in "
               "N/(m/s)^2; ox, oy in N; kappa a share of the thrust (no unit)")
 
 
