@@ -94,3 +94,15 @@ def test_the_self_check_says_why_instead_of_the_figure():
 
 def _airframe():
     return load_airframe(str(ROOT / "airframes" / "m300.toml"))
+
+
+@pytest.mark.parametrize("speed, sigma, degrees", [(1.75, 0.45, 14.4), (10.0, 0.1, 0.57), (3.0, 3.0 * math.tan(math.radians(30)), 30.0)])
+def test_a_found_winds_direction_carries_the_1_sigma_its_speed_allows(speed, sigma, degrees):
+    from dobwind.calibrate.windsolve import WindGroup
+    group = WindGroup("f.ulg", 0.0, 37.0, (-speed, 0.0), sigma, 155)
+    assert group.direction_text() == f"direction 1-sigma {degrees:.0f} deg"
+
+
+def test_a_wind_no_faster_than_its_1_sigma_has_no_direction():
+    from dobwind.calibrate.windsolve import WindGroup
+    assert "not determined" in WindGroup("f.ulg", 0.0, 37.0, (0.3, 0.0), 0.45, 155).direction_text()

@@ -80,6 +80,14 @@ class WindGroup:
     def from_deg(self) -> float:
         return float(wind_from_deg(self.wind_ne[0], self.wind_ne[1]))
 
+    def direction_text(self) -> str:
+        """The direction's 1-sigma, for the user: a sideways error of sigma_mps (the larger component's)
+        turns a wind of speed_mps by atan(sigma / speed). At 1.75 m/s with 0.45 m/s (the 37 s PX4 field log)
+        that is 14 deg, so a direction 53 deg from another estimate's is no surprise for a wind this weak."""
+        if not self.sigma_mps < self.speed_mps:
+            return "direction not determined (the 1-sigma reaches the speed)"
+        return f"direction 1-sigma {math.degrees(math.atan2(self.sigma_mps, self.speed_mps)):.0f} deg"
+
 
 @dataclass(frozen=True)
 class JointSolution:
