@@ -7,6 +7,7 @@ from a known drag law; and, as the control, the same law on blocks that all vary
 called diverged."""
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -106,3 +107,20 @@ def test_a_found_winds_direction_carries_the_1_sigma_its_speed_allows(speed, sig
 def test_a_wind_no_faster_than_its_1_sigma_has_no_direction():
     from dobwind.calibrate.windsolve import WindGroup
     assert "not determined" in WindGroup("f.ulg", 0.0, 37.0, (0.3, 0.0), 0.45, 155).direction_text()
+
+
+def test_the_report_says_why_instead_of_the_hold_figure_and_marks_a_clipped_per_sample_cv():
+    from dobwind.calibrate.fit import FitReport
+    from dobwind.calibrate.fitreport import text_report
+    from dobwind.calibrate.reportparts import HoldCvBySpeed
+    table = HoldCvBySpeed((2.9,), (480.693,), (476.884,), (60.0,), 8.9)
+    base = FitReport(points=258, model="drag", samples=258, drag={"l0": 0.15}, horizontal_cv_rmse_mps=1071.115,
+                     horizontal_rmse_mps=1.865, vertical_rmse_mps=3.264,
+                     hold_cv_speed_mps=480.693, hold_cv_by_speed=table)
+    plain = text_report(base)
+    assert "hold-level CV 480.693 m/s (held-out holds scored 8.9 s)" in plain
+    why = "held-out predictions diverged in 1 of 2 cross-validation folds: the reason"
+    text = text_report(dataclasses.replace(base, hold_cv_diverged=why))
+    assert f"hold-level CV not measured: {why}" in text and "hold-level CV 480.693" not in text
+    assert "grouped 5-fold CV 1071.115 m/s (held-out predictions diverged" in text
+    assert base.as_dict()["hold_cv_diverged"] is None

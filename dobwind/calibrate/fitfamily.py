@@ -337,6 +337,7 @@ def _chosen_report(report: FitReport, chosen: str, scores: dict[str, FamilyScore
                                hold_cv_speed_mps=None if hold is None else hold.cv_speed_mps,
                                hold_cv_by_speed=None if hold is None else hold.by_speed,
                                hold_extrapolation_speed_mps=None if hold is None else hold.extrapolation_speed_mps,
+                               hold_cv_diverged=None if hold is None else hold.diverged,
                                warnings=warnings), vertical
 
 
