@@ -9,12 +9,15 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from dobwind.calibrate import cvdiverge, dragfit, holdcv, selfcheck
 from dobwind.calibrate.thresholds import Thresholds
+from dobwind.cli.app import main
 from dobwind.model.airframe import load_airframe
 from tests.helpers import ROOT
 
@@ -123,4 +126,26 @@ def test_the_report_says_why_instead_of_the_hold_figure_and_marks_a_clipped_per_
     text = text_report(dataclasses.replace(base, hold_cv_diverged=why))
     assert f"hold-level CV not measured: {why}" in text and "hold-level CV 480.693" not in text
     assert "grouped 5-fold CV 1071.115 m/s (held-out predictions diverged" in text
+    scored = {"exponent_scores": {"1.9": 588.726, "2": 588.726, "2.1": 588.726}}
+    assert "rank nothing" not in text_report(dataclasses.replace(base, **scored))
+    assert "these scores rank nothing" in text_report(dataclasses.replace(base, hold_cv_diverged=why, **scored))
     assert base.as_dict()["hold_cv_diverged"] is None
+
+
+FIELD_LOG = (Path(os.environ.get("DOBWIND_SHARED_DATA", ROOT.parent / "shared" / "data"))
+             / "field" / "px4_quad_dragfusion_esc.ulg")
+
+
+@pytest.mark.skipif(not FIELD_LOG.exists(), reason="the shared field logs are not here")
+def test_the_drag_fusion_field_log_names_its_diverged_fold_instead_of_480_mps(tmp_path, capsys):
+    """The reviewer's two commands (docs/field-calibration.md): still refused, now with the fold and why."""
+    start, out = tmp_path / "s.toml", tmp_path / "f.toml"
+    assert main(["init", str(FIELD_LOG), "--mass", "1.5", "-o", str(start)]) == 0
+    capsys.readouterr()
+    assert main(["fit", str(start), str(FIELD_LOG), "--wind", "unknown", "-o", str(out)]) == 1
+    captured = capsys.readouterr()
+    refusal = captured.err.strip().splitlines()[-1]
+    assert "hold-level CV not measured" in refusal and "hold-level CV 480" not in refusal
+    assert "the law fitted without block 0 (on 110 samples of block 1)" in refusal
+    assert "too little airflow-speed variety in the other block" in refusal
+    assert "direction 1-sigma 14 deg" in captured.out and not out.exists()

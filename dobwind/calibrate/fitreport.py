@@ -95,7 +95,10 @@ def _exponent_line(report: FitReport) -> list[str]:
         return []
     tried = ", ".join(f"{p} {s:.3f}" for p, s in report.exponent_scores.items())
     exponent = report.drag.get("exponent", 2.0)
-    return [f"  exponent {exponent:g}, chosen by the hold-level score (CV and top holds, m/s) of each tried: {tried}"]
+    # Scores made of clipped predictions (hold_cv_diverged) tie or differ by the clip, not by the law.
+    ranked = ("" if not report.hold_cv_diverged else
+              " (the chosen law's held-out predictions diverged, hold-level CV above: these scores rank nothing)")
+    return [f"  exponent {exponent:g}, chosen by the hold-level score (CV and top holds, m/s) of each tried: {tried}{ranked}"]
 
 
 # The drag law's coefficients (docs/formats.md, [force_air]): printed once under the law so that no
