@@ -372,11 +372,12 @@ def _segment_lines(segments: list[Segment]) -> list[str]:
 
 def text_table(check: SelfCheck) -> str:
     """The self-check (as stored in the fit report) for people: per log, and its worst segments."""
-    cv = "n/a" if check.cv_mps is None else f"{check.cv_mps:.3f} m/s"
-    if check.cv_diverged:
-        cv = "not measured: held-out predictions diverged, the FAIL line says where"
+    cv = "n/a" if check.cv_mps is None else f"{check.cv_mps:.3f}"
+    figure = f"{cv} m/s (limit {check.cv_limit_mps:.3f})"
+    if check.cv_diverged:  # the clip's mixture is no figure (Thresholds.cv_diverged)
+        figure = f"not measured: held-out predictions diverged, the FAIL line says where (limit {check.cv_limit_mps:.3f} m/s)"
     lines = [f"self-check: every calibration log replayed through the new airframe's step; calibrated speed "
-             f"range {check.speed_range_mps:.2f} m/s; hold-level CV {cv} (limit {check.cv_limit_mps:.3f} m/s)",
+             f"range {check.speed_range_mps:.2f} m/s; hold-level CV {figure}",
              f"  limits per log: segment speed error RMS <= {check.replay_limit_mps:.3f} m/s, mean direction "
              f"error <= {check.direction_limit_deg:g} deg (or <= {check.replay_limit_mps:.3f} m/s as a distance at the "
              "true speeds)"]
