@@ -82,8 +82,9 @@ class WindGroup:
 
     def direction_text(self) -> str:
         """The direction's 1-sigma, for the user: a sideways error of sigma_mps (the larger component's)
-        turns a wind of speed_mps by atan(sigma / speed). At 1.75 m/s with 0.45 m/s (the 37 s PX4 field log)
-        that is 14 deg, so a direction 53 deg from another estimate's is no surprise for a wind this weak."""
+        turns a wind of speed_mps by atan(sigma / speed): 14 deg at 1.75 m/s with 0.45 m/s (the 37 s PX4
+        drag-fusion field log), which a speed's 1-sigma alone does not make plain. Statistical, as sigma_mps:
+        a misfit of the law adds a bias it does not show (docs/field-calibration.md)."""
         if not self.sigma_mps < self.speed_mps:
             return "direction not determined (the 1-sigma reaches the speed)"
         return f"direction 1-sigma {math.degrees(math.atan2(self.sigma_mps, self.speed_mps)):.0f} deg"
