@@ -94,5 +94,6 @@ def summary(folds: tuple[FoldDivergence, ...], total_folds: int, cv_mps: float) 
     if not folds:
         return None
     return (f"held-out predictions diverged in {len(folds)} of {total_folds} cross-validation folds, so the figure "
-            f"({cv_mps:.3f} m/s, each diverged sample counted as {dragfit.ERROR_CLIP_MPS:g} m/s) measures nothing: "
+            f"({cv_mps:.3f} m/s, each diverged sample counted as {dragfit.ERROR_CLIP_MPS:g} m/s) measures nothing "
+            f"(blocks: {dragfit.BLOCK_S:g} s of a log's fit samples each, numbered in time order across the logs): "
             + "; ".join(f.text() for f in folds))
