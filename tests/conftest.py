@@ -204,6 +204,9 @@ SLOW: dict[str, tuple[str, ...]] = {
     "test_structure.py": (
         "test_no_function_over_60_lines",
     ),
+    "test_cvdiverge.py": (
+        "test_the_drag_fusion_field_log_names_its_diverged_fold_instead_of_480_mps",  # init and a fit (8 s)
+    ),
     "test_fieldcal.py": (
         "test_wind_unknown_per_segment_finds_each_segments_wind",
         "test_wind_unknown_refuses_a_flight_whose_nose_never_turns",

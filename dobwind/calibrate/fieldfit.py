@@ -114,7 +114,8 @@ def field_truth(options: FieldOptions, af: Airframe, log_paths: list[str]) -> Fi
         solution = estimate_winds(af, [(p, flight_of(p, af, options.rate_hz)) for p in log_paths], options.segment_s)
         truth: Truth = GroupWinds(solution)
         summary = [f"wind (--wind unknown) {g.path} t {g.t_start_s:.1f}-{g.t_end_s:.1f} s: {g.speed_mps:.2f} m/s from "
-                   f"{g.from_deg:.0f} deg, 1-sigma {g.sigma_mps:.2f} m/s ({g.samples} samples)" for g in solution.groups]
+                   f"{g.from_deg:.0f} deg, 1-sigma {g.sigma_mps:.2f} m/s, {g.direction_text()} ({g.samples} samples)"
+                   for g in solution.groups]
         summary.append(f"joint solution: Jacobian condition {solution.condition:.3g}; {'; '.join(solution.notes)}")
     elif len(options.wind) == 1:
         truth = parse_wind(options.wind[0])

@@ -131,6 +131,9 @@ class FitReport:
     excluded_logs: list[str] = field(default_factory=list)   # left out by --exclude-outliers
     hold_cv_without_outliers_mps: float | None = None  # the hold-level CV without the flagged logs (runmeans)
     warnings: list[str] = field(default_factory=list)
+    # Why hold_cv_speed_mps measures nothing: folds whose held-out predictions diverged, each such sample
+    # counted as the clip (dobwind/calibrate/cvdiverge.py); None when the figure is a measured error.
+    hold_cv_diverged: str | None = None
 
     def as_dict(self) -> dict[str, Any]:
         """The fields in declaration order as plain JSON values, nested values copied (the schema's

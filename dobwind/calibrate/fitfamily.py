@@ -82,7 +82,8 @@ def _family_scores(cv: tuple[float, float], extrapolation: float,
                    hold: holdcv.HoldCV | None) -> FamilyScores:
     """cv_h_mps: per-sample vector error (selects the terms); hold: hold-mean speed errors on the
     same folds, what replay's per-hold speed errors follow (dobwind/calibrate/holdcv.py)."""
-    held = None if hold is None else HoldScores(_none(hold.rms_mps), hold.band_table(), _none(hold.extrapolation_mps))
+    held = None if hold is None else HoldScores(_none(hold.rms_mps), hold.band_table(), _none(hold.extrapolation_mps),
+                                                hold.diverged_text())
     return FamilyScores(cv_h_mps=_none(cv[0]), cv_v_mps=_none(cv[1]), extrapolation_h_mps=_none(extrapolation),
                         score_mps=_none(dragfit.combined(cv[0], extrapolation)), hold=held)
 
@@ -287,12 +288,23 @@ def _fit_once(af: Airframe, log_paths: list[str],
         cv = report.hold_cv_without_outliers_mps
         limits = dataclasses.replace(limits, outlier_logs=tuple(exempt))
         report = dataclasses.replace(report, warnings=[*report.warnings, runmeans.exempt_warning(report.runs, exempt)])
+    elif report.hold_cv_speed_mps is not None:
+        limits = _diverged_cv(limits, scores.get(chosen))
     check = calibration.check(new, cv, speed_range, limits)
     new, check, low_pass, quiet_warnings = _quiet_hover(
         new, check, hover, lambda af_: calibration.check(af_, cv, speed_range, limits))
     check = _short_flight(check, samples)
     return new, dataclasses.replace(report, low_pass=low_pass,
                                     warnings=[*report.warnings, *quiet_warnings, *check.warnings]), points, check
+
+
+def _diverged_cv(limits: Thresholds, scores: FamilyScores | None) -> Thresholds:
+    """The limits with why the chosen family's hold-level CV measures nothing (folds whose held-out
+    predictions diverged: dobwind/calibrate/cvdiverge.py), for the self-check to say instead of its figure."""
+    hold = None if scores is None else scores.hold
+    if hold is None or hold.diverged is None:
+        return limits
+    return dataclasses.replace(limits, cv_diverged=hold.diverged)
 
 
 def _short_flight(check: SelfCheck, samples: dragfit.DragSamples) -> SelfCheck:
@@ -325,6 +337,7 @@ def _chosen_report(report: FitReport, chosen: str, scores: dict[str, FamilyScore
                                hold_cv_speed_mps=None if hold is None else hold.cv_speed_mps,
                                hold_cv_by_speed=None if hold is None else hold.by_speed,
                                hold_extrapolation_speed_mps=None if hold is None else hold.extrapolation_speed_mps,
+                               hold_cv_diverged=None if hold is None else hold.diverged,
                                warnings=warnings), vertical
 
 

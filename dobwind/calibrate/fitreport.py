@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from dobwind.calibrate import dragfit
 from dobwind.calibrate.fit import FOLDS, FitReport, Points
 from dobwind.calibrate.reportparts import family_dict
 from dobwind.model.airframe import Airframe
@@ -18,7 +19,7 @@ def _term_matrix(terms: list[str], m: np.ndarray, n: np.ndarray, fz: np.ndarray)
 
 
 def _errors(cv: float | None, extrapolated: float | None) -> str:
-    text = f"grouped {FOLDS}-fold CV " + ("n/a (one hold)" if cv is None else f"{cv:.3f} m/s")
+    text = f"grouped {FOLDS}-fold CV " + ("n/a (one hold)" if cv is None else f"{cv:.3f} m/s{dragfit.diverged(cv)}")
     return text + ("" if extrapolated is None else f", top holds extrapolated {extrapolated:.3f} m/s")
 
 
@@ -40,6 +41,8 @@ def _hold_line(report: FitReport, scored_s: float = 15.0) -> list[str]:
     """The hold-level CV, split into what a longer hold keeps and what averages out (dobwind/calibrate/holdcv.py),
     and what that means for a hold scored for ``scored_s`` (replay scores a 20 s hold for 15 s)."""
     table = report.hold_cv_by_speed
+    if report.hold_cv_diverged:
+        return [f"hold-level CV not measured: {report.hold_cv_diverged}"]
     if report.hold_cv_speed_mps is None or table is None or not table.bias_mps:
         return []
     from dobwind.calibrate.holdcv import HoldCV
@@ -92,7 +95,10 @@ def _exponent_line(report: FitReport) -> list[str]:
         return []
     tried = ", ".join(f"{p} {s:.3f}" for p, s in report.exponent_scores.items())
     exponent = report.drag.get("exponent", 2.0)
-    return [f"  exponent {exponent:g}, chosen by the hold-level score (CV and top holds, m/s) of each tried: {tried}"]
+    # Scores made of clipped predictions (hold_cv_diverged) tie or differ by the clip, not by the law.
+    ranked = ("" if not report.hold_cv_diverged else
+              " (the chosen law's held-out predictions diverged, hold-level CV above: these scores rank nothing)")
+    return [f"  exponent {exponent:g}, chosen by the hold-level score (CV and top holds, m/s) of each tried: {tried}{ranked}"]
 
 
 # The drag law's coefficients (docs/formats.md, [force_air]): printed once under the law so that no

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from dobwind.calibrate import dragfit
+from dobwind.calibrate import cvdiverge, dragfit
 from dobwind.calibrate.reportparts import HoldCvBySpeed
 
 HOLD_WINDOW_S = 10.0   # about a steady hold's scored part, for logs without a `segment` column
@@ -103,6 +103,13 @@ class HoldCV:
     window_errors_mps: np.ndarray | None = field(default=None, compare=False, repr=False)
     top_errors_mps: np.ndarray | None = field(default=None, compare=False, repr=False)
     window_folds: np.ndarray | None = field(default=None, compare=False, repr=False)  # each window's CV fold
+    # The folds whose held-out predictions diverged (the figure then mixes clips with errors), of ``folds``.
+    diverged: tuple[cvdiverge.FoldDivergence, ...] = field(default=(), compare=False, repr=False)
+    folds: int = field(default=0, compare=False, repr=False)
+
+    def diverged_text(self) -> str | None:
+        """What the self-check says instead of the figure when folds diverged (cvdiverge.summary)."""
+        return cvdiverge.summary(self.diverged, self.folds, self.rms_mps)
 
     def band_table(self) -> HoldCvBySpeed:
         """The bands as the fit reports them (`hold_cv_by_speed`); ``from_table`` reads them back."""
@@ -167,9 +174,17 @@ class _Windows:
 def _held_out(split: dragfit.Split, fit_predict: dragfit.FitPredict, window_s: float) -> _Windows:
     """Hold-mean speed errors, true speeds, half differences and lengths of the held-out samples' windows
     (``split``: fitted on, scored on; windows of ``window_s``)."""
+    return _fold(split, fit_predict, window_s)[0]
+
+
+def _fold(split: dragfit.Split, fit_predict: dragfit.FitPredict,
+          window_s: float) -> tuple[_Windows, cvdiverge.FoldDivergence | None]:
+    """_held_out's windows, and the fold's divergence (cvdiverge: None when its predictions did not diverge)."""
     held_out = split[1]
+    raw = fit_predict(*split)
+    divergence = cvdiverge.fold_divergence(split, cvdiverge.unpredicted(raw, held_out.airflow))
     # A diverged prediction counts as the clip (dragfit.prediction_error), never as inf or NaN.
-    predicted = held_out.airflow + dragfit.prediction_error(fit_predict(*split), held_out.airflow)
+    predicted = held_out.airflow + dragfit.prediction_error(raw, held_out.airflow)
     windows, scored = _scored_windows(held_out, samples_per_window(held_out, window_s))
     predicted, held_out, windows = predicted[scored], held_out.select(scored), windows[scored]
     _, first, inverse, count = np.unique(windows, return_index=True, return_inverse=True, return_counts=True)
@@ -177,7 +192,7 @@ def _held_out(split: dragfit.Split, fit_predict: dragfit.FitPredict, window_s: f
     # A window lies in one log, so its first sample's rate is the window's.
     length_s = count / held_out.rates_hz()[first]
     return _Windows(window_speed_errors(predicted, held_out.airflow, windows), speed,
-                    _half_differences(predicted, held_out.airflow, inverse, count), length_s)
+                    _half_differences(predicted, held_out.airflow, inverse, count), length_s), divergence
 
 
 def _split(windows: _Windows, band: np.ndarray) -> tuple[float, float]:
@@ -215,9 +230,11 @@ def hold_cv(samples: dragfit.DragSamples, fit_predict: dragfit.FitPredict,
     """Hold-level CV on dragfit.grouped_cv's folds, and the same error on the top blocks (those
     dragfit.extrapolation_error holds out) when fitted below them. None with fewer than two blocks.
     The splits of dragfit.fold_splits and top_split: a law the grouped CV scored is not fitted again."""
-    parts = [_held_out(split, fit_predict, window_s) for split in dragfit.each_fold(samples)]
-    if not parts:   # fewer than two blocks
+    scored = [_fold(split, fit_predict, window_s) for split in dragfit.each_fold(samples)]
+    if not scored:   # fewer than two blocks
         return None
+    parts = [windows for windows, _ in scored]
+    diverged = tuple(d for _, d in scored if d is not None)
     held = _Windows.joined(parts)
     folds = np.concatenate([np.full(len(p.error_mps), k) for k, p in enumerate(parts)])
     top = dragfit.top_split(samples)
@@ -227,7 +244,7 @@ def hold_cv(samples: dragfit.DragSamples, fit_predict: dragfit.FitPredict,
         extrapolation = float(np.sqrt(np.mean(top_error ** 2)))
     centres, rms, bias, noise = _bands(held)
     return HoldCV(float(np.sqrt(np.mean(held.error_mps ** 2))), centres, rms, extrapolation, bias, noise,
-                  float(np.median(held.length_s)), held.error_mps, top_error, folds)
+                  float(np.median(held.length_s)), held.error_mps, top_error, folds, diverged, len(parts))
 
 
 # A hold-level gain counts when it is this share (on the held-out holds and the top holds alike) ...

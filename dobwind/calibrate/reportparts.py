@@ -74,6 +74,7 @@ class SelfCheck:
     still_noise_mps: float | None = None  # per-axis horizontal noise at low airflow (None: no such segment)
     outlier_logs: list[str] = field(default_factory=list)  # replayed, not judged (Thresholds.outlier_logs)
     warnings: list[str] = field(default_factory=list)      # said, not refused (selfcheck.direction_tail_warnings)
+    cv_diverged: str | None = None   # why cv_mps measures nothing (Thresholds.cv_diverged), None when it does
 
     def as_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
@@ -109,6 +110,7 @@ class HoldScores:
     cv_speed_mps: float | None              # `hold_cv_speed_mps`
     by_speed: HoldCvBySpeed                 # `hold_cv_by_speed`
     extrapolation_speed_mps: float | None   # `hold_extrapolation_speed_mps`: top holds held out
+    diverged: str | None = None             # why cv_speed_mps measures nothing (holdcv.HoldCV.diverged_text); not printed
 
 
 @dataclass(frozen=True)

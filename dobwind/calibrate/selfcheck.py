@@ -312,6 +312,8 @@ def verdict(af: Airframe, logs: list[LogCheck], cv_mps: float | None, speed_rang
     reasons = [f"coefficient {c} (limit |c| <= {limits.max_coefficient:g})" for c in blown_up(af, limits.max_coefficient)]
     if cv_mps is None or not math.isfinite(cv_mps):
         reasons.append("no cross-validation figure (the data has too few blocks to test the model on unseen flight)")
+    elif cv_mps > cv_limit and limits.cv_diverged:
+        reasons.append(f"hold-level CV not measured (limit {cv_limit:.3f} m/s): {limits.cv_diverged}")
     elif cv_mps > cv_limit:
         reasons.append(f"hold-level CV {cv_mps:.3f} m/s > {cv_limit:.3f} m/s{dragfit.diverged(cv_mps)}")
     for check in logs:
@@ -333,7 +335,8 @@ def verdict(af: Airframe, logs: list[LogCheck], cv_mps: float | None, speed_rang
     noise_up = pooled_noise([(c.noise_up_mps, c.noise_dof) for c in logs])
     still = pooled_noise([(c.still_noise_mps, c.still_dof) for c in logs]) if any(c.still_dof for c in logs) else None
     return SelfCheck(not reasons, reasons, cv_mps, speed_range_mps, cv_limit, replay_limit, limits.direction_deg, logs,
-                     noise_h, noise_up, still, list(limits.outlier_logs), direction_tail_warnings(logs, limits))
+                     noise_h, noise_up, still, list(limits.outlier_logs), direction_tail_warnings(logs, limits),
+                     limits.cv_diverged)
 
 
 def self_check(af: Airframe, logs: list[FlightLog], fit_samples: list[int], cv_mps: float | None,
@@ -370,8 +373,11 @@ def _segment_lines(segments: list[Segment]) -> list[str]:
 def text_table(check: SelfCheck) -> str:
     """The self-check (as stored in the fit report) for people: per log, and its worst segments."""
     cv = "n/a" if check.cv_mps is None else f"{check.cv_mps:.3f}"
+    figure = f"{cv} m/s (limit {check.cv_limit_mps:.3f})"
+    if check.cv_diverged:  # the clip's mixture is no figure (Thresholds.cv_diverged)
+        figure = f"not measured: held-out predictions diverged, the FAIL line says where (limit {check.cv_limit_mps:.3f} m/s)"
     lines = [f"self-check: every calibration log replayed through the new airframe's step; calibrated speed "
-             f"range {check.speed_range_mps:.2f} m/s; hold-level CV {cv} m/s (limit {check.cv_limit_mps:.3f})",
+             f"range {check.speed_range_mps:.2f} m/s; hold-level CV {figure}",
              f"  limits per log: segment speed error RMS <= {check.replay_limit_mps:.3f} m/s, mean direction "
              f"error <= {check.direction_limit_deg:g} deg (or <= {check.replay_limit_mps:.3f} m/s as a distance at the "
              "true speeds)"]

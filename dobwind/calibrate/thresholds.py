@@ -30,6 +30,9 @@ class Thresholds:
     # Logs the fit itself flagged as outliers (dobwind/calibrate/runmeans.py, a minority of them only): replayed and
     # reported, but not held to the per-log replay limits. Set by the fit, never by the user.
     outlier_logs: tuple[str, ...] = ()
+    # Why the hold-level CV judged measures nothing (held-out predictions diverged: cvdiverge.summary), said
+    # instead of its figure. Set by the fit, never by the user.
+    cv_diverged: str | None = None
 
     def speed_limit_mps(self, share: float, speed_range_mps: float) -> float:
         return max(self.floor_mps, share * speed_range_mps)
