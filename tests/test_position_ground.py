@@ -83,3 +83,15 @@ def test_a_land_detector_flicker_in_the_air_is_no_new_ground():
     airborne = (t >= 5) & (t < 55) & ~np.isclose(t, 5.2)
     np.testing.assert_allclose(pos.height_m[airborne], up[airborne], atol=1e-9)
     assert pos.height_source == "test track altitude above the ground before take-off"
+
+
+def test_a_log_that_begins_in_the_air_takes_the_ground_just_after_its_landing():
+    """Landed, then carried 30 m down a slope in the rest of the log: the flight before is measured from
+    where it touched down (the landed rows within GROUND_S after it), not from the whole landed stretch."""
+    t = np.arange(0.0, 60.0, 0.5)
+    landed = t >= 20.0
+    ground = np.where(t < 28.0, 200.0, 170.0)
+    up = np.where(landed, 0.0, 8.0)
+    pos = on_rows(_track(t, ground + up), t, landed)
+    np.testing.assert_allclose(pos.height_m[~landed], 8.0, atol=1e-9)
+    assert "where it landed" in pos.height_source
