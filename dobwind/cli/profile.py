@@ -219,7 +219,7 @@ def _write_netcdf(path: Path, stats: dict[str, np.ndarray], args: argparse.Names
                 "references": "dobwind docs/atmospheric.md", "dobwind_version": __version__,
                 "dobwind_airframe": af.name, "dobwind_airframe_file": Path(args.airframe).name,
                 "dobwind_airframe_sha256": af.content_sha256, "dobwind_calibration": calibration_text(af),
-                "dobwind_time_response": time_response_text(af),
+                "dobwind_time_response": time_response_text(af, args.rate),
                 "dobwind_logs": ", ".join(Path(log).name for log in logs), "dobwind_bin_m": float(args.bin),
                 "dobwind_min_seconds": float(args.min_seconds)}
     if span:
