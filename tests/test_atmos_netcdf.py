@@ -363,3 +363,12 @@ def test_log_time_does_not_promise_time_since_boot():
 
     name = _coords(np.array([1.71e9, 1.71e9 + 0.1]), Geo(None, None, "none"))["log_time"][2]["long_name"]
     assert "own clock" in name and "not corrected to UTC" in name and "since the autopilot booted" not in name
+
+
+def test_the_time_response_names_the_rows_own_rate(replayed, tmp_path):
+    """replay --rate 50 writes rows at 50 Hz: the attribute said "at 100 Hz", the airframe's observer rate."""
+    folder, _ = replayed
+    assert main(["replay", str(M300), str(folder / "f.bin"), "--rate", "50", "-o", str(tmp_path / "r.nc")]) == 0
+    with xr.open_dataset(tmp_path / "r.nc") as ds:
+        text, step = ds.attrs["dobwind_time_response"], float(np.median(np.diff(ds["log_time"].values)))
+    assert step == pytest.approx(0.02, abs=1e-9) and "causal filters at 50 Hz," in text

@@ -68,3 +68,30 @@ def test_the_ground_before_take_off_comes_before_a_home_that_is_not_on_it():
     airborne_from_start = on_rows(track, t, t >= 25.0)  # no ground before: home, as it is then
     np.testing.assert_allclose(airborne_from_start.height_m[t < 25.0], (ground + up - home)[t < 25.0], atol=1e-9)
     assert "above home" in airborne_from_start.height_source
+
+
+def test_a_land_detector_flicker_in_the_air_is_no_new_ground():
+    """A landed flag for half a second 12 m up (a slow descent's ground contact), and one row of it at the
+    take-off: neither is a stop, so the whole flight is measured from the ground before it, not from the
+    altitude of the flicker (which read the rest of the flight 12 m low) nor from a single fix."""
+    t = np.arange(0.0, 60.0, 0.1)
+    ground = 500.0
+    up = np.where((t >= 5) & (t < 55), 12.0, 0.0)
+    noise = np.where(np.isclose(t, 5.2), 0.7, 0.0)  # one bad fix, where the detector flickered
+    landed = (t < 5) | (t >= 55) | ((t >= 30) & (t < 30.5)) | np.isclose(t, 5.2)
+    pos = on_rows(_track(t, ground + up + noise), t, landed)
+    airborne = (t >= 5) & (t < 55) & ~np.isclose(t, 5.2)
+    np.testing.assert_allclose(pos.height_m[airborne], up[airborne], atol=1e-9)
+    assert pos.height_source == "test track altitude above the ground before take-off"
+
+
+def test_a_log_that_begins_in_the_air_takes_the_ground_just_after_its_landing():
+    """Landed, then carried 30 m down a slope in the rest of the log: the flight before is measured from
+    where it touched down (the landed rows within GROUND_S after it), not from the whole landed stretch."""
+    t = np.arange(0.0, 60.0, 0.5)
+    landed = t >= 20.0
+    ground = np.where(t < 28.0, 200.0, 170.0)
+    up = np.where(landed, 0.0, 8.0)
+    pos = on_rows(_track(t, ground + up), t, landed)
+    np.testing.assert_allclose(pos.height_m[~landed], 8.0, atol=1e-9)
+    assert "where it landed" in pos.height_source

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dobwind.atmos.profile import Samples, bin_sums, combine, table
+from dobwind.atmos.profile import SUMS, Samples, bin_sums, combine, table
 from dobwind.cli.app import main
 
 STEP = 0.1  # s: a 10 Hz estimator
@@ -232,3 +232,32 @@ def test_with_gps_time_the_mean_is_over_height_and_time(tmp_path, capsys):
         assert ds["wind_speed_spread"].attrs["cell_methods"].startswith("height: time: standard_deviation")
         utc0 = atmos_logs.UTC0.timestamp()
         assert utc0 <= float(ds["time"].values) <= utc0 + 17.0  # the middle of the flight's UTC span
+
+
+def test_a_kept_row_counts_one_step_of_the_logs_clock_not_of_the_kept_rows():
+    """Every tenth row trusted for 60 s of a 10 Hz flight is 6 s of trusted rows, not 60 s (the kept rows'
+    own median step is ten steps), and no two of them are neighbours; a flight that gives a bin one row
+    adds one step to it rather than making its time unknown (a one-row clock has no step of its own)."""
+    rng = np.random.default_rng(5)
+    full = _series(6.0 + rng.normal(0, 0.1, 600), np.full(600, 3.0))
+    every_tenth = slice(0, 600, 10)
+    sparse = Samples(full.height_m[every_tenth], full.wind_ned[every_tenth], full.sigma_h[every_tenth],
+                     full.sigma_up[every_tenth], (), None, full.time_s[every_tenth], STEP)
+    stats = table(bin_sums(sparse, 10.0), 10.0, 10.0)
+    assert stats["seconds"][0] == pytest.approx(60 * STEP) and stats["below_minimum"][0]
+    pairs = bin_sums(sparse, 10.0)[0][list(SUMS).index("speed_pairs")]
+    assert pairs == 0
+    one = Samples(full.height_m[:1], full.wind_ned[:1], full.sigma_h[:1], full.sigma_up[:1], (), None,
+                  full.time_s[:1] + 1000.0, STEP)
+    both = table(combine([bin_sums(full, 10.0), bin_sums(one, 10.0)]), 10.0, 10.0)
+    assert both["seconds"][0] == pytest.approx(601 * STEP) and np.isfinite(both["speed_mean_mps"][0])
+
+
+def test_a_flight_carries_the_step_of_its_whole_clock(hover_then_hop):
+    from dobwind.atmos.profile import flight_samples
+    from dobwind.model.airframe import load_airframe
+    from tests.helpers import M300
+
+    log, t = hover_then_hop
+    samples = flight_samples(load_airframe(M300), str(log))
+    assert samples.step_s == pytest.approx(float(np.median(np.diff(t))))

@@ -70,3 +70,23 @@ def test_a_prior_airframe_profile_names_the_reason_and_allowed_rows_are_not_call
         assert "trusted rows" not in text and "UNCALIBRATED" in text
     assert main(["profile", str(M300), str(logs[0]), "-o", str(out), "--jobs", "1"]) == 0
     assert "trusted rows" in capfd.readouterr().out and "trusted rows only" in out.read_text().splitlines()[0]
+
+
+def test_a_refusal_under_allow_uncalibrated_does_not_advise_allow_uncalibrated(tmp_path, capfd):
+    """A prior's log too short to settle, profiled WITH --allow uncalibrated: the refusal said "or --allow
+    uncalibrated for a rough profile", which the user had given; the log's own reason (SETTLING) stays."""
+    from dobwind.io.logs import write_csv
+    from tests import atmos_logs
+
+    _, cols = atmos_logs.flight(hold_s=2.0)
+    first = cols["t"] < 0.5   # half a second: every row still SETTLING
+    names = [k for k in cols if k != "segment"]
+    prior = tmp_path / "prior.toml"
+    prior.write_text(M300.read_text() + '\n[calibration]\nstatus = "prior"\n')
+    short = tmp_path / "short.csv"
+    write_csv(short, names, np.column_stack([cols[n][first] for n in names]), ["%.17g"] * len(names))
+    out = tmp_path / "p.csv"
+    assert main(["profile", str(prior), str(short), "-o", str(out), "--jobs", "1", "--allow", "uncalibrated"]) == 2
+    err = capfd.readouterr().err
+    assert err.count("\n") == 1 and "short.csv" in err and "SETTLING" in err
+    assert "--allow uncalibrated" not in err and not out.exists()

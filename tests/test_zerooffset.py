@@ -84,3 +84,17 @@ def test_a_cv_split_measures_the_offset_on_its_own_samples():
     split = samples.select(hover_half)
     assert split.offset_pin is not None and split.offset_pin != samples.offset_pin
     assert np.allclose(split.offset_pin, OFFSET, atol=0.015)
+
+
+def test_a_climb_or_descent_in_still_air_is_not_zero_airflow():
+    """Zero horizontal airflow while climbing at 2 m/s is no zero-airflow flight: the vertical drag's
+    horizontal part (a tilted body) is in the force there, so only the samples still on every axis count."""
+    rows = 200
+    yaw = np.zeros(rows)
+    observed = _turned(np.full(rows, OFFSET[0]), np.full(rows, OFFSET[1]), yaw)
+    airflow = np.zeros((rows, 3))
+    airflow[:150, 2], observed[:150, :2] = -2.0, (1.0, -1.0)   # 15 s climbing, 5 s of hover
+    assert zero_airflow_offset(observed, np.cos(yaw), np.sin(yaw), airflow, np.full(rows, 0.1)) is None
+    airflow[:150, 2] = 0.0   # the same rows in hover: now 20 s of zero airflow, and the mean takes them in
+    found = zero_airflow_offset(observed, np.cos(yaw), np.sin(yaw), airflow, np.full(rows, 0.1))
+    assert found is not None and np.allclose(found, (0.75 + 0.25 * OFFSET[0], -0.75 + 0.25 * OFFSET[1]))

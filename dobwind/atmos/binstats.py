@@ -44,14 +44,15 @@ def sampling_step(time_s: np.ndarray | None) -> float:
     return float(np.median(np.diff(time_s)))
 
 
-def neighbours(bins: np.ndarray, time_s: np.ndarray | None) -> np.ndarray:
-    """Row i's flag: rows i and i+1 are a pair (same bin, consecutive on the clock); the last row is never."""
+def neighbours(bins: np.ndarray, time_s: np.ndarray | None, step_s: float | None = None) -> np.ndarray:
+    """Row i's flag: rows i and i+1 are a pair (same bin, consecutive on the clock of sampling interval
+    step_s, by default the rows' own); the last row is never."""
     pair = np.zeros(len(bins), bool)
     if len(bins) < 2:
         return pair
     same = bins[1:] == bins[:-1]
     if time_s is not None:
-        same &= np.diff(time_s) <= PAIR_GAP_STEPS * sampling_step(time_s)
+        same &= np.diff(time_s) <= PAIR_GAP_STEPS * (sampling_step(time_s) if step_s is None else step_s)
     pair[:-1] = same
     return pair
 

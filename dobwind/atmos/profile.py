@@ -53,6 +53,10 @@ class Samples:
     notes: tuple[str, ...] = ()
     utc_s: tuple[float, float] | None = None  # Unix seconds of the first and last kept row, with GPS time
     time_s: np.ndarray | None = None  # the rows' clock (s): their time in a bin and which rows are neighbours
+    # The log's sampling interval (s), from ALL its rows: the kept rows' own clock has holes where rows were
+    # not trusted, so its median step overstates a kept row's time (every tenth row kept: ten times) and
+    # is NaN for a flight with one kept row, which made the whole bin's time NaN. None: from time_s.
+    step_s: float | None = None
 
 
 def bin_sums(samples: Samples, bin_m: float) -> dict[int, np.ndarray]:
@@ -62,6 +66,7 @@ def bin_sums(samples: Samples, bin_m: float) -> dict[int, np.ndarray]:
     ok = np.isfinite(samples.height_m) & np.all(np.isfinite(samples.wind_ned[:, :2]), axis=1)
     h, w = samples.height_m[ok], samples.wind_ned[ok]
     t = None if samples.time_s is None else np.asarray(samples.time_s, float)[ok]
+    step = binstats.sampling_step(t) if samples.step_s is None else samples.step_s
     sh, su = samples.sigma_h[ok], samples.sigma_up[ok]
     k = np.floor(h / bin_m).astype(np.int64)
     speed = np.hypot(w[:, 0], w[:, 1])
@@ -74,18 +79,18 @@ def bin_sums(samples: Samples, bin_m: float) -> dict[int, np.ndarray]:
     up = np.where(has_up, -w[:, 2], 0.0)
     columns = np.column_stack([np.ones_like(h), w[:, 0], w[:, 1], up, up * up, has_up, speed, speed * speed,
                                cos_from, sin_from, strong, np.where(known_h, sh, 0.0), known_h,
-                               np.where(known_up, su, 0.0), known_up, np.full(len(h), binstats.sampling_step(t)),
-                               *_series_columns(k, t, h - (k + 0.5) * bin_m, speed, np.where(has_up, up, np.nan)).T])
+                               np.where(known_up, su, 0.0), known_up, np.full(len(h), step),
+                               *_series_columns(k, t, step, h - (k + 0.5) * bin_m, speed, np.where(has_up, up, np.nan)).T])
     keys, inverse = np.unique(k, return_inverse=True)
     sums = np.zeros((len(keys), len(SUMS)))
     np.add.at(sums, inverse, columns)
     return {int(key): sums[i] for i, key in enumerate(keys)}
 
 
-def _series_columns(bins: np.ndarray, t: np.ndarray | None, centred_h: np.ndarray, speed: np.ndarray,
+def _series_columns(bins: np.ndarray, t: np.ndarray | None, step: float, centred_h: np.ndarray, speed: np.ndarray,
                     up: np.ndarray) -> np.ndarray:
     """The rows' contributions to the series sums of the speed and of the vertical wind (NaN: no vertical)."""
-    pair = binstats.neighbours(bins, t)
+    pair = binstats.neighbours(bins, t, step)
     return np.column_stack([binstats.series_columns(speed, centred_h, pair),
                             binstats.series_columns(up, centred_h, pair)])
 
@@ -223,7 +228,8 @@ def flight_samples(af: Airframe, path: str, backend: str = "python", precision: 
         notes.append(f'vertical wind: none (force_air.vertical_law = "{VERTICAL_FALLBACK}": not identified)')
     return Samples(height[keep], wind,
                    out[keep][:, model.outputs.slice("wind_sigma_h")][:, 0],
-                   out[keep][:, model.outputs.slice("wind_sigma_up")][:, 0], tuple(notes), utc, np.asarray(t)[keep])
+                   out[keep][:, model.outputs.slice("wind_sigma_up")][:, 0], tuple(notes), utc, np.asarray(t)[keep],
+                   binstats.sampling_step(np.asarray(t)))
 
 
 def why_no_row(status: np.ndarray, keep: np.ndarray, allow: int = 0) -> str:

@@ -85,8 +85,10 @@ def run(args: argparse.Namespace) -> int:
         return max(r.code for r in done)  # each log's reason is on stderr already: nothing written
     if not stats:
         where = ", ".join(logs[:3]) + (" ..." if len(logs) > 3 else "")
+        # Not when --allow uncalibrated was given: then UNCALIBRATED kept no row out, the other flags did.
         prior = (f"{args.airframe} is an uncalibrated prior, so every estimate carries UNCALIBRATED: calibrate it "
-                 "with `dobwind fit`, or --allow uncalibrated for a rough profile" if af.uncalibrated else "")
+                 "with `dobwind fit`, or --allow uncalibrated for a rough profile"
+                 if af.uncalibrated and not allow & allowed_mask(["uncalibrated"]) else "")
         why = "; ".join([prior] * bool(prior) + _reasons(good)) or "--allow admits quality-flagged rows"
         raise InputError(where, None, f"no trusted estimate with a height in any log: nothing written ({why})")
     span = coverage([r.value[3] for r in good])
@@ -217,7 +219,7 @@ def _write_netcdf(path: Path, stats: dict[str, np.ndarray], args: argparse.Names
                 "references": "dobwind docs/atmospheric.md", "dobwind_version": __version__,
                 "dobwind_airframe": af.name, "dobwind_airframe_file": Path(args.airframe).name,
                 "dobwind_airframe_sha256": af.content_sha256, "dobwind_calibration": calibration_text(af),
-                "dobwind_time_response": time_response_text(af),
+                "dobwind_time_response": time_response_text(af, args.rate),
                 "dobwind_logs": ", ".join(Path(log).name for log in logs), "dobwind_bin_m": float(args.bin),
                 "dobwind_min_seconds": float(args.min_seconds)}
     if span:

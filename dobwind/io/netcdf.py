@@ -59,18 +59,28 @@ def calibration_text(af: Airframe) -> str:
     return "; ".join(parts)
 
 
-def time_response_text(af: Airframe) -> str:
+def time_response_text(af: Airframe, rate_hz: float | None = None) -> str:
     """How much of the past each estimate averages (an attribute a meteorologist needs to compare rows with
-    a mast's 1 s or 10 min means): the output of causal filters, not a block mean."""
+    a mast's 1 s or 10 min means): the output of causal filters, not a block mean. ``rate_hz``: the rows'
+    own rate (an autopilot log replayed with --rate), by default the airframe's observer rate."""
+    rate = 1.0 / af.observer.sample_time_s if rate_hz is None or not np.isfinite(rate_hz) else rate_hz
     steps = ", ".join(f"{c:g} Hz at {v:g} m/s (time constant {1.0 / (2.0 * np.pi * c):.2f} s)"
                       for v, c in zip(af.filter.speeds_mps, af.filter.cutoffs_hz))
-    return (f"each row is the output of causal filters at {1.0 / af.observer.sample_time_s:g} Hz, not a block "
+    return (f"each row is the output of causal filters at {rate:.4g} Hz, not a block "
             f"mean: the disturbance observer, then a first-order low-pass whose cutoff follows the estimated "
             f"horizontal wind speed ({steps}, linear between, held outside): neighbouring rows are correlated "
             "and the estimate lags the wind (`dobwind analyze AIRFRAME` gives the bandwidth and the ramp lag)")
 
 
-def global_attrs(src: Source, geo: Geo, title: str) -> dict[str, str]:
+def rows_rate_hz(t: np.ndarray) -> float | None:
+    """The rows' rate from their clock's median step (None under two rows)."""
+    step = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    return 1.0 / step if step > 0.0 else None
+
+
+def global_attrs(src: Source, geo: Geo, title: str, rate_hz: float | None = None) -> dict[str, str]:
+    """``rate_hz``: the rows' own rate (rows_rate_hz), for dobwind_time_response; None: the airframe's
+    observer rate (a CSV log streamed in chunks: its file must not depend on the chunk size)."""
     af = src.airframe
     return {"Conventions": cfnames.CONVENTIONS, "title": title,
             "source": f"dobwind {_version()} disturbance-observer wind estimate from a multirotor flight log",
@@ -80,7 +90,7 @@ def global_attrs(src: Source, geo: Geo, title: str) -> dict[str, str]:
             "dobwind_version": _version(), "dobwind_airframe": af.name,
             "dobwind_airframe_file": Path(src.airframe_path).name, "dobwind_airframe_sha256": af.content_sha256,
             "dobwind_calibration": calibration_text(af), "dobwind_log": Path(src.log_path).name,
-            "dobwind_time_response": time_response_text(af), "time_source": geo.time_source}
+            "dobwind_time_response": time_response_text(af, rate_hz), "time_source": geo.time_source}
 
 
 def row_dimension(geo: Geo) -> str:
@@ -199,5 +209,5 @@ def replay_dataset(t_log: np.ndarray, outputs: np.ndarray, status: np.ndarray, g
     pos = on_rows(geo.track, t_log, landed) if geo.track is not None else None
     title = f"dobwind wind estimate: {src.airframe.name} over {Path(src.log_path).name}"
     ds = estimate_dataset(cols, t_log, pos, geo, src, xr)
-    ds.attrs = {**global_attrs(src, geo, title), **ds.attrs}
+    ds.attrs = {**global_attrs(src, geo, title, rows_rate_hz(t_log)), **ds.attrs}
     return ds

@@ -35,6 +35,10 @@ MIN_UTC_S = 978307200.0
 # A few seconds: enough samples for GPS noise to average, short enough that a vehicle carried to another
 # spot between two flights in one log is measured from where it took off.
 GROUND_S = 5.0
+# A landed stretch between two airborne ones shorter than this is a flicker of the land detector (PX4's
+# maybe_landed or ground_contact in a slow descent, a bounce at take-off), not a stop: taken as a new
+# ground it would measure the rest of the flight from the altitude of the flicker, or from one noisy fix.
+MIN_STOP_S = 2.0
 
 
 @dataclass(frozen=True)
@@ -262,7 +266,8 @@ def _ground_altitude(alt: np.ndarray, landed: np.ndarray | None, t: np.ndarray,
     measured from their own ground (median), or home."""
     finite = np.isfinite(alt)
     first = float(alt[np.flatnonzero(finite)[0]]) if finite.any() else float("nan")
-    runs = _runs(np.asarray(landed, bool)) if landed is not None and landed.any() else [(0, len(alt))]
+    landed = None if landed is None else _without_flickers(np.asarray(landed, bool), t)
+    runs = _runs(landed) if landed is not None and landed.any() else [(0, len(alt))]
     ground, used = np.full(len(alt), np.nan), set()
     for k, (a, b) in enumerate(runs):
         on_ground = landed is not None and bool(landed[a])
@@ -279,6 +284,15 @@ def _ground_altitude(alt: np.ndarray, landed: np.ndarray | None, t: np.ndarray,
                 used.add(name if not on_ground else "before")
                 break
     return ground, _ground_text(used, finite.any())
+
+
+def _without_flickers(landed: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """``landed`` with each landed run shorter than MIN_STOP_S between airborne rows taken as airborne."""
+    out = landed.copy()
+    for a, b in _runs(landed):
+        if landed[a] and 0 < a and b < len(landed) and t[b - 1] - t[a] < MIN_STOP_S:
+            out[a:b] = False
+    return out
 
 
 def _ground_text(used: set[str], any_altitude: bool) -> str:

@@ -5,7 +5,8 @@
 //
 // Usage: px4_run DT_S GROUND_S AIR_S HOVER_RPM ROTORS [FAULT_S stop|offline|zero]
 // At 1 / DT_S Hz, level and at rest in still air: GROUND_S seconds on the ground (the land detector says
-// landed, the rotors stopped, no thrust), then AIR_S seconds of hover (airborne, the rotors at HOVER_RPM, or
+// landed, in its last second only maybe landed, in its last half second only ground contact; the rotors
+// stopped, no thrust), then AIR_S seconds of hover (airborne, the rotors at HOVER_RPM, or
 // the thrust setpoint at the hover throttle). From FAULT_S on, ESC 1's telemetry fails: esc_status is no
 // longer published (stop), or says ESC 1 is offline (offline), or reads 0 rpm for it (zero).
 // Prints a line per message the module publishes:
@@ -155,7 +156,13 @@ int main(int argc, char *argv[])
 		const bool landed = k * dt <= ground_s;
 		vehicle_land_detected_s land{};
 		land.timestamp = now_us;
-		land.landed = land.maybe_landed = land.ground_contact = landed;
+		// PX4's land detector is staged: ground_contact, then maybe_landed, then landed (and back in the
+		// reverse order). The last second on the ground has landed clear, then maybe_landed too: the module
+		// must hold off on every stage, not only on landed.
+		const double to_takeoff = ground_s - k * dt;
+		land.ground_contact = landed;
+		land.maybe_landed = landed && to_takeoff >= 0.5;
+		land.landed = landed && to_takeoff >= 1.0;
 		publish(ORB_ID(vehicle_land_detected), land);
 		vehicle_attitude_s attitude{};
 		attitude.timestamp = attitude.timestamp_sample = now_us;
