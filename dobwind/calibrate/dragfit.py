@@ -976,7 +976,9 @@ FOURFOLD_GAIN = 0.98
 # The optional term groups, tried in this order after the set is chosen, each on the law the one before
 # left: the four-fold harmonics (per-axis drag of near-equal axes), then the per-axis pair (per-axis drag
 # of unequal axes, whose series in the airflow direction the harmonics truncate: docs/calibration.md),
-# then its front/back pair (per-axis drag that differs front from back, which q1c cannot follow).
+# then its front/back pair (per-axis drag that differs front from back, which q1c cannot follow), only
+# on a law that took the per-axis pair: alone, its odd term was taken (qax1c 0.2 q0) on a body with
+# only an even anisotropy when the fit was offered no harmonics (tests/test_law_increasing.py).
 OPTIONAL_GROUPS = (FOURFOLD_KEYS, PER_AXIS_KEYS, FRONT_BACK_AXIS_KEYS)
 
 
@@ -997,6 +999,8 @@ def _with_optional_groups(samples: DragSamples, candidates: tuple[tuple[str, ...
         return horizontal, theta, dropped
     added: tuple[str, ...] = ()
     for group in OPTIONAL_GROUPS:
+        if group == FRONT_BACK_AXIS_KEYS and not set(PER_AXIS_KEYS) <= set(added):
+            continue  # it modulates the per-axis pair; an isotropic law's front/back asymmetry is q1c's
         if not coverage.allows(group) or _group_score(samples, horizontal, group, folds, top) > FOURFOLD_GAIN * score:
             continue
         found = _choose_horizontal(samples, tuple(h + added + group for h in candidates if "q0" in h), folds, top, prefer)
