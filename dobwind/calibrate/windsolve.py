@@ -266,7 +266,11 @@ def solve(problem: Problem):
 
 def _inflation(residual: np.ndarray, log_index: np.ndarray) -> float:
     """sqrt((1 + rho) / (1 - rho)) for the residuals' lag-1 correlation rho (an AR(1) reading of their
-    dependence): the factor by which the independent-sample 1-sigma understates the true one."""
+    dependence): the factor by which the independent-sample 1-sigma understates the true one. rho is
+    0.95 or more on every simulated flight, so the cap makes this a fixed x6.24; with it the 1-sigma
+    covered as a 1-sigma should on simulated box flights (71 % within 1, 95 % within 2) and was somewhat
+    large on turbulent ones, where the uncapped reading (x21-x32) would refuse every flight
+    (benchmarks/windsigma.py, docs/field-calibration.md)."""
     r = residual.reshape(-1, 2)
     same = log_index[1:] == log_index[:-1]
     num = float(np.sum(r[1:][same] * r[:-1][same]))
@@ -289,10 +293,22 @@ def raw_jacobian(x: np.ndarray, problem: Problem) -> np.ndarray:
 
 
 def identification(x: np.ndarray, problem: Problem) -> tuple[float, np.ndarray]:
-    """(column-scaled condition number, each group's largest wind-component 1-sigma in m/s) at ``x``:
-    the covariance sigma^2 (J^T J)^-1 with sigma the data residuals' robust scale (MAD), the prior rows
-    weighted against ``problem.scale_n`` rescaled to that sigma, and the result inflated for the data
-    residuals' correlation from sample to sample."""
+    """(column-scaled condition number, each group's largest wind-component 1-sigma in m/s) at ``x``
+    (wind_covariance)."""
+    condition, sigma = wind_covariance(x, problem)
+    return condition, sigma.reshape(problem.groups, 2).max(axis=1)
+
+
+def wind_component_sigmas(x: np.ndarray, problem: Problem) -> np.ndarray:
+    """Every wind component's 1-sigma (group 0 north, east, group 1 north, ...) in m/s at ``x``."""
+    return wind_covariance(x, problem)[1]
+
+
+def wind_covariance(x: np.ndarray, problem: Problem) -> tuple[float, np.ndarray]:
+    """(column-scaled condition number, every wind component's 1-sigma in m/s) at ``x``: the covariance
+    sigma^2 (J^T J)^-1 with sigma the data residuals' robust scale (MAD), the prior rows weighted against
+    ``problem.scale_n`` rescaled to that sigma, and the result inflated for the data residuals'
+    correlation from sample to sample."""
     groups = problem.groups
     data = problem.data(x)
     sigma = 1.4826 * float(np.median(np.abs(data - np.median(data))))
@@ -300,14 +316,14 @@ def identification(x: np.ndarray, problem: Problem) -> tuple[float, np.ndarray]:
     jac = raw_jacobian(x, problem) * weights[:, None]
     norms = np.linalg.norm(jac, axis=0)
     if not np.all(norms > 0):
-        return math.inf, np.full(groups, math.inf)
+        return math.inf, np.full(2 * groups, math.inf)
     singular = np.linalg.svd(jac / norms, compute_uv=False)
     condition = float(singular[0] / singular[-1]) if singular[-1] > 0 else math.inf
     if not math.isfinite(condition):
-        return condition, np.full(groups, math.inf)
+        return condition, np.full(2 * groups, math.inf)
     scaled_inverse = np.linalg.inv((jac / norms).T @ (jac / norms))
     cov = scaled_inverse / np.outer(norms, norms) * sigma * sigma
-    wind_sigma = np.sqrt(np.maximum(np.diag(cov)[:2 * groups], 0.0)).reshape(groups, 2).max(axis=1)
+    wind_sigma = np.sqrt(np.maximum(np.diag(cov)[:2 * groups], 0.0))
     return condition, wind_sigma * _inflation(data, problem.log_index())
 
 
