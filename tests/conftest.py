@@ -73,7 +73,6 @@ SLOW: dict[str, tuple[str, ...]] = {
         "test_the_streamed_fit_writes_the_whole_log_fits_airframe_byte_for_byte",
     ),
     "test_fourfold.py": (
-        "test_generated_c_with_the_harmonics_matches_the_reference",
         "test_the_fit_adds_the_harmonics_for_per_axis_drag",
         "test_the_fit_leaves_them_out_for_drag_along_the_airflow",
         "test_the_hold_level_tie_break_keeps_the_smallest_set_without_a_significant_gain",
@@ -124,14 +123,15 @@ SLOW: dict[str, tuple[str, ...]] = {
         "test_the_next_run_removes_what_a_killed_run_left_and_nothing_else",
     ),
     "test_frontback.py": (
-        "test_generated_c_with_the_pair_matches_the_reference",
         "test_the_fit_adds_the_pair_for_a_front_back_per_axis_body",
         "test_the_fit_leaves_the_pair_out_without_a_front_back_shape",
     ),
     "test_peraxis.py": (
-        "test_generated_c_with_the_pair_matches_the_reference",
         "test_the_fit_adds_the_pair_for_a_six_to_one_body",
         "test_near_equal_axes_keep_the_harmonics",
+    ),
+    "test_optional_groups.py": (
+        "test_generated_c_with_the_group_matches_the_reference",
     ),
     "test_pipeline.py": (
         "test_accuracy_on_the_projects_simulator",  # the module's fit's last reader in test-fast (4 s)
@@ -332,15 +332,16 @@ MODULE_SECONDS: dict[str, float] = {
     "test_sampler_robust.py": 16,
     "test_sitlcompare.py": 16,
     "test_cformat.py": 16,
-    "test_peraxis.py": 15,
+    "test_peraxis.py": 5,
     "test_fit_schema.py": 14,
     "test_logvariants.py": 14,
-    "test_frontback.py": 14,
+    "test_frontback.py": 5,   # less its verify test, now in test_optional_groups (by hand)
+    "test_optional_groups.py": 30,  # the three groups' verify tests moved there (by hand)
     "test_selfcheck.py": 12,
     "test_hardening.py": 12,
     "test_mutants.py": 12,
     "test_hovernoise.py": 11,
-    "test_fourfold.py": 11,
+    "test_fourfold.py": 6,
     "test_accelroute.py": 10,
     "test_thrustscale.py": 10,
     "test_analysis.py": 9,

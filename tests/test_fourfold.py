@@ -17,12 +17,10 @@ import pytest
 from dobwind.calibrate import dragfit, holdcv
 from dobwind.core.errors import InputError
 from dobwind.model import forceair
-from dobwind.model.airframe import load_airframe, parse_airframe
-from dobwind.model.airframe_toml import dump_airframe
 from dobwind.model.forceair import (DragLaw, body_drag_airflow_numpy, body_drag_force, drag_airflow_numpy,
                                     drag_force, horizontal_drag_basis)
 from dobwind.simulate.vehicle import body_force, parse_vehicle
-from tests.helpers import M300, hold_samples, random_body_flight
+from tests.helpers import hold_samples, random_body_flight
 
 THETA = np.linspace(0.0, 2 * math.pi, 720, endpoint=False)
 
@@ -136,23 +134,6 @@ def test_the_harmonics_take_one_more_newton_step(monkeypatch):
         assert np.abs(drag_airflow_numpy(law, fx, fy, fz) - a).max() > 0.01
     finally:
         forceair._heading_inversion.cache_clear()
-
-
-def test_airframe_file_key():
-    af = dataclasses.replace(load_airframe(M300), drag=dataclasses.replace(LAW, q4c=0.0, q4s=0.0))
-    assert "q4c" not in dump_airframe(af) and "q4s" not in dump_airframe(af)  # files without them unchanged
-    other = dataclasses.replace(af, drag=LAW)
-    text = dump_airframe(other)
-    assert "q4c = 0.012" in text and "q4s = -0.02" in text
-    assert parse_airframe(text, "x.toml").drag == other.drag
-
-
-def test_generated_c_with_the_harmonics_matches_the_reference():
-    """verify (strict compile, self-test, random and limit cases, a flight; both precisions) on a
-    body-frame law with the harmonics and an exponent: every code path the harmonics touch."""
-    from dobwind.harness.verify import verify_airframe
-    law = dataclasses.replace(LAW, frame="body", lr=0.15, exponent=1.8)
-    assert verify_airframe(dataclasses.replace(load_airframe(M300), drag=law), "both", steps=300).passed
 
 
 def _chosen(force_of) -> dragfit.DragChoice:

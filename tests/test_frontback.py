@@ -18,11 +18,9 @@ import pytest
 
 from dobwind.calibrate import dragfit, holdcv
 from dobwind.model import forceair
-from dobwind.model.airframe import load_airframe, parse_airframe
-from dobwind.model.airframe_toml import dump_airframe
 from dobwind.model.forceair import (DragLaw, body_drag_airflow_numpy, body_drag_force, drag_airflow_numpy,
                                     drag_force, horizontal_drag_basis, law_decreasing)
-from tests.helpers import M300, hold_samples, random_body_flight
+from tests.helpers import hold_samples, random_body_flight
 
 THETA = np.linspace(0.0, 2 * math.pi, 720, endpoint=False)
 PAIR = ("l0", "q0", "l2c", "q2c", "l2s", "q2s", "q1c", "qax", "qay")
@@ -173,24 +171,6 @@ def test_a_pair_that_outweighs_the_law_from_behind_decreases(frame):
     assert where is not None and 4.0 < float(where.split(" at ")[1].split(" m/s")[0]) <= 5.0
     assert 90 < float(where.split(" deg")[0]) < 270
     assert law_decreasing(dataclasses.replace(law, qax1c=0.0), 20.0) is None
-
-
-def test_airframe_file_keys():
-    af = dataclasses.replace(load_airframe(M300), drag=dataclasses.replace(LAW, qax1c=0.0, qay1c=0.0))
-    assert "qax1c" not in dump_airframe(af) and "qay1c" not in dump_airframe(af)  # files without them unchanged
-    other = dataclasses.replace(af, drag=LAW)
-    text = dump_airframe(other)
-    assert "qax1c = -0.004" in text and "qay1c = -0.02" in text
-    assert parse_airframe(text, "x.toml").drag == other.drag
-
-
-def test_generated_c_with_the_pair_matches_the_reference():
-    """verify (strict compile, self-test, random and limit cases, a flight; both precisions) on a
-    body-frame law with the pair and an exponent, and on a quadratic heading-frame one."""
-    from dobwind.harness.verify import verify_airframe
-    af = load_airframe(M300)
-    for law in (dataclasses.replace(LAW, frame="body", lr=0.15, exponent=1.8), LAW):
-        assert verify_airframe(dataclasses.replace(af, drag=law), "both", steps=300).passed
 
 
 def _median_errors(samples: dragfit.DragSamples, theta: np.ndarray) -> tuple[float, float]:
