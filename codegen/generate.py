@@ -98,6 +98,17 @@ def _commit_lines(model: StepModel, printer: CPrinter) -> list[str]:
     return lines
 
 
+def _init_lines(model: StepModel, printer: CPrinter) -> list[str]:
+    """The initial state's non-zero elements (StepModel.initial_state), stored after the init's memset."""
+    initial = model.initial_state()
+    lines = []
+    for f in model.state.fields:
+        values = initial[model.state.slice(f.name)]
+        lines += [f"{c_element('state.' + f.name, i, f.size, printer)} = {printer.literal(float(v))};"
+                  for i, v in enumerate(values) if v != 0.0]
+    return lines
+
+
 def _advance_lines(model: StepModel, printer: CPrinter) -> list[str]:
     """The state a validated but rejected sample still writes (model/biasgate.py's check)."""
     sizes = signal_sizes(model)
@@ -229,7 +240,7 @@ def _render(af: Airframe, precision: Precision, model: StepModel, target: str | 
     source = _ENV.get_template("source.c.j2").render(
         **common, validate=validate, sections=sections, check=check, commit=_commit_lines(model, printer),
         reset=[f"state->{field} = {printer.literal(value)};" for field, value in model.reset_on_reject],
-        advance=_advance_lines(model, printer),
+        advance=_advance_lines(model, printer), init=_init_lines(model, printer),
         total_ops=total_ops, total_calls=validate.quick.calls + sum(s.calls for s in sections) + check.calls,
         kernels=kernels, coefficients=kernel_literals(printer), ieee=IEEE_TYPES[precision],
         finite=_finite_loop(model, printer),

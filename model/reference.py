@@ -44,7 +44,7 @@ def run_columns(model: StepModel, inputs: np.ndarray, state_columns: slice, outp
         raise ValueError(f"inputs have {inputs.shape[1]} columns, the step takes {model.inputs.size}")
     rolled = rolled if rolled is not None else rolled_step(model)
     chunk = rolled.size2_in(1)
-    state = np.zeros(model.state.size) if state0 is None else np.asarray(state0, dtype=float)
+    state = model.initial_state() if state0 is None else np.asarray(state0, dtype=float)
     states = np.empty((n, len(range(model.state.size)[state_columns])))
     outputs = np.empty((n, len(range(model.outputs.size)[output_columns])))
     status = np.empty(n, dtype=np.int64)

@@ -70,7 +70,12 @@ class StepModel:
     advance_on_check: tuple[tuple[str, str], ...] = ()
 
     def initial_state(self) -> np.ndarray:
-        return np.zeros(self.state.size)
+        """Zeros but the last output's 1-sigma fields, -1 (unknown): a sample rejected before the first
+        accepted one repeats this output, and a 0 there would read as a perfectly known wind."""
+        state = np.zeros(self.state.size)
+        for name in UNKNOWN_BEFORE_FIRST:
+            state[self.state.slice(name)] = -1.0
+        return state
 
 
 def input_layout(af: Airframe) -> Layout:
@@ -101,6 +106,10 @@ OUTPUT_FIELDS = (
           "residuals at this speed and the observer noise (-1: the airframe records no uncertainty)"),
     Field("wind_sigma_up", 1, "m/s", "1-sigma error of the vertical wind (-1: unknown)"),
 )
+
+
+# The state's fields that start at -1, not 0 (StepModel.initial_state; the C init writes the same).
+UNKNOWN_BEFORE_FIRST = ("last.wind_sigma_h", "last.wind_sigma_up")
 
 
 def output_layout() -> Layout:

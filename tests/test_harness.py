@@ -126,3 +126,20 @@ def test_cortex_check_detects_double_precision(tmp_path):
     from dobwind.harness.build import run
     run([cortex.ARM_GCC, *cortex.CPU_FLAGS, "-Os", "-c", str(source), "-o", str(obj)])
     assert "sin" in cortex.double_precision_symbols(obj)
+
+
+@pytest.mark.parametrize("doc", [MODES[0], MODES[16]], ids=lambda d: d["name"])
+def test_a_sample_rejected_before_the_first_accepted_one_reports_an_unknown_sigma(doc, tmp_path):
+    """Before any accepted sample there is no estimate: the repeated initial output's 1-sigma fields are
+    -1 (unknown), in the C's init and in the reference alike, never 0 (a perfectly known wind)."""
+    model = build_step(parse_airframe(dumps(doc), "<mode>"))
+    cstep = compile_step(model, "double", tmp_path)
+    rows = flight_inputs(model, 4, seed=6)
+    rows[:2, model.inputs.slice("dt")] = np.nan  # NONFINITE: the first two samples are rejected
+    for got in (cstep.run(rows), reference.run(model, rows)):
+        assert np.all(got.status[:2] & REJECTED_MASK) and not np.any(got.status[2:] & REJECTED_MASK)
+        for name in ("wind_sigma_h", "wind_sigma_up"):
+            first = got.outputs[:2, model.outputs.slice(name)]
+            assert np.all(first == -1.0), (name, first)
+        assert np.all(got.outputs[:2, model.outputs.slice("wind_speed_h")] == 0.0)
+    assert np.array_equal(cstep.initial_state(), model.initial_state())

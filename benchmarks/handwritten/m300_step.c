@@ -48,6 +48,7 @@ static int32_t m300_wind_key(float x, int nan_high)
 void m300_wind_init(m300_wind_state_t *state)
 {
     memset(state, 0, sizeof *state);
+    state->last.wind_sigma_h = state->last.wind_sigma_up = -1.0f; /* unknown before the first estimate */
 }
 
 #ifdef HANDWRITTEN_VALIDATION

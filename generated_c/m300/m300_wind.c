@@ -150,6 +150,9 @@ void m300_wind_init(m300_wind_state_t *state)
 {
     /* every field starts at 0, and the all-zero pattern is +0 in IEEE 754 (one call, not a store per field) */
     memset(state, 0, sizeof *state);
+    /* but the last output's 1-sigma: -1 (unknown), which a sample rejected before the first accepted one repeats */
+    state->last.wind_sigma_h = (-1.0f);
+    state->last.wind_sigma_up = (-1.0f);
 }
 
 int m300_wind_step(m300_wind_state_t *state, const m300_wind_input_t *in, m300_wind_output_t *out)
