@@ -196,3 +196,19 @@ def test_a_dash_value_is_attached_only_after_a_long_option(argv, parsed):
     from dobwind.cli.app import attach_dash_values
 
     assert attach_dash_values(argv) == parsed
+
+
+@pytest.mark.parametrize("command", ["replay", "profile"])
+def test_a_rate_slower_than_max_dt_is_refused(command, tmp_path, capsys):
+    """m300's limits.max_dt is 0.1 s: at 9 Hz the step would reject every instant as BAD_DT (replay wrote
+    an estimate with 0 valid rows and exit 0); at 10 Hz every step is within it."""
+    from tests.test_inspect import _px4_log
+
+    log = str(_px4_log(tmp_path / "a.ulg"))
+    out = tmp_path / "e.csv"
+    code, stdout, err = _run([command, M300_PATH, log, "--rate", "9", "-o", str(out)], capsys)
+    assert code == 2 and stdout == "" and not out.exists()
+    assert "--rate: 9 Hz" in _one_line(err) and "limits.max_dt (0.1 s)" in err and "at least 10 Hz" in err
+    if command == "replay":
+        code, _, err = _run([command, M300_PATH, log, "--rate", "10", "-o", str(out)], capsys)
+        assert code == 0 and out.exists() and "--rate" not in err
