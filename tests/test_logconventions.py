@@ -147,3 +147,26 @@ def test_chunks_combine_as_the_whole_log():
     one = a / math.sqrt(2) / (1 + (0.2 / 0.5) ** 4)
     assert found.check == "acceleration" and found.value == pytest.approx(one / math.sqrt(2), rel=0.03)
     assert found.count == 2 * len(t)
+
+
+def _rpm_in_rad_per_s(c):
+    for k in ("rpm_1", "rpm_2", "rpm_3", "rpm_4"):
+        c[k] = c[k] * 2 * math.pi / 60
+
+
+@pytest.mark.parametrize("slip", [None, _degrees, _rpm_in_rad_per_s])
+def test_report_warns_of_a_csv_log_as_replay_does(tmp_path, capsys, flight, slip):
+    """`report` on a CSV log said none of replay's warnings (rpm in rad/s: a thrust 0.1x the weight, a yaw_ref
+    in degrees): the page showed a confident wind. Its stderr lines are now replay's, and the page has them."""
+    cols = {k: v.copy() for k, v in flight.items()}
+    if slip is not None:
+        slip(cols)
+    _, replay_err = _replay(tmp_path, capsys, cols)
+    said = [line.split("warning: ", 1)[1] for line in replay_err.splitlines() if "warning: " in line]
+    assert bool(said) == (slip is not None)
+    page = tmp_path / "r.html"
+    assert main(["report", M300, str(tmp_path / "log.csv"), "-o", str(page)]) == 0
+    err = capsys.readouterr().err
+    assert [line.split("warning: ", 1)[1] for line in err.splitlines() if "warning: " in line] == said
+    text = page.read_text()
+    assert all(line.split(": ", 1)[1][:60].replace("'", "&#39;") in text for line in said)
