@@ -42,9 +42,9 @@ class ConventionLimits:
 def _yaw_text(median: float, seconds: float, lim: ConventionLimits) -> str:
     return (f"yaw_ref and the attitude's yaw (from q_w, q_x, q_y, q_z) differ by {median:.0f} deg at the median over "
             f"{seconds:.0f} s (limit {lim.yaw_median_deg:g} deg), where a vehicle follows its yaw setpoint within "
-            "degrees: yaw_ref in degrees rather than radians, or the quaternion in another convention (NED to body "
-            "rather than body to NED, x, y, z, w order, ENU): the attitude or the heading frame (the force-air law's and "
-            "the force offset's) is not the vehicle's, and the wind with it")
+            "degrees: yaw_ref in degrees rather than radians or not the yaw setpoint, or the quaternion in another "
+            "convention (NED to body rather than body to NED, x, y, z, w order, ENU): the attitude or the heading "
+            "frame (the force-air law's and the force offset's) is not the vehicle's, and the wind with it")
 
 
 def _acceleration_text(check: AccelCheck) -> str:
