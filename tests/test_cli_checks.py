@@ -196,3 +196,38 @@ def test_a_dash_value_is_attached_only_after_a_long_option(argv, parsed):
     from dobwind.cli.app import attach_dash_values
 
     assert attach_dash_values(argv) == parsed
+
+
+@pytest.mark.parametrize("command", ["replay", "profile"])
+def test_a_rate_slower_than_max_dt_is_refused(command, tmp_path, capsys):
+    """m300's limits.max_dt is 0.1 s: at 9 Hz the step would reject every instant as BAD_DT (replay wrote
+    an estimate with 0 valid rows and exit 0); at 10 Hz every step is within it."""
+    from tests.test_inspect import _px4_log
+
+    log = str(_px4_log(tmp_path / "a.ulg"))
+    out = tmp_path / "e.csv"
+    code, stdout, err = _run([command, M300_PATH, log, "--rate", "9", "-o", str(out)], capsys)
+    assert code == 2 and stdout == "" and not out.exists()
+    assert "--rate: 9 Hz" in _one_line(err) and "limits.max_dt (0.1 s)" in err and "at least 10 Hz" in err
+    if command == "replay":
+        code, _, err = _run([command, M300_PATH, log, "--rate", "10", "-o", str(out)], capsys)
+        assert code == 0 and out.exists() and "--rate" not in err
+
+
+@pytest.mark.parametrize("argv, shown", [(["check", ""], "AIRFRAME"), (["replay", M300_PATH, ""], "LOG"),
+                                         (["replay", "", "x.csv"], "AIRFRAME"), (["inspect", ""], "LOG"),
+                                         (["profile", M300_PATH, "{log}", "", "-o", "{out}"], "LOG"),
+                                         (["fit", M300_PATH, "{log}", "--truth", "", "-o", "{out}"], "--truth"),
+                                         (["simulate", "sweep", "--vehicle", "", "-o", "{out}"], "--vehicle"),
+                                         (["verify", M300_PATH, "--c-dir", ""], "--c-dir")])
+def test_an_empty_input_path_is_refused(argv, shown, tmp_path, capsys, monkeypatch):
+    """An empty argument (`replay af.toml "$LOG"` with LOG unset) is the current folder to the readers: replay
+    replayed every log in it, and check said '.: cannot read: Is a directory'. Now one line naming the argument;
+    the working folder holds a log, so that a replay of it would have exit 0."""
+    monkeypatch.chdir(tmp_path)
+    log = tmp_path / "here.csv"
+    log.write_text("t,vel_n\n0.0,0.0\n")
+    out = tmp_path / "out.csv"
+    code, stdout, err = _run([a.format(log=log, out=out) for a in argv], capsys)
+    assert code == 2 and stdout == "" and not out.exists()
+    assert _one_line(err).startswith(f"dobwind {argv[0]}: {shown}: an empty path ''"), err

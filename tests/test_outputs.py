@@ -291,3 +291,18 @@ def test_an_airframe_may_still_be_named_as_the_user_likes(tmp_path):
 
     for name in ("x.toml", "x", "x.txt", "x.ulg.toml"):
         check_target(Target("-o", str(tmp_path / name), refused=AIRFRAME))
+
+
+@pytest.mark.parametrize("argv", [["simulate", "still-air", "--hold", "0.2", "-o"],
+                                  ["replay", str(M300), "{log}", "-o"],
+                                  ["replay", str(M300), "{log}", "--px4-wind"]])
+def test_a_csv_output_named_as_an_airframe_is_refused_before_any_work(argv, tmp_path, capsys):
+    """`simulate sweep -o fit.toml` (meant: --airframe fit.toml) replaced a fitted airframe with the CSV log;
+    a CSV output may not end in .toml (any case), and the file there is left as it was."""
+    kept = tmp_path / "fit.TOML"
+    kept.write_text(M300.read_text())
+    missing = str(tmp_path / "no_such_log.ulg")   # refused before the log is read
+    assert main([a.format(log=missing) for a in argv] + [str(kept)]) == 2
+    err = _one_line(capsys.readouterr().err)
+    assert f"{argv[-1]} {kept}" in err and "names an airframe" in err and "name it .csv" in err, err
+    assert kept.read_text() == M300.read_text() and sorted(p.name for p in tmp_path.iterdir()) == ["fit.TOML"]

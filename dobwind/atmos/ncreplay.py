@@ -69,7 +69,7 @@ def replay_csv_netcdf(args: argparse.Namespace, af: Airframe, out, block_bytes: 
         traj = runner.run(step_inputs(model, log, last["t"]))
         last["t"] = float(log.time_s[-1])
         wind = traj.outputs[:, model.outputs.slice("wind_ned")]
-        checks.add(FlightSeries.replayed(log, traj.outputs[:, model.outputs.slice("force_ned")], wind, traj.status))
+        checks.add(FlightSeries.replayed(log, traj.outputs[:, model.outputs.slice("force_ned")], wind, traj.status), log)
         if log.true_wind is not None:
             scorer.add(log.time_s, wind, log.true_wind, traj.status, log.columns.get("segment"))
             last["truth"] = 1.0

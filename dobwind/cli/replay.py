@@ -11,7 +11,7 @@ from typing import Any, Callable
 
 from dobwind.cli.common import add_backend_options, AIRFRAME_HELP, JSON_HELP, Command, add_many_options, print_json
 from dobwind.core.errors import InputError
-from dobwind.io.outputs import PNG, OutputFiles, Target, check_targets
+from dobwind.io.outputs import CSV_TABLE, PNG, OutputFiles, Target, check_targets
 from dobwind.io.provenance import calibration_record
 from dobwind.model.kinds import Precision
 
@@ -152,8 +152,9 @@ def _no_file():
 
 
 def _replay_targets(args: argparse.Namespace) -> list[Target]:
-    return [Target(option, path, suffixes=suffixes) for option, path, suffixes in
-            (("-o", args.output, ()), ("--plot", args.plot, PNG), ("--px4-wind", args.px4_wind, ())) if path is not None]
+    return [Target(option, path, suffixes=suffixes, refused=refused) for option, path, suffixes, refused in
+            (("-o", args.output, (), CSV_TABLE), ("--plot", args.plot, PNG, ()), ("--px4-wind", args.px4_wind, (), CSV_TABLE))
+            if path is not None]
 
 
 def _topic_overrides(args: argparse.Namespace) -> dict[str, str]:

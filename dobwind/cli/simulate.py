@@ -5,7 +5,7 @@ import argparse
 
 from dobwind.cli.common import Command
 from dobwind.core import options as opt
-from dobwind.io.outputs import OutputFiles, Target, check_targets
+from dobwind.io.outputs import CSV_TABLE, OutputFiles, Target, check_targets
 
 
 def add(command: Command) -> None:
@@ -35,7 +35,7 @@ def run(args: argparse.Namespace) -> int:
     from dobwind.simulate.simulate import write_log
     from dobwind.simulate.vehicle import load_vehicle
 
-    target = Target("-o", args.output)
+    target = Target("-o", args.output, refused=CSV_TABLE)
     wind_ned = _wind_ned(args.wind) if args.wind is not None else None
     check_targets([target], [args.airframe] if args.airframe else [])
     af = load_airframe(args.airframe or _default_airframe())

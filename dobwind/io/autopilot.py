@@ -8,7 +8,9 @@ import numpy as np
 
 from dobwind.io.atomic import write_text_atomically
 from dobwind.io.logsuffix import DATAFLASH_SUFFIXES, ROSBAG_SUFFIXES, ULOG_SUFFIXES
+from dobwind.core.errors import InputError
 from dobwind.model.airframe import Airframe
+from dobwind.model.status import DT_TOLERANCE
 from dobwind.io.resample import AutopilotFlight
 from dobwind.io.timewindow import TimeWindow, window_flight
 
@@ -36,7 +38,18 @@ def read_autopilot(path: str, af: Airframe, rate_hz: float | None = None,
     """``bridge_gaps``: feed short silences interpolated (dobwind/io/bridge.py), as replay does; off, every
     NO_DATA row has NaN inputs (what fit's samples rely on). ``window``: only the rows in that span of the
     log's clock, cut after the whole log is read (dobwind/io/timewindow.py)."""
+    _refuse_slow_rate(af, rate_hz)
     return _never_airborne(path, window_flight(path, _read_whole(path, af, rate_hz, topics, bridge_gaps), window))
+
+
+def _refuse_slow_rate(af: Airframe, rate_hz: float | None) -> None:
+    """--rate whose step is longer than the airframe's limits.max_dt: the step would reject every instant as
+    BAD_DT, and replay "succeeded" with 0 valid rows (`--rate 1` on a max_dt of 0.1 s)."""
+    if rate_hz is None or 1.0 / rate_hz <= af.limits.max_dt_s * (1 + DT_TOLERANCE):
+        return
+    raise InputError("--rate", None, f"{rate_hz:g} Hz steps {1.0 / rate_hz:g} s, longer than the airframe's "
+                     f"limits.max_dt ({af.limits.max_dt_s:g} s): the step would reject every instant (BAD_DT); give at "
+                     f"least {1.0 / af.limits.max_dt_s:.3g} Hz")
 
 
 def _never_airborne(path: str, flight: AutopilotFlight) -> AutopilotFlight:

@@ -38,6 +38,9 @@ class Target:
 
 PNG = (".png",)   # Target.suffixes of a figure (matplotlib is told format="png" whatever the name says)
 AIRFRAME = LOG_SUFFIXES  # Target.refused of an airframe file (init, fit): any name but a flight log's
+# Target.refused of a CSV output (simulate's log, replay's estimate): `simulate sweep -o fit.toml` replaced a
+# fitted airframe with 155 MB of CSV, and the next command given it read a TOML syntax error.
+CSV_TABLE = (".toml",)
 
 
 def shown(path: str | Path) -> str:
@@ -108,6 +111,9 @@ def _check_suffix(target: Target) -> None:
     """A PNG written as r.pdf opens as a broken PDF: a one-format output must be named for its format.
     Checked last, so that a path that cannot be written at all says that first."""
     suffix = Path(target.path).suffix
+    if suffix.lower() in target.refused and suffix.lower() in CSV_TABLE:
+        raise _refuse(target, f"the extension {suffix!r} names an airframe, but this file is written as CSV: "
+                      "name it .csv (an airframe is given with --airframe or as the first argument)")
     if suffix.lower() in target.refused:
         raise _refuse(target, f"the extension {suffix!r} names a flight log, but this file is written as TOML: "
                       "name it .toml")

@@ -7,10 +7,17 @@ from __future__ import annotations
 
 import argparse
 
+from dobwind.model.errors import InputError
 from dobwind.model.inputfiles import refuse_special
 
 # Arguments that name files the command writes.
 OUTPUT_DESTS = frozenset({"output", "plot", "px4_wind"})
+# Arguments that name files or folders the command reads. An empty one is the current folder to Path() and
+# os.stat: `replay af.toml "$LOG"` with LOG unset replayed every log in the working folder, and `check ""`
+# said '.: cannot read: Is a directory'.
+# Each as the command line names it.
+INPUT_PATHS = {"airframe": "AIRFRAME", "log": "LOG", "logs": "LOG", "truth": "--truth", "vehicle": "--vehicle",
+               "c_dir": "--c-dir"}
 
 
 def refuse_special_inputs(args: argparse.Namespace) -> None:
@@ -19,5 +26,8 @@ def refuse_special_inputs(args: argparse.Namespace) -> None:
         if dest in OUTPUT_DESTS:
             continue
         for item in value if isinstance(value, list) else [value]:
+            if item == "" and dest in INPUT_PATHS:
+                raise InputError(INPUT_PATHS[dest], None, "an empty path '', which would name the current folder (an "
+                                 "unset shell variable?)")
             if isinstance(item, str) and item:
                 refuse_special(item)

@@ -41,6 +41,8 @@ from dobwind.model.forceair import HORIZONTAL_DRAG_KEYS, drag_airflow_numpy, hea
 from dobwind.model.kinds import DragFrame
 from dobwind.model.signals import log_signals
 from dobwind.model.status import STATUS_BITS, STATUS_LANDED, STATUS_SUSPECT, accepted
+from dobwind.replay.finding import Finding
+from dobwind.replay.logconventions import ConventionChecks
 
 EXTRAPOLATED = next(bit.value for bit in STATUS_BITS if bit.name == "EXTRAPOLATED")
 SETTLING = next(bit.value for bit in STATUS_BITS if bit.name == "SETTLING")
@@ -69,20 +71,6 @@ class PlausibilityLimits:
 
 
 DEFAULT_LIMITS = PlausibilityLimits()
-
-
-@dataclass(frozen=True)
-class Finding:
-    check: str           # hover_thrust, vertical_wind, envelope, wind_speed, acceleration
-    message: str         # what is wrong, in a sentence (stderr, notes)
-    value: float         # the measured figure (ratio, m/s, share)
-    limit: float         # the threshold it crossed
-    rows: np.ndarray     # rows that get SUSPECT (empty for a streamed log: its rows are already written)
-    count: int = -1      # rows concerned, when ``rows`` cannot say (streamed)
-
-    def as_dict(self) -> dict:
-        return {"check": self.check, "message": self.message, "value": self.value, "limit": self.limit,
-                "rows": self.count if self.count >= 0 else int(self.rows.sum())}
 
 
 @dataclass(frozen=True)
@@ -294,8 +282,12 @@ class StreamedChecks:
         self._vertical_rows, self._vertical_worst = 0, 0.0   # worst: the signed window mean
         self._ok = self._extrapolated = self._gale_rows = 0
         self._gale_worst = 0.0
+        self._conventions = ConventionChecks(af)
 
-    def add(self, s: FlightSeries) -> None:
+    def add(self, s: FlightSeries, log: FlightLog | None = None) -> None:
+        """One chunk's series; with its CSV ``log``, the log's conventions too (dobwind/replay/logconventions.py)."""
+        if log is not None:
+            self._conventions.add(log, s.status)
         ok = accepted(s.status)
         dt = _dt(s.t) if len(s.t) > 1 else 0.0
         self._t0 = float(s.t[0]) if self._t0 is None else self._t0
@@ -359,4 +351,4 @@ class StreamedChecks:
         if self._gale_rows:
             out.append(Finding("wind_speed", _speed_text(self._gale_worst, self._gale_rows, lim), self._gale_worst,
                                lim.wind_speed_max_mps, none, self._gale_rows))
-        return out
+        return out + self._conventions.findings()

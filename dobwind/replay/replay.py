@@ -86,7 +86,7 @@ def replay_stream(af: Airframe, log_path: str, backend: str = "python", precisio
         log = chunk.log
         traj = runner.run(step_inputs(model, log, previous_t))
         checks.add(FlightSeries.replayed(log, traj.outputs[:, model.outputs.slice("force_ned")],
-                                         traj.outputs[:, model.outputs.slice("wind_ned")], traj.status))
+                                         traj.outputs[:, model.outputs.slice("wind_ned")], traj.status), log)
         previous_t = float(log.time_s[-1])
         wind, truth = traj.outputs[:, model.outputs.slice("wind_ned")], log.true_wind
         if truth is not None:

@@ -238,8 +238,25 @@ def load_flight(af: Airframe, log_path: str, backend: str, precision: Precision)
     valid = accepted(traj.status)
     metrics = score(log, traj, model) if log.true_wind is not None else None
     flight = Flight(name, log.rows, float(log.time_s[-1] - log.time_s[0]), log.time_s,
-                    np.where(valid[:, None], wind, np.nan), traj.status, log.true_wind, None, ())
+                    np.where(valid[:, None], wind, np.nan), traj.status, log.true_wind, None, (),
+                    warnings=_csv_warnings(af, log_path, model, log, traj))
     return flight, metrics, None
+
+
+def _csv_warnings(af: Airframe, log_path: str, model, log, traj) -> tuple[str, ...]:
+    """What `replay` says of the same CSV log on stderr: its plausibility findings (a thrust model that is not
+    the vehicle's, a yaw_ref in degrees: dobwind/replay/plausibility.py, logconventions.py) and a rejection of
+    most rows with its likely cause. The page's status counts stay replay's: a CSV's rows are not marked."""
+    from dobwind.replay.plausibility import FlightSeries, StreamedChecks
+    from dobwind.replay.rejections import count_rejections, rejection_warning
+
+    checks = StreamedChecks(af)
+    checks.add(FlightSeries.replayed(log, traj.outputs[:, model.outputs.slice("force_ned")],
+                                     traj.outputs[:, model.outputs.slice("wind_ned")], traj.status), log)
+    said = [f"{log_path}: {f.message}" for f in checks.findings()]
+    rejected = rejection_warning(log_path, log.rows, int((~accepted(traj.status)).sum()), count_rejections(traj.status),
+                                 af.limits.max_dt_s)
+    return tuple(said + ([rejected] if rejected else []))
 
 
 def _autopilot_flight(af: Airframe, log_path: str, name: str, backend: str, precision: Precision) -> tuple[Flight, None, dict | None]:
