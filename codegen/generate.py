@@ -4,6 +4,7 @@ Output is deterministic (no timestamps, no paths): generating twice gives identi
 """
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -130,6 +131,26 @@ def _fmt(value: float, precision: Precision, printer: CPrinter) -> str:
     return printer.literal(float(value))
 
 
+def _fmt_rows(rows: np.ndarray, precision: Precision, printer: CPrinter) -> list[str]:
+    """[", ".join(_fmt(v, precision, printer) for v in row) for row in rows], each distinct value printed
+    once: a render prints about 14,000 numbers, 3,000 of them distinct (m300 in single precision), at 3.6 us
+    each. Keyed by the value; zeros by their sign too (0.0 and -0.0 are one dict key but print apart),
+    NaN as one key (every NaN prints as NAN). Values are printed in the same order, so the first that
+    has no literal raises as before."""
+    printed: dict[object, str] = {}
+    out = []
+    for row in np.asarray(rows, dtype=float).tolist():
+        texts = []
+        for v in row:
+            key = ("zero", math.copysign(1.0, v)) if v == 0.0 else ("nan",) if v != v else v
+            text = printed.get(key)
+            if text is None:
+                text = printed[key] = _fmt(v, precision, printer)
+            texts.append(text)
+        out.append(", ".join(texts))
+    return out
+
+
 def _selftest_context(model: StepModel, printer: CPrinter, precision: Precision) -> dict:
     inputs = flight_inputs(model, SELFTEST_ROWS, seed=2024, bad_every=23)
     if precision == Precision.SINGLE:
@@ -147,8 +168,8 @@ def _selftest_context(model: StepModel, printer: CPrinter, precision: Precision)
         "rows": SELFTEST_ROWS,
         "n_in": model.inputs.size,
         "n_out": model.outputs.size,
-        "input_rows": [", ".join(_fmt(v, precision, printer) for v in row) for row in inputs],
-        "output_rows": [", ".join(_fmt(v, precision, printer) for v in row) for row in expected],
+        "input_rows": _fmt_rows(inputs, precision, printer),
+        "output_rows": _fmt_rows(expected, precision, printer),
         "statuses": ", ".join(str(int(s)) for s in traj.status),
         **_limit_context(model, printer, precision),
         "unpack": unpack,
@@ -187,9 +208,9 @@ def _limit_context(model: StepModel, printer: CPrinter, precision: Precision) ->
     return {
         "limit_rows": len(cases.labels),
         "n_state": model.state.size,
-        "limit_state_rows": [", ".join(_fmt(v, precision, printer) for v in row) for row in cases.states],
-        "limit_input_rows": [", ".join(_fmt(v, precision, printer) for v in row) for row in cases.inputs],
-        "limit_output_rows": [", ".join(_fmt(v, precision, printer) for v in row) for row in expected],
+        "limit_state_rows": _fmt_rows(cases.states, precision, printer),
+        "limit_input_rows": _fmt_rows(cases.inputs, precision, printer),
+        "limit_output_rows": _fmt_rows(expected, precision, printer),
         "limit_statuses": ", ".join(str(int(s)) for s in np.asarray(st).ravel()),
         "load_state": [f"state->{name} = x[{column}];" for column, name in enumerate(model.state.element_names())],
     }

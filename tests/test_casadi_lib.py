@@ -109,3 +109,17 @@ def test_the_cache_key_names_the_compiler_not_only_its_command(monkeypatch):
     monkeypatch.setattr(casadi_lib, "compiler_identity", lambda name: "another compiler")
     assert casadi_lib._key("source", command) != key
     assert "-std=c99" in casadi_lib.FLAGS and "-ffp-contract=off" in casadi_lib.FLAGS
+
+
+@pytest.mark.parametrize("rows", [1, 120, 4095])
+def test_a_log_shorter_than_a_chunk_runs_as_the_padded_chunk_did(rows):
+    """reference.run rolls a log shorter than CHUNK with a rolled step of its own length (generate's 120-row
+    self-test among them): the same bits as the 4096-row one with its padding rows rejected."""
+    model = build_step(load_airframe(AIRFRAMES[0]))
+    inputs = flight_inputs(model, rows, seed=rows, bad_every=23)
+    own = reference.run(model, inputs, np.full(model.state.size, 0.01) if rows == 120 else None)
+    padded = reference.run(model, inputs, np.full(model.state.size, 0.01) if rows == 120 else None,
+                           reference.rolled_step(model))
+    assert reference.rolled_step(model).size2_in(1) == reference.CHUNK > rows
+    for field in ("states", "outputs", "status"):
+        assert getattr(own, field).tobytes() == getattr(padded, field).tobytes(), field

@@ -158,3 +158,21 @@ def test_single_precision_trig_helper_is_accurate(tmp_path):
         x = out[:, 0]
         assert np.max(np.abs(out[:, 1] - np.sin(x))) < 2.5e-7
         assert np.max(np.abs(out[:, 2] - np.cos(x))) < 2.5e-7
+
+@pytest.mark.parametrize("precision", ["single", "double"])
+def test_the_test_vector_rows_print_each_value_as_alone(precision):
+    """_fmt_rows prints each distinct value once: the rows must read as _fmt of every value, joined, with
+    the values a shared print could confuse (0.0 and -0.0, NaNs of either sign, infinities, values that
+    round to the same float) side by side."""
+    import numpy as np
+
+    from dobwind.codegen.generate import _fmt, _fmt_rows
+    from dobwind.model.kinds import Precision
+
+    p, printer = Precision(precision), CPrinter(Precision(precision))
+    rows = np.array([[0.0, -0.0, 1.0, -1.0, np.nan, -np.nan, np.inf, -np.inf],
+                     [-0.0, 0.0, 0.1, 0.1 + 1e-17, 1e-40, -1e-40, 3.0, 3.0],
+                     [1.0000000001, 1.0, -0.0, -0.0, np.nan, 5e-324, 1e30, -1e30]])
+    want = [", ".join(_fmt(v, p, printer) for v in row) for row in rows]
+    assert _fmt_rows(rows, p, printer) == want
+    assert want[0].split(", ")[:2] == ["0.0f", "(-0.0f)"] if precision == "single" else ["0.0", "(-0.0)"]

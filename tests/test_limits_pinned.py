@@ -92,3 +92,17 @@ def test_directed_float_is_the_nearest_float_on_each_side(value):
     assert float(np.nextafter(np.float32(up), np.float32(-np.inf))) < value  # nothing closer above
     assert float(np.nextafter(np.float32(down), np.float32(np.inf))) > value  # nothing closer below
     assert (up == down) == (float(np.float32(value)) == value)
+
+
+@pytest.mark.parametrize("precision", ["single", "double"])
+def test_the_boundary_rows_statuses_in_one_call_are_each_rows_own(model, precision):
+    """boundaries._statuses asks the step about many rows in one (mapped) call: each status must be what the
+    step says of that row alone, including the rows on both sides of every flip (an independent loop here)."""
+    from dobwind.model.boundaries import _statuses, boundary_cases
+    from dobwind.model.kinds import Precision
+
+    cases = boundary_cases(model, Precision(precision))
+    rows = list(zip(cases.states, cases.inputs))
+    alone = [int(model.step(state, row)[2]) for state, row in rows]
+    assert list(_statuses(model, rows, Precision(precision))) == alone
+    assert len(set(alone)) > 5  # accepted rows and several kinds of rejection

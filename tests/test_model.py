@@ -312,3 +312,24 @@ def test_wrench_residual_is_zero_on_the_dynamics_and_needs_six_gains():
     np.testing.assert_allclose(np.asarray(res(e, ed, q_ddot, uu, dd)), 0.0, atol=1e-10)
     # Seen without the disturbance, the residual is the disturbance itself: all six components.
     np.testing.assert_allclose(np.asarray(res(e, ed, q_ddot, uu, np.zeros(6))).ravel(), dd, atol=1e-10)
+
+
+@pytest.mark.parametrize("coefficients", [(0.0, 0.0, 21.6), (0.0, 1.5, 2.5), (1e-3, 0.2, 4.0, 0.5), (2.0,), (-0.0, 3.0)])
+def test_one_rotor_thrust_inverts_as_the_vectorized_bisection_does(coefficients):
+    """rpm_for_rotor_thrust of one thrust takes a Python-float bisection (the limit cases ask it ~50 times per
+    render): the same bits as the same thrust among others (the numpy bisection), on thrusts inside, at and
+    beyond the curve's ends, zeros of both signs, NaN and infinity; and the rpm thrusts what was asked."""
+    import math
+
+    from dobwind.model.numeric import rpm_for_rotor_thrust
+
+    rng = np.random.default_rng(7)
+    top = sum(coefficients[k] * 2.0 ** k for k in range(len(coefficients)))
+    for thrust in [*rng.uniform(0.0, top, 40), -1.0, 0.0, -0.0, top, 2 * top, 1e-300, math.nan, math.inf]:
+        alone = rpm_for_rotor_thrust(coefficients, 9000.0, np.array([thrust]))
+        among = rpm_for_rotor_thrust(coefficients, 9000.0, np.array([thrust, 0.5 * top]))[:1]
+        assert alone.tobytes() == among.tobytes(), thrust
+        assert np.asarray(rpm_for_rotor_thrust(coefficients, 9000.0, np.float64(thrust))).tobytes() == alone.tobytes()
+        if coefficients[0] < thrust < top and len(coefficients) > 1:  # inside the curve's range
+            omega = alone[0] / 9000.0
+            assert sum(c * omega ** k for k, c in enumerate(coefficients)) == pytest.approx(thrust, rel=1e-9)

@@ -104,3 +104,24 @@ def test_a_bad_simulate_wind_does_not_offer_fits_unknown(tmp_path, capsys, text)
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and f"--wind: {text!r} is not SPEED@FROM[,UP]" in err[0] and "nor 'unknown'" not in err[0], err
     assert not out.exists()
+
+
+@pytest.mark.parametrize("a", [0.0, 0.3, 0.999, 0.9999999, -0.5])
+def test_the_turbulence_filter_is_scipys_lfilter_bit_for_bit(a):
+    """simulate's Gauss-Markov recursion (written out to spare scipy.signal's 1.2 s import) against
+    scipy.signal.lfilter itself, from a carried state, on normal draws and on the values where a rewrite of
+    the recursion would show: huge, tiny, signed zeros, infinities and NaN."""
+    from scipy.signal import lfilter
+
+    from dobwind.simulate.simulate import gauss_markov
+
+    rng = np.random.default_rng(4)
+    white = rng.standard_normal((2000, 3)) * 3.0
+    white[100:110] = [[1e300, -1e-300, -0.0], [0.0, -0.0, 5e-324], [np.inf, 1.0, -np.inf], [np.nan, 2.0, 0.0],
+                      [1.0, np.nan, 1.0], [-1e308, 1e308, 1e-320], [0.0, 0.0, 0.0], [-0.0, -0.0, -0.0],
+                      [1.0, -1.0, 0.5], [2.0, 3.0, -4.0]]
+    state = np.array([[0.25, -1.5, 0.0]])
+    want, want_state = lfilter([1.0], [1.0, -a], white, axis=0, zi=state)
+    got, got_state = gauss_markov(white, a, state)
+    assert got.tobytes() == want.tobytes() and got_state.tobytes() == want_state.tobytes()
+    assert got_state.shape == want_state.shape == (1, 3)

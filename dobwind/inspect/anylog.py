@@ -7,42 +7,46 @@ from dataclasses import replace
 
 from dobwind.core.errors import InputError
 from dobwind.inspect.loginspect import LogSummary
+from dobwind.io.position import Geo
 
 
 def inspect_log(path: str) -> LogSummary:
-    summary = _inspect(path).with_rpm_usability()
-    return replace(summary, position=_position(path, summary.format))
+    summary, geo = _inspect(path)
+    return replace(summary.with_rpm_usability(), position=_position(path, summary.format, geo))
 
 
-def _position(path: str, kind: str) -> dict:
+def _position(path: str, kind: str, geo: Geo | None = None) -> dict:
     """Where replay's NetCDF and profile would take position, height and UTC from (dobwind/io/position.py),
-    so a meteorologist learns before the campaign, not after it, whether the logs carry UTC and a position."""
+    so a meteorologist learns before the campaign, not after it, whether the logs carry UTC and a position.
+    ``geo``: already read with the log's summary (None: read here)."""
     from dobwind.io.position import read_geo
 
     if kind == "csv":
         return {"position": "the lat, lon, alt columns where the log has them (else the height integrated from vel_d)",
                 "utc": None, "time_source": "no UTC in CSV logs: time is the log's own t column"}
-    try:
-        geo = read_geo(path)
-    except InputError as exc:
-        return {"position": None, "utc": None, "time_source": f"not read: {exc}"}
+    if geo is None:
+        try:
+            geo = read_geo(path)
+        except InputError as exc:
+            return {"position": None, "utc": None, "time_source": f"not read: {exc}"}
     where = (geo.track.source if geo.track is not None
              else f"none (heights from {geo.local.source})" if geo.local is not None else None)
     return {"position": where, "utc": geo.utc_offset_s is not None, "time_source": geo.time_source}
 
 
-def _inspect(path: str) -> LogSummary:
+def _inspect(path: str) -> tuple[LogSummary, Geo | None]:
+    """The log's summary by its kind's reader, and its position where that reader read it in the same pass."""
     from dobwind.io.autopilot import log_kind
 
     kind = log_kind(path)
     if kind == "ulog":
-        from dobwind.inspect.inspect_ulog import inspect_ulog
+        from dobwind.inspect.inspect_ulog import inspect_ulog_and_position
 
-        return inspect_ulog(path)
+        return inspect_ulog_and_position(path)
     if kind == "dataflash":
-        from dobwind.inspect.inspect_dataflash import inspect_dataflash
+        from dobwind.inspect.inspect_dataflash import inspect_dataflash_and_position
 
-        return inspect_dataflash(path)
+        return inspect_dataflash_and_position(path)
     from dobwind.inspect.inspect_other import inspect_csv, inspect_rosbag
 
-    return inspect_rosbag(path) if kind == "rosbag" else inspect_csv(path)
+    return (inspect_rosbag(path) if kind == "rosbag" else inspect_csv(path)), None

@@ -9,10 +9,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from dobwind.io.dataflash import (AP_WIND, ATTITUDE, EV_GROUND, IMU, LAYOUT_FORMATS, VELOCITY, WANTED, density_step,
-                                  ground_events, in_one_layout, pick_stream, read_messages)
+from dobwind.io.dataflash import (AP_WIND, ATTITUDE, EV_GROUND, IMU, LAYOUT_FORMATS, VELOCITY, WANTED, FileNotes,
+                                  density_step, ground_events, in_one_layout, pick_stream, read_messages)
 from dobwind.core.errors import InputError
 from dobwind.io.aplayout import logged_name
+from dobwind.io.position import GEO_MESSAGES, Geo, dataflash_geo
 from dobwind.io.quietfd import quiet_fds
 from dobwind.io.vehiclekind import ardupilot_not_multirotor, firmware
 from dobwind.inspect.loginspect import (AutopilotWind, LogSummary, Role, Vehicle, bulk_span, drag_fusion_reason,
@@ -27,6 +28,8 @@ FRAME_CLASS_NAMES = {1: "quad", 2: "hexa", 3: "octa", 4: "octaquad", 5: "Y6", 7:
 MOTOR_FUNCTIONS = set(range(33, 41)) | set(range(82, 86))
 RPM_AIRBORNE_SHARE = 0.95
 MOTOR_PWM_US = 1100.0  # a spinning motor's output; idle and disarmed outputs sit near 1000 us
+READ = WANTED + LAYOUT_FORMATS + ("PARM", "RCOU", "MSG", "BARO")
+POSITION_ONLY = tuple(name for name in GEO_MESSAGES if name not in READ)
 
 
 def _parameters(rows: list[dict]) -> dict[str, float]:
@@ -194,10 +197,29 @@ def _density_step(msgs: dict, baro: list[dict]) -> list[str]:
     return [f"for a collective airframe: {line}" for line in density_step({**msgs, "BARO": baro}, ctun[1])[1]]
 
 
+def inspect_dataflash_and_position(path: str) -> tuple[LogSummary, Geo | None]:
+    """inspect_dataflash and the log's position and UTC (position.dataflash_geo) from one read of the file:
+    DataFlash messages are parsed one by one, each the same whatever else is read, so a read that
+    succeeds gives both what their own reads would (0.14 s saved on the 3.6 MB SITL log of
+    ../shared/data/field). A read that fails (a damaged position message among them) is followed by
+    inspect's own; None: the position was not read (the caller reads it alone)."""
+    try:
+        with quiet_fds():  # pymavlink's compiled indexer prints a line per bad byte, to fd 2 itself
+            loaded, said = read_messages(path, READ + POSITION_ONLY)
+    except InputError:
+        return inspect_dataflash(path), None
+    geo = dataflash_geo({name: loaded[name] for name in GEO_MESSAGES})
+    return _summary(path, {name: rows for name, rows in loaded.items() if name not in POSITION_ONLY}, said), geo
+
+
 def inspect_dataflash(path: str) -> LogSummary:
-    notes: list[str] = []
     with quiet_fds():  # pymavlink's compiled indexer prints a line per bad byte, to fd 2 itself
-        loaded, said = read_messages(path, WANTED + LAYOUT_FORMATS + ("PARM", "RCOU", "MSG", "BARO"))
+        loaded, said = read_messages(path, READ)
+    return _summary(path, loaded, said)
+
+
+def _summary(path: str, loaded: dict[str, list[dict]], said: FileNotes) -> LogSummary:
+    notes: list[str] = []
     msgs = in_one_layout(loaded, notes)
     baro = msgs.pop("BARO")
     params_all = _parameters(msgs.pop("PARM"))

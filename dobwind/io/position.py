@@ -39,6 +39,9 @@ GROUND_S = 5.0
 # maybe_landed or ground_contact in a slow descent, a bounce at take-off), not a stop: taken as a new
 # ground it would measure the rest of the flight from the altitude of the flicker, or from one noisy fix.
 MIN_STOP_S = 2.0
+# What the position and UTC are read from: the ULog topics and the DataFlash messages.
+GEO_TOPICS = ("vehicle_global_position", "vehicle_gps_position", "home_position", "vehicle_local_position")
+GEO_MESSAGES = ("POS", "GPS", "XKF1", "NKF1")
 
 
 @dataclass(frozen=True)
@@ -127,7 +130,7 @@ def _dataflash_messages(path: str) -> dict[str, list[dict]]:
     DFReader failure into one InputError naming the file."""
     from dobwind.io.dataflash import load_messages  # the replay's reader: pymavlink only when needed
 
-    return load_messages(path, ("POS", "GPS", "XKF1", "NKF1"))
+    return load_messages(path, GEO_MESSAGES)
 
 
 def _column(rows: list[dict], name: str) -> np.ndarray:
@@ -135,7 +138,12 @@ def _column(rows: list[dict], name: str) -> np.ndarray:
 
 
 def _dataflash_geo(path: str) -> Geo:
-    msgs = _dataflash_messages(path)
+    return dataflash_geo(_dataflash_messages(path))
+
+
+def dataflash_geo(msgs: dict[str, list[dict]]) -> Geo:
+    """The Geo of a DataFlash log from its GEO_MESSAGES rows as the DataFlash loader reads them (each
+    message's rows are the same whatever else is read with them: `dobwind inspect` reads these with its own)."""
     gps = [r for r in msgs["GPS"] if r.get("I", 0) == 0]
     notes: list[str] = []
     track = None
@@ -170,8 +178,15 @@ def _local(t: np.ndarray, up: np.ndarray, source: str) -> LocalHeight | None:
 def _ulog_geo(path: str) -> Geo:
     from dobwind.io.ulog import open_ulog
 
-    ulog, _ = open_ulog(path, ("vehicle_global_position", "vehicle_gps_position", "home_position", "vehicle_local_position"))
-    topics = {d.name: d.data for d in ulog.data_list if d.multi_id == 0}
+    ulog, _ = open_ulog(path, GEO_TOPICS)
+    return ulog_geo(ulog)
+
+
+def ulog_geo(ulog) -> Geo:  # type: ignore[no-untyped-def]
+    """The Geo of a ULog from pyulog's parse of (at least) GEO_TOPICS: only their data is read, never the
+    parse's corruption flags, so any parse that read the whole file gives the same (`dobwind inspect`
+    takes it from its own parse)."""
+    topics = {d.name: d.data for d in ulog.data_list if d.multi_id == 0 and d.name in GEO_TOPICS}
     notes: list[str] = []
     track = None
     gpos = topics.get("vehicle_global_position")
